@@ -1,0 +1,261 @@
+"""As-rigid-as-possible deformation (Sorkine & Alexa 2007) of a small mesh: the cage."""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from numba import njit, prange
+
+from .linsolve import SPDSolver
+from .mesh import unique_edges
+from .rotations import closest_rotation
+
+WEIGHTS = ("uniform", "cotangent")
+
+
+def edge_weights(vertices: np.ndarray, faces: np.ndarray, kind: str = "uniform") -> tuple[np.ndarray, np.ndarray]:
+    """Edges of a triangle mesh and their ARAP weights.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float64 array
+    faces : (m, 3) int64 array
+    kind : "uniform" (w_ij = 1, the hybrid paper's choice) or "cotangent"
+        (w_ij = (cot a + cot b) / 2, clamped below at 1e-3 times the mean so the
+        Laplacian stays positive definite on obtuse triangles).
+
+    Returns
+    -------
+    edges : (e, 2) int64 array, column 0 < column 1
+    weights : (e,) float64 array, all positive
+    """
+    if kind not in WEIGHTS:
+        raise ValueError(f"weights must be one of {WEIGHTS}, got {kind!r}")
+    edges = unique_edges(faces)
+    if kind == "uniform":
+        return edges, np.ones(len(edges))
+    v = vertices
+    f = np.asarray(faces, dtype=np.int64)
+    # cotangent of the angle at corner k, opposite edge (i, j)
+    w_all = []
+    keys = []
+    for k, (i, j) in ((0, (1, 2)), (1, (2, 0)), (2, (0, 1))):
+        a = v[f[:, i]] - v[f[:, k]]
+        b = v[f[:, j]] - v[f[:, k]]
+        cross = np.linalg.norm(np.cross(a, b), axis=1)
+        dot = np.einsum("ij,ij->i", a, b)
+        cot = dot / np.maximum(cross, 1e-300)
+        e = np.sort(np.stack([f[:, i], f[:, j]], axis=1), axis=1)
+        keys.append(e)
+        w_all.append(0.5 * cot)
+    keys = np.concatenate(keys)
+    w_all = np.concatenate(w_all)
+    n = len(v)
+    code = keys[:, 0] * n + keys[:, 1]
+    ecode = edges[:, 0] * n + edges[:, 1]
+    w = np.zeros(len(edges))
+    np.add.at(w, np.searchsorted(ecode, code), w_all)
+    floor = 1e-3 * max(float(np.mean(np.abs(w))), 1e-300)
+    return edges, np.maximum(w, floor)
+
+
+def laplacian(n: int, edges: np.ndarray, weights: np.ndarray) -> sp.csr_matrix:
+    """The weighted graph Laplacian L = D - W, (n, n) float64 CSR."""
+    i, j = edges[:, 0], edges[:, 1]
+    W = sp.coo_matrix((np.concatenate([weights, weights]), (np.concatenate([i, j]), np.concatenate([j, i]))), shape=(n, n)).tocsr()
+    D = sp.diags(np.asarray(W.sum(axis=1)).ravel())
+    return (D - W).tocsr()
+
+
+@njit(cache=True, parallel=True)
+def _local_step(rest, cur, indptr, indices, wts, rots):
+    """R_i = closest rotation to sum_j w_ij (p'_i - p'_j)(p_i - p_j)^T."""
+    n = rest.shape[0]
+    for i in prange(n):
+        a = np.zeros((3, 3))
+        for k in range(indptr[i], indptr[i + 1]):
+            j = indices[k]
+            w = wts[k]
+            e0 = rest[i, 0] - rest[j, 0]
+            e1 = rest[i, 1] - rest[j, 1]
+            e2 = rest[i, 2] - rest[j, 2]
+            d0 = w * (cur[i, 0] - cur[j, 0])
+            d1 = w * (cur[i, 1] - cur[j, 1])
+            d2 = w * (cur[i, 2] - cur[j, 2])
+            a[0, 0] += d0 * e0
+            a[0, 1] += d0 * e1
+            a[0, 2] += d0 * e2
+            a[1, 0] += d1 * e0
+            a[1, 1] += d1 * e1
+            a[1, 2] += d1 * e2
+            a[2, 0] += d2 * e0
+            a[2, 1] += d2 * e1
+            a[2, 2] += d2 * e2
+        closest_rotation(a, rots[i])
+
+
+@njit(cache=True, parallel=True)
+def _rhs(rest, indptr, indices, wts, rots, rows, out):
+    """b_i = sum_j w_ij/2 (R_i + R_j)(p_i - p_j) for the vertices in ``rows``."""
+    for r in prange(rows.shape[0]):
+        i = rows[r]
+        b0 = 0.0
+        b1 = 0.0
+        b2 = 0.0
+        for k in range(indptr[i], indptr[i + 1]):
+            j = indices[k]
+            h = 0.5 * wts[k]
+            e0 = rest[i, 0] - rest[j, 0]
+            e1 = rest[i, 1] - rest[j, 1]
+            e2 = rest[i, 2] - rest[j, 2]
+            for c in range(3):
+                s0 = rots[i, c, 0] + rots[j, c, 0]
+                s1 = rots[i, c, 1] + rots[j, c, 1]
+                s2 = rots[i, c, 2] + rots[j, c, 2]
+                v = h * (s0 * e0 + s1 * e1 + s2 * e2)
+                if c == 0:
+                    b0 += v
+                elif c == 1:
+                    b1 += v
+                else:
+                    b2 += v
+        out[r, 0] = b0
+        out[r, 1] = b1
+        out[r, 2] = b2
+
+
+@njit(cache=True, parallel=True)
+def _energy_terms(rest, cur, indptr, indices, wts, rots, out):
+    for i in prange(rest.shape[0]):
+        s = 0.0
+        for k in range(indptr[i], indptr[i + 1]):
+            j = indices[k]
+            for c in range(3):
+                re = (rots[i, c, 0] * (rest[i, 0] - rest[j, 0])
+                      + rots[i, c, 1] * (rest[i, 1] - rest[j, 1])
+                      + rots[i, c, 2] * (rest[i, 2] - rest[j, 2]))
+                d = (cur[i, c] - cur[j, c]) - re
+                s += wts[k] * d * d
+        out[i] = s
+
+
+class ARAPSolver:
+    """ARAP on a triangle mesh with some vertices constrained.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float64 array
+        Rest positions.
+    faces : (m, 3) int64 array
+    weights : "uniform" or "cotangent"
+    backend : linear solver backend, see :class:`~hybridedit.linsolve.SPDSolver`.
+
+    Use :meth:`set_constrained` once per selection (it factors the Laplacian of
+    the free vertices), then :meth:`solve` as often as wanted: each call runs
+    local/global iterations warm-started from the current positions.
+    """
+
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray, weights: str = "uniform", backend: str = "auto") -> None:
+        self.rest = np.ascontiguousarray(vertices, dtype=np.float64)
+        self.faces = np.asarray(faces, dtype=np.int64)
+        self.weights = weights
+        self.backend = backend
+        n = len(self.rest)
+        self.edges, self.w = edge_weights(self.rest, self.faces, weights)
+        self.L = laplacian(n, self.edges, self.w)
+        W = (sp.diags(self.L.diagonal()) - self.L).tocsr()
+        W.sort_indices()
+        self._indptr = W.indptr.astype(np.int64)
+        self._indices = W.indices.astype(np.int64)
+        self._wts = W.data.astype(np.float64)
+        self.positions = self.rest.copy()
+        self.rotations = np.tile(np.eye(3), (n, 1, 1))
+        self.constrained = np.zeros(0, dtype=np.int64)
+        self.free = np.arange(n, dtype=np.int64)
+        self._solver: SPDSolver | None = None
+        self._L_fc: sp.csr_matrix | None = None
+
+    @property
+    def n_vertices(self) -> int:
+        return int(len(self.rest))
+
+    def set_constrained(self, constrained: np.ndarray) -> None:
+        """Fix the set of constrained vertices and factor the free Laplacian.
+
+        Parameters
+        ----------
+        constrained : (k,) int array of vertex indices (handle and fixed).
+
+        Raises
+        ------
+        ValueError
+            When a connected component of the mesh has no constrained vertex:
+            its position would be undetermined.
+        """
+        n = self.n_vertices
+        c = np.unique(np.asarray(constrained, dtype=np.int64))
+        if c.size and (c[0] < 0 or c[-1] >= n):
+            raise ValueError(f"constrained vertex index out of range [0, {n})")
+        mask = np.zeros(n, dtype=bool)
+        mask[c] = True
+        ncomp, labels = sp.csgraph.connected_components(self.L, directed=False)
+        has = np.zeros(ncomp, dtype=bool)
+        has[labels[mask]] = True
+        if not np.all(has):
+            bad = int(np.count_nonzero(~has))
+            raise ValueError(
+                f"{bad} of {ncomp} connected parts of the cage have no fixed or handle vertex; "
+                "each part needs at least one"
+            )
+        free = np.flatnonzero(~mask)
+        self.constrained = c
+        self.free = free
+        L = self.L
+        self._solver = SPDSolver(L[free][:, free], backend=self.backend)
+        self._L_fc = L[free][:, c].tocsr()
+
+    def solve(self, constrained_positions: np.ndarray, iterations: int = 2) -> np.ndarray:
+        """Move the constrained vertices and run local/global iterations.
+
+        Parameters
+        ----------
+        constrained_positions : (k, 3) float64 array, in the order of ``constrained``
+            as given (sorted unique) to :meth:`set_constrained`.
+        iterations : number of local/global iterations (>= 0).
+
+        Returns
+        -------
+        (n, 3) float64 array, the current positions (also kept in ``positions``).
+        """
+        if self._solver is None:
+            raise RuntimeError("call set_constrained first")
+        cp = np.asarray(constrained_positions, dtype=np.float64).reshape(-1, 3)
+        if len(cp) != len(self.constrained):
+            raise ValueError(f"expected {len(self.constrained)} constrained positions, got {len(cp)}")
+        self.positions[self.constrained] = cp
+        rhs_c = self._L_fc @ cp
+        b = np.empty((len(self.free), 3))
+        for _ in range(int(iterations)):
+            _local_step(self.rest, self.positions, self._indptr, self._indices, self._wts, self.rotations)
+            _rhs(self.rest, self._indptr, self._indices, self._wts, self.rotations, self.free, b)
+            self.positions[self.free] = self._solver.solve(b - rhs_c)
+        return self.positions
+
+    def local_step(self) -> np.ndarray:
+        """Update and return the per-vertex rotations, (n, 3, 3) float64."""
+        _local_step(self.rest, self.positions, self._indptr, self._indices, self._wts, self.rotations)
+        return self.rotations
+
+    def energy(self, positions: np.ndarray | None = None) -> float:
+        """ARAP energy of ``positions`` (default: current) with optimal rotations."""
+        p = self.positions if positions is None else np.ascontiguousarray(positions, dtype=np.float64)
+        rots = np.empty((self.n_vertices, 3, 3))
+        _local_step(self.rest, p, self._indptr, self._indices, self._wts, rots)
+        out = np.empty(self.n_vertices)
+        _energy_terms(self.rest, p, self._indptr, self._indices, self._wts, rots, out)
+        return float(out.sum())
+
+    def reset(self) -> None:
+        """Back to the rest pose."""
+        self.positions[:] = self.rest
+        self.rotations[:] = np.eye(3)

@@ -1,0 +1,287 @@
+"""HybridEditor: cage + binding + cage ARAP + propagation, the engine's front door."""
+
+from __future__ import annotations
+
+import time
+from typing import Callable
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.spatial import cKDTree
+
+from .arap import ARAPSolver
+from .binding import bind
+from .cage import build_cage
+from .mesh import Mesh
+from .propagate import propagate
+from .transforms import check_transform, rigid_transform
+
+SPACES = ("shape", "cage")
+
+Progress = Callable[[str, float], None]
+"""progress(stage, fraction): stage is a short message, fraction in [0, 1] of that
+stage. A callback may raise (e.g. to cancel); the exception propagates."""
+
+
+class SelectionError(ValueError):
+    """A selection (handle / fixed / ROI) that cannot be used; the message says why."""
+
+
+class HybridEditor:
+    """Interactive hybrid mesh editing of one shape.
+
+    Builds the cage (QEM) and the binding (truncated mean value coordinates) at
+    construction; then :meth:`set_selection` and :meth:`drag` deform the cage with
+    ARAP and the shape follows as M @ cage.
+
+    Parameters
+    ----------
+    mesh : Mesh
+        The shape (n vertices).
+    cage_size : int or float
+        Cage vertex count (int) or fraction of the shape's vertices (float).
+    cage : Mesh, optional
+        Use this cage instead of simplifying the shape.
+    binding : (n, c) scipy sparse matrix, optional
+        Use this binding instead of computing it (rows must sum to 1).
+    truncation : float
+        Fraction of each row's coordinate magnitude dropped (the paper: 0.03).
+    weights : "uniform" (the paper) or "cotangent"
+        ARAP edge weights on the cage.
+    iterations : int
+        ARAP local/global iterations per :meth:`drag` call.
+    progress : callable(stage: str, fraction: float), optional
+        Called during the slow steps (cage, bind); it may raise to cancel them.
+    """
+
+    def __init__(
+        self,
+        mesh: Mesh,
+        cage_size: int | float = 0.05,
+        *,
+        cage: Mesh | None = None,
+        binding: sp.spmatrix | None = None,
+        truncation: float = 0.03,
+        weights: str = "uniform",
+        iterations: int = 2,
+        progress: Progress | None = None,
+    ) -> None:
+        say = progress or (lambda stage, fraction: None)
+        self.mesh = mesh
+        self.truncation = float(truncation)
+        self.iterations = int(iterations)
+        self.timings: dict[str, float] = {}
+        t0 = time.perf_counter()
+        if cage is None:
+            say("building the cage", 0.0)
+            cage = build_cage(mesh, cage_size)
+            say("building the cage", 1.0)
+        self.cage = cage
+        t1 = time.perf_counter()
+        self.timings["cage_seconds"] = t1 - t0
+        if binding is None:
+            say("binding", 0.0)
+            binding = bind(
+                mesh.vertices, cage, truncation=self.truncation,
+                progress=lambda fraction: say("binding", fraction),
+            )
+        M = sp.csr_matrix(binding, dtype=np.float64)
+        if M.shape != (mesh.n_vertices, cage.n_vertices):
+            raise ValueError(f"binding must be {(mesh.n_vertices, cage.n_vertices)}, got {M.shape}")
+        M.sort_indices()
+        self.M = M
+        t2 = time.perf_counter()
+        self.timings["bind_seconds"] = t2 - t1
+        self.arap = ARAPSolver(cage.vertices, cage.faces, weights=weights)
+        self._cage_to_shape = cKDTree(mesh.vertices).query(cage.vertices)[1].astype(np.int64)
+        self._out = np.empty((mesh.n_vertices, 3))
+        propagate(self.M, self.arap.positions, self._out)
+        self.handle = np.zeros(0, dtype=np.int64)
+        self.fixed = np.zeros(0, dtype=np.int64)
+        self._constrained = np.zeros(0, dtype=np.int64)
+        self._anchor = np.zeros((0, 3))
+        self._is_handle = np.zeros(0, dtype=bool)
+        self.transform = np.eye(4)
+        self.frame_seconds: list[float] = []
+
+    # ------------------------------------------------------------------ selection
+    @property
+    def nnz_per_row(self) -> float:
+        """Mean number of cage vertices each shape vertex depends on."""
+        return self.M.nnz / max(self.M.shape[0], 1)
+
+    def to_cage(self, indices: np.ndarray, space: str = "shape", role: str = "selection") -> np.ndarray:
+        """Map a vertex selection to cage vertex indices.
+
+        Shape vertices map to the cage vertices whose nearest shape vertex is
+        selected; a small selection that contains no such vertex maps to the cage
+        vertex with the largest coordinate of each selected shape vertex.
+
+        Parameters
+        ----------
+        indices : (k,) int array of vertex indices in ``space``.
+        space : "shape" or "cage".
+
+        Returns
+        -------
+        (j,) int64 array of sorted unique cage vertex indices.
+        """
+        if space not in SPACES:
+            raise SelectionError(f"space must be one of {SPACES}, got {space!r}")
+        idx = np.asarray(indices)
+        if idx.size == 0:
+            return np.zeros(0, dtype=np.int64)
+        if not np.issubdtype(idx.dtype, np.integer):
+            if not np.all(np.isfinite(idx)) or not np.all(np.equal(np.mod(idx, 1), 0)):
+                raise SelectionError(f"{role} indices must be integers")
+        idx = idx.astype(np.int64).ravel()
+        n = self.mesh.n_vertices if space == "shape" else self.cage.n_vertices
+        bad = (idx < 0) | (idx >= n)
+        if np.any(bad):
+            raise SelectionError(
+                f"{role} has {int(bad.sum())} {space} vertex indices out of range [0, {n - 1}], "
+                f"e.g. {int(idx[bad][0])}"
+            )
+        if space == "cage":
+            return np.unique(idx)
+        selected = np.zeros(self.mesh.n_vertices, dtype=bool)
+        selected[idx] = True
+        cage_idx = np.flatnonzero(selected[self._cage_to_shape])
+        if cage_idx.size == 0:
+            rows = self.M[np.unique(idx)]
+            cage_idx = np.unique(np.asarray(abs(rows).argmax(axis=1)).ravel())
+        return cage_idx.astype(np.int64)
+
+    def set_selection(
+        self,
+        handle: np.ndarray,
+        fixed: np.ndarray | None = None,
+        roi: np.ndarray | None = None,
+        space: str = "shape",
+    ) -> None:
+        """Choose the handle and what stays fixed.
+
+        Parameters
+        ----------
+        handle : (k,) int array, vertices that follow the drag transform.
+        fixed : (j,) int array, vertices that stay where they are now.
+        roi : (r,) int array, alternative to ``fixed``: everything outside
+            ``roi`` (and not in the handle) is fixed.
+        space : "shape" (shape vertex indices) or "cage" (cage vertex indices).
+
+        The current pose becomes the reference of the next drags: fixed vertices
+        keep their current positions and :meth:`drag` transforms are relative to
+        the handle's current position.
+        """
+        if fixed is not None and roi is not None:
+            raise SelectionError("give either fixed or roi, not both")
+        h = self.to_cage(handle, space, "handle")
+        if h.size == 0:
+            raise SelectionError("the handle is empty: select at least one vertex to drag")
+        nc = self.cage.n_vertices
+        if roi is not None:
+            inside = np.zeros(nc, dtype=bool)
+            inside[self.to_cage(roi, space, "roi")] = True
+            inside[h] = True
+            f = np.flatnonzero(~inside).astype(np.int64)
+        elif fixed is not None:
+            f = self.to_cage(fixed, space, "fixed")
+            both = np.intersect1d(h, f)
+            if both.size:
+                raise SelectionError(
+                    f"handle and fixed share {both.size} cage vertices; a vertex cannot be both"
+                )
+        else:
+            f = np.zeros(0, dtype=np.int64)
+        constrained = np.union1d(h, f)
+        try:
+            self.arap.set_constrained(constrained)
+        except ValueError as e:
+            raise SelectionError(str(e)) from None
+        self.handle = h
+        self.fixed = f
+        self._constrained = constrained
+        self._is_handle = np.isin(constrained, h)
+        self._anchor = self.arap.positions[constrained].copy()
+        self.transform = np.eye(4)
+
+    # ------------------------------------------------------------------ deformation
+    def drag(
+        self,
+        translate: np.ndarray | tuple | None = None,
+        transform: np.ndarray | None = None,
+        iterations: int | None = None,
+    ) -> np.ndarray:
+        """Move the handle and deform.
+
+        Parameters
+        ----------
+        translate : (3,) translation of the handle, or
+        transform : (4, 4) affine transform of the handle; both are absolute,
+            relative to the handle's pose when the selection was set.
+        iterations : ARAP iterations for this call (default ``self.iterations``).
+
+        Returns
+        -------
+        (n, 3) float64 array, the deformed shape (a view that later calls update).
+        """
+        if self._constrained.size == 0:
+            raise SelectionError("set a selection (handle) before dragging")
+        if transform is not None and translate is not None:
+            raise ValueError("give translate or transform, not both")
+        T = check_transform(transform) if transform is not None else rigid_transform(translate=translate)
+        k = self.iterations if iterations is None else int(iterations)
+        if k < 0:
+            raise ValueError(f"iterations must be >= 0, got {k}")
+        t0 = time.perf_counter()
+        target = self._anchor.copy()
+        hp = target[self._is_handle]
+        target[self._is_handle] = hp @ T[:3, :3].T + T[:3, 3]
+        self.transform = T
+        y = self.arap.solve(target, k)
+        propagate(self.M, y, self._out)
+        self.frame_seconds.append(time.perf_counter() - t0)
+        return self._out
+
+    def reset(self) -> None:
+        """Back to the rest pose (the selection is kept, its reference is the rest pose)."""
+        self.arap.reset()
+        propagate(self.M, self.arap.positions, self._out)
+        if self._constrained.size:
+            self._anchor = self.arap.positions[self._constrained].copy()
+        self.transform = np.eye(4)
+
+    @property
+    def cage_positions(self) -> np.ndarray:
+        """Current cage vertex positions, (c, 3) float64 (a copy)."""
+        return self.arap.positions.copy()
+
+    def set_cage_positions(self, positions: np.ndarray) -> np.ndarray:
+        """Put the cage in a given pose (e.g. for undo) and update the shape.
+
+        Returns the (n, 3) deformed shape.
+        """
+        p = np.asarray(positions, dtype=np.float64)
+        if p.shape != self.arap.positions.shape or not np.all(np.isfinite(p)):
+            raise ValueError(f"cage positions must be finite and {self.arap.positions.shape}")
+        self.arap.positions[:] = p
+        if self._constrained.size:
+            self._anchor = p[self._constrained].copy()
+        self.transform = np.eye(4)
+        propagate(self.M, self.arap.positions, self._out)
+        return self._out
+
+    @property
+    def deformed_vertices(self) -> np.ndarray:
+        """The current deformed shape, (n, 3) float64 (a view)."""
+        return self._out
+
+    @property
+    def deformed(self) -> Mesh:
+        """The current deformed shape as a Mesh (a copy; same faces as the input)."""
+        return Mesh(self._out.copy(), self.mesh.faces, name=self.mesh.name)
+
+    @property
+    def deformed_cage(self) -> Mesh:
+        """The current cage pose as a Mesh (a copy)."""
+        return Mesh(self.arap.positions.copy(), self.cage.faces, name="cage")

@@ -1,0 +1,67 @@
+"""Sparse symmetric positive definite solves: CHOLMOD, with scipy as a fallback."""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+try:  # scikit-sparse >= 0.5 has cho_factor returning a factor with .solve
+    from sksparse.cholmod import cho_factor as _cho_factor  # type: ignore[attr-defined]
+
+    _CHOLMOD = "new"
+except ImportError:  # pragma: no cover - depends on the installed version
+    try:
+        from sksparse.cholmod import cholesky as _cholesky  # scikit-sparse 0.4.x
+
+        _CHOLMOD = "old"
+    except ImportError:
+        _CHOLMOD = ""
+
+
+def cholmod_available() -> bool:
+    """True when scikit-sparse's CHOLMOD can be used."""
+    return bool(_CHOLMOD)
+
+
+class SPDSolver:
+    """A factored sparse SPD matrix A, reused for many right-hand sides.
+
+    Parameters
+    ----------
+    A : (k, k) scipy sparse matrix, symmetric positive definite
+    backend : "auto", "cholmod" or "scipy"
+        "auto" uses CHOLMOD when scikit-sparse is installed, else SuperLU.
+    """
+
+    def __init__(self, A: sp.spmatrix, backend: str = "auto") -> None:
+        A = sp.csc_matrix(A, dtype=np.float64)
+        if A.shape[0] != A.shape[1]:
+            raise ValueError(f"matrix must be square, got {A.shape}")
+        if backend == "auto":
+            backend = "cholmod" if _CHOLMOD else "scipy"
+        self.backend = backend
+        self.shape = A.shape
+        if A.shape[0] == 0:
+            self._solve = lambda b: np.zeros_like(b)
+        elif backend == "cholmod":
+            if not _CHOLMOD:
+                raise RuntimeError("scikit-sparse (CHOLMOD) is not installed")
+            if _CHOLMOD == "new":
+                f = _cho_factor(A)
+                self._solve = f.solve
+            else:
+                f = _cholesky(A)
+                self._solve = f.solve_A
+        elif backend == "scipy":
+            from scipy.sparse.linalg import splu
+
+            lu = splu(A)
+            self._solve = lu.solve
+        else:
+            raise ValueError(f"unknown backend {backend!r}")
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        """Solve A x = b for b of shape (k,) or (k, r) float64."""
+        b = np.asarray(b, dtype=np.float64)
+        x = self._solve(np.asfortranarray(b) if b.ndim == 2 else b)
+        return np.asarray(x)

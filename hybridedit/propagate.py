@@ -1,0 +1,46 @@
+"""Propagation of cage positions to the shape: x' = M y', one fused CSR kernel."""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from numba import njit, prange
+
+
+@njit(cache=True, parallel=True)
+def _csr_times_xyz(indptr, indices, data, y, out):
+    for i in prange(out.shape[0]):
+        a0 = 0.0
+        a1 = 0.0
+        a2 = 0.0
+        for k in range(indptr[i], indptr[i + 1]):
+            j = indices[k]
+            w = data[k]
+            a0 += w * y[j, 0]
+            a1 += w * y[j, 1]
+            a2 += w * y[j, 2]
+        out[i, 0] = a0
+        out[i, 1] = a1
+        out[i, 2] = a2
+
+
+def propagate(M: sp.csr_matrix, y: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    """Shape positions M @ y.
+
+    Parameters
+    ----------
+    M : (n, c) float64 CSR matrix, the binding.
+    y : (c, 3) float64 array, cage positions.
+    out : optional (n, 3) float64 array to write into.
+
+    Returns
+    -------
+    (n, 3) float64 array.
+    """
+    y = np.ascontiguousarray(y, dtype=np.float64)
+    if y.shape != (M.shape[1], 3):
+        raise ValueError(f"cage positions must be ({M.shape[1]}, 3), got {y.shape}")
+    if out is None:
+        out = np.empty((M.shape[0], 3))
+    _csr_times_xyz(M.indptr, M.indices, M.data, y, out)
+    return out

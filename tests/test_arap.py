@@ -1,0 +1,111 @@
+import numpy as np
+import pytest
+import scipy.sparse as sp
+from scipy.spatial.transform import Rotation
+
+from hybridedit.arap import ARAPSolver, edge_weights, laplacian
+from hybridedit.linsolve import SPDSolver, cholmod_available
+from hybridedit.mesh import Mesh
+from hybridedit.transforms import apply_transform, rigid_transform
+
+from conftest import bumpy_blob, icosphere
+
+
+def test_cholmod_is_installed():
+    # the design factors the cage Laplacian with CHOLMOD; the scipy path is only a fallback
+    assert cholmod_available()
+
+
+@pytest.mark.parametrize("kind", ["uniform", "cotangent"])
+def test_weights_and_laplacian(kind):
+    m = bumpy_blob(2)
+    e, w = edge_weights(m.vertices, m.faces, kind)
+    assert len(e) == 3 * m.n_faces // 2  # closed mesh: every edge in two faces
+    assert np.all(w > 0)
+    if kind == "uniform":
+        assert np.all(w == 1)
+    L = laplacian(m.n_vertices, e, w)
+    assert abs(L - L.T).max() < 1e-14
+    assert np.allclose(L @ np.ones(m.n_vertices), 0)
+
+
+def test_cotangent_weights_on_a_flat_square():
+    # two right triangles: the diagonal's opposite angles are 90 deg -> cot 0 -> clamped tiny
+    v = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
+    f = np.array([[0, 1, 2], [0, 2, 3]])
+    e, w = edge_weights(v, f, "cotangent")
+    d = {tuple(k): x for k, x in zip(e.tolist(), w)}
+    assert np.isclose(d[(0, 1)], 0.5)  # one 45 degree angle opposite: cot = 1, halved
+    assert 0 < d[(0, 2)] < 1e-2
+
+
+def blob_solver(weights="uniform"):
+    m = bumpy_blob(2)
+    return m, ARAPSolver(m.vertices, m.faces, weights=weights)
+
+
+def two_ends(m):
+    x = m.vertices[:, 0]
+    return np.flatnonzero(x < x.min() + 0.3), np.flatnonzero(x > x.max() - 0.3)
+
+
+@pytest.mark.parametrize("weights", ["uniform", "cotangent"])
+def test_rigid_motion_of_all_constraints_is_reproduced(weights):
+    m, s = blob_solver(weights)
+    a, b = two_ends(m)
+    c = np.union1d(a, b)
+    s.set_constrained(c)
+    T = rigid_transform(translate=(0.3, -1.0, 2.0), axis=(1, 2, 3), degrees=70, center=(0.5, 0, 0))
+    for _ in range(60):
+        s.solve(apply_transform(T, m.vertices[c]), iterations=10)
+    expect = apply_transform(T, m.vertices)
+    assert np.abs(s.positions - expect).max() < 1e-8 * m.bbox_diagonal()
+    assert s.energy() < 1e-14
+
+
+def test_no_motion_stays_at_rest():
+    m, s = blob_solver()
+    a, _ = two_ends(m)
+    s.set_constrained(a)
+    p = s.solve(m.vertices[a], iterations=3)
+    assert np.abs(p - m.vertices).max() < 1e-12
+
+
+@pytest.mark.parametrize("weights", ["uniform", "cotangent"])
+def test_energy_never_increases(weights):
+    m, s = blob_solver(weights)
+    a, b = two_ends(m)
+    c = np.union1d(a, b)
+    s.set_constrained(c)
+    target = m.vertices[c].copy()
+    target[np.isin(c, b)] += [0.0, 1.2, 0.4]
+    energies = []
+    for _ in range(15):
+        s.solve(target, iterations=1)
+        energies.append(s.energy())
+    assert all(e2 <= e1 * (1 + 1e-9) + 1e-15 for e1, e2 in zip(energies, energies[1:]))
+    assert energies[-1] < energies[0]
+    # the constrained vertices are exactly where they were put
+    assert np.array_equal(s.positions[c], target)
+
+
+def test_unconstrained_component_is_refused():
+    a = icosphere(1)
+    b = icosphere(1)
+    v = np.vstack([a.vertices, b.vertices + 5])
+    f = np.vstack([a.faces, b.faces + a.n_vertices])
+    s = ARAPSolver(v, f)
+    with pytest.raises(ValueError, match="no fixed or handle vertex"):
+        s.set_constrained([0, 1])
+    s.set_constrained([0, a.n_vertices])  # one in each part is enough
+
+
+def test_cholmod_and_scipy_agree():
+    m = bumpy_blob(2)
+    e, w = edge_weights(m.vertices, m.faces, "cotangent")
+    L = laplacian(m.n_vertices, e, w) + sp.eye(m.n_vertices) * 1e-3
+    b = np.random.default_rng(0).normal(size=(m.n_vertices, 3))
+    x1 = SPDSolver(L, "cholmod").solve(b)
+    x2 = SPDSolver(L, "scipy").solve(b)
+    assert np.allclose(L @ x1, b, atol=1e-9)
+    assert np.allclose(x1, x2, atol=1e-9)

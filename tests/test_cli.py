@@ -1,0 +1,79 @@
+import json
+
+import numpy as np
+import pytest
+
+from hybridedit.cli import main, parse_cage_size
+from hybridedit.io import read_mesh, write_mesh
+
+from conftest import bumpy_blob
+
+
+@pytest.fixture(scope="module")
+def mesh_file(tmp_path_factory):
+    p = tmp_path_factory.mktemp("cli") / "blob.obj"
+    write_mesh(p, bumpy_blob(3))
+    return p
+
+
+def write_edit(path, **kw):
+    path.write_text(json.dumps(kw))
+    return path
+
+
+def test_deform_end_to_end(tmp_path, mesh_file):
+    m = read_mesh(mesh_file)
+    x = m.vertices[:, 0]
+    handle = np.flatnonzero(x > x.max() - 0.4).tolist()
+    roi = np.flatnonzero(x > 0).tolist()
+    edit = write_edit(tmp_path / "e.json", handle=handle, roi=roi, translate=[0, 0.5, 0],
+                      rotate={"axis": [0, 0, 1], "degrees": 20})
+    out = tmp_path / "out.ply"
+    stats = tmp_path / "s.json"
+    rc = main(["deform", str(mesh_file), "-o", str(out), "--edit", str(edit), "--cage", "120",
+               "--frames", "5", "--stats", str(stats), "-q"])
+    assert rc == 0
+    d = read_mesh(out)
+    assert np.array_equal(d.faces, m.faces)
+    s = json.loads(stats.read_text())
+    for k in ("n_vertices", "cage_vertices", "cage_seconds", "bind_seconds", "frame_ms_median", "nnz_per_row"):
+        assert k in s
+    assert s["n_vertices"] == m.n_vertices and s["frames"] == 5
+    # the handle went up, the far side did not move
+    assert (d.vertices[handle, 1] - m.vertices[handle, 1]).mean() > 0.2
+    far = np.flatnonzero(x < x.min() + 0.3)
+    assert np.abs(d.vertices[far] - m.vertices[far]).max() < 0.05
+
+
+def test_info(capsys, mesh_file):
+    assert main(["info", str(mesh_file)]) == 0
+    out = capsys.readouterr().out
+    assert "blob.obj" in out
+    assert main(["info", str(mesh_file), "--json"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    assert rep["vertices"] == 642 and rep["components"] == 1 and rep["boundary_edges"] == 0
+
+
+def test_errors_exit_2_with_one_line(tmp_path, mesh_file, capsys):
+    bad = tmp_path / "bad.json"
+    bad.write_text("{oops")
+    rc = main(["deform", str(mesh_file), "-o", str(tmp_path / "o.obj"), "--edit", str(bad)])
+    err = capsys.readouterr().err
+    assert rc == 2 and "bad.json" in err and "Traceback" not in err
+    edit = write_edit(tmp_path / "e.json", handle=[0], fixed=[1])
+    rc = main(["deform", str(mesh_file), "-o", str(mesh_file), "--edit", str(edit)])
+    assert rc == 2 and "refusing to overwrite" in capsys.readouterr().err
+    rc = main(["deform", str(tmp_path / "missing.obj"), "-o", str(tmp_path / "o.obj"), "--edit", str(edit)])
+    assert rc == 2 and "missing.obj" in capsys.readouterr().err
+    edit = write_edit(tmp_path / "e2.json", handle=[10 ** 6], fixed=[1])
+    rc = main(["deform", str(mesh_file), "-o", str(tmp_path / "o.obj"), "--edit", str(edit), "--cage", "60", "-q"])
+    assert rc == 2 and "out of range" in capsys.readouterr().err
+
+
+def test_cage_size_parsing():
+    assert parse_cage_size("2000") == 2000
+    assert parse_cage_size("0.05") == 0.05
+    assert parse_cage_size("5%") == 0.05
+    for bad in ("abc", "0", "1.5", "-3%"):
+        with pytest.raises(Exception):
+            parse_cage_size(bad)

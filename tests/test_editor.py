@@ -1,0 +1,134 @@
+import numpy as np
+import pytest
+
+from hybridedit import HybridEditor, SelectionError
+from hybridedit.propagate import propagate
+from hybridedit.transforms import apply_transform, rigid_transform
+
+
+@pytest.fixture(scope="module")
+def editor(blob):
+    return HybridEditor(blob, cage_size=300)
+
+
+@pytest.fixture
+def ed(editor):
+    editor.reset()
+    return editor
+
+
+def ends(mesh, frac=0.2):
+    x = mesh.vertices[:, 0]
+    span = x.max() - x.min()
+    return np.flatnonzero(x < x.min() + frac * span), np.flatnonzero(x > x.max() - frac * span)
+
+
+def test_cage_and_binding_shapes(ed, blob):
+    assert abs(ed.cage.n_vertices - 300) <= 6
+    assert ed.M.shape == (blob.n_vertices, ed.cage.n_vertices)
+    assert np.allclose(np.asarray(ed.M.sum(axis=1)).ravel(), 1.0, atol=1e-12)
+    assert 1 <= ed.nnz_per_row < 60
+
+
+def test_no_edit_output_is_M_times_cage(ed):
+    assert np.array_equal(ed.deformed_vertices, propagate(ed.M, ed.cage.vertices))
+    assert np.allclose(ed.deformed_vertices, ed.M @ ed.cage.vertices, atol=1e-13)
+    a, b = ends(ed.mesh)
+    ed.set_selection(b, fixed=a)
+    V = ed.drag(translate=(0, 0, 0))
+    assert np.allclose(V, ed.M @ ed.cage.vertices, atol=1e-12)
+
+
+def test_rigid_motion_of_the_whole_cage_moves_the_shape_rigidly(ed):
+    T = rigid_transform(translate=(1.0, -2.0, 0.5), axis=(1, 1, 0), degrees=35, center=(0.2, 0.1, 0))
+    ed.set_selection(np.arange(ed.cage.n_vertices), space="cage")
+    V = ed.drag(transform=T)
+    expect = apply_transform(T, ed.M @ ed.cage.vertices)
+    assert np.abs(V - expect).max() < 1e-10
+
+
+def test_rigid_motion_of_all_handles_converges_to_rigid(ed):
+    a, b = ends(ed.mesh)
+    T = rigid_transform(translate=(0.5, 0.3, -0.2), axis=(0, 0, 1), degrees=40, center=(0, 0, 0))
+    ed.set_selection(np.union1d(a, b), fixed=None)
+    for _ in range(200):
+        V = ed.drag(transform=T, iterations=5)
+    expect = apply_transform(T, ed.M @ ed.cage.vertices)
+    assert np.abs(V - expect).max() < 1e-8 * ed.mesh.bbox_diagonal()
+
+
+def test_drag_moves_the_handle_and_not_the_fixed_part(ed):
+    a, b = ends(ed.mesh)
+    ed.set_selection(b, fixed=a)
+    d = np.array([0.0, 0.8, 0.0])
+    for _ in range(30):
+        V = ed.drag(translate=d)
+    rest = ed.M @ ed.cage.vertices
+    # shape vertices bound only to fixed cage vertices do not move at all
+    fixed_mask = np.zeros(ed.cage.n_vertices, bool)
+    fixed_mask[ed.fixed] = True
+    rows_fixed = np.array([fixed_mask[ed.M.indices[ed.M.indptr[i]:ed.M.indptr[i + 1]]].all()
+                           for i in range(ed.M.shape[0])])
+    assert rows_fixed.sum() > 10
+    assert np.abs(V[rows_fixed] - rest[rows_fixed]).max() < 1e-12
+    # the handle cage vertices moved exactly by d; the handle's shape vertices nearly so
+    assert np.allclose(ed.arap.positions[ed.handle], ed.cage.vertices[ed.handle] + d)
+    moved = (V[b] - rest[b]).mean(axis=0)
+    assert np.linalg.norm(moved - d) < 0.25 * np.linalg.norm(d)
+    # the middle bends smoothly: it moves somewhere in between
+    mid = np.flatnonzero(np.abs(ed.mesh.vertices[:, 0]) < 0.1)
+    dy = (V[mid] - rest[mid])[:, 1].mean()
+    assert 0.05 * d[1] < dy < 0.95 * d[1]
+
+
+def test_roi_means_everything_outside_is_fixed(ed):
+    a, b = ends(ed.mesh, 0.1)
+    roi = np.flatnonzero(ed.mesh.vertices[:, 0] > 0)
+    ed.set_selection(b, roi=roi)
+    x_cage = ed.cage.vertices[:, 0]
+    assert set(ed.fixed) <= set(np.flatnonzero(x_cage < 0.3))
+    assert np.intersect1d(ed.fixed, ed.handle).size == 0
+    assert len(ed.fixed) + len(ed.handle) < ed.cage.n_vertices
+
+
+def test_reset_and_cage_positions(ed):
+    a, b = ends(ed.mesh)
+    ed.set_selection(b, fixed=a)
+    ed.drag(translate=(0, 0.5, 0))
+    pose = ed.cage_positions
+    shape = ed.deformed_vertices.copy()
+    ed.reset()
+    assert np.allclose(ed.deformed_vertices, ed.M @ ed.cage.vertices)
+    ed.set_cage_positions(pose)
+    assert np.allclose(ed.deformed_vertices, shape)
+    m = ed.deformed
+    assert m.faces is ed.mesh.faces or np.array_equal(m.faces, ed.mesh.faces)
+
+
+def test_selection_errors(ed):
+    a, b = ends(ed.mesh)
+    with pytest.raises(SelectionError, match="empty"):
+        ed.set_selection([], fixed=a)
+    with pytest.raises(SelectionError, match="out of range"):
+        ed.set_selection([ed.mesh.n_vertices + 5], fixed=a)
+    with pytest.raises(SelectionError, match="share"):
+        ed.set_selection(b, fixed=np.union1d(a, b))
+    with pytest.raises(SelectionError, match="not both"):
+        ed.set_selection(b, fixed=a, roi=a)
+    with pytest.raises(SelectionError, match="space"):
+        ed.set_selection(b, space="world")
+
+
+def test_tiny_handle_still_maps_to_the_cage(ed):
+    a, b = ends(ed.mesh)
+    one = [int(b[0])]
+    ed.set_selection(one, fixed=a)
+    assert ed.handle.size >= 1
+    row = ed.M[one[0]]
+    assert ed.handle[0] in row.indices
+
+
+def test_drag_before_selection_is_refused(blob):
+    e = HybridEditor(blob, cage_size=100)
+    with pytest.raises(SelectionError, match="selection"):
+        e.drag(translate=(1, 0, 0))
