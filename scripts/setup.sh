@@ -1,0 +1,50 @@
+#!/usr/bin/env bash
+# Installs everything hybridedit needs into ./.venv on a Debian or Ubuntu machine.
+#   bash scripts/setup.sh          the editor
+#   bash scripts/setup.sh test     the editor and what the tests need (Xvfb, pytest-qt, ...)
+# Safe to run again: it only installs what is missing.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+extras="${1:-}"
+
+# --- system packages -------------------------------------------------------
+# libsuitesparse-dev: CHOLMOD, which scikit-sparse compiles against.
+# The libraries Qt 6 (PySide6) and VTK load for a window.
+# xvfb: a virtual screen for the GUI tests.
+apt_pkgs=(libsuitesparse-dev libgl1 libegl1 libopengl0 libglib2.0-0 libdbus-1-3 libfontconfig1
+          libxkbcommon0 libxkbcommon-x11-0 libxrender1 libxcb-cursor0 libxcb-icccm4 libxcb-image0
+          libxcb-keysyms1 libxcb-randr0 libxcb-render-util0 libxcb-shape0 libxcb-xinerama0 libxcb-xkb1)
+[[ ",$extras," == *",test,"* ]] && apt_pkgs+=(xvfb xauth)
+missing=()
+if command -v dpkg-query >/dev/null 2>&1; then
+  for p in "${apt_pkgs[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+fi
+if ((${#missing[@]})); then
+  if [[ $(id -u) == 0 ]]; then sudo=(); elif command -v sudo >/dev/null; then sudo=(sudo); else
+    echo "setup: please install these system packages first: ${missing[*]}" >&2; exit 1; fi
+  echo "setup: installing system packages: ${missing[*]}" >&2
+  "${sudo[@]}" apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive "${sudo[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+# --- Python environment ----------------------------------------------------
+py=${PYTHON:-python3}
+[[ -x .venv/bin/python ]] || "$py" -m venv .venv
+pip=(.venv/bin/python -m pip -q --disable-pip-version-check)
+
+# scikit-sparse 0.5 needs SuiteSparse >= 7; older systems (Debian 12 ships 5.12) build 0.4.16.
+hdr=$(ls /usr/include/suitesparse/SuiteSparse_config.h /usr/include/SuiteSparse_config.h 2>/dev/null | head -n1 || true)
+ss_major=$( [[ -n "$hdr" ]] && awk '/define SUITESPARSE_MAIN_VERSION/ {print $3; exit}' "$hdr" || echo 7)
+if [[ "${ss_major:-7}" -lt 7 ]]; then sks="scikit-sparse==0.4.16"; else sks="scikit-sparse>=0.5"; fi
+if ! .venv/bin/python -c "import sksparse.cholmod" 2>/dev/null; then
+  echo "setup: building $sks against SuiteSparse ${ss_major}" >&2
+  "${pip[@]}" install "numpy>=2" "cython>=3" setuptools wheel
+  "${pip[@]}" install --no-build-isolation "$sks"
+fi
+
+spec="."
+[[ -n "$extras" ]] && spec=".[$extras]"
+"${pip[@]}" install -e "$spec"
+echo "setup: ready (.venv)" >&2
