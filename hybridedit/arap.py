@@ -67,61 +67,108 @@ def laplacian(n: int, edges: np.ndarray, weights: np.ndarray) -> sp.csr_matrix:
     return (D - W).tocsr()
 
 
-@njit(cache=True, parallel=True)
-def _local_step(rest, cur, indptr, indices, wts, rots):
+#: Below this many vertices the per-vertex kernels run on one thread: starting
+#: the thread pool costs more than the work (and far more on a busy machine).
+PARALLEL_MIN = 20000
+
+
+@njit(cache=True, inline="always")
+def _rotation_of(i, rest, cur, indptr, indices, wts, rots):
     """R_i = closest rotation to sum_j w_ij (p'_i - p'_j)(p_i - p_j)^T."""
-    n = rest.shape[0]
-    for i in prange(n):
-        a = np.zeros((3, 3))
-        for k in range(indptr[i], indptr[i + 1]):
-            j = indices[k]
-            w = wts[k]
-            e0 = rest[i, 0] - rest[j, 0]
-            e1 = rest[i, 1] - rest[j, 1]
-            e2 = rest[i, 2] - rest[j, 2]
-            d0 = w * (cur[i, 0] - cur[j, 0])
-            d1 = w * (cur[i, 1] - cur[j, 1])
-            d2 = w * (cur[i, 2] - cur[j, 2])
-            a[0, 0] += d0 * e0
-            a[0, 1] += d0 * e1
-            a[0, 2] += d0 * e2
-            a[1, 0] += d1 * e0
-            a[1, 1] += d1 * e1
-            a[1, 2] += d1 * e2
-            a[2, 0] += d2 * e0
-            a[2, 1] += d2 * e1
-            a[2, 2] += d2 * e2
-        closest_rotation(a, rots[i])
+    a00 = a01 = a02 = a10 = a11 = a12 = a20 = a21 = a22 = 0.0
+    for k in range(indptr[i], indptr[i + 1]):
+        j = indices[k]
+        w = wts[k]
+        e0 = rest[i, 0] - rest[j, 0]
+        e1 = rest[i, 1] - rest[j, 1]
+        e2 = rest[i, 2] - rest[j, 2]
+        d0 = w * (cur[i, 0] - cur[j, 0])
+        d1 = w * (cur[i, 1] - cur[j, 1])
+        d2 = w * (cur[i, 2] - cur[j, 2])
+        a00 += d0 * e0
+        a01 += d0 * e1
+        a02 += d0 * e2
+        a10 += d1 * e0
+        a11 += d1 * e1
+        a12 += d1 * e2
+        a20 += d2 * e0
+        a21 += d2 * e1
+        a22 += d2 * e2
+    r = rots[i]
+    r[0, 0] = a00
+    r[0, 1] = a01
+    r[0, 2] = a02
+    r[1, 0] = a10
+    r[1, 1] = a11
+    r[1, 2] = a12
+    r[2, 0] = a20
+    r[2, 1] = a21
+    r[2, 2] = a22
+    closest_rotation(r, r)
+
+
+@njit(cache=True)
+def _local_step_serial(rest, cur, indptr, indices, wts, rots):
+    for i in range(rest.shape[0]):
+        _rotation_of(i, rest, cur, indptr, indices, wts, rots)
 
 
 @njit(cache=True, parallel=True)
-def _rhs(rest, indptr, indices, wts, rots, rows, out):
-    """b_i = sum_j w_ij/2 (R_i + R_j)(p_i - p_j) for the vertices in ``rows``."""
+def _local_step_parallel(rest, cur, indptr, indices, wts, rots):
+    for i in prange(rest.shape[0]):
+        _rotation_of(i, rest, cur, indptr, indices, wts, rots)
+
+
+def _local_step(rest, cur, indptr, indices, wts, rots):
+    """All rotations R_i (the ARAP local step), written into ``rots`` (n, 3, 3)."""
+    if rest.shape[0] >= PARALLEL_MIN:
+        _local_step_parallel(rest, cur, indptr, indices, wts, rots)
+    else:
+        _local_step_serial(rest, cur, indptr, indices, wts, rots)
+
+
+@njit(cache=True, inline="always")
+def _rhs_of(r, rest, indptr, indices, wts, rots, rows, out):
+    """b_i = sum_j w_ij/2 (R_i + R_j)(p_i - p_j) for i = rows[r]."""
+    i = rows[r]
+    b0 = 0.0
+    b1 = 0.0
+    b2 = 0.0
+    for k in range(indptr[i], indptr[i + 1]):
+        j = indices[k]
+        h = 0.5 * wts[k]
+        e0 = rest[i, 0] - rest[j, 0]
+        e1 = rest[i, 1] - rest[j, 1]
+        e2 = rest[i, 2] - rest[j, 2]
+        b0 += h * ((rots[i, 0, 0] + rots[j, 0, 0]) * e0 + (rots[i, 0, 1] + rots[j, 0, 1]) * e1
+                   + (rots[i, 0, 2] + rots[j, 0, 2]) * e2)
+        b1 += h * ((rots[i, 1, 0] + rots[j, 1, 0]) * e0 + (rots[i, 1, 1] + rots[j, 1, 1]) * e1
+                   + (rots[i, 1, 2] + rots[j, 1, 2]) * e2)
+        b2 += h * ((rots[i, 2, 0] + rots[j, 2, 0]) * e0 + (rots[i, 2, 1] + rots[j, 2, 1]) * e1
+                   + (rots[i, 2, 2] + rots[j, 2, 2]) * e2)
+    out[r, 0] = b0
+    out[r, 1] = b1
+    out[r, 2] = b2
+
+
+@njit(cache=True)
+def _rhs_serial(rest, indptr, indices, wts, rots, rows, out):
+    for r in range(rows.shape[0]):
+        _rhs_of(r, rest, indptr, indices, wts, rots, rows, out)
+
+
+@njit(cache=True, parallel=True)
+def _rhs_parallel(rest, indptr, indices, wts, rots, rows, out):
     for r in prange(rows.shape[0]):
-        i = rows[r]
-        b0 = 0.0
-        b1 = 0.0
-        b2 = 0.0
-        for k in range(indptr[i], indptr[i + 1]):
-            j = indices[k]
-            h = 0.5 * wts[k]
-            e0 = rest[i, 0] - rest[j, 0]
-            e1 = rest[i, 1] - rest[j, 1]
-            e2 = rest[i, 2] - rest[j, 2]
-            for c in range(3):
-                s0 = rots[i, c, 0] + rots[j, c, 0]
-                s1 = rots[i, c, 1] + rots[j, c, 1]
-                s2 = rots[i, c, 2] + rots[j, c, 2]
-                v = h * (s0 * e0 + s1 * e1 + s2 * e2)
-                if c == 0:
-                    b0 += v
-                elif c == 1:
-                    b1 += v
-                else:
-                    b2 += v
-        out[r, 0] = b0
-        out[r, 1] = b1
-        out[r, 2] = b2
+        _rhs_of(r, rest, indptr, indices, wts, rots, rows, out)
+
+
+def _rhs(rest, indptr, indices, wts, rots, rows, out):
+    """The global step's right-hand side for the vertices ``rows``, into ``out``."""
+    if rows.shape[0] >= PARALLEL_MIN:
+        _rhs_parallel(rest, indptr, indices, wts, rots, rows, out)
+    else:
+        _rhs_serial(rest, indptr, indices, wts, rots, rows, out)
 
 
 @njit(cache=True, parallel=True)

@@ -12,7 +12,7 @@ from scipy.spatial import cKDTree
 from .arap import ARAPSolver
 from .binding import bind
 from .cage import build_cage
-from .mesh import Mesh
+from .mesh import Mesh, MeshError
 from .propagate import propagate
 from .transforms import check_transform, rigid_transform
 
@@ -81,10 +81,13 @@ class HybridEditor:
         self.timings["cage_seconds"] = t1 - t0
         if binding is None:
             say("binding", 0.0)
-            binding = bind(
-                mesh.vertices, cage, truncation=self.truncation,
-                progress=lambda fraction: say("binding", fraction),
-            )
+            try:
+                binding = bind(
+                    mesh.vertices, cage, truncation=self.truncation,
+                    progress=lambda fraction: say("binding", fraction),
+                )
+            except ValueError as e:
+                raise MeshError(f"{mesh.name or 'mesh'}: cannot bind to its cage: {e}") from None
         M = sp.csr_matrix(binding, dtype=np.float64)
         if M.shape != (mesh.n_vertices, cage.n_vertices):
             raise ValueError(f"binding must be {(mesh.n_vertices, cage.n_vertices)}, got {M.shape}")

@@ -7,21 +7,37 @@ import scipy.sparse as sp
 from numba import njit, prange
 
 
+#: Below this many rows the product runs on one thread (thread start-up costs more).
+PARALLEL_MIN_ROWS = 20000
+
+
+@njit(cache=True, inline="always")
+def _row(i, indptr, indices, data, y, out):
+    """out[i] = sum_k data[k] * y[indices[k]] over row i."""
+    a0 = 0.0
+    a1 = 0.0
+    a2 = 0.0
+    for k in range(indptr[i], indptr[i + 1]):
+        j = indices[k]
+        w = data[k]
+        a0 += w * y[j, 0]
+        a1 += w * y[j, 1]
+        a2 += w * y[j, 2]
+    out[i, 0] = a0
+    out[i, 1] = a1
+    out[i, 2] = a2
+
+
+@njit(cache=True)
+def _csr_times_xyz_serial(indptr, indices, data, y, out):
+    for i in range(out.shape[0]):
+        _row(i, indptr, indices, data, y, out)
+
+
 @njit(cache=True, parallel=True)
-def _csr_times_xyz(indptr, indices, data, y, out):
+def _csr_times_xyz_parallel(indptr, indices, data, y, out):
     for i in prange(out.shape[0]):
-        a0 = 0.0
-        a1 = 0.0
-        a2 = 0.0
-        for k in range(indptr[i], indptr[i + 1]):
-            j = indices[k]
-            w = data[k]
-            a0 += w * y[j, 0]
-            a1 += w * y[j, 1]
-            a2 += w * y[j, 2]
-        out[i, 0] = a0
-        out[i, 1] = a1
-        out[i, 2] = a2
+        _row(i, indptr, indices, data, y, out)
 
 
 def propagate(M: sp.csr_matrix, y: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
@@ -42,5 +58,8 @@ def propagate(M: sp.csr_matrix, y: np.ndarray, out: np.ndarray | None = None) ->
         raise ValueError(f"cage positions must be ({M.shape[1]}, 3), got {y.shape}")
     if out is None:
         out = np.empty((M.shape[0], 3))
-    _csr_times_xyz(M.indptr, M.indices, M.data, y, out)
+    if out.shape[0] >= PARALLEL_MIN_ROWS:
+        _csr_times_xyz_parallel(M.indptr, M.indices, M.data, y, out)
+    else:
+        _csr_times_xyz_serial(M.indptr, M.indices, M.data, y, out)
     return out
