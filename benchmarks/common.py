@@ -1,0 +1,80 @@
+"""Shared pieces of the benchmark scripts: meshes, the canonical edit, timing."""
+
+from __future__ import annotations
+
+import os
+import platform
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(REPO))
+
+from hybridedit import Mesh, build_cage, read_mesh  # noqa: E402
+
+MESHES = Path(os.environ.get("HYBRIDEDIT_MESHES", REPO.parent / "shared" / "meshes"))
+
+
+def armadillo() -> Mesh:
+    """The 43,243-vertex scanned armadillo from ../shared/meshes."""
+    p = MESHES / "armadillo43k.obj"
+    if not p.exists():
+        sys.exit(f"benchmark needs {p} (set HYBRIDEDIT_MESHES to its folder)")
+    m = read_mesh(p)
+    m.name = "armadillo 43K"
+    return m
+
+
+def armadillo_21k(full: Mesh) -> Mesh:
+    """The paper's second model: the armadillo QEM-simplified to 21,622 vertices."""
+    m = build_cage(full, 21622)
+    m.name = f"armadillo {m.n_vertices / 1000:.1f}K"
+    return m
+
+
+def canonical_edit(mesh: Mesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The benchmark edit on an armadillo-like shape (Y up, facing +Z).
+
+    Handle: the hand on the +X side; region of interest: that arm from the
+    shoulder; everything else is fixed. The hand is raised by 20% of the
+    height and brought forward by 10%. Defined relative to the bounding box,
+    so it means the same on every resolution of the armadillo.
+
+    Returns
+    -------
+    handle, roi : int64 shape vertex indices; translate : (3,) float64
+    """
+    v = mesh.vertices
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    r = (v - lo) / (hi - lo)
+    handle = np.flatnonzero((r[:, 0] > 0.877) & (r[:, 1] > 0.62))
+    roi = np.flatnonzero((r[:, 0] > 0.70) & (r[:, 1] > 0.52))
+    h = hi[1] - lo[1]
+    return handle, roi, np.array([0.0, 0.20 * h, 0.10 * h])
+
+
+def machine() -> str:
+    """One line naming the machine the numbers were measured on."""
+    cpu = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}"
+
+
+class Timer:
+    """with Timer() as t: ...; t.seconds"""
+
+    def __enter__(self) -> "Timer":
+        self.t0 = time.perf_counter()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.seconds = time.perf_counter() - self.t0

@@ -1,0 +1,164 @@
+"""The paper's Table 1 on the armadillo, with full-mesh ARAP (ours and libigl's) beside it.
+
+Usage: python benchmarks/table1.py [--smoke] [--frames 50]
+
+For each shape (the armadillo QEM-simplified to 21.6K vertices, and the 43K
+original) and cage size: cage %, bind seconds, nonzeros per row of M, frame ms
+(median over the frames of 2 ARAP iterations + propagation), and the relative
+RMS edge-length error (RRMS-E, %) after 2 and after 30 frames of the canonical
+edit (benchmarks/common.py). The "no cage" rows run ARAP on the full mesh, by
+our solver and by libigl (pip libigl, a benchmark-only dependency) from the
+same rest pose with the same constraints; "converged" is 500 iterations of our
+full-mesh solver with cotangent weights, the quality reference.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+import numpy as np
+
+from common import Timer, armadillo, armadillo_21k, canonical_edit, machine
+
+from hybridedit import HybridEditor, rrms_edge_error
+from hybridedit.arap import ARAPSolver
+
+# Figures of the paper's Table 1 that we have (43,244-vertex armadillo).
+PAPER = {("43K", 2000): {"frame_ms": 116.0, "rrms30": 5.43}}
+
+CAGES = {"21K": (1000, 1500, 2000, 4000), "43K": (1500, 2000, 5000)}
+
+
+def run_hybrid(shape, cage_n, frames, weights="uniform"):
+    handle, roi, d = canonical_edit(shape)
+    with Timer() as t_total:
+        ed = HybridEditor(shape, cage_n, weights=weights)
+    ed.set_selection(handle, roi=roi)
+    edges = shape.edges()
+    rr = {}
+    times = []
+    for f in range(1, frames + 1):
+        with Timer() as t:
+            V = ed.drag(translate=d)
+        times.append(t.seconds)
+        if f in (2, 30):
+            rr[f] = rrms_edge_error(shape.vertices, V, edges)
+    return {
+        "cage": ed.cage.n_vertices,
+        "cage_pct": 100.0 * ed.cage.n_vertices / shape.n_vertices,
+        "cage_s": ed.timings["cage_seconds"],
+        "bind_s": ed.timings["bind_seconds"],
+        "nnz": ed.nnz_per_row,
+        "frame_ms": 1e3 * float(np.median(times)),
+        "rrms2": rr.get(2, np.nan),
+        "rrms30": rr.get(30, np.nan),
+    }
+
+
+def full_constraints(shape):
+    handle, roi, d = canonical_edit(shape)
+    inside = np.zeros(shape.n_vertices, bool)
+    inside[roi] = True
+    inside[handle] = True
+    fixed = np.flatnonzero(~inside)
+    b = np.union1d(handle, fixed)
+    target = shape.vertices[b].copy()
+    target[np.isin(b, handle)] += d
+    return b, target
+
+
+def run_full_ours(shape, frames, weights, iterations=2):
+    b, target = full_constraints(shape)
+    with Timer() as t_pre:
+        s = ARAPSolver(shape.vertices, shape.faces, weights=weights)
+        s.set_constrained(b)
+    edges = shape.edges()
+    rr, times = {}, []
+    for f in range(1, frames + 1):
+        with Timer() as t:
+            V = s.solve(target, iterations)
+        times.append(t.seconds)
+        if f in (2, 30):
+            rr[f] = rrms_edge_error(shape.vertices, V, edges)
+    return {"pre_s": t_pre.seconds, "frame_ms": 1e3 * float(np.median(times)),
+            "rrms2": rr.get(2, np.nan), "rrms30": rr.get(30, np.nan), "V": V.copy(), "solver": s}
+
+
+def run_full_libigl(shape, frames, iterations=2):
+    try:
+        import igl
+    except ImportError:
+        return None
+    b, target = full_constraints(shape)
+    data = igl.ARAPData()
+    data.max_iter = iterations
+    data.energy = igl.ARAP_ENERGY_TYPE_SPOKES
+    with Timer() as t_pre:
+        igl.arap_precomputation(shape.vertices, shape.faces, 3, b.astype(np.int32), data)
+    U = shape.vertices.copy()
+    edges = shape.edges()
+    rr, times = {}, []
+    for f in range(1, frames + 1):
+        with Timer() as t:
+            U = igl.arap_solve(target, data, U)
+        times.append(t.seconds)
+        if f in (2, 30):
+            rr[f] = rrms_edge_error(shape.vertices, U, edges)
+    return {"pre_s": t_pre.seconds, "frame_ms": 1e3 * float(np.median(times)),
+            "rrms2": rr.get(2, np.nan), "rrms30": rr.get(30, np.nan)}
+
+
+def fmt(x, spec):
+    return "-" if x is None or (isinstance(x, float) and np.isnan(x)) else format(x, spec)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--frames", type=int, default=50)
+    ap.add_argument("--smoke", action="store_true", help="tiny run for CI: 21K shape, one small cage, 3 frames")
+    args = ap.parse_args(argv)
+    frames = 3 if args.smoke else max(args.frames, 30)
+
+    print(f"# Table 1 — {machine()}")
+    print(f"# frame = 2 ARAP iterations + propagation; median over {frames} frames; RRMS-E in %")
+    full = armadillo()
+    shapes = {"21K": armadillo_21k(full), "43K": full}
+    if args.smoke:
+        shapes = {"21K": shapes["21K"]}
+    head = (f"{'shape':>14} {'cage':>6} {'cage%':>6} {'cage s':>7} {'bind s':>7} {'nnz/row':>8} "
+            f"{'frame ms':>9} {'RRMS-E 2':>9} {'RRMS-E 30':>10} {'paper ms':>9} {'paper RRMS':>10}")
+    print(head)
+    print("-" * len(head))
+    for key, shape in shapes.items():
+        cages = (300,) if args.smoke else CAGES[key]
+        for n in cages:
+            r = run_hybrid(shape, n, frames)
+            p = PAPER.get((key, n), {})
+            print(f"{shape.name:>14} {r['cage']:>6d} {r['cage_pct']:>6.2f} {r['cage_s']:>7.3f} {r['bind_s']:>7.2f} "
+                  f"{r['nnz']:>8.1f} {r['frame_ms']:>9.3f} {r['rrms2']:>9.3f} {r['rrms30']:>10.3f} "
+                  f"{fmt(p.get('frame_ms'), '>9.1f'):>9} {fmt(p.get('rrms30'), '>10.2f'):>10}", flush=True)
+        if args.smoke:
+            continue
+        for label, w in (("ours uniform", "uniform"), ("ours cotan", "cotangent")):
+            r = run_full_ours(shape, frames, w)
+            print(f"{shape.name:>14} {'no cage: ' + label:>22} {'factor':>7} {r['pre_s']:>7.2f} "
+                  f"{r['frame_ms']:>9.3f} {r['rrms2']:>9.3f} {r['rrms30']:>10.3f}", flush=True)
+        r = run_full_libigl(shape, frames)
+        if r is None:
+            print(f"{shape.name:>14} {'no cage: libigl':>22}  (pip install libigl to compare)")
+        else:
+            print(f"{shape.name:>14} {'no cage: libigl':>22} {'precomp':>7} {r['pre_s']:>7.2f} "
+                  f"{r['frame_ms']:>9.3f} {r['rrms2']:>9.3f} {r['rrms30']:>10.3f}", flush=True)
+        # converged full-mesh reference (quality target of the quality issue)
+        b, target = full_constraints(shape)
+        s = ARAPSolver(shape.vertices, shape.faces, weights="cotangent")
+        s.set_constrained(b)
+        V = s.solve(target, 500)
+        print(f"{shape.name:>14} {'converged full ARAP':>22} {'':>7} {'':>7} {'':>9} {'':>9} "
+              f"{rrms_edge_error(shape.vertices, V, shape.edges()):>10.3f}", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
