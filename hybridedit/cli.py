@@ -86,9 +86,11 @@ def run_deform(args: argparse.Namespace) -> int:
         weights=args.weights,
         iterations=args.iterations,
         progress=say,
+        cache=not args.no_cache,
     )
     say(
-        f"cage {ed.cage.n_vertices} vertices ({ed.timings['cage_seconds']:.2f} s), "
+        f"cage {ed.cage.n_vertices} vertices ({ed.timings['cage_seconds']:.2f} s"
+        f"{', from the cache' if ed.cache_hit else ''}), "
         f"bound with {ed.nnz_per_row:.1f} coordinates a vertex ({ed.timings['bind_seconds']:.2f} s)"
     )
     ed.set_selection(edit.handle, fixed=edit.fixed, roi=edit.roi, space=edit.space)
@@ -111,6 +113,7 @@ def run_deform(args: argparse.Namespace) -> int:
         "cage_faces": ed.cage.n_faces,
         "cage_seconds": ed.timings["cage_seconds"],
         "bind_seconds": ed.timings["bind_seconds"],
+        "cache_hit": ed.cache_hit,
         "nnz_per_row": ed.nnz_per_row,
         "nnz_per_row_max": int(np.diff(ed.M.indptr).max()),
         "truncation": ed.truncation,
@@ -195,6 +198,7 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--truncation", type=float, default=0.03, help="coordinate magnitude dropped per vertex (default 0.03)")
     d.add_argument("--stats", help="write timing and quality figures to this JSON file")
     d.add_argument("--force", action="store_true", help="allow overwriting the input mesh")
+    d.add_argument("--no-cache", action="store_true", help="do not read or write the cage/binding cache")
     d.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
     d.set_defaults(func=run_deform)
     i = sub.add_parser("info", help="print a mesh's size and topology")

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import time
+from pathlib import Path
 from typing import Callable
 
 import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
+from . import bindcache
 from .arap import ARAPSolver
 from .binding import bind
 from .cage import build_cage
@@ -52,6 +54,11 @@ class HybridEditor:
         ARAP local/global iterations per :meth:`drag` call.
     progress : callable(stage: str, fraction: float), optional
         Called during the slow steps (cage, bind); it may raise to cancel them.
+    cache : bool or path
+        Reuse the cage and binding from an on-disk cache (True: the user cache
+        folder, see :func:`hybridedit.bindcache.default_cache_dir`; a path: that
+        folder), keyed by the shape, ``cage_size`` and ``truncation``; store them
+        there after computing them. Ignored when ``cage`` or ``binding`` is given.
     """
 
     def __init__(
@@ -65,13 +72,23 @@ class HybridEditor:
         weights: str = "uniform",
         iterations: int = 2,
         progress: Progress | None = None,
+        cache: bool | str | Path = False,
     ) -> None:
         say = progress or (lambda stage, fraction: None)
         self.mesh = mesh
         self.truncation = float(truncation)
         self.iterations = int(iterations)
         self.timings: dict[str, float] = {}
+        self.cache_hit = False
         t0 = time.perf_counter()
+        folder = key = None
+        if cache and cage is None and binding is None:
+            folder = bindcache.default_cache_dir() if cache is True else Path(cache)
+            key = bindcache.cache_key(mesh, cage_size, self.truncation)
+            hit = bindcache.load(folder, key, mesh)
+            if hit is not None:
+                cage, binding = hit
+                self.cache_hit = True
         if cage is None:
             say("building the cage", 0.0)
             cage = build_cage(mesh, cage_size)
@@ -88,6 +105,8 @@ class HybridEditor:
                 )
             except ValueError as e:
                 raise MeshError(f"{mesh.name or 'mesh'}: cannot bind to its cage: {e}") from None
+            if folder is not None and key is not None:
+                bindcache.store(folder, key, cage, binding)
         M = sp.csr_matrix(binding, dtype=np.float64)
         if M.shape != (mesh.n_vertices, cage.n_vertices):
             raise ValueError(f"binding must be {(mesh.n_vertices, cage.n_vertices)}, got {M.shape}")

@@ -31,6 +31,15 @@ def bumpy_blob(subdivisions: int = 4) -> Mesh:
     return Mesh(v, s.faces, name="blob")
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _private_cache_dir(tmp_path_factory):
+    """Tests never read or write the user's binding cache."""
+    mp = pytest.MonkeyPatch()
+    mp.setenv("HYBRIDEDIT_CACHE_DIR", str(tmp_path_factory.mktemp("binding-cache")))
+    yield
+    mp.undo()
+
+
 @pytest.fixture
 def sphere() -> Mesh:
     return icosphere(3)

@@ -1,0 +1,101 @@
+"""On-disk cache of cages and bindings, keyed by the shape and the settings.
+
+A cache file holds the cage (vertices, faces) and the binding matrix M of one
+shape for one (cage size, truncation) setting. Its name is a hash of the shape's
+vertices and faces, the settings and :data:`FORMAT`; the same key is stored
+inside and checked on load, with the arrays' shapes and the rows of M summing
+to 1, so a corrupt, truncated or stale file is detected and rebuilt, never
+trusted. Files are written atomically.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import os
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse as sp
+
+from .atomic import atomic_write
+from .mesh import Mesh
+
+#: Bump when the cage or binding algorithms change: old files stop matching.
+FORMAT = "hybridedit-binding-1"
+
+
+def default_cache_dir() -> Path:
+    """$HYBRIDEDIT_CACHE_DIR, else the user cache folder (e.g. ~/.cache/hybridedit)."""
+    env = os.environ.get("HYBRIDEDIT_CACHE_DIR")
+    if env:
+        return Path(env)
+    from platformdirs import user_cache_dir
+
+    return Path(user_cache_dir("hybridedit", appauthor=False))
+
+
+def cache_key(mesh: Mesh, cage_size: int | float, truncation: float, extra: str = "") -> str:
+    """Hex digest naming the cage + binding of ``mesh`` for these settings."""
+    h = hashlib.sha256()
+    h.update(FORMAT.encode())
+    h.update(repr((type(cage_size).__name__, cage_size, float(truncation), extra)).encode())
+    h.update(np.int64(mesh.n_vertices).tobytes())
+    h.update(np.ascontiguousarray(mesh.vertices, dtype="<f8").tobytes())
+    h.update(np.ascontiguousarray(mesh.faces, dtype="<i8").tobytes())
+    return h.hexdigest()
+
+
+def _path(folder: Path, key: str) -> Path:
+    return folder / f"{key[:40]}.npz"
+
+
+def load(folder: Path, key: str, mesh: Mesh) -> tuple[Mesh, sp.csr_matrix] | None:
+    """The cached (cage, M) for ``key``, or None when absent or not valid."""
+    p = _path(folder, key)
+    if not p.is_file():
+        return None
+    try:
+        with np.load(p, allow_pickle=False) as z:
+            if str(z["key"]) != key:
+                return None
+            cv, cf = z["cage_vertices"], z["cage_faces"]
+            shape = tuple(int(x) for x in z["shape"])
+            M = sp.csr_matrix((z["data"], z["indices"], z["indptr"]), shape=shape)
+        cage = Mesh(cv, cf, name="cage")
+        if shape != (mesh.n_vertices, cage.n_vertices):
+            return None
+        M.check_format(full_check=True)
+        if not np.all(np.isfinite(M.data)):
+            return None
+        if not np.allclose(np.asarray(M.sum(axis=1)).ravel(), 1.0, atol=1e-9):
+            return None
+        M.sort_indices()
+        return cage, M
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, TypeError, IndexError):
+        return None
+
+
+def store(folder: Path, key: str, cage: Mesh, M: sp.csr_matrix) -> Path | None:
+    """Write (cage, M) under ``key``; returns the file, or None if it cannot be written."""
+    M = sp.csr_matrix(M)
+    buf = io.BytesIO()
+    np.savez(
+        buf,
+        key=np.array(key),
+        cage_vertices=cage.vertices,
+        cage_faces=cage.faces,
+        shape=np.array(M.shape, dtype=np.int64),
+        data=M.data,
+        indices=M.indices,
+        indptr=M.indptr,
+    )
+    p = _path(folder, key)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        with atomic_write(p, "wb") as fh:
+            fh.write(buf.getvalue())
+    except OSError:
+        return None
+    return p

@@ -1,0 +1,56 @@
+import numpy as np
+import pytest
+
+from hybridedit import HybridEditor, bindcache
+
+from conftest import bumpy_blob
+
+
+@pytest.fixture
+def shape():
+    return bumpy_blob(3)
+
+
+def test_second_build_comes_from_the_cache(tmp_path, shape):
+    a = HybridEditor(shape, 80, cache=tmp_path)
+    assert not a.cache_hit
+    assert len(list(tmp_path.glob("*.npz"))) == 1
+    b = HybridEditor(shape, 80, cache=tmp_path)
+    assert b.cache_hit
+    assert np.array_equal(a.cage.vertices, b.cage.vertices) and np.array_equal(a.cage.faces, b.cage.faces)
+    assert (a.M != b.M).nnz == 0
+
+
+def test_other_settings_or_shape_miss(tmp_path, shape):
+    HybridEditor(shape, 80, cache=tmp_path)
+    assert not HybridEditor(shape, 81, cache=tmp_path).cache_hit
+    assert not HybridEditor(shape, 80, truncation=0.05, cache=tmp_path).cache_hit
+    moved = shape.copy(shape.vertices + [0, 0, 1e-9])
+    assert not HybridEditor(moved, 80, cache=tmp_path).cache_hit
+
+
+@pytest.mark.parametrize("damage", ["truncate", "garbage", "swap"])
+def test_damaged_cache_files_are_rebuilt(tmp_path, shape, damage):
+    a = HybridEditor(shape, 80, cache=tmp_path)
+    (f,) = tmp_path.glob("*.npz")
+    if damage == "truncate":
+        f.write_bytes(f.read_bytes()[:300])
+    elif damage == "garbage":
+        f.write_bytes(b"\x00not a zip" * 50)
+    else:  # a valid file of another shape under this name: the stored key differs
+        other = bumpy_blob(2)
+        key = bindcache.cache_key(other, 40, 0.03)
+        bindcache.store(tmp_path / "x", key, HybridEditor(other, 40).cage, HybridEditor(other, 40).M)
+        (g,) = (tmp_path / "x").glob("*.npz")
+        f.write_bytes(g.read_bytes())
+    b = HybridEditor(shape, 80, cache=tmp_path)
+    assert not b.cache_hit
+    assert (a.M != b.M).nnz == 0
+    assert HybridEditor(shape, 80, cache=tmp_path).cache_hit  # rewritten correctly
+
+
+def test_unwritable_cache_folder_is_not_fatal(tmp_path, shape):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    ed = HybridEditor(shape, 80, cache=blocker / "sub")
+    assert not ed.cache_hit and ed.M.shape[0] == shape.n_vertices
