@@ -16,9 +16,11 @@ from .binding import bind
 from .cage import build_cage
 from .mesh import Mesh, MeshError
 from .propagate import propagate
+from .residual import propagate_with_residual, residual_setup
 from .transforms import check_transform, rigid_transform
 
 SPACES = ("shape", "cage")
+PROPAGATIONS = ("residual", "linear")
 
 Progress = Callable[[str, float], None]
 """progress(stage, fraction): stage is a short message, fraction in [0, 1] of that
@@ -59,6 +61,10 @@ class HybridEditor:
         folder, see :func:`hybridedit.bindcache.default_cache_dir`; a path: that
         folder), keyed by the shape, ``cage_size`` and ``truncation``; store them
         there after computing them. Ignored when ``cage`` or ``binding`` is given.
+    propagation : "residual" or "linear"
+        "linear" is the paper's x' = M y'. "residual" adds back, rotated with
+        the cage, what M loses of the rest shape (:mod:`hybridedit.residual`),
+        so that with no edit the output is the input exactly.
     """
 
     def __init__(
@@ -73,6 +79,7 @@ class HybridEditor:
         iterations: int = 2,
         progress: Progress | None = None,
         cache: bool | str | Path = False,
+        propagation: str = "residual",
     ) -> None:
         say = progress or (lambda stage, fraction: None)
         self.mesh = mesh
@@ -114,10 +121,14 @@ class HybridEditor:
         self.M = M
         t2 = time.perf_counter()
         self.timings["bind_seconds"] = t2 - t1
+        if propagation not in PROPAGATIONS:
+            raise ValueError(f"propagation must be one of {PROPAGATIONS}, got {propagation!r}")
+        self.propagation = propagation
+        self._residual = residual_setup(M, mesh.vertices, cage.vertices) if propagation == "residual" else None
         self.arap = ARAPSolver(cage.vertices, cage.faces, weights=weights)
         self._cage_to_shape = cKDTree(mesh.vertices).query(cage.vertices)[1].astype(np.int64)
         self._out = np.empty((mesh.n_vertices, 3))
-        propagate(self.M, self.arap.positions, self._out)
+        self._propagate()
         self.handle = np.zeros(0, dtype=np.int64)
         self.fixed = np.zeros(0, dtype=np.int64)
         self._constrained = np.zeros(0, dtype=np.int64)
@@ -260,15 +271,15 @@ class HybridEditor:
         hp = target[self._is_handle]
         target[self._is_handle] = hp @ T[:3, :3].T + T[:3, 3]
         self.transform = T
-        y = self.arap.solve(target, k)
-        propagate(self.M, y, self._out)
+        self.arap.solve(target, k)
+        self._propagate()
         self.frame_seconds.append(time.perf_counter() - t0)
         return self._out
 
     def reset(self) -> None:
         """Back to the rest pose (the selection is kept, its reference is the rest pose)."""
         self.arap.reset()
-        propagate(self.M, self.arap.positions, self._out)
+        self._propagate()
         if self._constrained.size:
             self._anchor = self.arap.positions[self._constrained].copy()
         self.transform = np.eye(4)
@@ -287,11 +298,20 @@ class HybridEditor:
         if p.shape != self.arap.positions.shape or not np.all(np.isfinite(p)):
             raise ValueError(f"cage positions must be finite and {self.arap.positions.shape}")
         self.arap.positions[:] = p
+        self.arap.local_step()
         if self._constrained.size:
             self._anchor = p[self._constrained].copy()
         self.transform = np.eye(4)
-        propagate(self.M, self.arap.positions, self._out)
+        self._propagate()
         return self._out
+
+    def _propagate(self) -> None:
+        """The shape from the current cage pose, into ``self._out``."""
+        if self._residual is None:
+            propagate(self.M, self.arap.positions, self._out)
+        else:
+            d, idx, w = self._residual
+            propagate_with_residual(self.M, self.arap.positions, self.arap.rotations, d, idx, w, self._out)
 
     @property
     def deformed_vertices(self) -> np.ndarray:

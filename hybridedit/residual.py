@@ -1,0 +1,141 @@
+"""Exact rest pose: the detail M cannot reproduce, carried along rotated.
+
+At bind time each shape vertex keeps its residual d_i = x_i - (M c)_i, the part
+of the shape that the truncated coordinates lose. When deforming, the residual
+is added back rotated by a blend of the ARAP rotations of the cage vertices that
+control the vertex most:
+
+    x'_i = (M y')_i + (sum_k w_ik R_{j_ik}) d_i,
+
+with j_ik the k cage vertices of largest |M_ij| in row i and w_ik their
+magnitudes normalized to sum 1. With no edit every R is the identity and the
+output is the input exactly; a rigid motion of the whole cage gives every vertex
+that same rotation, so the shape moves rigidly. The blend is linear (not
+re-orthonormalized): rotations of neighbouring cage vertices differ little, and
+the linear blend keeps the result smooth across the shape.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from numba import njit, prange
+
+from .propagate import PARALLEL_MIN_ROWS
+
+#: Cage rotations blended per shape vertex.
+DEFAULT_K = 4
+
+
+@njit(cache=True)
+def _top_k(indptr, indices, data, k, idx, w):
+    n = idx.shape[0]
+    for i in range(n):
+        a, b = indptr[i], indptr[i + 1]
+        m = b - a
+        vals = np.abs(data[a:b])
+        order = np.argsort(-vals)
+        total = 0.0
+        kk = min(k, m)
+        for t in range(kk):
+            total += vals[order[t]]
+        for t in range(k):
+            if t < kk and total > 0.0:
+                idx[i, t] = indices[a + order[t]]
+                w[i, t] = vals[order[t]] / total
+            else:  # padding (rows shorter than k): no weight
+                idx[i, t] = idx[i, 0] if t > 0 else 0
+                w[i, t] = 0.0
+
+
+def residual_setup(
+    M: sp.csr_matrix, points: np.ndarray, cage_vertices: np.ndarray, k: int = DEFAULT_K
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Residuals and rotation-blend weights.
+
+    Parameters
+    ----------
+    M : (n, c) CSR binding; points : (n, 3) shape rest positions;
+    cage_vertices : (c, 3) cage rest positions; k : rotations blended per vertex.
+
+    Returns
+    -------
+    d : (n, 3) float64 residuals x - M c
+    idx : (n, k) int64 cage vertex of each blended rotation
+    w : (n, k) float64 blend weights, rows summing to 1
+    """
+    if k < 1:
+        raise ValueError(f"k must be >= 1, got {k}")
+    M = sp.csr_matrix(M)
+    d = np.ascontiguousarray(points - M @ cage_vertices, dtype=np.float64)
+    n = M.shape[0]
+    idx = np.zeros((n, k), dtype=np.int64)
+    w = np.zeros((n, k))
+    _top_k(M.indptr.astype(np.int64), M.indices.astype(np.int64), M.data, k, idx, w)
+    return d, idx, w
+
+
+@njit(cache=True, inline="always")
+def _row(i, indptr, indices, data, y, rots, idx, w, d, out):
+    a0 = 0.0
+    a1 = 0.0
+    a2 = 0.0
+    for k in range(indptr[i], indptr[i + 1]):
+        j = indices[k]
+        c = data[k]
+        a0 += c * y[j, 0]
+        a1 += c * y[j, 1]
+        a2 += c * y[j, 2]
+    d0 = d[i, 0]
+    d1 = d[i, 1]
+    d2 = d[i, 2]
+    for t in range(idx.shape[1]):
+        j = idx[i, t]
+        c = w[i, t]
+        r = rots[j]
+        a0 += c * (r[0, 0] * d0 + r[0, 1] * d1 + r[0, 2] * d2)
+        a1 += c * (r[1, 0] * d0 + r[1, 1] * d1 + r[1, 2] * d2)
+        a2 += c * (r[2, 0] * d0 + r[2, 1] * d1 + r[2, 2] * d2)
+    out[i, 0] = a0
+    out[i, 1] = a1
+    out[i, 2] = a2
+
+
+@njit(cache=True)
+def _serial(indptr, indices, data, y, rots, idx, w, d, out):
+    for i in range(out.shape[0]):
+        _row(i, indptr, indices, data, y, rots, idx, w, d, out)
+
+
+@njit(cache=True, parallel=True)
+def _parallel(indptr, indices, data, y, rots, idx, w, d, out):
+    for i in prange(out.shape[0]):
+        _row(i, indptr, indices, data, y, rots, idx, w, d, out)
+
+
+def propagate_with_residual(
+    M: sp.csr_matrix,
+    y: np.ndarray,
+    rotations: np.ndarray,
+    d: np.ndarray,
+    idx: np.ndarray,
+    w: np.ndarray,
+    out: np.ndarray | None = None,
+) -> np.ndarray:
+    """Shape positions (M y)_i + (sum_k w_ik R_idx_ik) d_i, (n, 3) float64.
+
+    Parameters
+    ----------
+    M : (n, c) CSR binding; y : (c, 3) cage positions; rotations : (c, 3, 3)
+    per-cage-vertex rotations; d, idx, w : from :func:`residual_setup`;
+    out : optional (n, 3) output array.
+    """
+    y = np.ascontiguousarray(y, dtype=np.float64)
+    if out is None:
+        out = np.empty((M.shape[0], 3))
+    args = (M.indptr, M.indices, M.data, y, rotations, idx, w, d, out)
+    if out.shape[0] >= PARALLEL_MIN_ROWS:
+        _parallel(*args)
+    else:
+        _serial(*args)
+    return out
