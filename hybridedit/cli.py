@@ -15,7 +15,7 @@ from .atomic import WriteError, atomic_write
 from .editfile import EditFileError, load_edit
 from .editor import HybridEditor, SelectionError
 from .io import MeshFileError, read_mesh, write_mesh
-from .mesh import MeshError, rrms_edge_error
+from .mesh import MeshError, edge_stretch, rrms_edge_error
 
 DEFAULT_MESH = Path(__file__).resolve().parent.parent / "data" / "creature.ply"
 
@@ -87,6 +87,7 @@ def run_deform(args: argparse.Namespace) -> int:
         iterations=args.iterations,
         progress=say,
         cache=not args.no_cache,
+        propagation=args.propagation,
     )
     say(
         f"cage {ed.cage.n_vertices} vertices ({ed.timings['cage_seconds']:.2f} s"
@@ -104,6 +105,7 @@ def run_deform(args: argparse.Namespace) -> int:
     write_mesh(dst, ed.deformed)
     say(f"wrote {dst}")
     frame_ms = np.asarray(ed.frame_seconds) * 1e3
+    edges = mesh.edges()
     stats = {
         "input": str(src),
         "output": str(dst),
@@ -124,7 +126,9 @@ def run_deform(args: argparse.Namespace) -> int:
         "frame_ms_max": float(frame_ms.max()),
         "handle_cage_vertices": int(ed.handle.size),
         "fixed_cage_vertices": int(ed.fixed.size),
-        "rrms_edge_error_percent": rrms_edge_error(mesh.vertices, V, mesh.edges()),
+        "propagation": args.propagation,
+        "rrms_edge_error_percent": rrms_edge_error(mesh.vertices, V, edges),
+        "max_stretch_percent": float(np.abs(edge_stretch(mesh.vertices, V, edges)).max() * 100.0),
         "total_seconds": time.perf_counter() - t_start,
     }
     if args.stats:
@@ -132,7 +136,8 @@ def run_deform(args: argparse.Namespace) -> int:
             json.dump(stats, fh, indent=1)
             fh.write("\n")
     if not args.quiet:
-        for k in ("cage_vertices", "cage_seconds", "bind_seconds", "nnz_per_row", "frame_ms_median", "rrms_edge_error_percent"):
+        for k in ("cage_vertices", "cage_seconds", "bind_seconds", "nnz_per_row", "frame_ms_median",
+                  "rrms_edge_error_percent", "max_stretch_percent"):
             v = stats[k]
             print(f"  {k:24s} {v:.4g}" if isinstance(v, float) else f"  {k:24s} {v}", file=sys.stderr)
     return 0
@@ -195,6 +200,8 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--iterations", type=int, default=2, help="ARAP iterations per frame (default 2)")
     d.add_argument("--frames", type=int, default=30, help="frames to run (default 30)")
     d.add_argument("--weights", choices=("uniform", "cotangent"), default="uniform", help="ARAP weights on the cage")
+    d.add_argument("--propagation", choices=("residual", "linear"), default="residual",
+                   help="residual: exact rest pose, detail rotated with the cage (default); linear: the paper's x' = M y'")
     d.add_argument("--truncation", type=float, default=0.03, help="coordinate magnitude dropped per vertex (default 0.03)")
     d.add_argument("--stats", help="write timing and quality figures to this JSON file")
     d.add_argument("--force", action="store_true", help="allow overwriting the input mesh")

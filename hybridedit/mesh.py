@@ -115,3 +115,21 @@ def rrms_edge_error(rest: np.ndarray, deformed: np.ndarray, edges: np.ndarray) -
         return 0.0
     r = (l1[ok] - l0[ok]) / l0[ok]
     return float(np.sqrt(np.mean(r * r)) * 100.0)
+
+
+def edge_stretch(rest: np.ndarray, deformed: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """Relative length change (l' - l) / l of each edge, (e,) float64 (0 for zero-length edges)."""
+    l0 = edge_lengths(rest, edges)
+    l1 = edge_lengths(deformed, edges)
+    out = np.zeros(len(edges))
+    ok = l0 > 0
+    out[ok] = (l1[ok] - l0[ok]) / l0[ok]
+    return out
+
+
+def vertex_stretch(n_vertices: int, edges: np.ndarray, stretch: np.ndarray) -> np.ndarray:
+    """Per-vertex mean of |stretch| over incident edges, (n,) float64, for a colour map."""
+    s = np.abs(stretch)
+    total = np.bincount(edges[:, 0], s, n_vertices) + np.bincount(edges[:, 1], s, n_vertices)
+    count = np.bincount(edges[:, 0], None, n_vertices) + np.bincount(edges[:, 1], None, n_vertices)
+    return total / np.maximum(count, 1)

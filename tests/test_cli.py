@@ -39,6 +39,7 @@ def test_deform_end_to_end(tmp_path, mesh_file):
     for k in ("n_vertices", "cage_vertices", "cage_seconds", "bind_seconds", "frame_ms_median", "nnz_per_row"):
         assert k in s
     assert s["n_vertices"] == m.n_vertices and s["frames"] == 5
+    assert s["max_stretch_percent"] >= s["rrms_edge_error_percent"] > 0
     # the handle went up, the far side did not move
     assert (d.vertices[handle, 1] - m.vertices[handle, 1]).mean() > 0.2
     far = np.flatnonzero(x < x.min() + 0.3)
