@@ -24,7 +24,7 @@ def test_edges_of_a_closed_mesh():
 
 
 def test_mesh_validation():
-    with pytest.raises(MeshError, match="out"):
+    with pytest.raises(MeshError, match="must lie in"):
         Mesh(np.zeros((3, 3)), [[0, 1, 3]])
     with pytest.raises(MeshError, match=r"\(n, 3\)"):
         Mesh(np.zeros((3, 2)), [[0, 1, 2]])
