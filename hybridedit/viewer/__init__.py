@@ -1,0 +1,21 @@
+"""The desktop editor window of hybridedit (Qt + pyvista/VTK).
+
+Only this subpackage imports Qt or VTK; it drives the engine
+(:class:`hybridedit.editor.HybridEditor`) through its public API.
+
+Modules
+-------
+app        : ``main()``, QApplication setup and the off-screen screenshot mode
+window     : the main window: menus, toolbar, status bar, file dialogs
+session    : the editing state (selection masks, handle transform, undo) on top of the engine
+scene      : the pyvista actors (shape, cage wireframe, cage points) and in-place updates
+interaction: mouse handling on the 3D view (rubber band, brush, gizmo, screen-plane drag)
+gizmo      : the translate/rotate gizmo actors and its drag math
+selection  : pure projection, hit tests and add/remove/replace logic
+history    : the undo/redo stack of snapshots
+editio     : the JSON edit file <-> session state (4x4 decomposition)
+worker     : the QThread that reads a mesh and builds the cage and binding
+view       : the 3D widget (pyvistaqt QtInteractor rendering once per frame, timed) and brush overlay
+cagesize   : the toolbar's cage size control (% or vertex count)
+help       : help texts and the shortcuts dialog
+"""

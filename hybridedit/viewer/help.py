@@ -1,0 +1,63 @@
+"""Help texts and the Help > Shortcuts dialog."""
+
+from __future__ import annotations
+
+from qtpy import QtGui, QtWidgets
+
+MOUSE_HELP = [
+    ("Left drag", "Camera mode: rotate the view; Select mode: rectangle or brush; "
+                  "Drag mode: move the handle in the view plane"),
+    ("Shift + left drag", "Select mode: add to the selection (Camera mode: pan)"),
+    ("Ctrl + left drag", "Select mode: remove from the selection (Camera mode: spin)"),
+    ("Alt + left drag", "rotate the view in any mode"),
+    ("Left drag on the gizmo", "arrows move the handle along X/Y/Z, rings rotate it (Camera and Drag modes)"),
+    ("Middle drag", "pan"),
+    ("Right drag / wheel", "zoom"),
+    ("Drop a file", "open a mesh (.obj .ply .stl .off) or load an edit (.json)"),
+]
+
+
+HOWTO = """\
+1. Select mode (S), target ROI (R): drag a rectangle (or use the brush, B) over the cage
+   vertices that may move. Shift adds, Ctrl removes, a plain drag replaces.
+2. Target Handle (H): select the cage vertices you want to pull.
+   Cage points: blue = fixed (outside the ROI), green = free (ROI), orange = handle.
+3. Drag mode (D): drag with the left button to move the handle parallel to the view;
+   or grab the gizmo (arrows move along X/Y/Z, rings rotate, the white ball moves freely).
+   On release the pose settles to what 'hybridedit deform' computes.
+4. Undo / redo with Ctrl+Z / Ctrl+Shift+Z; Reset Pose (Ctrl+R) returns to rest.
+5. File > Save writes the deformed mesh; File > Save Edit writes the selection and the
+   handle transform as a JSON edit file. It holds only the last selection and its drag,
+   replayed from the rest pose: 'hybridedit deform in.obj -o out.obj --edit edit.json
+   --cage N' gives the shape you see when N is the window's cage size and that selection
+   was made on the rest pose.
+Navigate: Camera mode (C) rotates with the left button; middle drag pans, the wheel
+zooms, Alt + left drag rotates in any mode; F frames the shape, W shows/hides the cage."""
+
+
+
+class ShortcutsDialog(QtWidgets.QDialog):
+    """Help > Shortcuts: every action with a shortcut, and the mouse bindings."""
+
+    def __init__(self, actions: list[QtGui.QAction], parent: QtWidgets.QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.setWindowTitle("Keyboard and mouse shortcuts")
+        rows = [(a.shortcut().toString(QtGui.QKeySequence.SequenceFormat.NativeText), a.text().replace("&", ""))
+                for a in actions if not a.shortcut().isEmpty()]
+        rows += MOUSE_HELP
+        table = QtWidgets.QTableWidget(len(rows), 2, self)
+        table.setHorizontalHeaderLabels(["Shortcut", "Action"])
+        table.verticalHeader().hide()
+        table.setEditTriggers(QtWidgets.QAbstractItemView.EditTrigger.NoEditTriggers)
+        for r, (key, text) in enumerate(rows):
+            table.setItem(r, 0, QtWidgets.QTableWidgetItem(key))
+            table.setItem(r, 1, QtWidgets.QTableWidgetItem(text))
+        table.resizeColumnsToContents()
+        table.horizontalHeader().setStretchLastSection(True)
+        self.table = table
+        buttons = QtWidgets.QDialogButtonBox(QtWidgets.QDialogButtonBox.StandardButton.Close)
+        buttons.rejected.connect(self.reject)
+        layout = QtWidgets.QVBoxLayout(self)
+        layout.addWidget(table)
+        layout.addWidget(buttons)
+        self.resize(720, 560)

@@ -1,0 +1,274 @@
+"""Mouse handling on the 3D view: rubber band and brush selection, gizmo and screen-plane drags.
+
+An event filter on the view takes the left button in the Select and Drag
+modes (and on the gizmo in every mode but Select); everything else goes on to
+VTK's camera style (left: rotate in Camera mode, middle: pan, right / wheel:
+zoom; Alt + left rotates in any mode). Key events never reach VTK: the window's
+shortcuts handle the keyboard.
+
+The controller turns gestures into calls on a :class:`Handler` (the window).
+"""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+import numpy as np
+from qtpy import QtCore, QtGui, QtWidgets
+
+from . import gizmo as gz
+from .scene import Scene
+from .selection import ADD, REPLACE, brush_hits, op_from_modifiers, project_points, rectangle_hits, stroke_hits
+from .view import View
+
+CAMERA, SELECT, DRAG = "camera", "select", "drag"
+MODES = (CAMERA, SELECT, DRAG)
+RECTANGLE, BRUSH = "rectangle", "brush"
+TOOLS = (RECTANGLE, BRUSH)
+
+
+class Handler(Protocol):
+    """What the controller asks of the window."""
+
+    def cage_points(self) -> np.ndarray | None: ...
+    def handle_center(self) -> np.ndarray | None: ...
+    def begin_select(self) -> bool: ...
+    def select_hits(self, hits: np.ndarray, op: str) -> None: ...
+    def end_select(self) -> None: ...
+    def begin_drag(self) -> bool: ...
+    def drag(self, D: np.ndarray) -> None: ...
+    def end_drag(self) -> None: ...
+
+
+class Gesture:
+    """State of one left-button gesture."""
+
+    def __init__(self, kind: str, start_qt: QtCore.QPointF, start: tuple[float, float]) -> None:
+        self.kind = kind            # "rectangle", "brush", "gizmo", "plane"
+        self.start_qt = start_qt    # widget coordinates
+        self.start = start          # display coordinates
+        self.last = start
+        self.op = REPLACE
+        self.part: gz.Part | None = None
+        self.center = np.zeros(3)
+        self.grab: np.ndarray | None = None
+        self.composite = np.eye(4)
+        self.size = (1, 1)
+        self.display: np.ndarray | None = None
+        self.in_front: np.ndarray | None = None
+
+
+class ViewController(QtCore.QObject):
+    """Interprets mouse events on the view for the current mode and tool.
+
+    Parameters
+    ----------
+    view : the 3D view widget; scene : its actors; handler : the window.
+    """
+
+    def __init__(self, view: View, scene: Scene, handler: Handler) -> None:
+        super().__init__(view)
+        self.view = view
+        self.scene = scene
+        self.handler = handler
+        self.mode = CAMERA
+        self.target_color = QtGui.QColor(60, 190, 70)
+        self.tool = RECTANGLE
+        self.brush_radius = 30.0  # widget pixels
+        self.gesture: Gesture | None = None
+        self._passthrough = False
+        self.rubber = QtWidgets.QRubberBand(QtWidgets.QRubberBand.Shape.Rectangle, view)
+        view.installEventFilter(self)
+        self.set_mode(CAMERA)
+
+    # ------------------------------------------------------------------ settings
+    @property
+    def busy(self) -> bool:
+        """A gesture is under way (undo and the like must wait)."""
+        return self.gesture is not None
+
+    def set_mode(self, mode: str) -> None:
+        if mode not in MODES:
+            raise ValueError(f"mode must be one of {MODES}")
+        self.cancel()
+        self.mode = mode
+        cursors = {
+            CAMERA: QtCore.Qt.CursorShape.ArrowCursor,
+            SELECT: QtCore.Qt.CursorShape.CrossCursor,
+            DRAG: QtCore.Qt.CursorShape.SizeAllCursor,
+        }
+        self.view.setCursor(cursors[mode])
+        self.view.brush.hide()
+        if self.scene.gizmo.set_hover(None):
+            self.view.request_render()
+
+    def set_tool(self, tool: str) -> None:
+        if tool not in TOOLS:
+            raise ValueError(f"tool must be one of {TOOLS}")
+        self.cancel()
+        self.tool = tool
+        if tool != BRUSH:
+            self.view.brush.hide()
+
+    def set_brush_radius(self, radius: float) -> None:
+        self.brush_radius = float(min(max(radius, 3.0), 400.0))
+        if self.view.brush.isVisible():
+            self.view.brush.show_at(self.view.brush.center, self.brush_radius, self.target_color)
+
+    def cancel(self) -> None:
+        """Abort a selection gesture in progress (drags are finished, not undone)."""
+        g = self.gesture
+        if g is None:
+            return
+        self.gesture = None
+        self.rubber.hide()
+        if g.kind in ("gizmo", "plane"):
+            self.handler.end_drag()
+        elif g.kind == "brush":
+            self.handler.end_select()
+
+    # ------------------------------------------------------------------ events
+    def eventFilter(self, obj: QtCore.QObject, ev: QtCore.QEvent) -> bool:  # noqa: N802
+        t = ev.type()
+        E = QtCore.QEvent.Type
+        if t in (E.KeyPress, E.KeyRelease):
+            return True  # no VTK key bindings; the window's shortcuts have run already
+        if t == E.MouseButtonPress:
+            return self._press(ev)
+        if t == E.MouseMove:
+            return self._move(ev)
+        if t == E.MouseButtonRelease:
+            return self._release(ev)
+        if t == E.MouseButtonDblClick:
+            return ev.button() == QtCore.Qt.MouseButton.LeftButton and self.mode != CAMERA
+        if t == E.Leave:
+            self.view.brush.hide()
+        return False
+
+    def _matrices(self) -> tuple[np.ndarray, tuple[int, int]]:
+        return self.scene.composite_matrix(), self.scene.display_size()
+
+    def _press(self, ev: QtGui.QMouseEvent) -> bool:
+        if ev.button() != QtCore.Qt.MouseButton.LeftButton:
+            return self.gesture is not None  # other buttons are ignored during a gesture
+        if self.gesture is not None:
+            return True
+        mods = ev.modifiers()
+        if mods & QtCore.Qt.KeyboardModifier.AltModifier:
+            self._passthrough = True
+            return False
+        pos = ev.position()
+        d = self.view.to_display(pos)
+        C, size = self._matrices()
+        if self.mode != SELECT:
+            part = self.scene.gizmo.hit(d, C, size)
+            if part is not None:
+                return self._start_drag("gizmo", pos, d, C, size, part)
+        if self.mode == SELECT:
+            return self._start_select(pos, d, C, size, mods)
+        if self.mode == DRAG:
+            return self._start_drag("plane", pos, d, C, size, None)
+        self._passthrough = True
+        return False
+
+    def _start_select(self, pos: QtCore.QPointF, d: tuple[float, float], C: np.ndarray,
+                      size: tuple[int, int], mods) -> bool:
+        P = self.handler.cage_points()
+        if P is None or not self.handler.begin_select():
+            return True
+        g = Gesture(self.tool, pos, d)
+        g.op = op_from_modifiers(bool(mods & QtCore.Qt.KeyboardModifier.ShiftModifier),
+                                 bool(mods & QtCore.Qt.KeyboardModifier.ControlModifier))
+        g.composite, g.size = C, size
+        g.display, g.in_front = project_points(P, C, size)
+        self.gesture = g
+        if g.kind == RECTANGLE:
+            self.rubber.setGeometry(QtCore.QRect(pos.toPoint(), QtCore.QSize()))
+            self.rubber.show()
+        else:
+            r = self.brush_radius * self.view.devicePixelRatioF()
+            self.handler.select_hits(brush_hits(g.display, g.in_front, d, r), g.op)
+            if g.op == REPLACE:
+                g.op = ADD  # the rest of a replacing stroke adds to its first dab
+            self.view.brush.show_at(pos, self.brush_radius, self.target_color)
+        return True
+
+    def _start_drag(self, kind: str, pos: QtCore.QPointF, d: tuple[float, float], C: np.ndarray,
+                    size: tuple[int, int], part: gz.Part | None) -> bool:
+        if not self.handler.begin_drag():  # the window explains why (e.g. an empty handle)
+            return True
+        center = self.handler.handle_center()
+        if center is None:
+            self.handler.end_drag()
+            return True
+        g = Gesture(kind, pos, d)
+        g.part, g.composite, g.size = part, C, size
+        g.center = np.asarray(center, dtype=np.float64)
+        if part is not None and part.kind == "rotate":
+            g.grab = gz.grab_direction(d, g.center, part.axis, gz.RING_RATIO * self.scene.gizmo.length, C, size)
+        self.gesture = g
+        return True
+
+    def _move(self, ev: QtGui.QMouseEvent) -> bool:
+        pos = ev.position()
+        g = self.gesture
+        if g is None:
+            if ev.buttons() == QtCore.Qt.MouseButton.NoButton:
+                self._hover(pos)
+            return False
+        d = self.view.to_display(pos)
+        if g.kind == RECTANGLE:
+            self.rubber.setGeometry(QtCore.QRect(g.start_qt.toPoint(), pos.toPoint()).normalized())
+        elif g.kind == BRUSH:
+            r = self.brush_radius * self.view.devicePixelRatioF()
+            self.handler.select_hits(stroke_hits(g.display, g.in_front, g.last, d, r), g.op)
+            self.view.brush.show_at(pos, self.brush_radius, self.target_color)
+        else:
+            self.handler.drag(self._drag_transform(g, d))
+        g.last = d
+        return True
+
+    def _drag_transform(self, g: Gesture, d: tuple[float, float]) -> np.ndarray:
+        if g.kind == "gizmo":
+            return gz.part_transform(g.part, g.start, d, g.center, self.scene.gizmo.length, g.grab,
+                                     g.composite, g.size)
+        t = gz.screen_plane_translation(g.start, d, g.center, g.composite, g.size)
+        D = np.eye(4)
+        D[:3, 3] = t
+        return D
+
+    def _release(self, ev: QtGui.QMouseEvent) -> bool:
+        if ev.button() != QtCore.Qt.MouseButton.LeftButton:
+            return self.gesture is not None
+        if self._passthrough:
+            self._passthrough = False
+            return False
+        g = self.gesture
+        if g is None:
+            return self.mode != CAMERA
+        pos = ev.position()
+        d = self.view.to_display(pos)
+        self.gesture = None
+        if g.kind == RECTANGLE:
+            self.rubber.hide()
+            self.handler.select_hits(rectangle_hits(g.display, g.in_front, g.start, d), g.op)
+            self.handler.end_select()
+        elif g.kind == BRUSH:
+            self.handler.end_select()
+        else:
+            if d != g.last:
+                self.handler.drag(self._drag_transform(g, d))
+            self.handler.end_drag()
+        self._hover(pos)
+        return True
+
+    def _hover(self, pos: QtCore.QPointF) -> None:
+        if self.mode == SELECT and self.tool == BRUSH:
+            self.view.brush.show_at(pos, self.brush_radius, self.target_color)
+            return
+        part = None
+        if self.mode != SELECT:
+            C, size = self._matrices()
+            part = self.scene.gizmo.hit(self.view.to_display(pos), C, size)
+        if self.scene.gizmo.set_hover(part):
+            self.view.request_render()

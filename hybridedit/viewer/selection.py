@@ -1,0 +1,125 @@
+"""Screen-space selection: projection, rectangle and brush hit tests, set logic.
+
+Pure numpy, no Qt or VTK, so it is unit-testable on its own.
+
+Coordinates follow VTK's display convention: pixels, origin at the bottom-left
+corner of the view, x to the right, y up. ``composite`` is the camera's
+composite projection matrix (world -> normalized device coordinates, as from
+``vtkCamera.GetCompositeProjectionTransformMatrix(aspect, -1, 1)``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+REPLACE, ADD, REMOVE = "replace", "add", "remove"
+OPS = (REPLACE, ADD, REMOVE)
+
+FIXED, FREE, HANDLE = 0, 1, 2
+"""Cage vertex states: outside the ROI, inside the ROI, in the handle."""
+
+
+def project_points(points: np.ndarray, composite: np.ndarray, size: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """Project world points to display pixels.
+
+    Parameters
+    ----------
+    points : (k, 3) world coordinates.
+    composite : (4, 4) world -> normalized device coordinates.
+    size : (width, height) of the view in pixels.
+
+    Returns
+    -------
+    display : (k, 3) float64, x and y in pixels and the NDC depth z in [-1, 1].
+    in_front : (k,) bool, the point is in front of the camera (w > 0).
+    """
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    C = np.asarray(composite, dtype=np.float64)
+    h = p @ C[:3, :3].T + C[:3, 3]
+    w = p @ C[3, :3] + C[3, 3]
+    in_front = w > 1e-12
+    ws = np.where(in_front, w, 1.0)
+    ndc = h / ws[:, None]
+    out = np.empty_like(ndc)
+    out[:, 0] = (ndc[:, 0] + 1.0) * 0.5 * size[0]
+    out[:, 1] = (ndc[:, 1] + 1.0) * 0.5 * size[1]
+    out[:, 2] = ndc[:, 2]
+    return out, in_front
+
+
+def unproject(x: float, y: float, z_ndc: float, composite: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    """The world point at display pixel (x, y) and NDC depth ``z_ndc``; inverse of :func:`project_points`."""
+    ndc = np.array([2.0 * x / size[0] - 1.0, 2.0 * y / size[1] - 1.0, z_ndc, 1.0])
+    w = np.linalg.solve(np.asarray(composite, dtype=np.float64), ndc)
+    return w[:3] / w[3]
+
+
+def rectangle_hits(display: np.ndarray, in_front: np.ndarray, corner_a: tuple[float, float],
+                   corner_b: tuple[float, float]) -> np.ndarray:
+    """Which projected points lie in the rectangle spanned by two corners (any order).
+
+    Returns a (k,) bool mask; points behind the camera never hit.
+    """
+    x0, x1 = sorted((float(corner_a[0]), float(corner_b[0])))
+    y0, y1 = sorted((float(corner_a[1]), float(corner_b[1])))
+    d = np.asarray(display)
+    return in_front & (d[:, 0] >= x0) & (d[:, 0] <= x1) & (d[:, 1] >= y0) & (d[:, 1] <= y1)
+
+
+def brush_hits(display: np.ndarray, in_front: np.ndarray, center: tuple[float, float], radius: float) -> np.ndarray:
+    """Which projected points lie within ``radius`` pixels of ``center``; a (k,) bool mask."""
+    d = np.asarray(display)
+    dx = d[:, 0] - float(center[0])
+    dy = d[:, 1] - float(center[1])
+    return in_front & (dx * dx + dy * dy <= float(radius) ** 2)
+
+
+def stroke_hits(display: np.ndarray, in_front: np.ndarray, start: tuple[float, float],
+                end: tuple[float, float], radius: float) -> np.ndarray:
+    """Points within ``radius`` pixels of the segment start-end (a brush swept between two mouse events)."""
+    d = np.asarray(display)[:, :2]
+    a = np.asarray(start, dtype=np.float64)
+    b = np.asarray(end, dtype=np.float64)
+    ab = b - a
+    L2 = float(ab @ ab)
+    if L2 == 0.0:
+        return brush_hits(display, in_front, tuple(a), radius)
+    t = np.clip(((d - a) @ ab) / L2, 0.0, 1.0)
+    nearest = a + t[:, None] * ab
+    dist2 = np.sum((d - nearest) ** 2, axis=1)
+    return in_front & (dist2 <= float(radius) ** 2)
+
+
+def op_from_modifiers(shift: bool, ctrl: bool) -> str:
+    """Shift adds, Ctrl removes, neither replaces (Shift wins when both are held)."""
+    if shift:
+        return ADD
+    if ctrl:
+        return REMOVE
+    return REPLACE
+
+
+def combine(current: np.ndarray, hits: np.ndarray, op: str) -> np.ndarray:
+    """The new selection mask after applying ``hits`` to ``current`` with ``op``."""
+    if op not in OPS:
+        raise ValueError(f"op must be one of {OPS}, got {op!r}")
+    cur = np.asarray(current, dtype=bool)
+    h = np.asarray(hits, dtype=bool)
+    if op == REPLACE:
+        return h.copy()
+    if op == ADD:
+        return cur | h
+    return cur & ~h
+
+
+def vertex_states(roi: np.ndarray, handle: np.ndarray) -> np.ndarray:
+    """Per cage vertex: HANDLE if in the handle, else FREE if in the ROI, else FIXED (int8)."""
+    s = np.full(len(roi), FIXED, dtype=np.int8)
+    s[np.asarray(roi, dtype=bool)] = FREE
+    s[np.asarray(handle, dtype=bool)] = HANDLE
+    return s
+
+
+def fixed_mask(roi: np.ndarray, handle: np.ndarray) -> np.ndarray:
+    """Cage vertices that stay: outside the ROI and not in the handle."""
+    return ~np.asarray(roi, dtype=bool) & ~np.asarray(handle, dtype=bool)

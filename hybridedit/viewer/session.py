@@ -1,0 +1,392 @@
+"""The editing state of one loaded shape, on top of :class:`hybridedit.editor.HybridEditor`.
+
+No Qt here: the window turns user actions into calls on a :class:`Session`.
+
+Vocabulary
+----------
+selection masks
+    ``roi`` and ``handle`` are boolean masks over the cage vertices. Fixed =
+    outside the ROI and not in the handle.
+applying a selection
+    The engine takes a selection with ``set_selection``; that pose becomes the
+    *anchor* and the handle transform restarts at the identity. The window
+    applies a changed selection lazily, when the next drag starts.
+handle transform
+    ``transform`` is the 4x4 transform of the handle since the selection was
+    applied (what the edit file stores). The engine's own transform is relative
+    to the pose it was last re-anchored at (undo re-anchors it), ``_base``.
+settling
+    At the end of a drag the final transform is solved again from the anchor
+    with the batch settings (``settle_frames`` x ``settle_iterations`` ARAP
+    iterations, the defaults of ``hybridedit deform``), so what the window shows
+    is what ``hybridedit deform`` computes from a saved edit.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..editfile import Edit
+from ..editor import HybridEditor, SelectionError
+from ..mesh import Mesh, rrms_edge_error
+from .editio import edit_to_masks, make_edit
+from .history import History, Snapshot
+from .selection import combine, vertex_states
+
+ROI, HANDLE = "roi", "handle"
+TARGETS = (ROI, HANDLE)
+
+
+def dominant_cage_vertex(M) -> np.ndarray:
+    """Per shape vertex, the cage vertex with the largest |coordinate| (n,) int64."""
+    return np.asarray(abs(M).argmax(axis=1)).ravel().astype(np.int64)
+
+
+class Session:
+    """One shape being edited: engine, selection, handle transform and undo history.
+
+    Parameters
+    ----------
+    editor : the engine, already built (cage and binding).
+    path : the file the shape was read from (None for generated shapes).
+    cage_size : the cage size the editor was built with (int count or float fraction).
+    roi, handle : initial selection masks over the cage vertices (default: empty).
+    """
+
+    def __init__(self, editor: HybridEditor, path: Path | None = None, cage_size: int | float = 0.05,
+                 roi: np.ndarray | None = None, handle: np.ndarray | None = None) -> None:
+        self.editor = editor
+        self.mesh: Mesh = editor.mesh
+        self.path = Path(path) if path is not None else None
+        self.cage_size = cage_size
+        self.edges = self.mesh.edges()
+        self.dominant = dominant_cage_vertex(editor.M)
+        c = editor.cage.n_vertices
+        self.roi = np.zeros(c, dtype=bool) if roi is None else np.asarray(roi, dtype=bool).copy()
+        self.handle = np.zeros(c, dtype=bool) if handle is None else np.asarray(handle, dtype=bool).copy()
+        if self.roi.shape != (c,) or self.handle.shape != (c,):
+            raise ValueError(f"selection masks must have {c} entries (the cage vertex count)")
+        self._stroke: tuple[str, np.ndarray] | None = None
+        self._settle_left = 0
+        self._settle_label: str | None = None
+        self.transform = np.eye(4)
+        self._base = np.eye(4)
+        self._anchor: np.ndarray | None = None
+        self._engine_masks: tuple[bytes, bytes] | None = None
+        self.settle_on_release = True
+        self.settle_frames = 30
+        self.settle_iterations = 2
+        self.last_frame_seconds = 0.0
+        self.history = History()
+        self._push("open")
+
+    # ------------------------------------------------------------------ state
+    @property
+    def n_cage(self) -> int:
+        return self.editor.cage.n_vertices
+
+    @property
+    def cage_positions(self) -> np.ndarray:
+        """Current cage pose, (c, 3) (a copy; completes a settle under way)."""
+        self.finish_settle()
+        return self.editor.cage_positions
+
+    @property
+    def shape_positions(self) -> np.ndarray:
+        """Current deformed shape, (n, 3) (a view the engine updates; completes a settle under way)."""
+        self.finish_settle()
+        return self.editor.deformed_vertices
+
+    @property
+    def applied(self) -> bool:
+        """The selection has been given to the engine (a drag has started since it changed)."""
+        return self._anchor is not None
+
+    @property
+    def anchor_at_rest(self) -> bool:
+        """The applied selection was made on the rest pose (then a saved edit replays exactly)."""
+        return self._anchor is not None and bool(np.array_equal(self._anchor, self.editor.cage.vertices))
+
+    def states(self) -> np.ndarray:
+        """Per cage vertex FIXED / FREE / HANDLE (see :mod:`.selection`)."""
+        return vertex_states(self.roi, self.handle)
+
+    def handle_centroid(self) -> np.ndarray | None:
+        """Centroid of the handle's cage vertices in the current pose, or None without a handle."""
+        if not self.handle.any():
+            return None
+        return self.cage_positions[self.handle].mean(axis=0)
+
+    def rrms_error(self) -> float:
+        """Relative RMS edge-length error of the current pose, in percent."""
+        return rrms_edge_error(self.mesh.vertices, self.shape_positions, self.edges)
+
+    def is_posed(self) -> bool:
+        return not np.array_equal(self.cage_positions, self.editor.cage.vertices)
+
+    # ------------------------------------------------------------------ history
+    def _snapshot(self, label: str) -> Snapshot:
+        return Snapshot(
+            roi=self.roi.copy(), handle=self.handle.copy(), positions=self.cage_positions,
+            transform=self.transform.copy(),
+            anchor=None if self._anchor is None else self._anchor.copy(), label=label,
+        )
+
+    def _push(self, label: str) -> None:
+        self.history.push(self._snapshot(label))
+
+    def restore(self, snap: Snapshot) -> None:
+        """Put the session back into a snapshot's state (selection, pose, transform)."""
+        self._settle_left, self._settle_label = 0, None
+        self.roi = snap.roi.copy()
+        self.handle = snap.handle.copy()
+        self.editor.set_cage_positions(snap.positions)
+        if snap.anchor is not None:
+            if self._engine_masks != self._mask_key():
+                self._give_engine_selection()
+            self._anchor = snap.anchor.copy()
+            self.transform = snap.transform.copy()
+            self._base = snap.transform.copy()
+        else:
+            self._anchor = None
+            self.transform = np.eye(4)
+            self._base = np.eye(4)
+
+    def undo(self) -> bool:
+        self.finish_settle()
+        snap = self.history.undo()
+        if snap is None:
+            return False
+        self.restore(snap)
+        return True
+
+    def redo(self) -> bool:
+        self.finish_settle()
+        snap = self.history.redo()
+        if snap is None:
+            return False
+        self.restore(snap)
+        return True
+
+    # ------------------------------------------------------------------ selection
+    def _mask_key(self) -> tuple[bytes, bytes]:
+        return (np.packbits(self.roi).tobytes(), np.packbits(self.handle).tobytes())
+
+    def _selection_changed(self, label: str) -> None:
+        if self._anchor is not None and self._engine_masks != self._mask_key():
+            self._anchor = None
+            self.transform = np.eye(4)
+            self._base = np.eye(4)
+        self._push(label)
+
+    def mask(self, target: str) -> np.ndarray:
+        if target not in TARGETS:
+            raise ValueError(f"target must be one of {TARGETS}, got {target!r}")
+        return self.roi if target == ROI else self.handle
+
+    def set_mask(self, target: str, mask: np.ndarray, label: str | None = None) -> bool:
+        """Replace the ROI or handle mask; returns False when nothing changed."""
+        new = np.asarray(mask, dtype=bool).copy()
+        if new.shape != (self.n_cage,):
+            raise ValueError(f"a {target} mask must have {self.n_cage} entries")
+        if np.array_equal(new, self.mask(target)):
+            return False
+        if target == ROI:
+            self.roi = new
+        else:
+            self.handle = new
+        self._selection_changed(label or f"select {'ROI' if target == ROI else 'handle'}")
+        return True
+
+    def select(self, target: str, hits: np.ndarray, op: str) -> bool:
+        """Apply hit-tested cage vertices to the ROI or the handle (replace / add / remove)."""
+        return self.set_mask(target, combine(self.mask(target), hits, op))
+
+    def clear(self, target: str) -> bool:
+        return self.set_mask(target, np.zeros(self.n_cage, dtype=bool), f"clear {target}")
+
+    def invert(self, target: str) -> bool:
+        return self.set_mask(target, ~self.mask(target), f"invert {target}")
+
+    def select_all(self, target: str) -> bool:
+        return self.set_mask(target, np.ones(self.n_cage, dtype=bool), f"select all {target}")
+
+    def begin_stroke(self, target: str) -> None:
+        """Start a selection gesture on ``target``: :meth:`stroke` changes the mask
+        without recording; :meth:`end_stroke` records the whole gesture as one undo step."""
+        self._stroke = (target, self.mask(target).copy())
+
+    def stroke(self, hits: np.ndarray, op: str) -> None:
+        if self._stroke is None:
+            raise RuntimeError("begin_stroke first")
+        target = self._stroke[0]
+        new = combine(self.mask(target), hits, op)
+        if target == ROI:
+            self.roi = new
+        else:
+            self.handle = new
+
+    def end_stroke(self) -> bool:
+        """Finish the gesture; returns True when the selection changed."""
+        if self._stroke is None:
+            return False
+        target, before = self._stroke
+        self._stroke = None
+        if np.array_equal(before, self.mask(target)):
+            return False
+        self._selection_changed(f"select {'ROI' if target == ROI else 'handle'}")
+        return True
+
+    def _give_engine_selection(self) -> None:
+        self.editor.set_selection(np.flatnonzero(self.handle), roi=np.flatnonzero(self.roi), space="cage")
+        self._engine_masks = self._mask_key()
+
+    def apply_selection(self) -> None:
+        """Give the selection to the engine; the current pose becomes the anchor.
+
+        Raises
+        ------
+        SelectionError
+            Empty handle, or a cage part with no fixed or handle vertex.
+        """
+        if not self.handle.any():
+            raise SelectionError(
+                "The handle is empty. Choose the Handle target and select the cage vertices to drag first."
+            )
+        self._give_engine_selection()
+        self._anchor = self.cage_positions
+        self.transform = np.eye(4)
+        self._base = np.eye(4)
+
+    # ------------------------------------------------------------------ dragging
+    def begin_drag(self) -> np.ndarray:
+        """Start a drag gesture: applies a changed selection; returns the current handle transform."""
+        self.finish_settle()
+        if self._anchor is None or self._engine_masks != self._mask_key():
+            self.apply_selection()
+        return self.transform.copy()
+
+    def drag_to(self, T: np.ndarray, iterations: int | None = None) -> np.ndarray:
+        """One interactive frame with the handle at ``T`` (relative to the anchor); returns the shape."""
+        self.finish_settle()
+        if self._anchor is None:
+            raise SelectionError("no selection applied; start a drag first")
+        T = np.asarray(T, dtype=np.float64)
+        V = self.editor.drag(transform=T @ np.linalg.inv(self._base), iterations=iterations)
+        self.transform = T.copy()
+        fs = self.editor.frame_seconds
+        self.last_frame_seconds = fs[-1]
+        if len(fs) > 4096:
+            del fs[:-64]
+        return V
+
+    @property
+    def settling(self) -> bool:
+        """A settle is under way: the engine's pose is intermediate until it finishes."""
+        return self._settle_left > 0
+
+    def start_settle(self) -> None:
+        """Begin solving the current transform again from the anchor (see :meth:`settle_step`)."""
+        if self._anchor is None:
+            return
+        self.editor.set_cage_positions(self._anchor)
+        self._base = np.eye(4)
+        self._settle_left = self.settle_frames
+
+    def settle_step(self, frames: int = 1) -> bool:
+        """Run up to ``frames`` settle frames; returns True when the settle is complete.
+
+        Any split into steps gives the same result as ``settle_frames`` calls of
+        ``drag(transform, settle_iterations)`` from the anchor (what ``hybridedit
+        deform`` runs): the handle target does not change between the calls.
+        """
+        k = min(int(frames), self._settle_left)
+        if k > 0:
+            self.editor.drag(transform=self.transform, iterations=k * self.settle_iterations)
+            self._settle_left -= k
+        if self._settle_left == 0 and self._settle_label is not None:
+            label, self._settle_label = self._settle_label, None
+            self._push(label)
+        return self._settle_left == 0
+
+    def finish_settle(self) -> None:
+        """Complete a settle under way (no-op otherwise)."""
+        if self._settle_left > 0:
+            self.settle_step(self._settle_left)
+
+    def settle(self) -> np.ndarray:
+        """Solve the current transform again from the anchor with the batch settings, at once."""
+        self.start_settle()
+        self.finish_settle()
+        return self.shape_positions
+
+    def end_drag(self, label: str = "drag") -> bool:
+        """Finish a drag gesture and record it for undo.
+
+        With ``settle_on_release`` the settle is started and True returned: the
+        caller runs :meth:`settle_step` until it completes (or :meth:`finish_settle`),
+        and the undo step is recorded then.
+        """
+        if self._anchor is None:
+            return False
+        if self.settle_on_release:
+            self.start_settle()
+            self._settle_label = label
+            return True
+        self._push(label)
+        return False
+
+    def cancel_drag(self) -> None:
+        """Abandon a drag gesture: back to the state before it started."""
+        snap = self.history.current
+        if snap is not None:
+            self.restore(snap)
+
+    def reset_pose(self) -> None:
+        """Back to the rest pose; the selection stays and is anchored at rest."""
+        self.finish_settle()
+        self.editor.reset()
+        if self._anchor is not None:
+            self._anchor = self.cage_positions
+        self.transform = np.eye(4)
+        self._base = np.eye(4)
+        self._push("reset pose")
+
+    # ------------------------------------------------------------------ edit files
+    def to_edit(self) -> Edit:
+        """The edit file for the current selection and handle transform (cage space).
+
+        Only the drag since the selection was last applied is stored; ``hybridedit
+        deform`` replays it from the rest pose.
+        """
+        self.finish_settle()
+        if not self.handle.any():
+            raise SelectionError("The handle is empty: there is nothing to save. Select a handle first.")
+        if self._anchor is not None and self._engine_masks == self._mask_key():
+            center = self._anchor[self.handle].mean(axis=0)
+            T = self.transform
+        else:
+            center = self.cage_positions[self.handle].mean(axis=0)
+            T = np.eye(4)
+        return make_edit(self.roi, self.handle, T, center)
+
+    def load_edit(self, edit: Edit) -> None:
+        """Replay an edit as ``hybridedit deform`` does: from the rest pose, with the batch settings.
+
+        On any error the session is left as it was.
+        """
+        self.finish_settle()
+        roi, handle, T = edit_to_masks(self.editor, edit)
+        before = self._snapshot("")
+        try:
+            self.roi, self.handle = roi, handle
+            self.editor.reset()
+            self.apply_selection()
+            self.transform = np.asarray(T, dtype=np.float64).copy()
+            self.settle()
+        except Exception:
+            self.restore(before)
+            raise
+        self._push("load edit")

@@ -1,0 +1,145 @@
+"""The window's editing state (no Qt): epochs, settling, undo, edit files."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hybridedit.editfile import Edit
+from hybridedit.editor import HybridEditor, SelectionError
+from hybridedit.transforms import rigid_transform
+from hybridedit.viewer.session import HANDLE, ROI, Session
+
+
+@pytest.fixture(scope="module")
+def editor_parts(make_blob):
+    mesh = make_blob(4)
+    ed = HybridEditor(mesh, 150)
+    return mesh, ed.cage, ed.M
+
+
+@pytest.fixture
+def session(editor_parts) -> Session:
+    mesh, cage, M = editor_parts
+    return Session(HybridEditor(mesh, 150, cage=cage, binding=M), cage_size=150)
+
+
+def _select(s: Session, roi_x: float = 0.0, handle_x: float = 1.4) -> None:
+    P = s.cage_positions
+    s.set_mask(ROI, P[:, 0] > roi_x)
+    s.set_mask(HANDLE, P[:, 0] > handle_x)
+
+
+def test_settle_in_slices_equals_the_batch_replay(session, editor_parts):
+    s = session
+    _select(s)
+    T0 = s.begin_drag()
+    for k in range(1, 6):
+        s.drag_to(rigid_transform(translate=(0, 0.1 * k, 0)) @ T0)
+    assert s.end_drag() and s.settling
+    steps = 0
+    while not s.settle_step(3):
+        steps += 1
+    assert steps >= 5 and not s.settling
+    V = s.shape_positions.copy()
+    # what `hybridedit deform` does: a fresh editor, 30 frames of 2 iterations at the final transform
+    mesh, cage, M = editor_parts
+    ed = HybridEditor(mesh, 150, cage=cage, binding=M)
+    ed.set_selection(np.flatnonzero(s.handle), roi=np.flatnonzero(s.roi), space="cage")
+    for _ in range(30):
+        W = ed.drag(transform=s.transform)
+    assert np.array_equal(V, W)
+    assert s.history.current.label == "drag"
+
+
+def test_reading_the_pose_completes_a_settle(session):
+    s = session
+    _select(s)
+    s.begin_drag()
+    s.drag_to(rigid_transform(translate=(0, 0.3, 0)))
+    s.end_drag()
+    assert s.settling
+    P = s.cage_positions  # completes it
+    assert not s.settling and np.allclose(P[s.handle] - s.editor.cage.vertices[s.handle], [0, 0.3, 0])
+
+
+def test_second_drag_continues_the_same_selection(session):
+    s = session
+    _select(s)
+    T = s.begin_drag()
+    s.drag_to(rigid_transform(translate=(0, 0.2, 0)) @ T)
+    s.end_drag()
+    T = s.begin_drag()
+    s.drag_to(rigid_transform(translate=(0.1, 0, 0)) @ T)
+    s.end_drag()
+    edit = s.to_edit()
+    assert np.allclose(edit.translate, [0.1, 0.2, 0]) and edit.rotate is None
+    assert s.anchor_at_rest
+    # undo one drag: the transform goes back too
+    s.undo()
+    assert np.allclose(s.transform[:3, 3], [0, 0.2, 0])
+    assert np.allclose(s.to_edit().translate, [0, 0.2, 0])
+    # a new selection on the deformed pose starts a new epoch
+    s.set_mask(HANDLE, s.handle & (s.cage_positions[:, 0] > 1.6))
+    assert not s.applied
+    s.begin_drag()
+    assert not s.anchor_at_rest and np.allclose(s.transform, np.eye(4))
+
+
+def test_undo_into_an_earlier_selection_restores_its_engine_selection(session):
+    s = session
+    _select(s)
+    T = s.begin_drag()
+    s.drag_to(rigid_transform(translate=(0, 0.2, 0)) @ T)
+    s.end_drag()
+    after_first = s.cage_positions
+    s.set_mask(HANDLE, s.cage_positions[:, 1] < -0.6)  # another handle, another epoch
+    T = s.begin_drag()
+    s.drag_to(rigid_transform(translate=(0, -0.2, 0)) @ T)
+    s.end_drag()
+    s.undo()  # the drag of the second handle
+    s.undo()  # the second handle selection
+    assert np.array_equal(s.cage_positions, after_first)
+    # dragging again continues the first epoch
+    T = s.begin_drag()
+    assert np.allclose(T[:3, 3], [0, 0.2, 0])
+    s.drag_to(rigid_transform(translate=(0, 0.1, 0)) @ T)
+    s.end_drag()
+    assert np.allclose(s.to_edit().translate, [0, 0.3, 0])
+
+
+def test_selection_errors(session):
+    s = session
+    with pytest.raises(SelectionError, match="handle is empty"):
+        s.begin_drag()
+    with pytest.raises(SelectionError, match="handle is empty"):
+        s.to_edit()
+    with pytest.raises(ValueError):
+        s.set_mask(ROI, np.ones(3, dtype=bool))
+
+
+def test_load_edit_replays_and_failures_keep_the_state(session):
+    s = session
+    _select(s)
+    T = s.begin_drag()
+    s.drag_to(rigid_transform(translate=(0, 0.2, 0)) @ T)
+    s.end_drag()
+    before = s.cage_positions
+    n = len(s.history)
+    bad = Edit(handle=np.array([10_000]), space="cage")
+    with pytest.raises(SelectionError):
+        s.load_edit(bad)
+    assert np.array_equal(s.cage_positions, before) and len(s.history) == n
+    # an edit in shape space, with fixed instead of roi
+    V = s.mesh.vertices
+    edit = Edit(handle=np.flatnonzero(V[:, 0] > 1.7), fixed=np.flatnonzero(V[:, 0] < -0.5), space="shape",
+                translate=np.array([0.0, 0.0, 0.25]))
+    s.load_edit(edit)
+    assert s.history.current.label == "load edit"
+    assert s.anchor_at_rest and np.allclose(s.transform[:3, 3], [0, 0, 0.25])
+    mesh = s.mesh
+    ed = HybridEditor(mesh, 150, cage=s.editor.cage, binding=s.editor.M)
+    ed.set_selection(edit.handle, fixed=edit.fixed, space="shape")
+    for _ in range(30):
+        W = ed.drag(translate=(0, 0, 0.25))
+    assert np.array_equal(s.shape_positions, W)

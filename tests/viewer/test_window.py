@@ -1,0 +1,477 @@
+"""The editor window driven through real Qt mouse and key events (pytest-qt, under Xvfb)."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from qtpy import QtCore, QtGui, QtWidgets
+
+from hybridedit import cli
+from hybridedit.io import read_mesh, write_mesh
+from hybridedit.viewer import gizmo as gz
+from hybridedit.viewer.selection import project_points, rectangle_hits
+from hybridedit.viewer.window import MainWindow
+
+CAGE = 150
+Qt = QtCore.Qt
+
+
+# ---------------------------------------------------------------------------- helpers
+
+
+def wait_loaded(qtbot, w: MainWindow, timeout: int = 60000) -> None:
+    qtbot.waitUntil(lambda: w.worker is None and w.session is not None, timeout=timeout)
+
+
+@pytest.fixture
+def win(qtbot, blob_file) -> MainWindow:
+    """The window with the test shape loaded, front view (looking down -Z, Y up)."""
+    w = MainWindow(cage_size=CAGE)
+    qtbot.addWidget(w)
+    w.resize(1000, 760)
+    w.show()
+    qtbot.waitExposed(w)
+    w.activateWindow()
+    qtbot.waitActive(w)  # window shortcuts need the active window
+    w.view.setFocus()
+    assert w.open_path(blob_file)
+    wait_loaded(qtbot, w)
+    w.scene.reset_camera(tilted=False)
+    w.view.request_render()
+    qtbot.wait(30)
+    return w
+
+
+def to_widget(w: MainWindow, display_xy) -> QtCore.QPoint:
+    return w.view.to_widget(float(display_xy[0]), float(display_xy[1]))
+
+
+def projected(w: MainWindow, pts: np.ndarray):
+    C, size = w.scene.composite_matrix(), w.scene.display_size()
+    return project_points(pts, C, size)
+
+
+def mouse_drag(qtbot, widget, a: QtCore.QPoint, b: QtCore.QPoint, steps: int = 6,
+               modifier=Qt.KeyboardModifier.NoModifier) -> None:
+    """Press at a, move in steps to b, release: real Qt mouse events."""
+    qtbot.mousePress(widget, Qt.MouseButton.LeftButton, modifier, a)
+    for k in range(1, steps + 1):
+        p = a + (b - a) * (k / steps)
+        qtbot.mouseMove(widget, p)
+        qtbot.wait(5)
+    qtbot.mouseRelease(widget, Qt.MouseButton.LeftButton, modifier, b)
+    qtbot.wait(10)
+
+
+def settled(qtbot, w: MainWindow) -> None:
+    """Wait until the settle after a drag is done and drawn."""
+    qtbot.waitUntil(lambda: not w.settle_timer.isActive(), timeout=20000)
+    qtbot.wait(10)
+
+
+def key(qtbot, w, k, modifier=Qt.KeyboardModifier.NoModifier) -> None:
+    qtbot.keyClick(w.view, k, modifier)
+    qtbot.wait(5)
+
+
+def rubber_band(qtbot, w: MainWindow, x_from: float, modifier=Qt.KeyboardModifier.NoModifier) -> np.ndarray:
+    """Drag a rectangle over every cage vertex right of world x = x_from (front view); returns the hit mask."""
+    s = w.session
+    P = s.cage_positions
+    d, front = projected(w, P)
+    width, height = w.scene.display_size()
+    x0 = d[P[:, 0] > x_from, 0].min() - 1.0
+    a = (x0, 3.0)
+    b = (width - 3.0, height - 3.0)
+    mouse_drag(qtbot, w.view, to_widget(w, a), to_widget(w, b), modifier=modifier)
+    # what the rectangle covers, in the display coordinates the window saw
+    qa = w.view.to_display(QtCore.QPointF(to_widget(w, a)))
+    qb = w.view.to_display(QtCore.QPointF(to_widget(w, b)))
+    return rectangle_hits(d, front, qa, qb)
+
+
+def select_roi_and_handle(qtbot, w: MainWindow) -> tuple[np.ndarray, np.ndarray]:
+    key(qtbot, w, Qt.Key.Key_S)  # Select mode
+    assert w.controller.mode == "select"
+    key(qtbot, w, Qt.Key.Key_R)  # target ROI
+    roi = rubber_band(qtbot, w, 0.0)
+    key(qtbot, w, Qt.Key.Key_H)  # target handle
+    handle = rubber_band(qtbot, w, 1.4)
+    return roi, handle
+
+
+# ---------------------------------------------------------------------------- tests
+
+
+def test_select_drag_undo_redo_save_and_replay(qtbot, win, blob_file, tmp_path):
+    w = win
+    s = w.session
+    rest_cage = s.cage_positions
+    rest_shape = s.shape_positions.copy()
+    assert w.size_label.text().startswith("shape 2,562 v")
+
+    roi, handle = select_roi_and_handle(qtbot, w)
+    assert np.array_equal(s.roi, roi) and np.array_equal(s.handle, handle)
+    P = rest_cage
+    assert roi.sum() > 20 and np.all(P[roi, 0] > -0.2) and np.all(roi[P[:, 0] > 0.05])
+    assert 5 <= handle.sum() < roi.sum() and np.all(P[handle, 0] > 1.3)
+    assert "ROI" in w.sel_label.text()
+
+    # Drag mode: drag the handle 80 px up the screen (world +Y in the front view)
+    key(qtbot, w, Qt.Key.Key_D)
+    center = s.handle_centroid()
+    dc, _ = projected(w, center[None])
+    a = to_widget(w, dc[0])
+    b = a + QtCore.QPoint(0, -80)
+    C, size = w.scene.composite_matrix(), w.scene.display_size()
+    t = gz.screen_plane_translation(w.view.to_display(QtCore.QPointF(a)), w.view.to_display(QtCore.QPointF(b)),
+                                    center, C, size)
+    assert t[1] > 0.3 and abs(t[0]) < 1e-9 and abs(t[2]) < 1e-9
+    mouse_drag(qtbot, w.view, a, b, steps=8)
+    settled(qtbot, w)
+
+    moved_cage = s.cage_positions
+    assert np.allclose(moved_cage[handle] - rest_cage[handle], t, atol=1e-9)  # the handle follows the mouse
+    fixed = ~roi & ~handle
+    assert np.array_equal(moved_cage[fixed], rest_cage[fixed])  # fixed cage vertices stay
+    V = s.shape_positions.copy()
+    M = s.editor.M.tocsr()
+    # shape vertices that depend on the handle's cage vertices only... follow it (up to the engine's
+    # rotated rest-shape residual, which is small)
+    w_handle = np.asarray(M[:, np.flatnonzero(handle)].sum(axis=1)).ravel()
+    follow = w_handle > 0.999
+    assert follow.sum() > 10
+    assert np.allclose(V[follow] - rest_shape[follow], t, atol=0.05 * np.linalg.norm(t))
+    # ... the handle side moved up, in world space
+    tip = rest_shape[:, 0] > 1.7
+    assert np.all(V[tip, 1] - rest_shape[tip, 1] > 0.8 * t[1])
+    # shape vertices bound to fixed cage vertices only did not move (but for the engine's rotated
+    # rest-shape residual: fixed cage vertices next to free ones turn a little)
+    only_fixed = np.diff(M[:, np.flatnonzero(~fixed)].tocsr().indptr) == 0
+    assert only_fixed.sum() > 100
+    assert np.abs(V[only_fixed] - rest_shape[only_fixed]).max() < 0.01 * np.linalg.norm(t)
+    far = rest_shape[:, 0] < -1.0
+    assert np.abs(V[far] - rest_shape[far]).max() < 1e-3 * np.linalg.norm(t)
+    # what is drawn is what the engine computed
+    assert np.allclose(np.asarray(w.scene.shape.points), V, atol=1e-5)
+    assert w.error_label.text().startswith("edge error")
+
+    # undo (Ctrl+Z) restores the rest pose, redo (Ctrl+Shift+Z) the drag
+    key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
+    assert np.array_equal(s.cage_positions, rest_cage)
+    assert np.allclose(s.shape_positions, rest_shape, atol=1e-12)
+    assert np.allclose(np.asarray(w.scene.shape.points), rest_shape, atol=1e-5)
+    assert np.array_equal(s.handle, handle)  # the selection is still there
+    key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier | Qt.KeyboardModifier.ShiftModifier)
+    assert np.allclose(s.shape_positions, V, atol=1e-12)
+    # undo twice more: the handle selection goes away too
+    key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
+    key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
+    assert not s.handle.any() and np.array_equal(s.roi, roi)
+    for _ in range(2):
+        key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier | Qt.KeyboardModifier.ShiftModifier)
+    assert np.allclose(s.shape_positions, V, atol=1e-12)
+
+    # save writes the shown vertices
+    out = tmp_path / "out.obj"
+    assert w.save_to(out)
+    assert np.array_equal(read_mesh(out).vertices, s.shape_positions)
+    assert np.array_equal(read_mesh(out).faces, s.mesh.faces)
+
+    # the edit file replays in batch to the shape shown
+    edit_path = tmp_path / "edit.json"
+    assert w.save_edit_to(edit_path)
+    data = json.loads(edit_path.read_text())
+    assert data["space"] == "cage" and data["handle"] == np.flatnonzero(handle).tolist()
+    assert data["roi"] == np.flatnonzero(roi).tolist()
+    assert np.allclose(data["translate"], t, atol=1e-12)
+    replay = tmp_path / "replay.obj"
+    rc = cli.main(["deform", str(blob_file), "-o", str(replay), "--edit", str(edit_path), "--cage", str(CAGE), "-q"])
+    assert rc == 0
+    diag = s.mesh.bbox_diagonal()
+    assert np.abs(read_mesh(replay).vertices - V).max() < 1e-6 * diag
+
+    # reset the pose, then load the edit back
+    key(qtbot, w, Qt.Key.Key_R, Qt.KeyboardModifier.ControlModifier)
+    assert np.array_equal(s.cage_positions, rest_cage)
+    assert w.load_edit_from(edit_path)
+    assert np.abs(s.shape_positions - V).max() < 1e-9 * diag
+    assert np.array_equal(s.handle, handle) and np.array_equal(s.roi, roi)
+
+
+def test_gizmo_rotate_and_translate(qtbot, win, tmp_path, blob_file):
+    w = win
+    s = w.session
+    P = s.cage_positions
+    s.set_mask("roi", P[:, 0] > 0.0)
+    s.set_mask("handle", P[:, 0] > 1.4)
+    w._refresh_selection()
+    qtbot.wait(20)
+    key(qtbot, w, Qt.Key.Key_C)  # gizmo works in Camera mode too
+    g = w.scene.gizmo
+    assert g.visible and np.allclose(g.center, s.handle_centroid())
+    # translate: grab the X arrow near its tip, pull it 60 px right
+    tip, _ = projected(w, (g.center + [0.85 * g.length, 0, 0])[None])
+    a = to_widget(w, tip[0])
+    mouse_drag(qtbot, w.view, a, a + QtCore.QPoint(60, 0))
+    settled(qtbot, w)
+    dx = s.cage_positions[s.handle] - P[s.handle]
+    assert np.all(dx[:, 0] > 0.1) and np.allclose(dx, dx[0], atol=1e-9) and np.allclose(dx[:, 1:], 0, atol=1e-9)
+    # rotate: grab the Z ring (facing the viewer) on its right and pull it up: positive turn about +Z
+    center = s.handle_centroid()
+    before = s.cage_positions[s.handle]
+    r = gz.RING_RATIO * g.length
+    right, _ = projected(w, (center + [r * np.cos(0.3), r * np.sin(0.3), 0])[None])
+    a = to_widget(w, right[0])
+    mouse_drag(qtbot, w.view, a, a + QtCore.QPoint(0, -40))
+    settled(qtbot, w)
+    after = s.cage_positions[s.handle]
+    rel0, rel1 = before - center, after - center
+    ang = np.degrees(np.arctan2(rel1[:, 1], rel1[:, 0]) - np.arctan2(rel0[:, 1], rel0[:, 0]))
+    ang = (ang + 180) % 360 - 180
+    assert np.all(ang > 5) and np.ptp(ang) < 1e-6
+    assert np.allclose(np.linalg.norm(rel1, axis=1), np.linalg.norm(rel0, axis=1))
+    # the saved edit has the rotation and replays it
+    edit_path = tmp_path / "rot.json"
+    assert w.save_edit_to(edit_path)
+    data = json.loads(edit_path.read_text())
+    assert abs(data["rotate"]["degrees"] - ang[0]) < 1e-6 and np.allclose(np.abs(data["rotate"]["axis"]), [0, 0, 1])
+    replay = tmp_path / "rot.obj"
+    rc = cli.main(["deform", str(blob_file), "-o", str(replay), "--edit", str(edit_path), "--cage", str(CAGE), "-q"])
+    assert rc == 0
+    assert np.abs(read_mesh(replay).vertices - s.shape_positions).max() < 1e-6 * s.mesh.bbox_diagonal()
+
+
+def test_brush_modifiers_clear_invert(qtbot, win):
+    w = win
+    s = w.session
+    key(qtbot, w, Qt.Key.Key_S)
+    key(qtbot, w, Qt.Key.Key_B)
+    assert w.controller.tool == "brush"
+    w.brush_spin.setValue(40)
+    P = s.cage_positions
+    d, front = projected(w, P)
+    i_right, i_left = int(np.argmax(P[:, 0])), int(np.argmin(P[:, 0]))
+    # plain stroke replaces: a short stroke at the right end
+    a = to_widget(w, d[i_right])
+    mouse_drag(qtbot, w.view, a, a + QtCore.QPoint(-10, 0), steps=2)
+    first = s.roi.copy()
+    assert first[i_right] and not first[i_left]
+    # Shift adds the left end
+    a = to_widget(w, d[i_left])
+    mouse_drag(qtbot, w.view, a, a + QtCore.QPoint(10, 0), steps=2, modifier=Qt.KeyboardModifier.ShiftModifier)
+    assert s.roi[i_right] and s.roi[i_left] and np.all(s.roi[first])
+    # Ctrl removes the right end again
+    a = to_widget(w, d[i_right])
+    mouse_drag(qtbot, w.view, a, a, steps=1, modifier=Qt.KeyboardModifier.ControlModifier)
+    assert not s.roi[i_right] and s.roi[i_left]
+    # one stroke is one undo step
+    n_hist = len(s.history)
+    before = s.roi.copy()
+    key(qtbot, w, Qt.Key.Key_I, Qt.KeyboardModifier.ControlModifier)  # invert
+    assert np.array_equal(s.roi, ~before)
+    key(qtbot, w, Qt.Key.Key_A, Qt.KeyboardModifier.ControlModifier | Qt.KeyboardModifier.ShiftModifier)  # clear
+    assert not s.roi.any()
+    assert len(s.history) == n_hist + 2
+    key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
+    key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
+    assert np.array_equal(s.roi, before)
+    # the colours follow: cage points and shape tint
+    cols = np.asarray(w.scene.points_poly.point_data["state"])
+    assert not np.array_equal(cols[i_left], cols[i_right])
+    assert "brush" in w.controller.tool
+
+
+def test_errors_leave_the_state_intact(qtbot, win, tmp_path):
+    w = win
+    s = w.session
+    # dragging with an empty handle: a message, nothing moves
+    key(qtbot, w, Qt.Key.Key_D)
+    c = w.view.rect().center()
+    mouse_drag(qtbot, w.view, c, c + QtCore.QPoint(30, 30))
+    assert w.last_error and "handle is empty" in w.last_error
+    assert not s.is_posed()
+    # an unreadable mesh file
+    bad = tmp_path / "bad.obj"
+    bad.write_text("v 0 0 0\nf 1 2 3\n")
+    w.last_error = None
+    w.open_path(bad)
+    wait_loaded(qtbot, w)
+    assert w.session is s and w.last_error and "bad.obj" in w.last_error
+    # a bad edit file
+    bad_edit = tmp_path / "bad.json"
+    bad_edit.write_text(json.dumps({"handle": [999999], "space": "cage"}))
+    assert not w.load_edit_from(bad_edit)
+    assert "out of range" in w.last_error and w.session is s and not s.is_posed()
+    bad_edit.write_text("{not json")
+    assert not w.load_edit_from(bad_edit)
+    assert "not valid JSON" in w.last_error
+    # saving an edit without a handle
+    assert not w.save_edit_to(tmp_path / "e.json")
+    assert "handle is empty" in w.last_error
+    # unsupported output format
+    assert not w.save_to(tmp_path / "out.xyz")
+    assert not (tmp_path / "out.xyz").exists()
+
+
+def test_save_never_overwrites_the_input_without_asking(qtbot, win, blob_file, tmp_path, monkeypatch):
+    w = win
+    s = w.session
+    inp = tmp_path / "input.obj"
+    inp.write_bytes(blob_file.read_bytes())
+    s.path = inp
+    original = inp.read_bytes()
+    asked = []
+    monkeypatch.setattr(w, "confirm", lambda title, text: asked.append(title) or False)
+    assert not w.save_to(inp)
+    assert asked == ["Overwrite the input file?"] and inp.read_bytes() == original
+    monkeypatch.setattr(w, "confirm", lambda title, text: True)
+    assert w.save_to(inp)
+    # the Save As dialog path goes through the same check
+    monkeypatch.setattr(w, "confirm", lambda title, text: asked.append(title) or False)
+    monkeypatch.setattr(QtWidgets.QFileDialog, "getSaveFileName", staticmethod(lambda *a, **k: (str(inp), "")))
+    assert not w.save_as_dialog()
+    assert asked[-1] == "Overwrite the input file?"
+    out = tmp_path / "other"
+    monkeypatch.setattr(QtWidgets.QFileDialog, "getSaveFileName",
+                        staticmethod(lambda *a, **k: (str(out), "STL (*.stl)")))
+    assert w.save_as_dialog()
+    assert (tmp_path / "other.stl").exists()
+
+
+def test_drop_shortcuts_cage_toggle_and_rebuild(qtbot, win, blob_file, tmp_path, make_blob):
+    w = win
+    s = w.session
+    # Help > Shortcuts lists the actions with their keys
+    w.actions_["shortcuts"].trigger()
+    dlg = w._shortcuts_dialog
+    qtbot.waitExposed(dlg)
+    texts = {dlg.table.item(r, 1).text() for r in range(dlg.table.rowCount())}
+    assert {"Undo", "Redo", "Drag Mode", "Reset Pose", "Save Edit…"} <= texts
+    dlg.close()
+    # W hides the cage
+    key(qtbot, w, Qt.Key.Key_W)
+    assert not w.scene.cage_front.GetVisibility() and not w.scene.points_actor.GetVisibility()
+    key(qtbot, w, Qt.Key.Key_W)
+    assert w.scene.cage_front.GetVisibility()
+    # rebuild at another size keeps the selection (through the shape)
+    P = s.cage_positions
+    s.set_mask("handle", P[:, 0] > 1.4)
+    w.set_cage_size(80)
+    assert w.rebuild()
+    wait_loaded(qtbot, w)
+    assert w.session is not s and abs(w.session.n_cage - 80) < 10
+    h = w.session.handle
+    assert h.any() and np.all(w.session.cage_positions[h, 0] > 1.0)
+    # dropping a mesh file opens it
+    other = tmp_path / "sphere.off"
+    m = make_blob(3)
+    write_mesh(other, m)
+    mime = QtCore.QMimeData()
+    mime.setUrls([QtCore.QUrl.fromLocalFile(str(other))])
+    pos = QtCore.QPointF(w.view.rect().center())
+    enter = QtGui.QDragEnterEvent(pos, Qt.DropAction.CopyAction, mime, Qt.MouseButton.LeftButton,
+                                  Qt.KeyboardModifier.NoModifier)
+    QtWidgets.QApplication.sendEvent(w, enter)
+    assert enter.isAccepted()
+    drop = QtGui.QDropEvent(pos, Qt.DropAction.CopyAction, mime, Qt.MouseButton.LeftButton,
+                            Qt.KeyboardModifier.NoModifier)
+    QtWidgets.QApplication.sendEvent(w, drop)
+    wait_loaded(qtbot, w)
+    qtbot.waitUntil(lambda: w.session.mesh.n_vertices == m.n_vertices, timeout=30000)
+    assert "sphere.off" in w.windowTitle()
+
+
+def test_worker_cancel_keeps_the_previous_state(qtbot, win, tmp_path, make_blob):
+    w = win
+    s = w.session
+    big = tmp_path / "big.obj"
+    write_mesh(big, make_blob(6))  # 41K vertices: binding takes a while
+    w.set_cage_size(0.05)
+    ticks = []
+    timer = QtCore.QTimer()
+    timer.timeout.connect(lambda: ticks.append(time.perf_counter()))
+    timer.start(20)
+    stages = []
+
+    def on_progress(stage, fraction):
+        stages.append(stage)
+        if stage == "binding" and fraction > 0:
+            w.cancel_button.click()
+
+    assert w.open_path(big)
+    w.worker.progress.connect(on_progress)
+    assert w.progress.isVisible() and w.cancel_button.isVisible()
+    assert not w.actions_["open"].isEnabled()
+    wait_loaded(qtbot, w)
+    timer.stop()
+    assert "binding" in stages
+    assert w.session is s and s.mesh.n_vertices == 2562
+    assert "Cancelled" in w.statusBar().currentMessage()
+    assert not w.progress.isVisible() and w.actions_["open"].isEnabled()
+    # the event loop kept running while the worker built the cage
+    gaps = np.diff(ticks)
+    assert len(ticks) > 3 and gaps.max() < 1.0
+    # and the window still works
+    P = s.cage_positions
+    s.set_mask("handle", P[:, 0] > 1.4)
+    s.begin_drag()
+    s.drag_to(np.eye(4))
+
+
+def test_screenshot_mode(tmp_path, blob_file):
+    """`hybridedit --screenshot out.png mesh`: no window, status 0, a PNG with the shape and the cage."""
+    from PIL import Image
+
+    from hybridedit.viewer.app import render_screenshot
+
+    out = tmp_path / "shot.png"
+    env = dict(os.environ)
+    r = subprocess.run([sys.executable, "-m", "hybridedit", "--screenshot", str(out), "--cage", str(CAGE),
+                        str(blob_file)], env=env, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    img = np.asarray(Image.open(out).convert("RGB")).astype(np.float64)
+    assert img.shape[0] > 400 and img.shape[1] > 400
+    assert img.std() > 10  # not blank
+    def cage_coloured(im):  # teal / blue: the cage lines and points, unlike the warm shape and grey background
+        return (im[..., 1] - im[..., 0] > 40) & (im[..., 2] - im[..., 0] > 40)
+
+    cage_px = cage_coloured(img)
+    assert cage_px.sum() > 2000  # the cage wireframe is drawn
+    bare = tmp_path / "bare.png"
+    assert render_screenshot(blob_file, bare, CAGE, show_cage=False) == 0
+    img2 = np.asarray(Image.open(bare).convert("RGB")).astype(np.float64)
+    assert cage_coloured(img2).sum() < 0.05 * cage_px.sum()
+    assert (np.abs(img - img2).max(axis=2) > 30).mean() > 0.003  # the overlay changes the picture
+    # errors: one line, status 2
+    r = subprocess.run([sys.executable, "-m", "hybridedit", "--screenshot", str(out), str(tmp_path / "nope.obj")],
+                       env=env, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and "nope.obj" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_launcher_opens_the_default_mesh_and_exits_zero(qapp, blob_file, monkeypatch):
+    """`hybridedit` with no argument opens cli.DEFAULT_MESH in the window; closing it returns 0."""
+    monkeypatch.setattr(cli, "DEFAULT_MESH", blob_file)
+    seen = {}
+
+    def check():
+        wins = [w for w in QtWidgets.QApplication.topLevelWidgets()
+                if isinstance(w, MainWindow) and w.isVisible()]
+        if wins and wins[0].session is not None and wins[0].worker is None:
+            seen["vertices"] = wins[0].session.mesh.n_vertices
+            seen["title"] = wins[0].windowTitle()
+            wins[0].close()
+        else:
+            QtCore.QTimer.singleShot(50, check)
+
+    QtCore.QTimer.singleShot(50, check)
+    hook = sys.excepthook
+    assert cli.main(["--cage", str(CAGE)]) == 0
+    assert seen == {"vertices": 2562, "title": "hybridedit — blob.obj"}
+    assert sys.excepthook is hook
