@@ -108,23 +108,23 @@ def _rotation_of(i, rest, cur, indptr, indices, wts, rots):
 
 
 @njit(cache=True)
-def _local_step_serial(rest, cur, indptr, indices, wts, rots):
-    for i in range(rest.shape[0]):
-        _rotation_of(i, rest, cur, indptr, indices, wts, rots)
+def _local_step_serial(rest, cur, indptr, indices, wts, rots, rows):
+    for r in range(rows.shape[0]):
+        _rotation_of(rows[r], rest, cur, indptr, indices, wts, rots)
 
 
 @njit(cache=True, parallel=True)
-def _local_step_parallel(rest, cur, indptr, indices, wts, rots):
-    for i in prange(rest.shape[0]):
-        _rotation_of(i, rest, cur, indptr, indices, wts, rots)
+def _local_step_parallel(rest, cur, indptr, indices, wts, rots, rows):
+    for r in prange(rows.shape[0]):
+        _rotation_of(rows[r], rest, cur, indptr, indices, wts, rots)
 
 
-def _local_step(rest, cur, indptr, indices, wts, rots):
-    """All rotations R_i (the ARAP local step), written into ``rots`` (n, 3, 3)."""
-    if rest.shape[0] >= PARALLEL_MIN:
-        _local_step_parallel(rest, cur, indptr, indices, wts, rots)
+def _local_step(rest, cur, indptr, indices, wts, rots, rows):
+    """Rotations R_i of the vertices ``rows`` (the ARAP local step), into ``rots`` (n, 3, 3)."""
+    if rows.shape[0] >= PARALLEL_MIN:
+        _local_step_parallel(rest, cur, indptr, indices, wts, rots, rows)
     else:
-        _local_step_serial(rest, cur, indptr, indices, wts, rots)
+        _local_step_serial(rest, cur, indptr, indices, wts, rots, rows)
 
 
 @njit(cache=True, inline="always")
@@ -219,6 +219,8 @@ class ARAPSolver:
         self.rotations = np.tile(np.eye(3), (n, 1, 1))
         self.constrained = np.zeros(0, dtype=np.int64)
         self.free = np.arange(n, dtype=np.int64)
+        self._all = np.arange(n, dtype=np.int64)
+        self.active = self._all
         self._solver: SPDSolver | None = None
         self._L_fc: sp.csr_matrix | None = None
 
@@ -226,12 +228,17 @@ class ARAPSolver:
     def n_vertices(self) -> int:
         return int(len(self.rest))
 
-    def set_constrained(self, constrained: np.ndarray) -> None:
+    def set_constrained(self, constrained: np.ndarray, moving: np.ndarray | None = None) -> None:
         """Fix the set of constrained vertices and factor the free Laplacian.
 
         Parameters
         ----------
         constrained : (k,) int array of vertex indices (handle and fixed).
+        moving : (h,) int array, the constrained vertices that later :meth:`solve`
+            calls may move (the handle); default: all of them. The others must
+            stay where they are now. Each iteration then updates only the
+            rotations that can change (of free and moving vertices and their
+            neighbours), so a frame costs in proportion to the edited region.
 
         Raises
         ------
@@ -255,8 +262,23 @@ class ARAPSolver:
                 "each part needs at least one"
             )
         free = np.flatnonzero(~mask)
+        if moving is None:
+            mov = c
+        else:
+            mov = np.unique(np.asarray(moving, dtype=np.int64))
+            if not np.all(np.isin(mov, c)):
+                raise ValueError("moving vertices must be constrained")
+        # vertices whose rotation can change: those that move and their neighbours
+        moves = np.union1d(free, mov)
+        active = np.zeros(n, dtype=bool)
+        active[moves] = True
+        if moves.size:
+            active[self.L[moves].indices] = True
         self.constrained = c
         self.free = free
+        self.active = np.flatnonzero(active).astype(np.int64)
+        self._all = np.arange(n, dtype=np.int64)
+        self.local_step()  # rotations of the vertices that will not move stay these
         L = self.L
         self._solver = SPDSolver(L[free][:, free], backend=self.backend)
         self._L_fc = L[free][:, c].tocsr()
@@ -283,21 +305,23 @@ class ARAPSolver:
         rhs_c = self._L_fc @ cp
         b = np.empty((len(self.free), 3))
         for _ in range(int(iterations)):
-            _local_step(self.rest, self.positions, self._indptr, self._indices, self._wts, self.rotations)
+            _local_step(self.rest, self.positions, self._indptr, self._indices, self._wts, self.rotations,
+                        self.active)
             _rhs(self.rest, self._indptr, self._indices, self._wts, self.rotations, self.free, b)
             self.positions[self.free] = self._solver.solve(b - rhs_c)
         return self.positions
 
     def local_step(self) -> np.ndarray:
-        """Update and return the per-vertex rotations, (n, 3, 3) float64."""
-        _local_step(self.rest, self.positions, self._indptr, self._indices, self._wts, self.rotations)
+        """Update and return the rotations of all vertices, (n, 3, 3) float64."""
+        _local_step(self.rest, self.positions, self._indptr, self._indices, self._wts, self.rotations,
+                    self._all)
         return self.rotations
 
     def energy(self, positions: np.ndarray | None = None) -> float:
         """ARAP energy of ``positions`` (default: current) with optimal rotations."""
         p = self.positions if positions is None else np.ascontiguousarray(positions, dtype=np.float64)
         rots = np.empty((self.n_vertices, 3, 3))
-        _local_step(self.rest, p, self._indptr, self._indices, self._wts, rots)
+        _local_step(self.rest, p, self._indptr, self._indices, self._wts, rots, self._all)
         out = np.empty(self.n_vertices)
         _energy_terms(self.rest, p, self._indptr, self._indices, self._wts, rots, out)
         return float(out.sum())

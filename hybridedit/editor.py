@@ -128,6 +128,7 @@ class HybridEditor:
         self.arap = ARAPSolver(cage.vertices, cage.faces, weights=weights)
         self._cage_to_shape = cKDTree(mesh.vertices).query(cage.vertices)[1].astype(np.int64)
         self._out = np.empty((mesh.n_vertices, 3))
+        self._rows: np.ndarray | None = None
         self._propagate()
         self.handle = np.zeros(0, dtype=np.int64)
         self.fixed = np.zeros(0, dtype=np.int64)
@@ -228,9 +229,11 @@ class HybridEditor:
             f = np.zeros(0, dtype=np.int64)
         constrained = np.union1d(h, f)
         try:
-            self.arap.set_constrained(constrained)
+            self.arap.set_constrained(constrained, moving=h)
         except ValueError as e:
             raise SelectionError(str(e)) from None
+        self._rows = self._rows_that_can_move()
+        self._propagate(all_rows=True)
         self.handle = h
         self.fixed = f
         self._constrained = constrained
@@ -279,7 +282,7 @@ class HybridEditor:
     def reset(self) -> None:
         """Back to the rest pose (the selection is kept, its reference is the rest pose)."""
         self.arap.reset()
-        self._propagate()
+        self._propagate(all_rows=True)
         if self._constrained.size:
             self._anchor = self.arap.positions[self._constrained].copy()
         self.transform = np.eye(4)
@@ -302,16 +305,34 @@ class HybridEditor:
         if self._constrained.size:
             self._anchor = p[self._constrained].copy()
         self.transform = np.eye(4)
-        self._propagate()
+        self._propagate(all_rows=True)
         return self._out
 
-    def _propagate(self) -> None:
-        """The shape from the current cage pose, into ``self._out``."""
+    def _rows_that_can_move(self) -> np.ndarray:
+        """Shape vertices that a drag can move: those bound to a free or handle cage
+        vertex, or (residual mode) rotating with a cage vertex whose rotation changes."""
+        changing = np.zeros(self.cage.n_vertices, dtype=bool)
+        changing[self.arap.active] = True  # free, their neighbours, handle
+        M = self.M
+        row_of_nz = np.repeat(np.arange(M.shape[0]), np.diff(M.indptr))
+        mask = np.zeros(M.shape[0], dtype=bool)
+        mask[row_of_nz[changing[M.indices]]] = True
+        if self._residual is not None:
+            mask |= changing[self._residual[1]].any(axis=1)
+        return np.flatnonzero(mask).astype(np.int64)
+
+    def _propagate(self, all_rows: bool = False) -> None:
+        """The shape from the current cage pose, into ``self._out``.
+
+        During a drag only the rows that can move are recomputed; the others
+        depend on cage vertices (and rotations) the drag does not change.
+        """
+        rows = None if all_rows or self._rows is None else self._rows
         if self._residual is None:
-            propagate(self.M, self.arap.positions, self._out)
+            propagate(self.M, self.arap.positions, self._out, rows=rows)
         else:
             d, idx, w = self._residual
-            propagate_with_residual(self.M, self.arap.positions, self.arap.rotations, d, idx, w, self._out)
+            propagate_with_residual(self.M, self.arap.positions, self.arap.rotations, d, idx, w, self._out, rows=rows)
 
     @property
     def deformed_vertices(self) -> np.ndarray:

@@ -10,6 +10,17 @@ from numba import njit, prange
 #: Below this many rows the product runs on one thread (thread start-up costs more).
 PARALLEL_MIN_ROWS = 20000
 
+_ALL_ROWS: dict[int, np.ndarray] = {}
+
+
+def all_rows(n: int) -> np.ndarray:
+    """arange(n) as int64, cached (the row list of a full product)."""
+    r = _ALL_ROWS.get(n)
+    if r is None:
+        r = _ALL_ROWS[n] = np.arange(n, dtype=np.int64)
+        r.setflags(write=False)
+    return r
+
 
 @njit(cache=True, inline="always")
 def _row(i, indptr, indices, data, y, out):
@@ -29,18 +40,20 @@ def _row(i, indptr, indices, data, y, out):
 
 
 @njit(cache=True)
-def _csr_times_xyz_serial(indptr, indices, data, y, out):
-    for i in range(out.shape[0]):
-        _row(i, indptr, indices, data, y, out)
+def _csr_times_xyz_serial(indptr, indices, data, y, out, rows):
+    for r in range(rows.shape[0]):
+        _row(rows[r], indptr, indices, data, y, out)
 
 
 @njit(cache=True, parallel=True)
-def _csr_times_xyz_parallel(indptr, indices, data, y, out):
-    for i in prange(out.shape[0]):
-        _row(i, indptr, indices, data, y, out)
+def _csr_times_xyz_parallel(indptr, indices, data, y, out, rows):
+    for r in prange(rows.shape[0]):
+        _row(rows[r], indptr, indices, data, y, out)
 
 
-def propagate(M: sp.csr_matrix, y: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+def propagate(
+    M: sp.csr_matrix, y: np.ndarray, out: np.ndarray | None = None, rows: np.ndarray | None = None
+) -> np.ndarray:
     """Shape positions M @ y.
 
     Parameters
@@ -48,6 +61,8 @@ def propagate(M: sp.csr_matrix, y: np.ndarray, out: np.ndarray | None = None) ->
     M : (n, c) float64 CSR matrix, the binding.
     y : (c, 3) float64 array, cage positions.
     out : optional (n, 3) float64 array to write into.
+    rows : optional (r,) int64 array: compute only these rows of ``out``
+        (the others are left as they are).
 
     Returns
     -------
@@ -58,8 +73,9 @@ def propagate(M: sp.csr_matrix, y: np.ndarray, out: np.ndarray | None = None) ->
         raise ValueError(f"cage positions must be ({M.shape[1]}, 3), got {y.shape}")
     if out is None:
         out = np.empty((M.shape[0], 3))
-    if out.shape[0] >= PARALLEL_MIN_ROWS:
-        _csr_times_xyz_parallel(M.indptr, M.indices, M.data, y, out)
+    rows = all_rows(M.shape[0]) if rows is None else rows
+    if rows.shape[0] >= PARALLEL_MIN_ROWS:
+        _csr_times_xyz_parallel(M.indptr, M.indices, M.data, y, out, rows)
     else:
-        _csr_times_xyz_serial(M.indptr, M.indices, M.data, y, out)
+        _csr_times_xyz_serial(M.indptr, M.indices, M.data, y, out, rows)
     return out

@@ -21,7 +21,7 @@ import numpy as np
 import scipy.sparse as sp
 from numba import njit, prange
 
-from .propagate import PARALLEL_MIN_ROWS
+from .propagate import PARALLEL_MIN_ROWS, all_rows
 
 #: Cage rotations blended per shape vertex.
 DEFAULT_K = 4
@@ -102,15 +102,15 @@ def _row(i, indptr, indices, data, y, rots, idx, w, d, out):
 
 
 @njit(cache=True)
-def _serial(indptr, indices, data, y, rots, idx, w, d, out):
-    for i in range(out.shape[0]):
-        _row(i, indptr, indices, data, y, rots, idx, w, d, out)
+def _serial(indptr, indices, data, y, rots, idx, w, d, out, rows):
+    for r in range(rows.shape[0]):
+        _row(rows[r], indptr, indices, data, y, rots, idx, w, d, out)
 
 
 @njit(cache=True, parallel=True)
-def _parallel(indptr, indices, data, y, rots, idx, w, d, out):
-    for i in prange(out.shape[0]):
-        _row(i, indptr, indices, data, y, rots, idx, w, d, out)
+def _parallel(indptr, indices, data, y, rots, idx, w, d, out, rows):
+    for r in prange(rows.shape[0]):
+        _row(rows[r], indptr, indices, data, y, rots, idx, w, d, out)
 
 
 def propagate_with_residual(
@@ -121,6 +121,7 @@ def propagate_with_residual(
     idx: np.ndarray,
     w: np.ndarray,
     out: np.ndarray | None = None,
+    rows: np.ndarray | None = None,
 ) -> np.ndarray:
     """Shape positions (M y)_i + (sum_k w_ik R_idx_ik) d_i, (n, 3) float64.
 
@@ -128,13 +129,15 @@ def propagate_with_residual(
     ----------
     M : (n, c) CSR binding; y : (c, 3) cage positions; rotations : (c, 3, 3)
     per-cage-vertex rotations; d, idx, w : from :func:`residual_setup`;
-    out : optional (n, 3) output array.
+    out : optional (n, 3) output array; rows : optional (r,) int64, compute
+    only these rows.
     """
     y = np.ascontiguousarray(y, dtype=np.float64)
     if out is None:
         out = np.empty((M.shape[0], 3))
-    args = (M.indptr, M.indices, M.data, y, rotations, idx, w, d, out)
-    if out.shape[0] >= PARALLEL_MIN_ROWS:
+    rows = all_rows(M.shape[0]) if rows is None else rows
+    args = (M.indptr, M.indices, M.data, y, rotations, idx, w, d, out, rows)
+    if rows.shape[0] >= PARALLEL_MIN_ROWS:
         _parallel(*args)
     else:
         _serial(*args)
