@@ -13,7 +13,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-from hybridedit import Mesh, build_cage, read_mesh  # noqa: E402
+from hybridedit import Mesh, build_cage, read_mesh, rigid_transform  # noqa: E402
 
 MESHES = Path(os.environ.get("HYBRIDEDIT_MESHES", REPO.parent / "shared" / "meshes"))
 
@@ -39,21 +39,22 @@ def canonical_edit(mesh: Mesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The benchmark edit on an armadillo-like shape (Y up, facing +Z).
 
     Handle: the hand on the +X side; region of interest: that arm from the
-    shoulder; everything else is fixed. The hand is raised by 20% of the
-    height and brought forward by 10%. Defined relative to the bounding box,
-    so it means the same on every resolution of the armadillo.
+    shoulder; everything else is fixed. The hand swings up by 40 degrees about
+    the +Z axis through the shoulder (the centroid of the region's vertices
+    nearest the body), as a user raising the arm would. Defined relative to the
+    bounding box, so it means the same on every resolution of the armadillo.
 
     Returns
     -------
-    handle, roi : int64 shape vertex indices; translate : (3,) float64
+    handle, roi : int64 shape vertex indices; T : (4, 4) float64 handle transform
     """
     v = mesh.vertices
     lo, hi = v.min(axis=0), v.max(axis=0)
     r = (v - lo) / (hi - lo)
     handle = np.flatnonzero((r[:, 0] > 0.877) & (r[:, 1] > 0.62))
     roi = np.flatnonzero((r[:, 0] > 0.70) & (r[:, 1] > 0.52))
-    h = hi[1] - lo[1]
-    return handle, roi, np.array([0.0, 0.20 * h, 0.10 * h])
+    shoulder = v[roi[r[roi, 0] < 0.73]].mean(axis=0)
+    return handle, roi, rigid_transform(axis=(0, 0, 1), degrees=40.0, center=shoulder)
 
 
 def machine() -> str:

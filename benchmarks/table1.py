@@ -24,7 +24,7 @@ import numpy as np
 
 from common import Timer, armadillo, armadillo_21k, canonical_edit, machine
 
-from hybridedit import HybridEditor, rrms_edge_error
+from hybridedit import HybridEditor, apply_transform, rrms_edge_error
 from hybridedit.arap import ARAPSolver
 
 # Figures of the paper's Table 1 that we have (43,244-vertex armadillo, 2,000-vertex cage,
@@ -50,7 +50,7 @@ def run_hybrid(shape, cage_n, frames, variants=VARIANTS):
         times = []
         for f in range(1, frames + 1):
             with Timer() as t:
-                V = ed.drag(translate=d)
+                V = ed.drag(transform=d)
             times.append(t.seconds)
             if f in (2, 30):
                 rr[f] = rrms_edge_error(shape.vertices, V, edges)
@@ -76,7 +76,8 @@ def full_constraints(shape):
     fixed = np.flatnonzero(~inside)
     b = np.union1d(handle, fixed)
     target = shape.vertices[b].copy()
-    target[np.isin(b, handle)] += d
+    hm = np.isin(b, handle)
+    target[hm] = apply_transform(d, target[hm])
     return b, target
 
 
