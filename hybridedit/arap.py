@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import scipy.sparse as sp
 from numba import njit, prange
@@ -222,6 +224,9 @@ class ARAPSolver:
         self._all = np.arange(n, dtype=np.int64)
         self.active = self._all
         self._solver: SPDSolver | None = None
+        #: seconds spent in the last :meth:`solve` by the local step (rotations) and the
+        #: global step (right-hand side and solve)
+        self.last_timings = {"local_seconds": 0.0, "global_seconds": 0.0}
         self._L_fc: sp.csr_matrix | None = None
 
     @property
@@ -302,13 +307,19 @@ class ARAPSolver:
         if len(cp) != len(self.constrained):
             raise ValueError(f"expected {len(self.constrained)} constrained positions, got {len(cp)}")
         self.positions[self.constrained] = cp
+        t0 = time.perf_counter()
         rhs_c = self._L_fc @ cp
         b = np.empty((len(self.free), 3))
+        t_local = 0.0
         for _ in range(int(iterations)):
+            t1 = time.perf_counter()
             _local_step(self.rest, self.positions, self._indptr, self._indices, self._wts, self.rotations,
                         self.active)
+            t_local += time.perf_counter() - t1
             _rhs(self.rest, self._indptr, self._indices, self._wts, self.rotations, self.free, b)
             self.positions[self.free] = self._solver.solve(b - rhs_c)
+        total = time.perf_counter() - t0
+        self.last_timings = {"local_seconds": t_local, "global_seconds": total - t_local}
         return self.positions
 
     def local_step(self) -> np.ndarray:

@@ -20,6 +20,8 @@ from .residual import propagate_with_residual, residual_setup
 from .transforms import check_transform, rigid_transform
 
 SPACES = ("shape", "cage")
+#: frame times kept in ``frame_seconds`` (the older half is dropped past this)
+FRAME_HISTORY = 10000
 PROPAGATIONS = ("residual", "linear")
 
 Progress = Callable[[str, float], None]
@@ -136,7 +138,11 @@ class HybridEditor:
         self._anchor = np.zeros((0, 3))
         self._is_handle = np.zeros(0, dtype=bool)
         self.transform = np.eye(4)
+        #: wall time of recent :meth:`drag` calls, oldest first (bounded, see FRAME_HISTORY)
         self.frame_seconds: list[float] = []
+        #: where the last frame's time went: local_seconds, global_seconds,
+        #: propagate_seconds, total_seconds
+        self.frame_breakdown: dict[str, float] = {}
 
     # ------------------------------------------------------------------ selection
     @property
@@ -275,8 +281,13 @@ class HybridEditor:
         target[self._is_handle] = hp @ T[:3, :3].T + T[:3, 3]
         self.transform = T
         self.arap.solve(target, k)
+        t1 = time.perf_counter()
         self._propagate()
-        self.frame_seconds.append(time.perf_counter() - t0)
+        t2 = time.perf_counter()
+        self.frame_seconds.append(t2 - t0)
+        if len(self.frame_seconds) > FRAME_HISTORY:
+            del self.frame_seconds[: -FRAME_HISTORY // 2]
+        self.frame_breakdown = {**self.arap.last_timings, "propagate_seconds": t2 - t1, "total_seconds": t2 - t0}
         return self._out
 
     def reset(self) -> None:
