@@ -1,0 +1,68 @@
+import numpy as np
+import pytest
+
+from hybridedit import HybridEditor, rrms_edge_error
+from hybridedit.polish import ShapeARAP, free_shape_vertices, polish
+
+from conftest import bumpy_blob
+
+
+@pytest.fixture(scope="module")
+def posed():
+    shape = bumpy_blob(3)
+    ed = HybridEditor(shape, 120)
+    x = shape.vertices[:, 0]
+    handle = np.flatnonzero(x > x.max() - 0.3)
+    roi = np.flatnonzero(x > -0.5)
+    ed.set_selection(handle, roi=roi)
+    for _ in range(10):
+        V = ed.drag(translate=(0, 0.7, 0.2))
+    return shape, ed, V.copy()
+
+
+def test_polish_lowers_energy_and_holds_the_rest(posed):
+    shape, ed, V = posed
+    sa = ShapeARAP(shape)
+    free = free_shape_vertices(ed.M, ed.arap.free, ed.cage.n_vertices)
+    assert 0 < free.sum() < shape.n_vertices
+    r = polish(sa, V, free, seconds=10.0, max_iterations=300)
+    assert r.energy_after < r.energy_before
+    assert r.stopped in ("converged", "iterations")
+    assert np.array_equal(r.vertices[~free], V[~free])  # handle and fixed part untouched
+    assert rrms_edge_error(shape.vertices, r.vertices, shape.edges()) < rrms_edge_error(
+        shape.vertices, V, shape.edges())
+    # every single iteration lowers (or keeps) the energy
+    energies = [sa.solver.energy(V)]
+    W = V
+    for _ in range(5):
+        W = polish(sa, W, free, max_iterations=1).vertices
+        energies.append(sa.solver.energy(W))
+    assert all(b <= a * (1 + 1e-12) for a, b in zip(energies, energies[1:]))
+
+
+def test_polish_stops_on_cancel_and_on_time(posed):
+    shape, ed, V = posed
+    sa = ShapeARAP(shape)
+    free = free_shape_vertices(ed.M, ed.arap.free, ed.cage.n_vertices)
+    r = polish(sa, V, free, should_stop=lambda: True)
+    assert r.stopped == "cancelled" and r.iterations == 1
+    assert r.energy_after <= r.energy_before
+    r = polish(sa, V, free, seconds=0.0, tolerance=0.0)
+    assert r.stopped == "time" and r.iterations == 1
+
+
+def test_polish_of_the_rest_pose_is_the_rest_pose(posed):
+    shape, ed, _ = posed
+    sa = ShapeARAP(shape)
+    free = np.zeros(shape.n_vertices, bool)
+    free[: shape.n_vertices // 2] = True
+    r = polish(sa, shape.vertices, free)
+    assert np.abs(r.vertices - shape.vertices).max() < 1e-12
+    assert r.energy_after < 1e-20
+
+
+def test_bad_arguments(posed):
+    shape, ed, V = posed
+    sa = ShapeARAP(shape)
+    with pytest.raises(ValueError):
+        polish(sa, V[:10], np.ones(10, bool))
