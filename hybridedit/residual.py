@@ -22,6 +22,7 @@ import scipy.sparse as sp
 from numba import njit, prange
 
 from .propagate import PARALLEL_MIN_ROWS, all_rows
+from .propagate import _row as _linear_row
 
 #: Cage rotations blended per shape vertex.
 DEFAULT_K = 4
@@ -77,28 +78,23 @@ def residual_setup(
 
 @njit(cache=True, inline="always")
 def _row(i, indptr, indices, data, y, rots, idx, w, d, out):
-    a0 = 0.0
-    a1 = 0.0
-    a2 = 0.0
-    for k in range(indptr[i], indptr[i + 1]):
-        j = indices[k]
-        c = data[k]
-        a0 += c * y[j, 0]
-        a1 += c * y[j, 1]
-        a2 += c * y[j, 2]
+    """out[i] = (M y)_i + (sum_k w_ik R_idx_ik) d_i."""
+    _linear_row(i, indptr, indices, data, y, out)
     d0 = d[i, 0]
     d1 = d[i, 1]
     d2 = d[i, 2]
+    a0 = 0.0
+    a1 = 0.0
+    a2 = 0.0
     for t in range(idx.shape[1]):
-        j = idx[i, t]
         c = w[i, t]
-        r = rots[j]
+        r = rots[idx[i, t]]
         a0 += c * (r[0, 0] * d0 + r[0, 1] * d1 + r[0, 2] * d2)
         a1 += c * (r[1, 0] * d0 + r[1, 1] * d1 + r[1, 2] * d2)
         a2 += c * (r[2, 0] * d0 + r[2, 1] * d1 + r[2, 2] * d2)
-    out[i, 0] = a0
-    out[i, 1] = a1
-    out[i, 2] = a2
+    out[i, 0] += a0
+    out[i, 1] += a1
+    out[i, 2] += a2
 
 
 @njit(cache=True)
