@@ -1,12 +1,14 @@
 """Generate the editor's default mesh, ``data/creature.ply``.
 
-The creature is an implicit surface: a smooth union of ellipsoids, spheres and
-(tapered) capsules -- body, hips, neck, head with snout, eyes, horns and ears,
-two arms held out along +-X ending in four-fingered hands, two legs with feet,
-a curled tail and a row of spines down the back -- plus a small scaly bump
-pattern added to the distance field.  It is meshed with VTK's flying-edges
-contouring on a regular grid and cleaned up (largest component, merged
-duplicate points, outward orientation, no degenerate faces).
+The creature is an implicit surface: a smooth union of ellipsoids, spheres
+and (tapered) capsules -- body, hips, neck, head with snout, eyes, brows,
+horns and ears, two arms held out along +-X ending in hands with four fingers
+and a thumb, two legs with three-toed feet, a curled tail and a row of spines
+down the back; pupils, nostrils and a mouth are carved in -- plus a scale
+pattern (a cellular displacement, about 0.4% of the height deep) added to the
+distance field.  It is meshed with VTK's flying-edges contouring on a regular
+grid and cleaned up (largest component, merged duplicate points, outward
+orientation, no degenerate faces).
 
 Everything is analytic: no downloads and no randomness, so the output is the
 same on every run.
@@ -51,7 +53,8 @@ def creature_parts() -> list[tuple]:
     kinds: "ellipsoid" (center, radii), "sphere" (center, r),
     "capsule" (a, b, ra, rb) -- a capsule whose radius goes linearly from ra
     at a to rb at b.  Each part is smooth-unioned with the parts before it
-    over a distance k (0: plain union).  The bump weight scales the scales:
+    over a distance k (0: plain union).  The scale weight sets how strongly
+    the scale pattern shows on the part:
     thin parts (fingers, toes, horn tips, spines) get less or none so they
     stay clean and no bump bridges the gap between two of them.  A carved
     part is smoothly subtracted instead (mouth, nostrils, pupils).
@@ -298,7 +301,7 @@ def sample_field(resolution: int) -> tuple[np.ndarray, np.ndarray, float]:
     n = np.ceil((hi - lo) / h).astype(int) + 1
     axes = [(lo[i] + h * np.arange(n[i])).astype(np.float32) for i in range(3)]
     field = np.full(tuple(n), BIG, dtype=np.float32)
-    weight = np.ones(tuple(n), dtype=np.float32)  # bump strength
+    weight = np.ones(tuple(n), dtype=np.float32)  # scale strength per grid point
     # A part farther than `margin` from a grid point cannot change the zero
     # set there (smooth-min equals min once the two values differ by > k), so
     # each part is evaluated only on its bounding box grown by a margin.
@@ -473,7 +476,10 @@ def main(argv: list[str] | None = None) -> int:
         "--resolution",
         type=int,
         default=DEFAULT_RESOLUTION,
-        help=f"grid cells along the longest bounding-box side (default {DEFAULT_RESOLUTION}, ~100K vertices)",
+        help=(
+            f"grid cells along the longest bounding-box side (default {DEFAULT_RESOLUTION}, ~100K vertices); "
+            "below ~200 the fingers are under-resolved and the surface may gain handles"
+        ),
     )
     args = ap.parse_args(argv)
     if args.resolution < 16:
