@@ -24,7 +24,11 @@ HOWTO = """\
    Cage points: blue = fixed (outside the ROI), green = free (ROI), orange = handle.
 3. Drag mode (D): drag with the left button to move the handle parallel to the view;
    or grab the gizmo (arrows move along X/Y/Z, rings rotate, the white ball moves freely).
-   On release the pose settles to what 'hybridedit deform' computes.
+   On release the pose settles to what 'hybridedit deform' computes; then, with Edit >
+   Polish on Release (on by default), about a second of full-resolution ARAP in the
+   background smooths the edited region (the status bar reports the iterations and the
+   edge error before and after). The polished pose is what you see and what File > Save
+   writes; the next drag starts from the cage pose again, and undo ignores the polish.
 4. Undo / redo with Ctrl+Z / Ctrl+Shift+Z; Reset Pose (Ctrl+R) returns to rest.
 5. File > Save writes the deformed mesh; File > Save Edit writes the selection and the
    handle transform as a JSON edit file. It holds only the last selection and its drag,
@@ -32,7 +36,10 @@ HOWTO = """\
    --cage N' gives the shape you see when N is the window's cage size and that selection
    was made on the rest pose.
 Navigate: Camera mode (C) rotates with the left button; middle drag pans, the wheel
-zooms, Alt + left drag rotates in any mode; F frames the shape, W shows/hides the cage."""
+zooms, Alt + left drag rotates in any mode; F frames the shape, W shows/hides the cage.
+T (View > Stretch Map) colours the shape by how much its edges stretched or shrank
+against the rest shape (blue 0 % to red 20 % or more). File > Mesh Info lists the
+counts and any repairs made to the input when it was loaded."""
 
 
 

@@ -15,6 +15,8 @@ from __future__ import annotations
 import numpy as np
 import pyvista as pv
 from numba import njit
+from vtkmodules.vtkCommonCore import vtkLookupTable
+from vtkmodules.vtkRenderingAnnotation import vtkScalarBarActor
 from vtkmodules.vtkRenderingCore import vtkRenderer
 
 from ..mesh import unique_edges
@@ -33,6 +35,20 @@ SHAPE_TINT = np.array([0.12, 0.35, 0.60])
 POINT_ALPHA = np.array([[170, 30], [255, 70], [255, 70]], dtype=np.uint8)
 """Cage point opacity per state (rows FIXED, FREE, HANDLE), facing / facing away from the camera."""
 """How strongly each state's colour tints the shape vertices it dominates."""
+STRETCH_MAX = 20.0
+"""Top of the stretch map's colour scale, in percent of relative edge-length change (clipped above)."""
+
+
+def stretch_lookup_table(top: float = STRETCH_MAX) -> vtkLookupTable:
+    """Blue (no stretch) through green and yellow to red (``top`` percent or more)."""
+    lut = vtkLookupTable()
+    lut.SetNumberOfTableValues(256)
+    lut.SetHueRange(0.66, 0.0)
+    lut.SetSaturationRange(0.85, 0.85)
+    lut.SetValueRange(0.95, 0.95)
+    lut.SetTableRange(0.0, top)
+    lut.Build()
+    return lut
 
 
 @njit(cache=True)
@@ -116,6 +132,26 @@ class Scene:
         self._actors: list = []
         self._overlay_actors: list = []
         self.cage_visible = True
+        self.stretch_visible = False
+        self.stretch_lut = stretch_lookup_table()
+        bar = vtkScalarBarActor()
+        bar.SetLookupTable(self.stretch_lut)
+        bar.SetTitle("edge stretch %")
+        bar.SetNumberOfLabels(5)
+        bar.SetLabelFormat("%.0f")
+        bar.SetMaximumWidthInPixels(70)
+        bar.SetMaximumHeightInPixels(320)
+        bar.SetPosition(0.9, 0.08)
+        bar.SetWidth(0.08)
+        bar.SetHeight(0.45)
+        for tp in (bar.GetTitleTextProperty(), bar.GetLabelTextProperty()):
+            tp.SetColor(0.1, 0.1, 0.12)
+            tp.SetShadow(False)
+            tp.SetItalic(False)
+        bar.SetVisibility(False)
+        bar.SetPickable(False)
+        self.stretch_bar = bar
+        self.overlay.AddViewProp(bar)
 
     # ------------------------------------------------------------------ building
     def clear(self) -> None:
@@ -148,12 +184,14 @@ class Scene:
         shape.point_data["Normals"] = vertex_normals(V, self._faces).astype(np.float32)
         shape.GetPointData().SetActiveNormals("Normals")
         shape.point_data["tint"] = shape_tint(states, self._dominant)
+        shape.point_data["stretch"] = np.zeros(len(V), dtype=np.float32)
         shape.point_data.active_scalars_name = "tint"
         self.shape = shape
         mapper = pv.DataSetMapper(shape)
         mapper.SetColorModeToDirectScalars()
         mapper.SetScalarModeToUsePointData()
         mapper.scalar_visibility = True
+        self.shape_mapper = mapper
         actor = pv.Actor(mapper=mapper)
         actor.prop.interpolation = "gouraud"
         actor.prop.ambient = 0.18
@@ -205,6 +243,7 @@ class Scene:
         lo, hi = V.min(axis=0), V.max(axis=0)
         self.gizmo.build(0.12 * float(np.linalg.norm(hi - lo)))
         self.set_cage_visible(self.cage_visible)
+        self.set_stretch_visible(self.stretch_visible)
 
     @staticmethod
     def _line_actor(poly: pv.PolyData, opacity: float, width: float) -> pv.Actor:
@@ -250,6 +289,30 @@ class Scene:
         _array_modified(self.points_poly, "state")
         self.shape.point_data["tint"][:] = shape_tint(s, self._dominant)
         _array_modified(self.shape, "tint")
+
+    def update_stretch(self, percent: np.ndarray) -> None:
+        """Write per shape vertex stretch values (n,), in percent, for the stretch map."""
+        if self.shape is None:
+            return
+        self.shape.point_data["stretch"][:] = percent
+        _array_modified(self.shape, "stretch")
+
+    def set_stretch_visible(self, visible: bool) -> None:
+        """Colour the shape by the "stretch" array with a colour bar, or back to the selection tint."""
+        self.stretch_visible = bool(visible)
+        self.stretch_bar.SetVisibility(self.stretch_visible and self.shape is not None)
+        if self.shape is None:
+            return
+        m = self.shape_mapper
+        if self.stretch_visible:
+            self.shape.point_data.active_scalars_name = "stretch"
+            m.SetLookupTable(self.stretch_lut)
+            m.SetUseLookupTableScalarRange(True)
+            m.SetColorModeToMapScalars()
+        else:
+            self.shape.point_data.active_scalars_name = "tint"
+            m.SetColorModeToDirectScalars()
+        m.Modified()
 
     def set_cage_visible(self, visible: bool) -> None:
         """Show or hide the cage wireframe and points."""

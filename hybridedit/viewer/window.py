@@ -15,18 +15,22 @@ from ..atomic import WriteError
 from ..editfile import EditFileError, load_edit, save_edit
 from ..editor import SelectionError
 from ..io import SUPPORTED_EXTENSIONS, MeshFileError, write_mesh
-from ..mesh import MeshError
+from ..mesh import MeshError, edge_stretch, rrms_edge_error, vertex_stretch
+from ..polish import free_shape_vertices
 from .cagesize import CageSizeControl
 from .help import HOWTO, ShortcutsDialog
 from .interaction import BRUSH, CAMERA, DRAG, RECTANGLE, SELECT, ViewController
 from .scene import STATE_COLORS, Scene
 from .session import HANDLE, ROI, Session
 from .view import View
-from .worker import BuildRequest, BuildResult, BuildWorker
+from .worker import (BuildRequest, BuildResult, BuildWorker, PolishOutcome, PolishRequest, PolishWorker,
+                     ShapeARAPHolder)
 
 MESH_FILTER = "Meshes (*.obj *.ply *.stl *.off);;OBJ (*.obj);;PLY (*.ply);;STL (*.stl);;OFF (*.off);;All files (*)"
 EDIT_FILTER = "Edit files (*.json);;All files (*)"
 RRMS_INTERVAL = 0.3  # seconds between edge-error evaluations while dragging
+STRETCH_INTERVAL = 0.3  # seconds between stretch-map updates while dragging
+POLISH_SECONDS = 1.0  # time budget of the polish on release (iterations; the one-off set-up comes on top)
 
 def _same_file(a: Path, b: Path) -> bool:
     try:
@@ -78,6 +82,18 @@ class MainWindow(QtWidgets.QMainWindow):
         self._rrms_dirty = False
         self._rrms_time = 0.0
         self._engine_ms = 0.0
+        self.polish_on_release = True
+        self.polish_seconds = POLISH_SECONDS
+        self.polish_iterations = 200
+        self.polish_tolerance = 1e-6
+        self.polish_worker: PolishWorker | None = None
+        self._polish_next: PolishRequest | None = None
+        self._polish_token = 0
+        self._polish_holder: ShapeARAPHolder | None = None
+        self.polished: np.ndarray | None = None  # the polished pose on display (a view state), or None
+        self.last_polish: PolishOutcome | None = None
+        self._stretch_dirty = False
+        self._stretch_time = 0.0
 
         self.view = View(self)
         self.setCentralWidget(self.view)
@@ -148,6 +164,10 @@ class MainWindow(QtWidgets.QMainWindow):
                    tip="On release, solve the final transform from the selection's start pose with the batch "
                        "settings, so the window shows what 'hybridedit deform' computes")
         settle.setChecked(True)
+        pol = A("polish", "Polish on Release", self._toggle_polish, checkable=True,
+                tip="After a drag, run full-resolution ARAP on the edited region in the background (about 1 s) "
+                    "and show the result; the next drag starts from the cage pose again")
+        pol.setChecked(True)
         A("mode_camera", "&Camera Mode", lambda: self.set_mode(CAMERA), "C", checkable=True,
           tip="Left drag rotates the view", short="Camera")
         A("mode_select", "&Select Mode", lambda: self.set_mode(SELECT), "S", checkable=True,
@@ -166,6 +186,11 @@ class MainWindow(QtWidgets.QMainWindow):
         show_cage = A("show_cage", "Show Ca&ge", self._toggle_cage, "W", checkable=True, tip="Show the cage wireframe",
                       short="Cage")
         show_cage.setChecked(True)
+        A("stretch", "S&tretch Map", self._toggle_stretch, "T", checkable=True,
+          tip="Colour the shape by the relative edge-length change against the rest shape (0 to 20 %)",
+          short="Stretch")
+        A("mesh_info", "Mesh &Info…", self.show_mesh_info,
+          tip="Vertex, face and cage counts; repairs made to the input")
         A("reset_camera", "&Frame Shape", self.reset_camera, "F", tip="Reset the camera to show the whole shape")
         A("antialias", "&Anti-aliasing", self._toggle_antialias, checkable=True,
           tip="Multisample anti-aliasing (off by default with software OpenGL, where it is slow)")
@@ -189,12 +214,13 @@ class MainWindow(QtWidgets.QMainWindow):
         mb = self.menuBar()
         a = self.actions_
         menus = {
-            "&File": ["open", "save", "save_as", None, "load_edit", "save_edit", None, "screenshot", None, "quit"],
+            "&File": ["open", "save", "save_as", None, "load_edit", "save_edit", None, "screenshot", None,
+                      "mesh_info", None, "quit"],
             "&Edit": ["undo", "redo", None, "reset_pose", None, "select_all", "clear_sel", "invert_sel", None,
-                      "settle"],
+                      "settle", "polish"],
             "&Mode": ["mode_camera", "mode_select", "mode_drag", None, "target_roi", "target_handle", None,
                       "tool_rect", "tool_brush", "brush_bigger", "brush_smaller"],
-            "&View": ["show_cage", "reset_camera", "antialias"],
+            "&View": ["show_cage", "stretch", "reset_camera", "antialias"],
             "&Cage": ["rebuild", "cancel_job"],
             "&Help": ["howto", "shortcuts", "about"],
         }
@@ -319,6 +345,18 @@ class MainWindow(QtWidgets.QMainWindow):
         if self.session is not None:
             self.session.settle_on_release = self.settle_on_release
 
+    def _toggle_polish(self) -> None:
+        self.polish_on_release = self.actions_["polish"].isChecked()
+        if not self.polish_on_release:
+            self.cancel_polish()
+
+    def _toggle_stretch(self) -> None:
+        on = self.actions_["stretch"].isChecked()
+        if on:
+            self._update_stretch()
+        self.scene.set_stretch_visible(on)
+        self.view.request_render()
+
     def reset_camera(self) -> None:
         self.scene.reset_camera()
         self.view.request_render()
@@ -354,6 +392,7 @@ class MainWindow(QtWidgets.QMainWindow):
             self.show_error("Busy", "A cage is being built; wait for it or cancel it first.")
             return False
         self.controller.cancel()
+        self.cancel_polish()
         w = BuildWorker(request, self)
         w.progress.connect(self._job_progress)
         w.succeeded.connect(self._job_succeeded)
@@ -425,7 +464,13 @@ class MainWindow(QtWidgets.QMainWindow):
         self.controller.cancel()
         self._finish_settle()
         self.settle_timer.stop()
+        self.cancel_polish()
         self.session = session
+        self.polished = None
+        self.last_polish = None
+        if self._polish_holder is not None and self._polish_holder.mesh is not session.mesh:
+            self._polish_holder = None  # a new shape: its full-resolution set-up is built by its first polish
+        self._stretch_dirty = True
         self.scene.load(session.shape_positions, session.mesh.faces, session.cage_positions,
                         ed.cage.faces, session.states(), session.dominant)
         self.scene.gizmo.place(session.handle_centroid())
@@ -440,9 +485,15 @@ class MainWindow(QtWidgets.QMainWindow):
         t = ed.timings
         how = "from the cache" if getattr(ed, "cache_hit", False) else (
             f"cage {t.get('cage_seconds', 0):.1f} s, binding {t.get('bind_seconds', 0):.1f} s")
-        self.message(f"{'Rebuilt' if rebuild else 'Loaded'} {name} ({how})", 10000)
+        notes = [str(n) for n in (getattr(ed, "notes", None) or [])]
+        msg = f"{'Rebuilt' if rebuild else 'Loaded'} {name} ({how})"
+        if notes and not rebuild:
+            msg += f" · input repaired: {'; '.join(notes)} (File ▸ Mesh Info…)"
+        self.message(msg, 20000 if notes else 10000)
         self._update_labels()
         self._update_actions()
+        if self.actions_["stretch"].isChecked():
+            self._update_stretch()
         self.view.request_render()
 
     # ================================================================== Handler (called by the view controller)
@@ -456,6 +507,7 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def begin_select(self) -> bool:
         self._finish_settle()
+        self.cancel_polish()
         if self.session is None:
             return False
         self.session.begin_stroke(self.target)
@@ -476,8 +528,10 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def begin_drag(self) -> bool:
         self._finish_settle()
+        self.cancel_polish()
         if self.session is None:
             return False
+        self._drop_polished()  # the drag starts from the engine's pose
         try:
             self._drag_T0 = self.session.begin_drag()
         except SelectionError as e:
@@ -517,6 +571,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self._engine_ms = s.last_frame_seconds * 1e3
         self._frame_ms = (time.perf_counter() - t0) * 1e3
         self._rrms_dirty = True
+        self._stretch_dirty = True
         self.modified = True
         self.view.request_render()
 
@@ -564,16 +619,128 @@ class MainWindow(QtWidgets.QMainWindow):
         self._refresh_pose()
         self._update_rrms()
         self._update_actions()
+        self._start_polish()
+
+    # ================================================================== polish on release (worker thread)
+    def shown_vertices(self) -> np.ndarray | None:
+        """The shape on display: the polished pose when one is shown, else the engine's pose."""
+        if self.session is None:
+            return None
+        return self.polished if self.polished is not None else self.session.shape_positions
+
+    def _start_polish(self) -> None:
+        """Polish the engine's pose in the background (after a drag's settle)."""
+        s = self.session
+        if not self.polish_on_release or s is None or not s.applied or s.settling:
+            return
+        ed = s.editor
+        free = free_shape_vertices(ed.M, ed.arap.free, ed.cage.n_vertices)
+        if not free.any():
+            return
+        if self._polish_holder is None or self._polish_holder.mesh is not s.mesh:
+            self._polish_holder = ShapeARAPHolder(s.mesh)
+        self._polish_token += 1
+        req = PolishRequest(self._polish_holder, s.shape_positions.copy(), free, s.edges,
+                            seconds=self.polish_seconds, max_iterations=self.polish_iterations,
+                            tolerance=self.polish_tolerance, token=self._polish_token)
+        if self.polish_worker is not None:  # one at a time (they share the set-up): queue it
+            self.polish_worker.cancel()
+            self._polish_next = req
+        else:
+            self._launch_polish(req)
+
+    def _launch_polish(self, req: PolishRequest) -> None:
+        w = PolishWorker(req, self)
+        w.succeeded.connect(self._polish_succeeded)
+        w.failed.connect(self._polish_failed)
+        w.finished.connect(self._polish_finished)
+        self.polish_worker = w
+        self.time_label.setText("polishing…")
+        w.start()
+
+    def cancel_polish(self) -> None:
+        """Stop a polish under way (or queued); its result will be dropped. A polished pose on display stays."""
+        self._polish_token += 1
+        self._polish_next = None
+        if self.polish_worker is not None:
+            self.polish_worker.cancel()
+
+    def _drop_polished(self) -> None:
+        """Show the engine's pose again instead of a polished one."""
+        if self.polished is None:
+            return
+        self.polished = None
+        if self.session is not None:
+            self.scene.update_shape(self.session.shape_positions)
+            self._pose_shown_changed()
+            self.view.request_render()
+
+    def _polish_current(self, out: PolishOutcome) -> bool:
+        s = self.session
+        return (out.request.token == self._polish_token and s is not None and not s.settling
+                and out.request.holder is self._polish_holder and s.mesh is out.request.holder.mesh)
+
+    def _polish_succeeded(self, out: PolishOutcome) -> None:
+        if not self._polish_current(out):
+            return  # a drag, an undo or the like came in between: the result is stale
+        self.last_polish = out
+        self.polished = out.result.vertices
+        self.scene.update_shape(self.polished)
+        self._pose_shown_changed()
+        self._update_rrms()
+        self.view.request_render()
+        r = out.result
+        self.message(f"polished: {r.iterations} iterations, edge error {out.error_before:.2f}% → "
+                     f"{out.error_after:.2f}% ({out.seconds:.2f} s)", 10000)
+
+    def _polish_failed(self, message: str) -> None:
+        self.message(f"Polish failed: {message}", 10000)
+
+    def _polish_finished(self) -> None:
+        w = self.polish_worker
+        self.polish_worker = None
+        if w is not None:
+            w.wait()
+            w.deleteLater()
+        req, self._polish_next = self._polish_next, None
+        if req is not None and req.token == self._polish_token and self.session is not None:
+            self._launch_polish(req)
+
+    # ================================================================== stretch map
+    def _pose_shown_changed(self) -> None:
+        """The shape on display changed: the edge error and the stretch map are out of date."""
+        self._rrms_dirty = True
+        if self.actions_["stretch"].isChecked():
+            self._update_stretch()
+        else:
+            self._stretch_dirty = True
+
+    def stretch_values(self) -> np.ndarray | None:
+        """Per shape vertex mean |l' - l| / l over its edges, in percent, for the shape on display."""
+        s = self.session
+        if s is None:
+            return None
+        V = self.shown_vertices()
+        return 100.0 * vertex_stretch(s.mesh.n_vertices, s.edges, edge_stretch(s.mesh.vertices, V, s.edges))
+
+    def _update_stretch(self) -> None:
+        self._stretch_dirty = False
+        self._stretch_time = time.perf_counter()
+        vals = self.stretch_values()
+        if vals is not None:
+            self.scene.update_stretch(vals)
+            self.view.request_render()
 
     # ================================================================== refresh
     def _refresh_pose(self) -> None:
         s = self.session
         if s is None:
             return
+        self.polished = None
         self.scene.update_shape(s.shape_positions)
         self.scene.update_cage(s.cage_positions)
         self.scene.gizmo.place(s.handle_centroid())
-        self._rrms_dirty = True
+        self._pose_shown_changed()
         self.view.request_render()
 
     def _refresh_selection(self) -> None:
@@ -610,7 +777,9 @@ class MainWindow(QtWidgets.QMainWindow):
             return
         self._rrms_time = time.perf_counter()
         self._rrms_dirty = False
-        self.error_label.setText(f"edge error {self.session.rrms_error():.2f} %")
+        s = self.session
+        err = rrms_edge_error(s.mesh.vertices, self.shown_vertices(), s.edges)
+        self.error_label.setText(f"edge error {err:.2f} %{' (polished)' if self.polished is not None else ''}")
 
     def _on_rendered(self, seconds: float) -> None:
         a = self.actions_["antialias"]
@@ -622,6 +791,12 @@ class MainWindow(QtWidgets.QMainWindow):
             return
         if self._rrms_dirty and time.perf_counter() - self._rrms_time >= RRMS_INTERVAL:
             self._update_rrms()
+        if (self._stretch_dirty and self.actions_["stretch"].isChecked()
+                and time.perf_counter() - self._stretch_time >= STRETCH_INTERVAL):
+            self._update_stretch()
+        if self.polish_worker is not None:
+            self.time_label.setText("polishing…")
+            return
         r = self.view.render_seconds * 1e3
         e = self._engine_ms
         fps = self.view.display_fps()
@@ -645,7 +820,8 @@ class MainWindow(QtWidgets.QMainWindow):
         busy = self.worker is not None
         for n in ("open", "rebuild", "load_edit"):
             a[n].setEnabled(not busy)
-        for n in ("save", "save_as", "save_edit", "reset_pose", "select_all", "clear_sel", "invert_sel", "screenshot"):
+        for n in ("save", "save_as", "save_edit", "reset_pose", "select_all", "clear_sel", "invert_sel", "screenshot",
+                  "mesh_info"):
             a[n].setEnabled(s is not None)
         a["cancel_job"].setEnabled(busy)
 
@@ -655,6 +831,7 @@ class MainWindow(QtWidgets.QMainWindow):
         if self.session is None or self.controller.busy:
             return
         self._finish_settle()
+        self.cancel_polish()
         if self.session.undo():
             self._refresh_all()
 
@@ -663,6 +840,7 @@ class MainWindow(QtWidgets.QMainWindow):
         if self.session is None or self.controller.busy:
             return
         self._finish_settle()
+        self.cancel_polish()
         if self.session.redo():
             self._refresh_all()
 
@@ -671,6 +849,7 @@ class MainWindow(QtWidgets.QMainWindow):
         if self.session is None or self.controller.busy:
             return
         self._finish_settle()
+        self.cancel_polish()
         self.session.reset_pose()
         self._refresh_all()
         self.message("Back to the rest pose")
@@ -680,6 +859,7 @@ class MainWindow(QtWidgets.QMainWindow):
         if s is None or self.controller.busy:
             return
         self._finish_settle()
+        self.cancel_polish()
         {"all": s.select_all, "clear": s.clear, "invert": s.invert}[op](self.target)
         self._refresh_selection()
         self._update_actions()
@@ -749,7 +929,8 @@ class MainWindow(QtWidgets.QMainWindow):
                     self.message("Not saved")
                     return False
         try:
-            write_mesh(p, s.editor.deformed)
+            # what is shown: the polished pose when one is on display
+            write_mesh(p, s.editor.deformed if self.polished is None else s.mesh.copy(vertices=self.polished.copy()))
         except (MeshError, MeshFileError, WriteError, OSError) as e:
             self.show_error("Could not save the mesh", str(e))
             return False
@@ -810,6 +991,7 @@ class MainWindow(QtWidgets.QMainWindow):
             return False
         if self.controller.busy:
             return False
+        self.cancel_polish()
         try:
             edit = load_edit(path)
             s.load_edit(edit)
@@ -879,6 +1061,41 @@ class MainWindow(QtWidgets.QMainWindow):
     def show_howto(self) -> None:
         QtWidgets.QMessageBox.information(self, "How to edit", HOWTO)
 
+    def mesh_info_text(self) -> str:
+        s = self.session
+        if s is None:
+            return "No shape loaded."
+        m, c = s.mesh, s.editor.cage
+        lines = [
+            f"Shape: {s.path if s.path is not None else (m.name or 'shape')}",
+            f"Vertices: {_fmt(m.n_vertices)}",
+            f"Faces: {_fmt(m.n_faces)}",
+            f"Edges: {_fmt(len(s.edges))}",
+            f"Cage: {_fmt(c.n_vertices)} vertices, {_fmt(c.n_faces)} faces",
+        ]
+        notes = [str(n) for n in (getattr(s.editor, "notes", None) or [])]
+        lines.append("")
+        if notes:
+            lines.append("Repairs made to the input:")
+            lines += [f"  • {n}" for n in notes]
+        else:
+            lines.append("Repairs made to the input: none")
+        if self.last_polish is not None:
+            p = self.last_polish
+            lines += ["", f"Last polish: {p.result.iterations} iterations in {p.seconds:.2f} s "
+                          f"(set-up {p.setup_seconds:.2f} s), "
+                          f"edge error {p.error_before:.2f}% → {p.error_after:.2f}%"]
+        return "\n".join(lines)
+
+    def show_mesh_info(self) -> None:
+        """File > Mesh Info: counts and repairs, in a non-modal box."""
+        box = QtWidgets.QMessageBox(QtWidgets.QMessageBox.Icon.Information, "Mesh info", self.mesh_info_text(),
+                                    QtWidgets.QMessageBox.StandardButton.Ok, self)
+        box.setAttribute(QtCore.Qt.WidgetAttribute.WA_DeleteOnClose)
+        box.setModal(False)
+        self._info_box = box
+        box.show()
+
     def show_about(self) -> None:
         QtWidgets.QMessageBox.about(
             self, "About hybridedit",
@@ -889,6 +1106,9 @@ class MainWindow(QtWidgets.QMainWindow):
     # ================================================================== closing
     def closeEvent(self, ev: QtGui.QCloseEvent) -> None:  # noqa: N802
         self.settle_timer.stop()
+        self.cancel_polish()
+        if self.polish_worker is not None:
+            self.polish_worker.wait(30000)
         if self.worker is not None:
             self.worker.cancel()
             self.worker.wait(30000)

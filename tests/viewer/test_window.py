@@ -112,6 +112,8 @@ def select_roi_and_handle(qtbot, w: MainWindow) -> tuple[np.ndarray, np.ndarray]
 def test_select_drag_undo_redo_save_and_replay(qtbot, win, blob_file, tmp_path):
     w = win
     s = w.session
+    w.actions_["polish"].trigger()  # this test checks the engine's pose on screen (the polish has its own tests)
+    assert not w.polish_on_release
     rest_cage = s.cage_positions
     rest_shape = s.shape_positions.copy()
     assert w.size_label.text().startswith("shape 2,562 v")

@@ -1,0 +1,201 @@
+"""Polish on release, the stretch map and the mesh info / repair notes, in the real window (pytest-qt, Xvfb)."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from qtpy import QtCore
+
+from hybridedit.arap import ARAPSolver
+from hybridedit.io import read_mesh
+from hybridedit.mesh import edge_stretch, vertex_stretch
+from hybridedit.polish import free_shape_vertices
+from hybridedit.viewer import worker as worker_module
+from hybridedit.viewer.window import MainWindow
+from test_window import key, mouse_drag, projected, settled, to_widget, wait_loaded, win  # noqa: F401 (fixture)
+
+Qt = QtCore.Qt
+
+
+def select_tip(qtbot, w: MainWindow) -> None:
+    """ROI: the right half of the cage; handle: its right end."""
+    s = w.session
+    P = s.cage_positions
+    s.set_mask("roi", P[:, 0] > 0.0)
+    s.set_mask("handle", P[:, 0] > 1.4)
+    w._refresh_selection()
+    key(qtbot, w, Qt.Key.Key_D)  # Drag mode
+
+
+def handle_point(w: MainWindow) -> QtCore.QPoint:
+    dc, _ = projected(w, w.session.handle_centroid()[None])
+    return to_widget(w, dc[0])
+
+
+def drag_up(qtbot, w: MainWindow, pixels: int = 80) -> None:
+    a = handle_point(w)
+    mouse_drag(qtbot, w.view, a, a + QtCore.QPoint(0, -pixels), steps=6)
+    settled(qtbot, w)
+
+
+def polished(qtbot, w: MainWindow, timeout: int = 20000) -> None:
+    qtbot.waitUntil(lambda: w.polished is not None and w.polish_worker is None, timeout=timeout)
+    qtbot.wait(10)
+
+
+def test_polish_on_release_lowers_the_energy_and_save_writes_it(qtbot, win, tmp_path):
+    w = win
+    s = w.session
+    assert w.actions_["polish"].isChecked() and w.polish_on_release
+    rest = s.shape_positions.copy()
+    select_tip(qtbot, w)
+    drag_up(qtbot, w)
+    hybrid = s.shape_positions.copy()  # the engine's (settled) pose
+    polished(qtbot, w)
+    P = w.polished.copy()
+    # the polish ran in the background and the window shows its result
+    assert np.allclose(np.asarray(w.scene.shape.points), P, atol=1e-5)
+    assert not np.allclose(P, hybrid, atol=1e-6)
+    msg = w.statusBar().currentMessage()
+    assert msg.startswith("polished: ") and "iterations, edge error" in msg and "→" in msg
+    assert w.error_label.text().endswith("(polished)")
+    # lower full-mesh ARAP energy than the hybrid pose
+    arap = ARAPSolver(s.mesh.vertices, s.mesh.faces, weights="cotangent")
+    assert arap.energy(P) < arap.energy(hybrid)
+    assert w.last_polish.result.energy_after < w.last_polish.result.energy_before
+    # only the edited region moved: the handle's and the fixed part's vertices are where the hybrid pose put them
+    ed = s.editor
+    free = free_shape_vertices(ed.M, ed.arap.free, ed.cage.n_vertices)
+    assert free.any() and (~free).any()
+    assert np.array_equal(P[~free], hybrid[~free])
+    # the polish is a view state: the engine's pose and the undo history are untouched
+    assert np.array_equal(s.shape_positions, hybrid)
+    # save writes what is shown (the polished pose)
+    out = tmp_path / "polished.obj"
+    assert w.save_to(out)
+    assert np.array_equal(read_mesh(out).vertices, P)
+    assert "polish" in w.mesh_info_text().lower()
+    # undo restores what it always did (the pose before the drag) and shows it
+    key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
+    assert w.polished is None
+    assert np.allclose(s.shape_positions, rest, atol=1e-12)
+    assert np.allclose(np.asarray(w.scene.shape.points), rest, atol=1e-5)
+    # redo brings the hybrid pose back (no polish: it only follows a release)
+    key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier | Qt.KeyboardModifier.ShiftModifier)
+    assert np.allclose(s.shape_positions, hybrid, atol=1e-12) and w.polished is None
+    assert w.polish_worker is None
+    # off: a release shows the engine's pose only
+    w.actions_["polish"].trigger()
+    assert not w.polish_on_release
+    drag_up(qtbot, w, 30)
+    qtbot.wait(200)
+    assert w.polish_worker is None and w.polished is None
+    assert np.allclose(np.asarray(w.scene.shape.points), s.shape_positions, atol=1e-5)
+
+
+def test_a_new_drag_or_undo_cancels_a_running_polish(qtbot, win):
+    w = win
+    s = w.session
+    select_tip(qtbot, w)
+    # a polish that would run for a minute: never converges, no iteration cap
+    w.polish_seconds, w.polish_iterations, w.polish_tolerance = 60.0, 10 ** 9, 0.0
+    drag_up(qtbot, w)
+    qtbot.waitUntil(lambda: w.polish_worker is not None and w._polish_holder.shape_arap is not None, timeout=10000)
+    qtbot.wait(150)  # iterating now
+    running = w.polish_worker
+    assert running.isRunning()
+    # pressing on the handle starts a new drag: the polish stops after its current iteration
+    a = handle_point(w)
+    t0 = time.perf_counter()
+    qtbot.mousePress(w.view, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier, a)
+    assert running.cancel_requested
+    qtbot.waitUntil(lambda: w.polish_worker is None, timeout=5000)
+    assert time.perf_counter() - t0 < 5.0
+    assert w.polished is None and w.last_polish is None  # the result was dropped
+    for k in range(1, 4):
+        qtbot.mouseMove(w.view, a + QtCore.QPoint(0, -10 * k))
+        qtbot.wait(5)
+    qtbot.mouseRelease(w.view, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier, a + QtCore.QPoint(0, -30))
+    settled(qtbot, w)
+    # the release started another long polish; undo cancels it too and shows the pose before that drag
+    qtbot.waitUntil(lambda: w.polish_worker is not None, timeout=5000)
+    running = w.polish_worker
+    before = s.history.current
+    key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
+    assert running.cancel_requested and s.history.current is not before
+    qtbot.waitUntil(lambda: w.polish_worker is None, timeout=5000)
+    qtbot.wait(50)
+    assert w.polished is None and w.last_polish is None
+    assert np.allclose(np.asarray(w.scene.shape.points), s.shape_positions, atol=1e-5)
+
+
+def test_stretch_map(qtbot, win):
+    w = win
+    s = w.session
+    a = w.actions_["stretch"]
+    assert not a.isChecked() and not w.scene.stretch_bar.GetVisibility()
+    select_tip(qtbot, w)
+    drag_up(qtbot, w)
+    polished(qtbot, w)
+    w.view.render()
+    before = np.asarray(w.view.screenshot(None, return_img=True)).astype(np.int16)
+    key(qtbot, w, Qt.Key.Key_T)  # on
+    assert a.isChecked()
+    assert w.scene.shape.point_data.active_scalars_name == "stretch"
+    assert w.scene.shape_mapper.GetColorMode() == 1  # VTK_COLOR_MODE_MAP_SCALARS
+    assert w.scene.stretch_bar.GetVisibility()
+    V = w.polished  # the shape on display
+    expected = 100.0 * vertex_stretch(s.mesh.n_vertices, s.edges, edge_stretch(s.mesh.vertices, V, s.edges))
+    shown = np.asarray(w.scene.shape.point_data["stretch"])
+    assert np.allclose(shown, expected, rtol=1e-5, atol=1e-4)
+    far = s.mesh.vertices[:, 0] < -1.0  # the fixed end
+    # the bent part shows, the fixed part does not
+    assert expected.max() > 1.0 and expected[far].max() < 0.05 * expected.max()
+    w.view.render()
+    after = np.asarray(w.view.screenshot(None, return_img=True)).astype(np.int16)
+    assert before.shape == after.shape
+    assert (np.abs(after - before).max(axis=2) > 30).mean() > 0.01  # the colours changed
+    # it follows the shape: undo back to rest, no stretch anywhere
+    key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
+    assert np.abs(np.asarray(w.scene.shape.point_data["stretch"])).max() < 1e-3
+    # off: back to the selection tint
+    key(qtbot, w, Qt.Key.Key_T)
+    assert not a.isChecked()
+    assert w.scene.shape.point_data.active_scalars_name == "tint"
+    assert w.scene.shape_mapper.GetColorMode() == 2  # VTK_COLOR_MODE_DIRECT_SCALARS
+    assert not w.scene.stretch_bar.GetVisibility()
+    w.view.render()
+    off = np.asarray(w.view.screenshot(None, return_img=True)).astype(np.int16)
+    assert (np.abs(off - after).max(axis=2) > 30).mean() > 0.01
+
+
+def test_repair_notes_are_shown_after_loading(qtbot, blob_file, monkeypatch):
+    notes = ["merged 3 duplicate vertices", "removed 2 degenerate faces"]
+
+    class Noted(worker_module.HybridEditor):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            self.notes = list(notes)
+
+    monkeypatch.setattr(worker_module, "HybridEditor", Noted)
+    w = MainWindow(cage_size=150)
+    qtbot.addWidget(w)
+    w.show()
+    qtbot.waitExposed(w)
+    assert not w.actions_["mesh_info"].isEnabled()
+    assert w.open_path(blob_file)
+    wait_loaded(qtbot, w)
+    msg = w.statusBar().currentMessage()
+    assert "repaired" in msg and notes[0] in msg and notes[1] in msg
+    assert w.actions_["mesh_info"].isEnabled()
+    w.actions_["mesh_info"].trigger()
+    box = w._info_box
+    qtbot.waitExposed(box)
+    assert not box.isModal()
+    text = box.text()
+    assert "2,562" in text and f"{w.session.n_cage}" in text and notes[0] in text and notes[1] in text
+    box.close()
+    # without notes: "none"
+    w.session.editor.notes = []
+    assert "none" in w.mesh_info_text()
