@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import fast_simplification
 
-from .mesh import Mesh, MeshError
+from .mesh import Mesh
 
 
 def cage_vertex_target(n_vertices: int, size: int | float) -> int:
@@ -34,45 +34,124 @@ def cage_vertex_target(n_vertices: int, size: int | float) -> int:
     return target
 
 
-def build_cage(mesh: Mesh, size: int | float = 0.05) -> Mesh:
+def build_cage(mesh: Mesh, size: int | float = 0.05, notes: list[str] | None = None) -> Mesh:
     """Simplify ``mesh`` with quadric error metrics to about ``size`` vertices.
+
+    The shape is first cleaned on a private copy (:func:`hybridedit.repair.cage_source`:
+    duplicate vertices merged, degenerate, duplicate and non-manifold faces dropped,
+    orientation made consistent); the simplified result is cleaned again and its
+    holes closed, so the cage is always a closed, consistently oriented surface.
+    A shape too small or too flat for that gets a box around it as the cage.
 
     Parameters
     ----------
     mesh : Mesh
-        The shape.
+        The shape (not modified).
     size : int or float
         Target vertex count (int) or fraction of the shape's vertices (float).
+        A count larger than the shape's is clamped to what it has.
+    notes : list of str, optional
+        Plain-word sentences about every repair and adjustment are appended here.
 
     Returns
     -------
     Mesh
         The cage, with degenerate faces, coincident opposite face pairs and
         unreferenced vertices removed. Its vertex count is within a few percent of
-        the target (QEM collapses edges, so the count is not exact).
+        the target (QEM collapses edges, so the count is not exact), plus one
+        vertex per closed hole.
+
+    Raises
+    ------
+    ValueError
+        A malformed ``size``.
+    MeshError
+        A shape with no usable face (every face degenerate).
     """
-    target = cage_vertex_target(mesh.n_vertices, size)
-    if target == mesh.n_vertices:
-        return clean_surface(mesh.vertices.copy(), mesh.faces.copy())
-    ratio = mesh.n_faces / max(mesh.n_vertices, 1)
+    from .repair import box_cage, cage_source, close_holes, plural
+
+    said: list[str] = [] if notes is None else notes
+    if isinstance(size, (bool, np.bool_)):
+        raise ValueError(f"cage size must be a vertex count or a fraction, got {size!r}")
+    if isinstance(size, (int, np.integer)):
+        if int(size) < 4:
+            raise ValueError(f"a cage needs at least 4 vertices, asked for {int(size)}")
+    src, repairs = cage_source(mesh)
+    said.extend(repairs)
+    n = src.n_vertices
+    if isinstance(size, (int, np.integer)):
+        target = int(size)
+    else:
+        target = cage_vertex_target(max(mesh.n_vertices, 4), size) if mesh.n_vertices >= 4 else 4
+        target = max(target, 4)
+    if target > n:
+        if n >= 4:
+            said.append(f"the mesh has only {plural(n, 'usable vertex', 'usable vertices')}; "
+                        f"the cage uses all of them instead of {target:,}")
+        target = n
+    if n < 4 or src.n_faces < 2:
+        said.append(f"the mesh is too small for a simplified cage ({plural(n, 'vertex', 'vertices')}); "
+                    "using a box around it as the cage")
+        return box_cage(mesh.vertices)
+    if target >= n:
+        cage = clean_surface(src.vertices.copy(), src.faces.copy())
+    else:
+        cage = _simplify(src, target)
+    if cage.n_faces >= 1:
+        cage, holes = close_holes(cage)
+        if holes:
+            said.append(f"closed {plural(holes, 'hole')} in the cage")
+        cage = clean_surface(cage.vertices, cage.faces)
+    if not _usable(cage):
+        said.append("the simplified cage is flat or degenerate; using a box around the shape as the cage")
+        return box_cage(mesh.vertices)
+    return cage
+
+
+def _simplify(src: Mesh, target: int) -> Mesh:
+    ratio = src.n_faces / max(src.n_vertices, 1)
     cage = None
     want_faces = max(4, int(round(target * ratio)))
+    # the simplifier has absolute thresholds and loses precision far from the origin:
+    # a shape of extreme size or offset is simplified centred and scaled to a unit
+    # diagonal (shapes of ordinary size are simplified as they are)
+    lo, hi = src.vertices.min(axis=0), src.vertices.max(axis=0)
+    center = 0.5 * (lo + hi)
+    scale = float(np.linalg.norm(hi - lo)) or 1.0
+    if 1e-2 <= scale <= 1e4 and float(np.abs(center).max()) <= 1e3 * scale:
+        center, scale = np.zeros(3), 1.0
+    unit = (src.vertices - center) / scale
     for _ in range(3):
-        want_faces = min(want_faces, mesh.n_faces)
+        want_faces = min(want_faces, src.n_faces)
         v, f = fast_simplification.simplify(
-            mesh.vertices, mesh.faces.astype(np.int32), target_count=want_faces, agg=7.0
+            unit, src.faces.astype(np.int32), target_count=want_faces, agg=7.0
         )
-        cage = clean_surface(np.asarray(v, dtype=np.float64), np.asarray(f, dtype=np.int64))
+        v = np.asarray(v, dtype=np.float64) * scale + center
+        cage = clean_surface(v, np.asarray(f, dtype=np.int64))
         got = cage.n_vertices
         if abs(got - target) <= max(2, 0.02 * target) or got == 0:
             break
         want_faces = int(round(want_faces * target / got))
     assert cage is not None
-    if cage.n_faces < 4:
-        raise MeshError(
-            f"{mesh.name or 'mesh'}: simplification to {target} vertices left no usable cage"
-        )
     return cage
+
+
+def _usable(cage: Mesh) -> bool:
+    """Closed, oriented, with a volume that is not negligible for its size."""
+    from .mvc import check_closed
+
+    if cage.n_faces < 4:
+        return False
+    try:
+        check_closed(cage.faces)
+    except ValueError:
+        return False
+    v = cage.vertices
+    c = v.mean(axis=0)
+    p0, p1, p2 = (v[cage.faces[:, k]] - c for k in range(3))
+    vol = float(np.einsum("ij,ij->i", p0, np.cross(p1, p2)).sum()) / 6.0
+    d = float(np.linalg.norm(np.ptp(v, axis=0)))
+    return bool(np.isfinite(vol) and vol > 1e-6 * d ** 3)
 
 
 def clean_surface(vertices: np.ndarray, faces: np.ndarray) -> Mesh:

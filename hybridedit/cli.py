@@ -16,6 +16,7 @@ from .editfile import EditFileError, load_edit
 from .editor import HybridEditor, SelectionError
 from .io import MeshFileError, read_mesh, write_mesh
 from .mesh import MeshError, edge_stretch, rrms_edge_error
+from .repair import cage_source
 
 DEFAULT_MESH = Path(__file__).resolve().parent.parent / "data" / "creature.ply"
 
@@ -94,12 +95,17 @@ def run_deform(args: argparse.Namespace) -> int:
         f"{', from the cache' if ed.cache_hit else ''}), "
         f"bound with {ed.nnz_per_row:.1f} coordinates a vertex ({ed.timings['bind_seconds']:.2f} s)"
     )
-    ed.set_selection(edit.handle, fixed=edit.fixed, roi=edit.roi, space=edit.space)
-    handle_pts = (mesh.vertices if edit.space == "shape" else ed.cage.vertices)[edit.handle]
-    T = edit.transform(default_center=handle_pts.mean(axis=0))
-    say(f"deforming: {args.frames} frames of {args.iterations} ARAP iterations")
-    for _ in range(args.frames):
-        V = ed.drag(transform=T)
+    for note in ed.notes:
+        print(f"hybridedit: note: {src.name}: {note}", file=sys.stderr, flush=True)
+    try:
+        ed.set_selection(edit.handle, fixed=edit.fixed, roi=edit.roi, space=edit.space)
+        handle_pts = (mesh.vertices if edit.space == "shape" else ed.cage.vertices)[edit.handle]
+        T = edit.transform(default_center=handle_pts.mean(axis=0))
+        say(f"deforming: {args.frames} frames of {args.iterations} ARAP iterations")
+        for _ in range(args.frames):
+            V = ed.drag(transform=T)
+    except ValueError as e:  # SelectionError, or a transform the editor refuses
+        raise CLIError(f"{args.edit}: {_one_line(e)}") from None
     if not np.all(np.isfinite(V)):
         raise CLIError("the deformation produced non-finite positions; the edit is too extreme")
     write_mesh(dst, ed.deformed)
@@ -148,10 +154,19 @@ def run_info(args: argparse.Namespace) -> int:
 
     mesh = read_mesh(args.input)
     rep = mesh_report(mesh)
+    try:
+        _, repairs = cage_source(mesh)
+    except MeshError as e:
+        repairs = [f"no cage can be built: {e}"]
     if args.json:
+        rep["cage_repairs"] = repairs
         print(json.dumps(rep, indent=1))
     else:
         print(format_report(rep))
+        if repairs:
+            print("  the cage is built from a repaired copy (the mesh itself is kept as is):")
+            for note in repairs:
+                print(f"    - {note}")
     return 0
 
 
@@ -238,11 +253,37 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return args.func(args)
     except (CLIError, MeshError, MeshFileError, EditFileError, SelectionError, WriteError) as e:
-        print(f"hybridedit: error: {e}", file=sys.stderr)
+        print(f"hybridedit: error: {_one_line(e)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("hybridedit: interrupted", file=sys.stderr)
         return 130
+    except MemoryError:
+        if os.environ.get("HYBRIDEDIT_DEBUG") == "1":
+            raise
+        print(f"hybridedit: error: {_input_name(args)}out of memory (try a smaller --cage)", file=sys.stderr)
+        return 1
+    except ValueError as e:  # a bad value that slipped past the checks above: still the user's input
+        if os.environ.get("HYBRIDEDIT_DEBUG") == "1":
+            raise
+        print(f"hybridedit: error: {_input_name(args)}{_one_line(e)}", file=sys.stderr)
+        return 2
+    except Exception as e:  # noqa: BLE001 -- one line, never a traceback (HYBRIDEDIT_DEBUG=1 shows it)
+        if os.environ.get("HYBRIDEDIT_DEBUG") == "1":
+            raise
+        print(f"hybridedit: internal error: {_input_name(args)}{type(e).__name__}: {_one_line(e)} "
+              "(set HYBRIDEDIT_DEBUG=1 for the traceback)", file=sys.stderr)
+        return 1
+
+
+def _input_name(args: argparse.Namespace) -> str:
+    name = getattr(args, "input", None) or getattr(args, "mesh", None)
+    return f"{Path(name).name}: " if name else ""
+
+
+def _one_line(e: BaseException) -> str:
+    text = " ".join(str(e).split())
+    return text or type(e).__name__
 
 
 if __name__ == "__main__":

@@ -14,6 +14,7 @@ from . import bindcache
 from .arap import ARAPSolver
 from .binding import bind
 from .cage import build_cage
+from .repair import box_cage, cage_source
 from .mesh import Mesh, MeshError
 from .propagate import propagate
 from .residual import propagate_with_residual, residual_setup
@@ -23,6 +24,8 @@ SPACES = ("shape", "cage")
 #: frame times kept in ``frame_seconds`` (the older half is dropped past this)
 FRAME_HISTORY = 10000
 PROPAGATIONS = ("residual", "linear")
+#: a drag may move the handle at most this many bounding-box diagonals
+MAX_REACH = 1e6
 
 Progress = Callable[[str, float], None]
 """progress(stage, fraction): stage is a short message, fraction in [0, 1] of that
@@ -39,6 +42,11 @@ class HybridEditor:
     Builds the cage (QEM) and the binding (truncated mean value coordinates) at
     construction; then :meth:`set_selection` and :meth:`drag` deform the cage with
     ARAP and the shape follows as M @ cage.
+
+    The shape is never changed: the cage is built from a repaired private copy
+    (:func:`hybridedit.repair.cage_source`; duplicate vertices merged, degenerate
+    faces dropped, holes of the cage closed, ...) and :attr:`notes` says in plain
+    words what was repaired. Every input vertex is bound, in input order.
 
     Parameters
     ----------
@@ -98,24 +106,40 @@ class HybridEditor:
             if hit is not None:
                 cage, binding = hit
                 self.cache_hit = True
+        #: plain-word sentences about what was repaired or adjusted to build the cage
+        #: (the shape itself is never changed), e.g. "merged 12 duplicate vertices"
+        self.notes: list[str] = []
+        built = cage is None
+        if self.cache_hit:
+            self.notes.extend(cage_source(mesh)[1])
         if cage is None:
             say("building the cage", 0.0)
-            cage = build_cage(mesh, cage_size)
+            cage = build_cage(mesh, cage_size, notes=self.notes)
             say("building the cage", 1.0)
-        self.cage = cage
         t1 = time.perf_counter()
         self.timings["cage_seconds"] = t1 - t0
         if binding is None:
             say("binding", 0.0)
+
+            def bind_to(c: Mesh) -> sp.csr_matrix:
+                return bind(mesh.vertices, c, truncation=self.truncation,
+                            progress=lambda fraction: say("binding", fraction))
+
             try:
-                binding = bind(
-                    mesh.vertices, cage, truncation=self.truncation,
-                    progress=lambda fraction: say("binding", fraction),
-                )
+                binding = bind_to(cage)
             except ValueError as e:
-                raise MeshError(f"{mesh.name or 'mesh'}: cannot bind to its cage: {e}") from None
+                if not built:
+                    raise MeshError(f"{mesh.name or 'mesh'}: cannot bind to its cage: {e}") from None
+                self.notes.append(f"could not bind to the simplified cage ({e}); "
+                                  "using a box around the shape as the cage")
+                cage = box_cage(mesh.vertices)
+                try:
+                    binding = bind_to(cage)
+                except ValueError as e2:
+                    raise MeshError(f"{mesh.name or 'mesh'}: cannot bind to its cage: {e2}") from None
             if folder is not None and key is not None:
                 bindcache.store(folder, key, cage, binding)
+        self.cage = cage
         M = sp.csr_matrix(binding, dtype=np.float64)
         if M.shape != (mesh.n_vertices, cage.n_vertices):
             raise ValueError(f"binding must be {(mesh.n_vertices, cage.n_vertices)}, got {M.shape}")
@@ -128,6 +152,7 @@ class HybridEditor:
         self.propagation = propagation
         self._residual = residual_setup(M, mesh.vertices, cage.vertices) if propagation == "residual" else None
         self.arap = ARAPSolver(cage.vertices, cage.faces, weights=weights)
+        self._scale = max(mesh.bbox_diagonal(), float(np.linalg.norm(np.ptp(cage.vertices, axis=0))))
         self._cage_to_shape = cKDTree(mesh.vertices).query(cage.vertices)[1].astype(np.int64)
         self._out = np.empty((mesh.n_vertices, 3))
         self._rows: np.ndarray | None = None
@@ -278,9 +303,24 @@ class HybridEditor:
         t0 = time.perf_counter()
         target = self._anchor.copy()
         hp = target[self._is_handle]
-        target[self._is_handle] = hp @ T[:3, :3].T + T[:3, 3]
-        self.transform = T
+        with np.errstate(all="ignore"):
+            target[self._is_handle] = hp @ T[:3, :3].T + T[:3, 3]
+            reach = float(np.max(np.abs(target - self._anchor), initial=0.0))
+        if not np.all(np.isfinite(target)):
+            raise ValueError("the drag moves the handle to non-finite positions; refused, nothing changed")
+        limit = MAX_REACH * max(self._scale, np.finfo(float).tiny)
+        if reach > limit:
+            raise ValueError(
+                f"the drag moves the handle {reach:.3g} away, more than {MAX_REACH:g} times the shape's "
+                f"size ({self._scale:.3g}); refused, nothing changed"
+            )
+        saved = (self.arap.positions.copy(), self.arap.rotations.copy())
         self.arap.solve(target, k)
+        if not np.all(np.isfinite(self.arap.positions)):
+            self.arap.positions[:] = saved[0]
+            self.arap.rotations[:] = saved[1]
+            raise ValueError("the drag produced non-finite cage positions; refused, nothing changed")
+        self.transform = T
         t1 = time.perf_counter()
         self._propagate()
         t2 = time.perf_counter()

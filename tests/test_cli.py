@@ -78,3 +78,27 @@ def test_cage_size_parsing():
     for bad in ("abc", "0", "1.5", "-3%"):
         with pytest.raises(Exception):
             parse_cage_size(bad)
+
+
+def test_info_and_deform_report_repairs(tmp_path, capsys):
+    import trimesh
+
+    from hybridedit.mesh import Mesh
+
+    s = trimesh.creation.icosphere(subdivisions=3)
+    f = np.asarray(s.faces)[:, ::-1]  # inside out
+    v = np.vstack([s.vertices, [[3.0, 3.0, 3.0]]])
+    p = tmp_path / "inv.obj"
+    write_mesh(p, Mesh(v, f))
+    assert main(["info", str(p)]) == 0
+    out = capsys.readouterr().out
+    assert "the cage is built from a repaired copy (the mesh itself is kept as is):" in out
+    assert f"    - re-oriented {len(f):,} faces" in out
+    assert "    - ignored 1 unreferenced vertex for the cage (they still follow the deformation)" in out
+    e = write_edit(tmp_path / "e.json", handle=[0], roi=[0, 1, 2])
+    o = tmp_path / "o.obj"
+    assert main(["deform", str(p), "-o", str(o), "--edit", str(e), "--cage", "60", "--frames", "2", "-q"]) == 0
+    err = capsys.readouterr().err
+    assert f"hybridedit: note: inv.obj: re-oriented {len(f):,} faces" in err
+    d = read_mesh(o)
+    assert np.array_equal(d.faces, f) and d.n_vertices == len(v)

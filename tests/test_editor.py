@@ -215,3 +215,114 @@ def test_partial_updates_equal_a_full_recomputation(request, fixture, blob):
         d, idx, w = ed._residual
         full = propagate_with_residual(ed.M, y, rot, d, idx, w)
     assert np.abs(V - full).max() < 1e-12
+
+
+# ------------------------------------------------------------------ refusals leave the state intact
+
+
+def editor_state(e):
+    return (
+        e.cage_positions,
+        e.arap.rotations.copy(),
+        e.deformed_vertices.copy(),
+        e.handle.copy(),
+        e.fixed.copy(),
+        e._constrained.copy(),
+        e._anchor.copy(),
+        e.transform.copy(),
+        len(e.frame_seconds),
+    )
+
+
+def assert_same_state(a, b):
+    assert len(a) == len(b)
+    for x, y in zip(a, b):
+        if isinstance(x, np.ndarray):
+            assert x.shape == y.shape and np.array_equal(x, y)
+        else:
+            assert x == y
+
+
+def test_refused_calls_leave_the_state_intact(ed, blob):
+    fixed, handle = ends(blob)
+    ed.set_selection(handle, fixed=fixed)
+    ed.drag(translate=(0, 0.4, 0))
+    before = editor_state(ed)
+    n = blob.n_vertices
+    refused_selections = [
+        dict(handle=[]),  # empty handle
+        dict(handle=handle, fixed=handle[:3]),  # overlap
+        dict(handle=[n + 5]),  # out of range
+        dict(handle=[-1]),
+        dict(handle=[0.5]),  # not an integer
+        dict(handle=handle, fixed=fixed, roi=fixed),  # both
+        dict(handle=handle, space="world"),
+    ]
+    for kw in refused_selections:
+        with pytest.raises(SelectionError):
+            ed.set_selection(**kw)
+        assert_same_state(before, editor_state(ed))
+    diag = blob.bbox_diagonal()
+    bad_drags = [
+        dict(translate=(np.nan, 0, 0)),
+        dict(translate=(0, np.inf, 0)),
+        dict(translate=(2e6 * diag, 0, 0)),  # farther than a million diagonals
+        dict(transform=np.diag([1e7 * diag, 1, 1, 1])),  # a huge scale
+        dict(transform=np.full((4, 4), np.nan)),
+        dict(translate=(0, 1, 0), transform=np.eye(4)),
+        dict(translate=(0, 1, 0), iterations=-1),
+    ]
+    for kw in bad_drags:
+        with pytest.raises(ValueError):
+            ed.drag(**kw)
+        assert_same_state(before, editor_state(ed))
+    with pytest.raises(ValueError):
+        ed.set_cage_positions(np.full_like(ed.cage_positions, np.nan))
+    assert_same_state(before, editor_state(ed))
+    # a large but sane drag is fine, and a refused one after it still leaves it as it was
+    ed.drag(translate=(0, 10 * diag, 0))
+    assert np.all(np.isfinite(ed.deformed_vertices))
+
+
+def test_free_cage_component_is_refused_and_state_kept():
+    import trimesh
+
+    from hybridedit.mesh import Mesh
+
+    a = trimesh.creation.icosphere(subdivisions=2)
+    v = np.vstack([a.vertices, a.vertices + [3, 0, 0]])
+    f = np.vstack([a.faces, a.faces + len(a.vertices)])
+    e = HybridEditor(Mesh(v, f, name="two"), cage_size=60)
+    assert e.notes == ["2 disconnected parts"]
+    before = editor_state(e)
+    with pytest.raises(SelectionError, match="1 of 2 connected parts of the cage have no fixed or handle vertex"):
+        e.set_selection([0], roi=np.arange(len(v)))
+    assert_same_state(before, editor_state(e))
+    e.set_selection([0], roi=np.arange(len(a.vertices)))  # the other sphere stays fixed
+    V = e.drag(translate=(0, 0.2, 0))
+    k = len(a.vertices)
+    # the fixed sphere's cage does not move; its shape moves only through the (global)
+    # coordinates with respect to the other sphere's cage, much less than the handle
+    assert np.abs(V[k:] - v[k:]).max() < 0.25 * np.abs(V[:k] - v[:k]).max()
+
+
+def test_notes_and_input_order_for_a_messy_shape(blob):
+    """Duplicates and stray vertices: the editor binds every input vertex and keeps the order."""
+    from hybridedit.mesh import Mesh
+
+    n = blob.n_vertices
+    v = np.vstack([blob.vertices, blob.vertices[:10], [[9.0, 9.0, 9.0]]])
+    f = blob.faces.copy()
+    f[:5, 0] = np.where(f[:5, 0] < 10, f[:5, 0] + n, f[:5, 0])
+    f = np.vstack([f[:, [0, 2, 1]], [[0, 0, 1]]])  # inside out, and one repeated-index face
+    e = HybridEditor(Mesh(v, f), cage_size=200)
+    assert e.notes == [
+        "ignored 10 unreferenced vertices for the cage (they still follow the deformation)",  # 9 + the stray one
+        "merged 1 duplicate vertex",
+        "dropped 1 degenerate face (zero area or a repeated vertex)",
+        f"re-oriented {len(f) - 1:,} faces",
+    ]
+    assert e.M.shape == (len(v), e.cage.n_vertices)
+    assert np.allclose(e.deformed_vertices, v, rtol=0, atol=1e-12)  # residual: the rest pose is the input
+    assert np.array_equal(e.deformed.faces, f)
+    assert HybridEditor(blob, cage_size=200).notes == []
