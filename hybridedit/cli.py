@@ -44,18 +44,38 @@ def parse_cage_size(text: str) -> int | float:
     return v
 
 
-def _progress(quiet: bool):
-    """A progress callback for HybridEditor that prints each stage once, on stderr."""
-    last: list[str] = []
+def _progress(quiet: bool, stream=None):
+    """A progress callback for HybridEditor and the CLI's own steps, on stderr.
+
+    ``say(msg)`` prints a line. ``say(stage, fraction)`` reports progress of a
+    step: on a terminal a percentage updated in place; otherwise one line when
+    the step starts and one with its duration when it ends.
+    """
+    out = stream if stream is not None else sys.stderr
+    tty = bool(getattr(out, "isatty", lambda: False)())
+    state = {"stage": None, "pct": -1, "t0": 0.0, "shown": 0.0}
 
     def say(msg: str, fraction: float | None = None) -> None:
         if quiet:
             return
         if fraction is None:
-            print(f"hybridedit: {msg}", file=sys.stderr, flush=True)
-        elif fraction == 0.0 and (not last or last[-1] != msg):
-            last.append(msg)
-            print(f"hybridedit: {msg} ...", file=sys.stderr, flush=True)
+            print(f"hybridedit: {msg}", file=out, flush=True)
+            return
+        now = time.perf_counter()
+        if msg != state["stage"]:
+            state.update(stage=msg, pct=-1, t0=now, shown=0.0)
+            if not tty:
+                print(f"hybridedit: {msg} ...", file=out, flush=True)
+        pct = int(100 * min(max(fraction, 0.0), 1.0))
+        done = fraction >= 1.0
+        if tty and (done or (pct != state["pct"] and now - state["shown"] > 0.1)):
+            end = "\n" if done else ""
+            print(f"\rhybridedit: {msg} {pct:3d}%", end=end, file=out, flush=True)
+            state.update(pct=pct, shown=now)
+        elif done and not tty:
+            print(f"hybridedit: {msg} done ({now - state['t0']:.2f} s)", file=out, flush=True)
+        if done:
+            state["stage"] = None
 
     return say
 
@@ -76,6 +96,8 @@ def run_deform(args: argparse.Namespace) -> int:
         raise CLIError(f"--iterations must be >= 0, got {args.iterations}")
     if args.frames < 1:
         raise CLIError(f"--frames must be >= 1, got {args.frames}")
+    if not (np.isfinite(args.polish) and args.polish >= 0):
+        raise CLIError(f"--polish must be a number of seconds >= 0, got {args.polish}")
     t_start = time.perf_counter()
     edit = load_edit(args.edit)
     mesh = read_mesh(src)
@@ -108,7 +130,11 @@ def run_deform(args: argparse.Namespace) -> int:
         raise CLIError(f"{args.edit}: {_one_line(e)}") from None
     if not np.all(np.isfinite(V)):
         raise CLIError("the deformation produced non-finite positions; the edit is too extreme")
-    write_mesh(dst, ed.deformed)
+    polished = None
+    if args.polish:
+        polished = _polish(ed, V, args.polish, say)
+        V = polished.vertices
+    write_mesh(dst, mesh.copy(V))
     say(f"wrote {dst}")
     frame_ms = np.asarray(ed.frame_seconds) * 1e3
     edges = mesh.edges()
@@ -137,16 +163,47 @@ def run_deform(args: argparse.Namespace) -> int:
         "max_stretch_percent": float(np.abs(edge_stretch(mesh.vertices, V, edges)).max() * 100.0),
         "total_seconds": time.perf_counter() - t_start,
     }
+    if polished is not None:
+        stats.update(
+            polish_seconds=polished.seconds,
+            polish_iterations=polished.iterations,
+            polish_stopped=polished.stopped,
+            rrms_edge_error_before_polish_percent=rrms_edge_error(mesh.vertices, ed.deformed_vertices, edges),
+        )
     if args.stats:
         with atomic_write(Path(args.stats), "w") as fh:
             json.dump(stats, fh, indent=1)
             fh.write("\n")
     if not args.quiet:
         for k in ("cage_vertices", "cage_seconds", "bind_seconds", "nnz_per_row", "frame_ms_median",
-                  "rrms_edge_error_percent", "max_stretch_percent"):
+                  "rrms_edge_error_percent", "max_stretch_percent", "rrms_edge_error_before_polish_percent"):
+            if k not in stats:
+                continue
             v = stats[k]
             print(f"  {k:24s} {v:.4g}" if isinstance(v, float) else f"  {k:24s} {v}", file=sys.stderr)
     return 0
+
+
+def _polish(ed: HybridEditor, V: np.ndarray, seconds: float, say):
+    """Full-resolution ARAP of the edited region, warm-started from V, for ``seconds``."""
+    from .polish import ShapeARAP, free_shape_vertices, polish
+
+    say("polishing", 0.0)
+    t0 = time.perf_counter()
+    sa = ShapeARAP(ed.mesh)
+    free = free_shape_vertices(ed.M, ed.arap.free, ed.cage.n_vertices)
+    budget = max(seconds - (time.perf_counter() - t0), 0.0)
+    t1 = time.perf_counter()
+
+    def tick() -> bool:
+        say("polishing", min((time.perf_counter() - t1) / max(budget, 1e-9), 0.99))
+        return False
+
+    r = polish(sa, V, free, seconds=budget, should_stop=tick)
+    say("polishing", 1.0)
+    say(f"polished {int(free.sum())} vertices: {r.iterations} iterations ({r.stopped}), "
+        f"ARAP energy {r.energy_before:.4g} -> {r.energy_after:.4g}")
+    return r
 
 
 def run_info(args: argparse.Namespace) -> int:
@@ -215,6 +272,9 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--iterations", type=int, default=2, help="ARAP iterations per frame (default 2)")
     d.add_argument("--frames", type=int, default=30, help="frames to run (default 30)")
     d.add_argument("--weights", choices=("uniform", "cotangent"), default="uniform", help="ARAP weights on the cage")
+    d.add_argument("--polish", type=float, nargs="?", const=1.0, default=0.0, metavar="SECONDS",
+                   help="after the frames, run full-resolution ARAP on the edited region for up to "
+                        "SECONDS (default 1 when given without a value)")
     d.add_argument("--propagation", choices=("residual", "linear"), default="residual",
                    help="residual: exact rest pose, detail rotated with the cage (default); linear: the paper's x' = M y'")
     d.add_argument("--truncation", type=float, default=0.03, help="coordinate magnitude dropped per vertex (default 0.03)")

@@ -102,3 +102,43 @@ def test_info_and_deform_report_repairs(tmp_path, capsys):
     assert f"hybridedit: note: inv.obj: re-oriented {len(f):,} faces" in err
     d = read_mesh(o)
     assert np.array_equal(d.faces, f) and d.n_vertices == len(v)
+
+
+def test_deform_with_polish_and_progress(tmp_path, mesh_file, capsys):
+    m = read_mesh(mesh_file)
+    x = m.vertices[:, 0]
+    edit = write_edit(tmp_path / "e.json", handle=np.flatnonzero(x > x.max() - 0.4).tolist(),
+                      roi=np.flatnonzero(x > -0.3).tolist(), translate=[0, 0.6, 0.2])
+    plain, polished = tmp_path / "a.ply", tmp_path / "b.ply"
+    sa, sb = tmp_path / "a.json", tmp_path / "b.json"
+    common = ["--edit", str(edit), "--cage", "100", "--frames", "5", "--no-cache"]
+    assert main(["deform", str(mesh_file), "-o", str(plain), "--stats", str(sa), *common]) == 0
+    capsys.readouterr()
+    assert main(["deform", str(mesh_file), "-o", str(polished), "--stats", str(sb), "--polish", "5", *common]) == 0
+    err = capsys.readouterr().err
+    # progress of each slow step: a start line and a done line (stderr is not a terminal here)
+    for step in ("building the cage", "binding", "polishing"):
+        assert f"hybridedit: {step} ..." in err and f"hybridedit: {step} done (" in err
+    a, b = json.loads(sa.read_text()), json.loads(sb.read_text())
+    assert "polish_iterations" not in a and b["polish_iterations"] >= 1
+    assert b["rrms_edge_error_before_polish_percent"] == pytest.approx(a["rrms_edge_error_percent"])
+    assert b["rrms_edge_error_percent"] < a["rrms_edge_error_percent"]
+    assert not np.array_equal(read_mesh(plain).vertices, read_mesh(polished).vertices)
+    assert main(["deform", str(mesh_file), "-o", str(polished), "--polish", "-1", *common]) == 2
+
+
+def test_progress_on_a_terminal_updates_in_place():
+    import io
+
+    from hybridedit.cli import _progress
+
+    class Tty(io.StringIO):
+        def isatty(self):
+            return True
+
+    out = Tty()
+    say = _progress(False, out)
+    for f in (0.0, 0.5, 1.0):
+        say("binding", f)
+    text = out.getvalue()
+    assert "\rhybridedit: binding   0%" in text and text.endswith("\rhybridedit: binding 100%\n")
