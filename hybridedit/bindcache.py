@@ -23,7 +23,7 @@ from .atomic import atomic_write
 from .mesh import Mesh
 
 #: Bump when the cage or binding algorithms change: old files stop matching.
-FORMAT = "hybridedit-binding-1"
+FORMAT = "hybridedit-binding-2"  # 2: fast (near exact + far quadrature) binding
 
 
 def default_cache_dir() -> Path:

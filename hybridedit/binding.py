@@ -1,8 +1,12 @@
 """The binding: truncated mean value coordinates of the shape w.r.t. the cage.
 
-``bind`` computes the exact 3D mean value coordinates (:mod:`hybridedit.mvc`)
-chunk by chunk into a dense buffer, truncates every row in a parallel kernel
-and assembles a CSR matrix ``M`` with ``M @ cage_vertices ~= points``.
+``bind`` computes the 3D mean value coordinates (:mod:`hybridedit.mvc`; by
+default its fast method, exact near each point and a quadrature farther
+away) chunk by chunk, truncates every row and assembles a CSR matrix ``M``
+with ``M @ cage_vertices ~= points``. The exact method writes a chunk of
+dense rows to a buffer and truncates them in a parallel kernel; the fast
+kernel truncates each row as soon as it is made, while it is in cache, and
+stores only the kept entries.
 
 Truncation (Borosán et al., "Hybrid Mesh Editing", 2010): in each row the
 coordinates of smallest magnitude are dropped while their cumulative magnitude
@@ -16,7 +20,10 @@ To avoid sorting whole rows, every entry with ``|lambda| <= truncation * S / c``
 weigh at most ``truncation * S`` and they are the smallest entries, so the full
 rule would drop them all. The same argument is repeated on the survivors with
 the budget that is left, then only the few remaining candidates are sorted and
-the cumulative rule continues from the mass already dropped.
+the cumulative rule continues from the mass already dropped. Entries of
+exactly equal magnitude at the threshold are decided by their order in the
+row: the caller's column order for the exact method, the cage's internal
+vertex order for the fast one.
 
 One safeguard departs from the plain rule: if the dropped entries carry so
 much signed weight that the kept ones would sum to less than
@@ -35,14 +42,34 @@ import scipy.sparse as sp
 from numba import njit, prange
 
 from .mesh import Mesh
-from .mvc import as_points, check_closed, compute_into, prepare_cage
+from .mvc import (
+    FAR_RATIO,
+    LANES,
+    _select_row,
+    as_points,
+    check_closed,
+    check_far_ratio,
+    compute_fast_sorted,
+    compute_fast_truncated,
+    compute_into,
+    fast_scratch,
+    plan_fast,
+    prepare_cage,
+    prepare_fast_cage,
+)
 
-__all__ = ["bind", "truncate_rows", "MIN_KEPT_SUM"]
+__all__ = ["bind", "truncate_rows", "MIN_KEPT_SUM", "METHODS"]
+
+#: The ways ``bind`` can compute the coordinates (see :func:`bind`).
+METHODS = ("fast", "exact")
 
 #: Below this signed sum of the kept coordinates a row is left untruncated.
 MIN_KEPT_SUM = 0.5
 #: Default budget for the dense coordinate buffer of one chunk, in bytes.
 CHUNK_BYTES = 64 * 2**20
+#: Nonzeros per row the fast method's truncating kernel stores (rows that
+#: keep more are recomputed through the dense buffer).
+SPARSE_ROW_CAP = 256
 
 
 @njit(cache=True, fastmath=False, error_model="numpy")
@@ -55,73 +82,9 @@ def _truncate_row(row, truncation, min_kept_sum, surv, vals):
     row, are scratch.
     """
     c = row.shape[0]
-    # Row magnitude with four partial sums (a single running sum is bound by
-    # the latency of the additions).
-    m0 = 0.0
-    m1 = 0.0
-    m2 = 0.0
-    m3 = 0.0
-    c4 = c - c % 4
-    for j in range(0, c4, 4):
-        m0 += abs(row[j])
-        m1 += abs(row[j + 1])
-        m2 += abs(row[j + 2])
-        m3 += abs(row[j + 3])
-    for j in range(c4, c):
-        m0 += abs(row[j])
-    mag = (m0 + m1) + (m2 + m3)
-    if not (mag < np.inf):
-        return -1  # inf or nan in the row
-    budget = truncation * mag
-    # Stage 1: entries of magnitude <= budget / c are always dropped.
-    small = budget / c
-    n_surv = 0
-    for j in range(c):
-        # Branch-free compaction: always write, advance only for survivors.
-        surv[n_surv] = j
-        n_surv += 1 if abs(row[j]) > small else 0
-    kept_mag = 0.0
-    for k in range(n_surv):
-        a = abs(row[surv[k]])
-        vals[k] = a
-        kept_mag += a
-    dropped = max(0.0, mag - kept_mag)
-    # Stage 1b: the same argument on the survivors with what is left of the
-    # budget: those of magnitude <= left / n_live total at most ``left`` and
-    # are the smallest survivors. Repeat while it drops something; each round
-    # moves the still-live entries to the front of surv/vals.
-    n_live = n_surv
-    while n_live > 0:
-        tau = (budget - dropped) / n_live
-        k = 0
-        gone = 0.0
-        for m in range(n_live):
-            a = vals[m]
-            if a <= tau:
-                gone += a
-            else:
-                # Swap it down to slot k; slots k..m-1 hold dropped entries.
-                jj = surv[m]
-                surv[m] = surv[k]
-                vals[m] = vals[k]
-                surv[k] = jj
-                vals[k] = a
-                k += 1
-        if k == n_live:
-            break
-        dropped += gone
-        n_live = k
-    # Stage 2: sort what is left, smallest first, and drop while the budget
-    # allows.
-    order = np.argsort(vals[:n_live], kind="mergesort")
-    n_drop = 0
-    for k in range(n_live):
-        a = vals[order[k]]
-        if dropped + a <= budget:
-            dropped += a
-            n_drop += 1
-        else:
-            break
+    n_drop, n_live, order, dropped = _select_row(row, truncation, surv, vals)
+    if n_live < 0:
+        return -1
     kept_sum = 0.0
     for k in range(n_drop, n_live):
         kept_sum += row[surv[order[k]]]
@@ -178,6 +141,35 @@ def _gather_rows(buf, indptr, data, indices):
                 k += 1
 
 
+@njit(cache=True, fastmath=False, error_model="numpy", parallel=True)
+def _gather_rows_permuted(buf, col_of, indptr, data, indices):
+    """As ``_gather_rows`` for rows whose column ``j`` is stored at ``col_of[j]``."""
+    for i in prange(buf.shape[0]):
+        row = buf[i]
+        k = indptr[i]
+        for j in range(col_of.shape[0]):
+            v = row[col_of[j]]
+            if v != 0.0:
+                data[k] = v
+                indices[k] = j
+                k += 1
+
+
+@njit(cache=True, fastmath=False, error_model="numpy")
+def _pack_rows(counts, cols, vals, indices, data):
+    """Concatenate the first ``counts[r]`` entries of every row of cols / vals (counts >= 0)."""
+    k = 0
+    for r in range(counts.shape[0]):
+        n = counts[r]
+        if n > cols.shape[1]:
+            k += n  # a row filled in separately
+            continue
+        for m in range(n):
+            indices[k] = cols[r, m]
+            data[k] = vals[r, m]
+            k += 1
+
+
 def _check_truncation(truncation: float) -> float:
     try:
         t = float(truncation)
@@ -188,9 +180,12 @@ def _check_truncation(truncation: float) -> float:
     return t
 
 
-def _truncate_into_csr_parts(buf: np.ndarray, truncation: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _truncate_into_csr_parts(
+    buf: np.ndarray, truncation: float, col_of: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Truncate ``buf`` (m, c) in place; return (counts, data, indices) of its rows.
 
+    With ``col_of``, column ``j`` of the result is stored at ``buf[:, col_of[j]]``.
     If a row is not finite its count is -1 and data/indices are empty.
     """
     m = buf.shape[0]
@@ -205,7 +200,10 @@ def _truncate_into_csr_parts(buf: np.ndarray, truncation: float) -> tuple[np.nda
     nnz = int(indptr[-1])
     data = np.empty(nnz)
     indices = np.empty(nnz, dtype=np.int32 if buf.shape[1] < 2**31 else np.int64)
-    _gather_rows(buf, indptr, data, indices)
+    if col_of is None:
+        _gather_rows(buf, indptr, data, indices)
+    else:
+        _gather_rows_permuted(buf, col_of, indptr, data, indices)
     return counts, data, indices
 
 
@@ -224,6 +222,48 @@ def _assemble(parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]], n: int, c:
     M = sp.csr_matrix((data, indices, indptr), shape=(n, c))
     M.has_sorted_indices = True
     return M
+
+
+def _fast_truncated_chunk(plan, fast, ratio, scratch, t, start, stop, counts_buf, cols_buf,
+                          vals_buf):
+    """(counts, data, indices) of sorted positions [start, stop), fast method, truncated.
+
+    Rows keeping more than the buffers' width are recomputed through a dense
+    buffer (the same rows and truncation, so the same result).
+    """
+    m = stop - start
+    counts = counts_buf[:m]
+    compute_fast_truncated(plan, fast, start, stop, t, MIN_KEPT_SUM, counts, cols_buf, vals_buf,
+                           ratio, scratch)
+    if np.any(counts == -1):  # a row with inf/nan: reported by the caller
+        return counts.copy(), np.empty(0), np.empty(0, dtype=np.int32)
+    wide = np.flatnonzero(counts == -2)
+    counts = counts.copy()
+    wide_rows = {}
+    if wide.size:
+        # Dense rows for these positions, in runs of consecutive positions.
+        runs = np.split(wide, np.flatnonzero(np.diff(wide) > 1) + 1)
+        c = fast.n_vertices
+        for run in runs:
+            lo, hi = int(run[0]), int(run[-1]) + 1
+            dense = np.empty((hi - lo, c))
+            compute_fast_sorted(plan, fast, start + lo, start + hi, dense, ratio, correct=False,
+                                scratch=scratch)
+            cnt, v, cidx = _truncate_into_csr_parts(dense, t, fast.inv_perm)
+            offs = np.concatenate([[0], np.cumsum(cnt)])
+            for k in range(hi - lo):
+                wide_rows[lo + k] = (v[offs[k]:offs[k + 1]], cidx[offs[k]:offs[k + 1]])
+                counts[lo + k] = cnt[k]
+    nnz = int(counts.sum())
+    data = np.empty(nnz)
+    indices = np.empty(nnz, dtype=np.int32)
+    _pack_rows(counts, cols_buf, vals_buf, indices, data)
+    if wide_rows:
+        offs = np.concatenate([[0], np.cumsum(counts)])
+        for r, (v, cidx) in wide_rows.items():
+            data[offs[r]:offs[r + 1]] = v
+            indices[offs[r]:offs[r + 1]] = cidx
+    return counts, data, indices
 
 
 def truncate_rows(dense: np.ndarray, truncation: float = 0.03) -> sp.csr_matrix:
@@ -262,6 +302,8 @@ def bind(
     truncation: float = 0.03,
     chunk_size: int | None = None,
     progress: Callable[[float], None] | None = None,
+    method: str = "fast",
+    far_ratio: float = FAR_RATIO,
 ) -> sp.csr_matrix:
     """Truncated mean value coordinates of ``points`` w.r.t. ``cage``.
 
@@ -273,7 +315,7 @@ def bind(
         A closed, consistently oriented triangle mesh (either orientation).
     truncation : float in [0, 1)
         Fraction of each row's coordinate magnitude that may be dropped
-        (0.03 in the paper). 0 keeps every nonzero: the exact coordinates.
+        (0.03 in the paper). 0 keeps every nonzero: the whole coordinates.
     chunk_size : int, optional
         Points per chunk (the dense buffer holds ``chunk_size`` x ``c``
         doubles). By default chosen to keep the buffer near 64 MB.
@@ -281,18 +323,30 @@ def bind(
         Called with the fraction of points done (0 before the first chunk,
         then after every chunk). An exception raised by it propagates, which
         cancels the binding.
+    method : "fast" or "exact"
+        "exact" evaluates the coordinates of every point with every cage face
+        exactly. "fast" (the default) does so only for faces closer to the
+        point than ``far_ratio`` times their size and integrates the others
+        by a quadrature (see :mod:`hybridedit.mvc`); at the default ratio its
+        rows differ from the exact ones by about 1e-5 of their magnitude,
+        far below what the truncation drops. Both give partitions of unity,
+        and with truncation 0 both reproduce linear functions to rounding.
+    far_ratio : float >= 1
+        Only for "fast": larger is more accurate and slower; ``inf`` makes
+        every face exact.
 
     Returns
     -------
     M : (n, c) float64 scipy.sparse.csr_matrix
         Sorted column indices; rows sum to 1; ``M @ cage.vertices``
-        approximates ``points`` (exactly with truncation 0).
+        approximates ``points`` (to rounding with truncation 0).
 
     Raises
     ------
     ValueError
         Bad points, a cage without faces or not closed, truncation outside
-        [0, 1), or a non-positive chunk size.
+        [0, 1), a non-positive chunk size, an unknown method or a far ratio
+        below 1.
     """
     p = as_points(points)
     if not isinstance(cage, Mesh):
@@ -300,30 +354,69 @@ def bind(
     if cage.n_faces == 0:
         raise ValueError("the cage has no faces")
     t = _check_truncation(truncation)
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    ratio = check_far_ratio(far_ratio)
     c = cage.n_vertices
     n = p.shape[0]
+    sparse = method == "fast" and t > 0.0  # truncate inside the fast kernel
+    cap = min(c, SPARSE_ROW_CAP)
     if chunk_size is None:
-        chunk = max(1, CHUNK_BYTES // (8 * c))
+        if sparse:
+            chunk = max(1, CHUNK_BYTES // (12 * cap))
+        else:
+            chunk = max(1, CHUNK_BYTES // (8 * c))
+        if method == "fast":
+            # Whole batches of the fast kernel (a batch split between two
+            # chunks would be computed twice).
+            chunk = max(LANES, chunk - chunk % LANES)
     else:
         if isinstance(chunk_size, (bool, np.bool_)) or int(chunk_size) != chunk_size or chunk_size < 1:
             raise ValueError(f"chunk_size must be a positive integer, got {chunk_size!r}")
         chunk = int(chunk_size)
-    data = prepare_cage(cage.vertices, cage.faces)
-    check_closed(data.faces)
+    if method == "exact":
+        data = prepare_cage(cage.vertices, cage.faces)
+        check_closed(data.faces)
+    else:
+        fast = prepare_fast_cage(cage.vertices, cage.faces)
+        check_closed(fast.exact.faces)
     if n == 0:
         return sp.csr_matrix((0, c))
     chunk = min(chunk, n)
-    buf = np.empty((chunk, c))
+    if method == "fast":
+        plan = plan_fast(p, fast)
+        row_of = plan.order  # chunks run over the points in the plan's order
+        n_batches = -(-chunk // LANES) + 1
+        scratch = fast_scratch(fast, min(n_batches, 4 * numba.get_num_threads()))
+    if sparse:
+        counts_buf = np.empty(chunk, dtype=np.int64)
+        cols_buf = np.empty((chunk, cap), dtype=np.int32)
+        vals_buf = np.empty((chunk, cap))
+    else:
+        buf = np.empty((chunk, c))
     parts = []
     if progress is not None:
         progress(0.0)
     for start in range(0, n, chunk):
         stop = min(n, start + chunk)
-        view = buf[: stop - start]
-        compute_into(p[start:stop], data, view)
-        counts, vals, cols = _truncate_into_csr_parts(view, t)
+        if method == "exact":
+            view = buf[: stop - start]
+            compute_into(p[start:stop], data, view)
+            counts, vals, cols = _truncate_into_csr_parts(view, t)
+        elif not sparse:
+            # Rows kept whole: restore their exact linear precision (see
+            # hybridedit.mvc). When truncating, that correction (~1e-5 of a
+            # row) is far below what the truncation drops and is skipped.
+            view = buf[: stop - start]
+            compute_fast_sorted(plan, fast, start, stop, view, ratio, correct=True, scratch=scratch)
+            counts, vals, cols = _truncate_into_csr_parts(view, t, fast.inv_perm)
+        else:
+            counts, vals, cols = _fast_truncated_chunk(
+                plan, fast, ratio, scratch, t, start, stop, counts_buf, cols_buf, vals_buf)
         if counts.size and counts.min() < 0:
             bad = start + int(np.flatnonzero(counts < 0)[0])
+            if method == "fast":
+                bad = int(row_of[bad])
             raise ValueError(
                 f"mean value coordinates of point {bad} ({p[bad].tolist()}) are not finite; "
                 "is the cage degenerate?"
@@ -331,4 +424,8 @@ def bind(
         parts.append((counts, vals, cols))
         if progress is not None:
             progress(stop / n)
-    return _assemble(parts, n, c)
+    M = _assemble(parts, n, c)
+    if method == "fast":
+        M = M[np.argsort(row_of)]
+        M.has_sorted_indices = True
+    return M

@@ -433,3 +433,142 @@ def test_rejects_bad_inputs():
     with pytest.raises(ValueError):
         mean_value_coordinates(np.zeros((1, 3)), v, f.astype(float))
     assert mean_value_coordinates(np.zeros((0, 3)), v, f).shape == (0, 8)
+
+
+# ---------------------------------------------------------------------------
+# The fast method (exact near field, quadrature far field)
+# ---------------------------------------------------------------------------
+
+
+def sample_points(v, f, rng, n_in=150, n_out=50):
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    return np.concatenate([inside_points(v, f, n_in, rng), rng.uniform(lo - 1.0, hi + 1.0, (n_out, 3))])
+
+
+def row_errors(fast, exact):
+    """max_j |fast_ij - exact_ij| / sum_j |exact_ij| per row."""
+    return np.abs(fast - exact).max(axis=1) / np.abs(exact).sum(axis=1)
+
+
+@pytest.mark.parametrize("make", [lambda: sphere_cage(3), star_cage, l_cage,
+                                  lambda: voxel_cage([(i, j, k) for i in range(4) for j in range(3)
+                                                      for k in range(2)])])
+def test_fast_agrees_with_exact(make):
+    v, f = make()
+    rng = np.random.default_rng(20)
+    p = sample_points(v, f, rng)
+    exact = mean_value_coordinates(p, v, f)
+    for ratio, bar in ((mvc.FAR_RATIO, 1e-4), (1.5, 1e-3)):
+        fast = mean_value_coordinates(p, v, f, method="fast", far_ratio=ratio)
+        assert fast.shape == exact.shape and np.all(np.isfinite(fast))
+        # partition of unity and linear precision hold as for the exact ones
+        check_linear(fast, v, p)
+        err = row_errors(fast, exact)
+        assert err.max() <= bar, (ratio, err.max())
+
+
+def test_fast_far_field_error_falls_with_the_cube_of_distance():
+    """All faces far: the rows are the quadrature's, and its error shrinks
+    like (face size / distance)^3 (a wrong sign or factor would not)."""
+    v, f = sphere_cage(2)
+    rng = np.random.default_rng(21)
+    d = rng.standard_normal((20, 3))
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    errs = []
+    for r in (0.5, 0.25, 0.125):  # points at distance r from the centre
+        p = r * d
+        exact = mean_value_coordinates(p, v, f)
+        fast = mean_value_coordinates(p, v, f, method="fast", far_ratio=1.0)
+        errs.append(row_errors(fast, exact).max())
+    # The distance to the faces goes from 0.5 to 0.875 of the radius: at
+    # third order the error falls by (0.875 / 0.5)^3 ~ 5.4 overall, and more
+    # since the faces' views shrink too.
+    assert errs[0] > errs[1] > errs[2], errs
+    assert errs[0] / errs[2] > 4.0, errs
+    assert errs[0] < 1e-3, errs
+
+
+def test_fast_with_infinite_ratio_is_exact():
+    v, f = star_cage()
+    rng = np.random.default_rng(22)
+    p = sample_points(v, f, rng, 60, 30)
+    exact = mean_value_coordinates(p, v, f)
+    fast = mean_value_coordinates(p, v, f, method="fast", far_ratio=np.inf)
+    # The fast method works in coordinates scaled to the cage's diagonal:
+    # rounding differs, nothing else (outside, both lose a few more digits).
+    err = row_errors(fast, exact)
+    assert err[:60].max() < 1e-12 and err[60:].max() < 1e-9, err.max()
+
+
+@pytest.mark.parametrize("make", [cube_cage, sphere_cage, star_cage, l_cage])
+def test_fast_points_on_the_cage(make):
+    v, f = make()
+    rng = np.random.default_rng(23)
+    np.testing.assert_array_equal(mean_value_coordinates(v, v, f, method="fast"), np.eye(len(v)))
+    sel = rng.choice(len(f), size=min(40, len(f)), replace=False)
+    b = rng.dirichlet([2.0, 2.0, 2.0], size=len(sel))
+    tri = v[f[sel]]
+    on = np.einsum("ij,ijk->ik", b, tri)
+    # with points far from the cage in the same call (other batches' decisions)
+    far = v.mean(axis=0) + 3 * bbox_diag(v) * rng.standard_normal((40, 3))
+    lam = mean_value_coordinates(np.concatenate([on, far]), v, f, method="fast")
+    for row, t, bb in zip(lam[: len(sel)], f[sel], b):
+        expect = np.zeros(len(v))
+        expect[t] = bb
+        np.testing.assert_allclose(row, expect, rtol=0, atol=1e-12)
+    check_linear(lam[len(sel):], v, far)
+    # a hair off the faces: close to barycentric, smooth
+    nrm = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    nrm /= np.linalg.norm(nrm, axis=1)[:, None]
+    off = on + 1e-9 * bbox_diag(v) * nrm
+    lam = mean_value_coordinates(off, v, f, method="fast")
+    check_linear(lam, v, off)
+    bary = np.zeros_like(lam)
+    for k, t in enumerate(f[sel]):
+        bary[k, t] = b[k]
+    assert np.abs(lam - bary).max() < 1e-6
+
+
+def test_fast_points_on_edges():
+    v, f = star_cage()
+    edges = np.unique(np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1), axis=0)
+    rng = np.random.default_rng(24)
+    sel = edges[rng.choice(len(edges), size=40, replace=False)]
+    t = rng.uniform(0.05, 0.95, size=len(sel))
+    p = (1 - t)[:, None] * v[sel[:, 0]] + t[:, None] * v[sel[:, 1]]
+    lam = mean_value_coordinates(p, v, f, method="fast")
+    for row, (a, b), tt in zip(lam, sel, t):
+        assert set(np.flatnonzero(row)) == {a, b}
+        np.testing.assert_allclose([row[a], row[b]], [1 - tt, tt], rtol=0, atol=1e-12)
+
+
+def test_fast_invariances():
+    v, f = l_cage()
+    rng = np.random.default_rng(25)
+    p = sample_points(v, f, rng, 40, 20)
+    a = mean_value_coordinates(p, v, f, method="fast", far_ratio=1.5)
+    # relabelled cage: permuted columns (same faces, so the same decisions)
+    perm = rng.permutation(len(v))
+    inv = np.argsort(perm)
+    b = mean_value_coordinates(p, v[perm], inv[f], method="fast", far_ratio=1.5)
+    np.testing.assert_allclose(b, a[:, perm], rtol=0, atol=1e-12 * np.abs(a).max())
+    # the orientation of the cage does not matter
+    c = mean_value_coordinates(p, v, f[:, ::-1], method="fast", far_ratio=1.5)
+    np.testing.assert_allclose(c, a, rtol=0, atol=1e-12 * np.abs(a).max())
+    # a similarity transform of everything changes nothing but rounding
+    q, _ = np.linalg.qr(rng.standard_normal((3, 3)))
+    s, t = 37.5, np.array([100.0, -20.0, 3.0])
+    d = mean_value_coordinates(s * p @ q.T + t, s * v @ q.T + t, f, method="fast", far_ratio=1.5)
+    assert row_errors(d, a).max() < 1e-9
+
+
+def test_fast_rejects_bad_arguments():
+    v, f = cube_cage()
+    with pytest.raises(ValueError, match="method"):
+        mean_value_coordinates(np.zeros((1, 3)), v, f, method="quick")
+    for bad in (0.99, -2.0, float("nan"), "near"):
+        with pytest.raises(ValueError, match="far_ratio"):
+            mean_value_coordinates(np.zeros((1, 3)), v, f, method="fast", far_ratio=bad)
+    with pytest.raises(ValueError, match="closed"):
+        mean_value_coordinates(np.zeros((1, 3)), v, f[1:], method="fast")
+    assert mean_value_coordinates(np.zeros((0, 3)), v, f, method="fast").shape == (0, 8)
