@@ -60,8 +60,9 @@ class HybridEditor:
         Use this binding instead of computing it (rows must sum to 1).
     truncation : float
         Fraction of each row's coordinate magnitude dropped (the paper: 0.03).
-    weights : "uniform" (the paper) or "cotangent"
-        ARAP edge weights on the cage.
+    weights : "cotangent" (default) or "uniform" (the paper's w_ij = 1)
+        ARAP edge weights on the cage; cotangent gives the lower edge error in
+        benchmarks/table1.py.
     iterations : int
         ARAP local/global iterations per :meth:`drag` call.
     progress : callable(stage: str, fraction: float), optional
@@ -85,7 +86,7 @@ class HybridEditor:
         cage: Mesh | None = None,
         binding: sp.spmatrix | None = None,
         truncation: float = 0.03,
-        weights: str = "uniform",
+        weights: str = "cotangent",
         iterations: int = 2,
         progress: Progress | None = None,
         cache: bool | str | Path = False,
