@@ -23,7 +23,7 @@ from .atomic import atomic_write
 from .mesh import Mesh
 
 #: Bump when the cage or binding algorithms change: old files stop matching.
-FORMAT = "hybridedit-binding-2"  # 2: fast (near exact + far quadrature) binding
+FORMAT = "hybridedit-binding-3"  # 2: fast binding; 3: repair notes stored
 
 
 def default_cache_dir() -> Path:
@@ -51,8 +51,8 @@ def _path(folder: Path, key: str) -> Path:
     return folder / f"{key[:40]}.npz"
 
 
-def load(folder: Path, key: str, mesh: Mesh) -> tuple[Mesh, sp.csr_matrix] | None:
-    """The cached (cage, M) for ``key``, or None when absent or not valid."""
+def load(folder: Path, key: str, mesh: Mesh) -> tuple[Mesh, sp.csr_matrix, list[str]] | None:
+    """The cached (cage, M, notes) for ``key``, or None when absent or not valid."""
     p = _path(folder, key)
     if not p.is_file():
         return None
@@ -63,6 +63,7 @@ def load(folder: Path, key: str, mesh: Mesh) -> tuple[Mesh, sp.csr_matrix] | Non
             cv, cf = z["cage_vertices"], z["cage_faces"]
             shape = tuple(int(x) for x in z["shape"])
             M = sp.csr_matrix((z["data"], z["indices"], z["indptr"]), shape=shape)
+            notes = [str(x) for x in z["notes"]] if "notes" in z.files else []
         cage = Mesh(cv, cf, name="cage")
         if shape != (mesh.n_vertices, cage.n_vertices):
             return None
@@ -72,13 +73,14 @@ def load(folder: Path, key: str, mesh: Mesh) -> tuple[Mesh, sp.csr_matrix] | Non
         if not np.allclose(np.asarray(M.sum(axis=1)).ravel(), 1.0, atol=1e-9):
             return None
         M.sort_indices()
-        return cage, M
+        return cage, M, notes
     except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, TypeError, IndexError):
         return None
 
 
-def store(folder: Path, key: str, cage: Mesh, M: sp.csr_matrix) -> Path | None:
-    """Write (cage, M) under ``key``; returns the file, or None if it cannot be written."""
+def store(folder: Path, key: str, cage: Mesh, M: sp.csr_matrix, notes: list[str] | tuple = ()) -> Path | None:
+    """Write (cage, M) and the repair notes made building them under ``key``;
+    returns the file, or None if it cannot be written."""
     M = sp.csr_matrix(M)
     buf = io.BytesIO()
     np.savez(
@@ -90,6 +92,7 @@ def store(folder: Path, key: str, cage: Mesh, M: sp.csr_matrix) -> Path | None:
         data=M.data,
         indices=M.indices,
         indptr=M.indptr,
+        notes=np.array(list(notes), dtype=str),
     )
     p = _path(folder, key)
     try:

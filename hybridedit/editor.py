@@ -14,7 +14,7 @@ from . import bindcache
 from .arap import ARAPSolver
 from .binding import bind
 from .cage import build_cage
-from .repair import box_cage, cage_source
+from .repair import box_cage
 from .mesh import Mesh, MeshError
 from .propagate import propagate
 from .residual import propagate_with_residual, residual_setup
@@ -103,16 +103,16 @@ class HybridEditor:
         if cache and cage is None and binding is None:
             folder = bindcache.default_cache_dir() if cache is True else Path(cache)
             key = bindcache.cache_key(mesh, cage_size, self.truncation)
-            hit = bindcache.load(folder, key, mesh)
-            if hit is not None:
-                cage, binding = hit
-                self.cache_hit = True
         #: plain-word sentences about what was repaired or adjusted to build the cage
         #: (the shape itself is never changed), e.g. "merged 12 duplicate vertices"
         self.notes: list[str] = []
+        if folder is not None and key is not None:
+            hit = bindcache.load(folder, key, mesh)
+            if hit is not None:
+                cage, binding, cached_notes = hit
+                self.notes.extend(cached_notes)
+                self.cache_hit = True
         built = cage is None
-        if self.cache_hit:
-            self.notes.extend(cage_source(mesh)[1])
         if cage is None:
             say("building the cage", 0.0)
             cage = build_cage(mesh, cage_size, notes=self.notes)
@@ -139,7 +139,7 @@ class HybridEditor:
                 except ValueError as e2:
                     raise MeshError(f"{mesh.name or 'mesh'}: cannot bind to its cage: {e2}") from None
             if folder is not None and key is not None:
-                bindcache.store(folder, key, cage, binding)
+                bindcache.store(folder, key, cage, binding, self.notes)
         self.cage = cage
         M = sp.csr_matrix(binding, dtype=np.float64)
         if M.shape != (mesh.n_vertices, cage.n_vertices):

@@ -54,3 +54,15 @@ def test_unwritable_cache_folder_is_not_fatal(tmp_path, shape):
     blocker.write_text("not a folder")
     ed = HybridEditor(shape, 80, cache=blocker / "sub")
     assert not ed.cache_hit and ed.M.shape[0] == shape.n_vertices
+
+
+def test_repair_notes_survive_the_cache(tmp_path):
+    shape = bumpy_blob(3)
+    f = shape.faces.copy()
+    f[::7] = f[::7, ::-1]  # inconsistent orientation: repaired on the cage's copy
+    bad = shape.copy()
+    bad.faces = f
+    a = HybridEditor(bad, 80, cache=tmp_path)
+    assert any("re-oriented" in n for n in a.notes)
+    b = HybridEditor(bad, 80, cache=tmp_path)
+    assert b.cache_hit and b.notes == a.notes
