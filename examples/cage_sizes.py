@@ -59,9 +59,9 @@ def edge_error(editor: he.HybridEditor) -> float:
 # Run the compiled kernels once on a tiny problem, so that just-in-time compilation
 # (or loading the compiled code) is not counted in the first size's bind time.
 he.bind(v[:: max(1, mesh.n_vertices // 200)], he.build_cage(mesh, 50))
-rows = []
 print(f"{Path(args.mesh).name}: {mesh.n_vertices} vertices, the arm raised {args.degrees:g} degrees")
 print(f"{'cage':>6} {'bind s':>7} {'frame ms':>8} {'residual %':>10} {'linear %':>8}")
+rows = []
 for size in sorted(args.cage, key=lambda s: s if isinstance(s, int) else s * mesh.n_vertices):
     ed = he.HybridEditor(mesh, size)
     err_residual = edge_error(ed)

@@ -94,13 +94,24 @@ try:
     p.add_text("rest: handle orange, region of interest green", font_size=11, color="black")
     p.subplot(0, 1)
     p.add_mesh(posed, scalars="stretch %", cmap="YlOrRd", clim=(0, max(1.0, np.percentile(stretch, 99))),
-               smooth_shading=True, scalar_bar_args={"color": "black", "vertical": True})
+               smooth_shading=True, scalar_bar_args={"color": "black", "position_x": 0.3, "position_y": 0.01,
+                                                     "width": 0.4, "height": 0.12,
+                                                     "n_labels": 3, "fmt": "%.1f"})
     p.add_text(f"arm raised {args.degrees:g}\u00b0: RRMS edge error "
                f"{he.rrms_edge_error(v, deformed, edges):.2f}%", font_size=11, color="black")
+    # Front view (looking down -Z, Y up), orthographic, both poses fitting each half of
+    # the image with room at the top for the captions and at the bottom for the colour bar.
     p.link_views()
     both = np.vstack([v, deformed])
-    p.view_xy(bounds=np.column_stack([both.min(0), both.max(0)]).ravel())  # front view, Y up
-    p.camera.zoom(1.25)
+    lo, hi = both.min(axis=0), both.max(axis=0)
+    center, extent = (lo + hi) / 2, hi - lo
+    p.camera.focal_point = center
+    p.camera.position = center + (0, 0, 2 * np.linalg.norm(extent) + 1e-9)
+    p.camera.up = (0, 1, 0)
+    p.enable_parallel_projection()
+    aspect = args.size[0] / 2 / args.size[1]  # width / height of one half
+    p.camera.parallel_scale = max(extent[1] / 2 / 0.72, extent[0] / 2 / aspect / 0.96)
+    p.reset_camera_clipping_range()
     png = Path(args.out) / "before_after.png"
     png.parent.mkdir(parents=True, exist_ok=True)
     p.screenshot(png)
