@@ -58,7 +58,7 @@ from .mvc import (
     prepare_fast_cage,
 )
 
-__all__ = ["bind", "truncate_rows", "MIN_KEPT_SUM", "METHODS"]
+__all__ = ["bind", "truncate_rows", "dominant_cage_vertex", "MIN_KEPT_SUM", "METHODS"]
 
 #: The ways ``bind`` can compute the coordinates (see :func:`bind`).
 METHODS = ("fast", "exact")
@@ -429,3 +429,17 @@ def bind(
         M = M[np.argsort(row_of)]
         M.has_sorted_indices = True
     return M
+
+
+def dominant_cage_vertex(M: sp.spmatrix) -> np.ndarray:
+    """Per row of a binding, the cage vertex with the largest |coordinate|.
+
+    Parameters
+    ----------
+    M : (n, c) sparse binding (or some of its rows).
+
+    Returns
+    -------
+    (n,) int64 cage vertex indices.
+    """
+    return np.asarray(abs(M).argmax(axis=1)).ravel().astype(np.int64)

@@ -12,7 +12,7 @@ from scipy.spatial import cKDTree
 
 from . import bindcache
 from .arap import ARAPSolver
-from .binding import bind
+from .binding import bind, dominant_cage_vertex
 from .cage import build_cage
 from .repair import box_cage
 from .mesh import Mesh, MeshError
@@ -215,7 +215,7 @@ class HybridEditor:
         cage_idx = np.flatnonzero(selected[self._cage_to_shape])
         if cage_idx.size == 0:
             rows = self.M[np.unique(idx)]
-            cage_idx = np.unique(np.asarray(abs(rows).argmax(axis=1)).ravel())
+            cage_idx = np.unique(dominant_cage_vertex(rows))
         return cage_idx.astype(np.int64)
 
     def set_selection(

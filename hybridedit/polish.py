@@ -18,6 +18,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .arap import ARAPSolver
+from .binding import dominant_cage_vertex
 from .mesh import Mesh
 
 
@@ -73,8 +74,7 @@ def free_shape_vertices(M: sp.csr_matrix, free_cage: np.ndarray, n_cage: int) ->
     """
     is_free = np.zeros(n_cage, dtype=bool)
     is_free[free_cage] = True
-    dominant = np.asarray(abs(M).argmax(axis=1)).ravel()
-    return is_free[dominant]
+    return is_free[dominant_cage_vertex(M)]
 
 
 def polish(

@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..binding import dominant_cage_vertex
 from ..editfile import Edit
 from ..editor import HybridEditor, SelectionError
 from ..mesh import Mesh, rrms_edge_error
@@ -37,11 +38,6 @@ from .selection import combine, vertex_states
 
 ROI, HANDLE = "roi", "handle"
 TARGETS = (ROI, HANDLE)
-
-
-def dominant_cage_vertex(M) -> np.ndarray:
-    """Per shape vertex, the cage vertex with the largest |coordinate| (n,) int64."""
-    return np.asarray(abs(M).argmax(axis=1)).ravel().astype(np.int64)
 
 
 class Session:
