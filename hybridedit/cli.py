@@ -119,13 +119,11 @@ def run_deform(args: argparse.Namespace) -> int:
     )
     for note in ed.notes:
         print(f"hybridedit: note: {src.name}: {note}", file=sys.stderr, flush=True)
+    say(f"deforming: {args.frames} frames of {args.iterations} ARAP iterations")
     try:
-        ed.set_selection(edit.handle, fixed=edit.fixed, roi=edit.roi, space=edit.space)
-        handle_pts = (mesh.vertices if edit.space == "shape" else ed.cage.vertices)[edit.handle]
-        T = edit.transform(default_center=handle_pts.mean(axis=0))
-        say(f"deforming: {args.frames} frames of {args.iterations} ARAP iterations")
-        for _ in range(args.frames):
-            V = ed.drag(transform=T)
+        V = ed.apply_edit(edit, frames=args.frames, path=str(args.edit))
+    except EditFileError:
+        raise
     except ValueError as e:  # SelectionError, or a transform the editor refuses
         raise CLIError(f"{args.edit}: {_one_line(e)}") from None
     if not np.all(np.isfinite(V)):
@@ -156,6 +154,7 @@ def run_deform(args: argparse.Namespace) -> int:
         "frames": args.frames,
         "frame_ms_median": float(np.median(frame_ms)),
         "frame_ms_max": float(frame_ms.max()),
+        "handle_groups": ed.n_groups,
         "handle_cage_vertices": int(ed.handle.size),
         "fixed_cage_vertices": int(ed.fixed.size),
         "propagation": args.propagation,
@@ -186,12 +185,14 @@ def run_deform(args: argparse.Namespace) -> int:
 
 def _polish(ed: HybridEditor, V: np.ndarray, seconds: float, say):
     """Full-resolution ARAP of the edited region, warm-started from V, for ``seconds``."""
-    from .polish import ShapeARAP, free_shape_vertices, polish
+    from .polish import ShapeARAP, polish
 
     say("polishing", 0.0)
     t0 = time.perf_counter()
     sa = ShapeARAP(ed.mesh)
-    free = free_shape_vertices(ed.M, ed.arap.free, ed.cage.n_vertices)
+    free = np.zeros(ed.mesh.n_vertices, dtype=bool)
+    free[ed.moving_vertices] = True
+    free &= ed.vertex_roles == 0
     budget = max(seconds - (time.perf_counter() - t0), 0.0)
     t1 = time.perf_counter()
 
