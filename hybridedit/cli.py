@@ -192,9 +192,7 @@ def _polish(ed: "HybridEditor", V: np.ndarray, seconds: float, say):
     say("polishing", 0.0)
     t0 = time.perf_counter()
     sa = ShapeARAP(ed.mesh)
-    free = np.zeros(ed.mesh.n_vertices, dtype=bool)
-    free[ed.moving_vertices] = True
-    free &= ed.vertex_roles == 0
+    free = ed.free_mask
     budget = max(seconds - (time.perf_counter() - t0), 0.0)
     t1 = time.perf_counter()
 

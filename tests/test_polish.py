@@ -4,7 +4,7 @@ import pytest
 from hybridedit import HybridEditor, rrms_edge_error
 from hybridedit.polish import ShapeARAP, free_shape_vertices, polish
 
-from conftest import bumpy_blob
+from shapes import bumpy_blob
 
 
 @pytest.fixture(scope="module")
