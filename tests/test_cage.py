@@ -157,14 +157,16 @@ def test_cage_at_any_scale(scale):
 def test_small_and_flat_shapes_get_a_cage():
     said = []
     c = build_cage(Mesh(trimesh.creation.box().vertices, trimesh.creation.box().faces), 50, notes=said)
-    assert said == ["the mesh has only 8 usable vertices; the cage uses all of them instead of 50"]
+    assert said == ["the mesh has only 8 usable vertices; the cage uses all of them instead of 50",
+                    "the mesh is small: it is its own cage"]
     assert c.n_vertices == 8
     closed_and_outward(c)
     said = []
     tri = Mesh(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float), [[0, 1, 2]])
     c = build_cage(tri, 0.05, notes=said)
-    assert said == ["the mesh is too small for a simplified cage (3 vertices); using a box around it as the cage"]
+    assert said == ["the mesh is an open surface: its cage is a thin closed shell around it"]
     closed_and_outward(c)
+    assert c.n_vertices == 6  # a prism around the triangle
     assert np.all(c.vertices.min(axis=0) < tri.vertices.min(axis=0))
     assert np.all(c.vertices.max(axis=0) > tri.vertices.max(axis=0))
     said = []
