@@ -16,6 +16,7 @@ from .editfile import EditFileError, load_edit
 from .editor import HybridEditor, SelectionError
 from .io import MeshFileError, read_mesh, write_mesh
 from .mesh import MeshError, edge_stretch, rrms_edge_error
+from .progress import TextProgress
 from .repair import cage_source
 
 DEFAULT_MESH = Path(__file__).resolve().parent.parent / "data" / "creature.ply"
@@ -45,39 +46,9 @@ def parse_cage_size(text: str) -> int | float:
 
 
 def _progress(quiet: bool, stream=None):
-    """A progress callback for HybridEditor and the CLI's own steps, on stderr.
-
-    ``say(msg)`` prints a line. ``say(stage, fraction)`` reports progress of a
-    step: on a terminal a percentage updated in place; otherwise one line when
-    the step starts and one with its duration when it ends.
-    """
-    out = stream if stream is not None else sys.stderr
-    tty = bool(getattr(out, "isatty", lambda: False)())
-    state = {"stage": None, "pct": -1, "t0": 0.0, "shown": 0.0}
-
-    def say(msg: str, fraction: float | None = None) -> None:
-        if quiet:
-            return
-        if fraction is None:
-            print(f"hybridedit: {msg}", file=out, flush=True)
-            return
-        now = time.perf_counter()
-        if msg != state["stage"]:
-            state.update(stage=msg, pct=-1, t0=now, shown=0.0)
-            if not tty:
-                print(f"hybridedit: {msg} ...", file=out, flush=True)
-        pct = int(100 * min(max(fraction, 0.0), 1.0))
-        done = fraction >= 1.0
-        if tty and (done or (pct != state["pct"] and now - state["shown"] > 0.1)):
-            end = "\n" if done else ""
-            print(f"\rhybridedit: {msg} {pct:3d}%", end=end, file=out, flush=True)
-            state.update(pct=pct, shown=now)
-        elif done and not tty:
-            print(f"hybridedit: {msg} done ({now - state['t0']:.2f} s)", file=out, flush=True)
-        if done:
-            state["stage"] = None
-
-    return say
+    """A progress callback for HybridEditor and the CLI's own steps, on stderr
+    (:class:`hybridedit.progress.TextProgress`: the time left on a terminal)."""
+    return TextProgress(quiet, stream)
 
 
 def _same_file(a: Path, b: Path) -> bool:
@@ -100,7 +71,9 @@ def run_deform(args: argparse.Namespace) -> int:
         raise CLIError(f"--polish must be a number of seconds >= 0, got {args.polish}")
     t_start = time.perf_counter()
     edit = load_edit(args.edit)
+    say(f"reading {src.name}", 0.0)
     mesh = read_mesh(src)
+    say(f"reading {src.name}", 1.0)
     say(f"read {src.name}: {mesh.n_vertices} vertices, {mesh.n_faces} faces")
     ed = HybridEditor(
         mesh,
@@ -134,7 +107,9 @@ def run_deform(args: argparse.Namespace) -> int:
     if args.polish:
         polished = _polish(ed, V, args.polish, say)
         V = polished.vertices
+    say(f"writing {dst.name}", 0.0)
     write_mesh(dst, mesh.copy(V))
+    say(f"writing {dst.name}", 1.0)
     say(f"wrote {dst}")
     frame_ms = np.asarray(ed.frame_seconds) * 1e3
     edges = mesh.edges()
