@@ -20,6 +20,11 @@ import scipy.sparse as sp
 from .arap import ARAPSolver
 from .binding import dominant_cage_vertex
 from .mesh import Mesh
+from .topology import connected_parts
+
+#: expected set-up seconds per vertex of the edited region before a :class:`ShapeARAP`
+#: has measured its own (the slowest measured on 2 shared cores of the development machine)
+SETUP_SECONDS_PER_VERTEX = 2.5e-5
 
 
 @dataclass
@@ -32,7 +37,8 @@ class PolishResult:
     iterations : local/global iterations run
     energy_before, energy_after : full-mesh ARAP energy of the input and output
     seconds : wall time
-    stopped : "converged", "time", "iterations" or "cancelled"
+    stopped : "converged", "time" (the budget ran out, possibly before the set-up),
+        "iterations" or "cancelled"
     """
 
     vertices: np.ndarray
@@ -44,19 +50,82 @@ class PolishResult:
 
 
 class ShapeARAP:
-    """Full-resolution ARAP of a shape, set up once per shape (cotangent weights)."""
+    """Full-resolution ARAP of the edited region of a shape (cotangent weights).
+
+    Only the faces that touch a free vertex take part: the set-up (weights,
+    Laplacian, factorization) costs in proportion to the edited region, not to the
+    shape, and is redone only when the set of free vertices changes. A connected
+    piece of the region with no held vertex (a loose part wholly free) is left out:
+    nothing would pin it down.
+
+    Parameters
+    ----------
+    mesh : Mesh
+        The shape (n vertices).
+    weights : "cotangent" or "uniform"
+    """
 
     def __init__(self, mesh: Mesh, weights: str = "cotangent") -> None:
         self.mesh = mesh
-        self.solver = ARAPSolver(mesh.vertices, mesh.faces, weights=weights)
+        self.weights = weights
         self._free_key: bytes | None = None
+        #: the region's solver (its vertices are ``region`` of the shape), after :meth:`prepare`
+        self.solver: ARAPSolver | None = None
+        #: (k,) int64 shape vertices of the region, after :meth:`prepare`
+        self.region = np.zeros(0, dtype=np.int64)
+        #: seconds the last :meth:`prepare` that did work took
+        self.setup_seconds = 0.0
+        self._rate = SETUP_SECONDS_PER_VERTEX
+
+    def prepared_for(self, free: np.ndarray) -> bool:
+        """Whether :meth:`prepare` has already set up for this set of free vertices."""
+        return np.packbits(free).tobytes() == self._free_key
+
+    def expected_setup_seconds(self, free: np.ndarray) -> float:
+        """What :meth:`prepare` is expected to take for ``free`` (0 when it is set up already):
+        the region's vertex count times the last set-up's seconds per vertex
+        (:data:`SETUP_SECONDS_PER_VERTEX` before the first)."""
+        if self.prepared_for(free):
+            return 0.0
+        f = self.mesh.faces
+        touched = np.zeros(self.mesh.n_vertices, dtype=bool)
+        touched[f[free[f].any(axis=1)].ravel()] = True
+        return float(np.count_nonzero(touched)) * self._rate
 
     def prepare(self, free: np.ndarray) -> None:
-        """Factor for this set of free shape vertices ((n,) bool mask); cached."""
+        """Set up and factor for this set of free shape vertices ((n,) bool mask); cached."""
         key = np.packbits(free).tobytes()
-        if key != self._free_key:
-            self.solver.set_constrained(np.flatnonzero(~free), moving=np.zeros(0, dtype=np.int64))
-            self._free_key = key
+        if key == self._free_key:
+            return
+        t0 = time.perf_counter()
+        f = self.mesh.faces
+        sub = f[free[f].any(axis=1)]
+        region = np.unique(sub)
+        local = np.full(self.mesh.n_vertices, -1, dtype=np.int64)
+        local[region] = np.arange(len(region))
+        sub = local[sub]
+        held = ~free[region]
+        count, labels = connected_parts(sub, len(region))
+        pinned = np.zeros(count, dtype=bool)
+        pinned[labels[held]] = True
+        if not np.all(pinned):  # drop the pieces nothing holds
+            sub = sub[pinned[labels[sub[:, 0]]]]
+            keep = np.unique(sub)
+            region, held = region[keep], held[keep]
+            local = np.full(len(local), -1, dtype=np.int64)
+            local[region] = np.arange(len(region))
+            sub = np.searchsorted(keep, sub)
+        solver = ARAPSolver(self.mesh.vertices[region], sub, weights=self.weights)
+        solver.set_constrained(np.flatnonzero(held), moving=np.zeros(0, dtype=np.int64))
+        self.solver, self.region, self._free_key = solver, region, key
+        self.setup_seconds = time.perf_counter() - t0
+        self._rate = self.setup_seconds / max(len(region), 1)
+
+    def energy(self, vertices: np.ndarray) -> float:
+        """ARAP energy of the region's faces in the pose ``vertices`` ((n, 3)), after :meth:`prepare`."""
+        if self.solver is None:
+            raise RuntimeError("call prepare first")
+        return self.solver.energy(np.asarray(vertices, dtype=np.float64)[self.region])
 
 
 def free_shape_vertices(M: sp.csr_matrix, free_cage: np.ndarray, n_cage: int) -> np.ndarray:
@@ -86,47 +155,71 @@ def polish(
     tolerance: float = 1e-6,
     should_stop: Callable[[], bool] | None = None,
 ) -> PolishResult:
-    """Run full-mesh ARAP iterations on the free vertices, starting from ``vertices``.
+    """Run full-resolution ARAP iterations on the free vertices, starting from ``vertices``.
+
+    The budget ``seconds`` covers everything, the set-up for a new set of free
+    vertices included: the set-up is started only when it is expected to fit
+    (:meth:`ShapeARAP.expected_setup_seconds`; otherwise nothing is polished and
+    ``stopped`` is "time"), and an iteration only when it is expected to end
+    within the budget (each is expected to take as long as the last one; the
+    first as long as a tenth of the set-up, its usual share).
 
     Parameters
     ----------
     shape_arap : the shape's :class:`ShapeARAP`.
     vertices : (n, 3) float64, the hybrid pose to start from (not modified).
-    free : (n,) bool, the shape vertices allowed to move (others are held).
-    seconds : time budget (checked after each iteration).
+    free : (n,) bool, the shape vertices allowed to move; all others (the handle
+        and the fixed part) keep their positions in ``vertices`` exactly.
+    seconds : time budget, set-up included.
     max_iterations : iteration cap.
     tolerance : stop when an iteration moves no vertex by more than this
         fraction of the bounding-box diagonal.
     should_stop : optional callable polled after each iteration; True cancels
         (the result so far is returned, with stopped="cancelled").
+
+    Returns
+    -------
+    PolishResult
+        ``energy_before`` and ``energy_after`` are the ARAP energies of the
+        region's faces (those touching a free vertex).
     """
     t0 = time.perf_counter()
     V = np.asarray(vertices, dtype=np.float64)
     free = np.asarray(free, dtype=bool)
-    s = shape_arap.solver
-    if V.shape != s.rest.shape or free.shape != (len(V),):
-        raise ValueError(f"vertices must be {s.rest.shape} and free ({len(V)},)")
-    e0 = s.energy(V)
+    n = shape_arap.mesh.n_vertices
+    if V.shape != (n, 3) or free.shape != (n,):
+        raise ValueError(f"vertices must be {(n, 3)} and free ({n},)")
     if not np.any(free):
-        return PolishResult(V.copy(), 0, e0, e0, time.perf_counter() - t0, "converged")
+        return PolishResult(V.copy(), 0, 0.0, 0.0, time.perf_counter() - t0, "converged")
+    if shape_arap.expected_setup_seconds(free) > float(seconds) - (time.perf_counter() - t0):
+        # the set-up alone would not fit in the budget: nothing is polished
+        return PolishResult(V.copy(), 0, 0.0, 0.0, time.perf_counter() - t0, "time")
     shape_arap.prepare(free)
-    s.positions[:] = V
-    held = V[s.constrained]
+    s = shape_arap.solver
+    region = shape_arap.region
+    s.positions[:] = V[region]
+    e0 = s.energy()
+    held = s.positions[s.constrained].copy()
     step_tol = tolerance * shape_arap.mesh.bbox_diagonal()
+    deadline = t0 + float(seconds)
+    expected = 0.1 * (time.perf_counter() - t0)
     stopped = "iterations"
     it = 0
     while it < max_iterations:
+        start = time.perf_counter()
+        if start + expected > deadline:
+            stopped = "time"
+            break
         before = s.positions[s.free].copy()
         s.solve(held, iterations=1)
         it += 1
-        if np.abs(s.positions[s.free] - before).max() <= step_tol:
+        expected = time.perf_counter() - start
+        if s.free.size == 0 or np.abs(s.positions[s.free] - before).max() <= step_tol:
             stopped = "converged"
             break
         if should_stop is not None and should_stop():
             stopped = "cancelled"
             break
-        if time.perf_counter() - t0 >= seconds:
-            stopped = "time"
-            break
-    out = s.positions.copy()
-    return PolishResult(out, it, e0, s.energy(out), time.perf_counter() - t0, stopped)
+    out = V.copy()
+    out[region] = s.positions
+    return PolishResult(out, it, e0, s.energy(), time.perf_counter() - t0, stopped)
