@@ -8,7 +8,8 @@ from .binding import bind
 from .cage import build_cage
 from .editfile import Edit, EditFileError, load_edit, save_edit
 from .editor import HybridEditor, SelectionError
-from .io import MeshFileError, read_mesh, write_mesh
+from .document import Document
+from .io import MeshFileError, read_document, read_mesh, write_document, write_mesh
 from .mesh import Mesh, MeshError, rrms_edge_error
 from .mvc import mean_value_coordinates
 from .propagate import propagate
@@ -19,6 +20,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "ARAPSolver",
+    "Document",
     "Edit",
     "EditFileError",
     "HybridEditor",
@@ -34,9 +36,11 @@ __all__ = [
     "load_edit",
     "mean_value_coordinates",
     "propagate",
+    "read_document",
     "read_mesh",
     "rigid_transform",
     "rrms_edge_error",
     "save_edit",
+    "write_document",
     "write_mesh",
 ]

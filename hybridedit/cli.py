@@ -14,8 +14,9 @@ import numpy as np
 from .atomic import WriteError, atomic_write
 from .editfile import EditFileError, load_edit
 from .editor import HybridEditor, SelectionError
-from .io import MeshFileError, read_mesh, write_mesh
+from .io import SUPPORTED_EXTENSIONS, MeshFileError, read_document, read_mesh, write_document, write_mesh
 from .mesh import MeshError, edge_stretch, rrms_edge_error
+from .outpaths import OutputPathError, check_outputs
 from .progress import TextProgress
 from .repair import cage_source
 
@@ -51,18 +52,12 @@ def _progress(quiet: bool, stream=None):
     return TextProgress(quiet, stream)
 
 
-def _same_file(a: Path, b: Path) -> bool:
-    try:
-        return a.resolve() == b.resolve() or (b.exists() and os.path.samefile(a, b))
-    except OSError:
-        return False
-
-
 def run_deform(args: argparse.Namespace) -> int:
     say = _progress(args.quiet)
     src, dst = Path(args.input), Path(args.output)
-    if _same_file(src, dst) and not args.force:
-        raise CLIError(f"{dst}: refusing to overwrite the input mesh (use --force)")
+    check_outputs({"-o": (dst, SUPPORTED_EXTENSIONS), "--stats": (args.stats, (".json",))},
+                  inputs={"input": src, "edit": args.edit},
+                  may_overwrite=("-o",) if args.force else ())
     if args.iterations < 0:
         raise CLIError(f"--iterations must be >= 0, got {args.iterations}")
     if args.frames < 1:
@@ -72,8 +67,9 @@ def run_deform(args: argparse.Namespace) -> int:
     t_start = time.perf_counter()
     edit = load_edit(args.edit)
     say(f"reading {src.name}", 0.0)
-    mesh = read_mesh(src)
+    doc = read_document(src)
     say(f"reading {src.name}", 1.0)
+    mesh = doc.mesh
     say(f"read {src.name}: {mesh.n_vertices} vertices, {mesh.n_faces} faces")
     ed = HybridEditor(
         mesh,
@@ -92,13 +88,11 @@ def run_deform(args: argparse.Namespace) -> int:
     )
     for note in ed.notes:
         print(f"hybridedit: note: {src.name}: {note}", file=sys.stderr, flush=True)
+    say(f"deforming: {args.frames} frames of {args.iterations} ARAP iterations")
     try:
-        ed.set_selection(edit.handle, fixed=edit.fixed, roi=edit.roi, space=edit.space)
-        handle_pts = (mesh.vertices if edit.space == "shape" else ed.cage.vertices)[edit.handle]
-        T = edit.transform(default_center=handle_pts.mean(axis=0))
-        say(f"deforming: {args.frames} frames of {args.iterations} ARAP iterations")
-        for _ in range(args.frames):
-            V = ed.drag(transform=T)
+        V = ed.apply_edit(edit, frames=args.frames, path=str(args.edit))
+    except EditFileError:
+        raise
     except ValueError as e:  # SelectionError, or a transform the editor refuses
         raise CLIError(f"{args.edit}: {_one_line(e)}") from None
     if not np.all(np.isfinite(V)):
@@ -108,8 +102,10 @@ def run_deform(args: argparse.Namespace) -> int:
         polished = _polish(ed, V, args.polish, say)
         V = polished.vertices
     say(f"writing {dst.name}", 0.0)
-    write_mesh(dst, mesh.copy(V))
+    written = write_document(dst, doc.with_vertices(V))
     say(f"writing {dst.name}", 1.0)
+    for note in written:
+        print(f"hybridedit: note: {dst.name}: {note}", file=sys.stderr, flush=True)
     say(f"wrote {dst}")
     frame_ms = np.asarray(ed.frame_seconds) * 1e3
     edges = mesh.edges()
@@ -131,6 +127,7 @@ def run_deform(args: argparse.Namespace) -> int:
         "frames": args.frames,
         "frame_ms_median": float(np.median(frame_ms)),
         "frame_ms_max": float(frame_ms.max()),
+        "handle_groups": ed.n_groups,
         "handle_cage_vertices": int(ed.handle.size),
         "fixed_cage_vertices": int(ed.fixed.size),
         "propagation": args.propagation,
@@ -161,12 +158,14 @@ def run_deform(args: argparse.Namespace) -> int:
 
 def _polish(ed: HybridEditor, V: np.ndarray, seconds: float, say):
     """Full-resolution ARAP of the edited region, warm-started from V, for ``seconds``."""
-    from .polish import ShapeARAP, free_shape_vertices, polish
+    from .polish import ShapeARAP, polish
 
     say("polishing", 0.0)
     t0 = time.perf_counter()
     sa = ShapeARAP(ed.mesh)
-    free = free_shape_vertices(ed.M, ed.arap.free, ed.cage.n_vertices)
+    free = np.zeros(ed.mesh.n_vertices, dtype=bool)
+    free[ed.moving_vertices] = True
+    free &= ed.vertex_roles == 0
     budget = max(seconds - (time.perf_counter() - t0), 0.0)
     t1 = time.perf_counter()
 
@@ -216,6 +215,8 @@ def run_open(args: argparse.Namespace) -> int:
 def _demo(path: Path, args: argparse.Namespace) -> int:
     """Batch demo edit: raise the part of the shape furthest along +X."""
     say = _progress(False)
+    out = Path(args.output or "hybridedit-demo.ply")
+    check_outputs({"-o": (out, SUPPORTED_EXTENSIONS)}, inputs={"input": path})
     mesh = read_mesh(path)
     say(f"demo on {path.name}: {mesh.n_vertices} vertices")
     ed = HybridEditor(mesh, args.cage, progress=say)
@@ -227,7 +228,6 @@ def _demo(path: Path, args: argparse.Namespace) -> int:
     lift = 0.15 * mesh.bbox_diagonal()
     for _ in range(30):
         V = ed.drag(translate=(0.0, lift, 0.0))
-    out = Path(args.output or "hybridedit-demo.ply")
     write_mesh(out, ed.deformed)
     say(
         f"raised the +X end by {lift:.3g}; median frame {np.median(ed.frame_seconds) * 1e3:.2f} ms; "
@@ -240,8 +240,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="hybridedit", description="Hybrid (cage + ARAP) mesh editing.")
     sub = p.add_subparsers(dest="command")
     d = sub.add_parser("deform", help="apply an edit file to a mesh and save the result")
-    d.add_argument("input", help="input mesh (.obj .ply .stl .off)")
-    d.add_argument("-o", "--output", required=True, help="output mesh (.obj .ply .stl .off)")
+    d.add_argument("input", help="input mesh (.obj .ply .stl .off .glb)")
+    d.add_argument("-o", "--output", required=True, help="output mesh (.obj .ply .stl .off .glb)")
     d.add_argument("--edit", required=True, help="edit file (JSON)")
     d.add_argument("--cage", type=parse_cage_size, default=0.05, help="cage vertices (2000) or fraction (0.05 or 5%%); default 5%%")
     d.add_argument("--iterations", type=int, default=2, help="ARAP iterations per frame (default 2)")
@@ -272,7 +272,7 @@ def build_open_parser() -> argparse.ArgumentParser:
         description="Open the hybrid mesh editor (default mesh when no file is given). "
         "Subcommands: 'hybridedit deform -h', 'hybridedit info -h'.",
     )
-    p.add_argument("mesh", nargs="?", help="mesh to open (.obj .ply .stl .off)")
+    p.add_argument("mesh", nargs="?", help="mesh to open (.obj .ply .stl .off .glb)")
     p.add_argument("--cage", type=parse_cage_size, default=0.05, help="cage vertices or fraction (default 5%%)")
     p.add_argument("--screenshot", help="render the scene to this PNG and exit")
     p.add_argument("-o", "--output", help=argparse.SUPPRESS)
@@ -288,7 +288,8 @@ def main(argv: list[str] | None = None) -> int:
         args.func = run_open
     try:
         return args.func(args)
-    except (CLIError, MeshError, MeshFileError, EditFileError, SelectionError, WriteError) as e:
+    except (CLIError, MeshError, MeshFileError, EditFileError, SelectionError, WriteError,
+            OutputPathError) as e:
         print(f"hybridedit: error: {_one_line(e)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

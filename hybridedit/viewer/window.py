@@ -929,8 +929,9 @@ class MainWindow(QtWidgets.QMainWindow):
                     self.message("Not saved")
                     return False
         try:
-            # what is shown: the polished pose when one is on display
-            write_mesh(p, s.editor.deformed if self.polished is None else s.mesh.copy(vertices=self.polished.copy()))
+            # what is shown: the polished pose when one is on display; in the opened file's structure
+            write_mesh(p, s.editor.deformed if self.polished is None else s.mesh.copy(vertices=self.polished.copy()),
+                       like=s.path)
         except (MeshError, MeshFileError, WriteError, OSError) as e:
             self.show_error("Could not save the mesh", str(e))
             return False
