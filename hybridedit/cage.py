@@ -48,7 +48,7 @@ MIN_PART_CAGE = 32
 MIN_ROUNDNESS = 0.2
 #: a cage piece closer to a bigger one than this many of its own bounding-box
 #: diagonals (or inside it) is carried along by it (see :func:`cage_links`)
-HOST_REACH = 0.25
+HOST_REACH = 0.1
 #: half the thickness of the shell cage of an open surface, in mean cage edge lengths
 SHELL_HALF_THICKNESS = 0.25
 

@@ -66,11 +66,10 @@ def run_deform(args: argparse.Namespace) -> int:
         raise CLIError(f"--polish must be a number of seconds >= 0, got {args.polish}")
     t_start = time.perf_counter()
     edit = load_edit(args.edit)
-    say(f"reading {src.name}", 0.0)
+    t_read = time.perf_counter()
     doc = read_document(src)
-    say(f"reading {src.name}", 1.0)
     mesh = doc.mesh
-    say(f"read {src.name}: {mesh.n_vertices} vertices, {mesh.n_faces} faces")
+    say(f"read {src.name}: {mesh.n_vertices} vertices, {mesh.n_faces} faces ({time.perf_counter() - t_read:.2f} s)")
     ed = HybridEditor(
         mesh,
         args.cage,
@@ -101,12 +100,10 @@ def run_deform(args: argparse.Namespace) -> int:
     if args.polish:
         polished = _polish(ed, V, args.polish, say)
         V = polished.vertices
-    say(f"writing {dst.name}", 0.0)
-    written = write_document(dst, doc.with_vertices(V))
-    say(f"writing {dst.name}", 1.0)
-    for note in written:
+    t_write = time.perf_counter()
+    for note in write_document(dst, doc.with_vertices(V)):
         print(f"hybridedit: note: {dst.name}: {note}", file=sys.stderr, flush=True)
-    say(f"wrote {dst}")
+    say(f"wrote {dst} ({time.perf_counter() - t_write:.2f} s)")
     frame_ms = np.asarray(ed.frame_seconds) * 1e3
     edges = mesh.edges()
     stats = {
@@ -158,14 +155,12 @@ def run_deform(args: argparse.Namespace) -> int:
 
 def _polish(ed: HybridEditor, V: np.ndarray, seconds: float, say):
     """Full-resolution ARAP of the edited region, warm-started from V, for ``seconds``."""
-    from .polish import ShapeARAP, polish
+    from .polish import ShapeARAP, polish, polish_vertices
 
     say("polishing", 0.0)
     t0 = time.perf_counter()
     sa = ShapeARAP(ed.mesh)
-    free = np.zeros(ed.mesh.n_vertices, dtype=bool)
-    free[ed.moving_vertices] = True
-    free &= ed.vertex_roles == 0
+    free = polish_vertices(ed)
     budget = max(seconds - (time.perf_counter() - t0), 0.0)
     t1 = time.perf_counter()
 

@@ -76,28 +76,55 @@ class ShapeARAP:
         #: seconds the last :meth:`prepare` that did work took
         self.setup_seconds = 0.0
         self._rate = SETUP_SECONDS_PER_VERTEX
+        self._factor_ratio = 1.0  # factorization seconds per second of weights, measured
+        self._pending: tuple | None = None  # a set-up stopped after its weights, for the same free set
 
     def prepared_for(self, free: np.ndarray) -> bool:
         """Whether :meth:`prepare` has already set up for this set of free vertices."""
         return np.packbits(free).tobytes() == self._free_key
 
-    def expected_setup_seconds(self, free: np.ndarray) -> float:
-        """What :meth:`prepare` is expected to take for ``free`` (0 when it is set up already):
-        the region's vertex count times the last set-up's seconds per vertex
-        (:data:`SETUP_SECONDS_PER_VERTEX` before the first)."""
-        if self.prepared_for(free):
-            return 0.0
-        f = self.mesh.faces
-        touched = np.zeros(self.mesh.n_vertices, dtype=bool)
-        touched[f[free[f].any(axis=1)].ravel()] = True
-        return float(np.count_nonzero(touched)) * self._rate
+    def prepare(self, free: np.ndarray, deadline: float | None = None) -> bool:
+        """Set up and factor for this set of free shape vertices ((n,) bool mask); cached.
 
-    def prepare(self, free: np.ndarray) -> None:
-        """Set up and factor for this set of free shape vertices ((n,) bool mask); cached."""
+        Parameters
+        ----------
+        free : (n,) bool
+        deadline : float, optional
+            A ``time.perf_counter()`` value: between its phases (region, weights,
+            factorization) the set-up stops when the next phase is expected to end
+            after it. What is done is kept for the next call with the same ``free``.
+
+        Returns
+        -------
+        bool
+            True when set up (False: stopped for the deadline).
+        """
         key = np.packbits(free).tobytes()
         if key == self._free_key:
-            return
+            return True
         t0 = time.perf_counter()
+        if self._pending is None or self._pending[0] != key:
+            region, sub, held = self._region(free)
+            if deadline is not None and time.perf_counter() + len(region) * self._rate > deadline:
+                return False
+            t1 = time.perf_counter()
+            solver = ARAPSolver(self.mesh.vertices[region], sub, weights=self.weights)
+            t_weights = time.perf_counter() - t1
+            self._pending = (key, solver, region, held, t_weights)
+        key, solver, region, held, t_weights = self._pending
+        if deadline is not None and time.perf_counter() + t_weights * self._factor_ratio > deadline:
+            return False
+        t2 = time.perf_counter()
+        solver.set_constrained(np.flatnonzero(held), moving=np.zeros(0, dtype=np.int64))
+        t_factor = time.perf_counter() - t2
+        self.solver, self.region, self._free_key, self._pending = solver, region, key, None
+        self.setup_seconds = time.perf_counter() - t0
+        self._rate = self.setup_seconds / max(len(region), 1)
+        self._factor_ratio = t_factor / max(t_weights, 1e-9)
+        return True
+
+    def _region(self, free: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The region's shape vertices (k,), its faces on them (m, 3) and which of them are held (k,)."""
         f = self.mesh.faces
         sub = f[free[f].any(axis=1)]
         region = np.unique(sub)
@@ -112,20 +139,34 @@ class ShapeARAP:
             sub = sub[pinned[labels[sub[:, 0]]]]
             keep = np.unique(sub)
             region, held = region[keep], held[keep]
-            local = np.full(len(local), -1, dtype=np.int64)
-            local[region] = np.arange(len(region))
             sub = np.searchsorted(keep, sub)
-        solver = ARAPSolver(self.mesh.vertices[region], sub, weights=self.weights)
-        solver.set_constrained(np.flatnonzero(held), moving=np.zeros(0, dtype=np.int64))
-        self.solver, self.region, self._free_key = solver, region, key
-        self.setup_seconds = time.perf_counter() - t0
-        self._rate = self.setup_seconds / max(len(region), 1)
+        return region, sub, held
 
     def energy(self, vertices: np.ndarray) -> float:
         """ARAP energy of the region's faces in the pose ``vertices`` ((n, 3)), after :meth:`prepare`."""
         if self.solver is None:
             raise RuntimeError("call prepare first")
         return self.solver.energy(np.asarray(vertices, dtype=np.float64)[self.region])
+
+
+def polish_vertices(editor) -> np.ndarray:
+    """The shape vertices a polish of ``editor``'s pose may move: those a drag can
+    move (``editor.moving_vertices``) that are neither fixed nor in a handle
+    (``editor.vertex_roles == 0``), so that every held vertex stays exactly where
+    the editor put it.
+
+    Parameters
+    ----------
+    editor : HybridEditor
+
+    Returns
+    -------
+    (n,) bool mask.
+    """
+    free = np.zeros(editor.mesh.n_vertices, dtype=bool)
+    free[editor.moving_vertices] = True
+    free &= editor.vertex_roles == 0
+    return free
 
 
 def free_shape_vertices(M: sp.csr_matrix, free_cage: np.ndarray, n_cage: int) -> np.ndarray:
@@ -158,9 +199,9 @@ def polish(
     """Run full-resolution ARAP iterations on the free vertices, starting from ``vertices``.
 
     The budget ``seconds`` covers everything, the set-up for a new set of free
-    vertices included: the set-up is started only when it is expected to fit
-    (:meth:`ShapeARAP.expected_setup_seconds`; otherwise nothing is polished and
-    ``stopped`` is "time"), and an iteration only when it is expected to end
+    vertices included: each phase of the set-up is started only when it is
+    expected to end in time (:meth:`ShapeARAP.prepare`; otherwise nothing is
+    polished and ``stopped`` is "time"), and an iteration only when it is expected to end
     within the budget (each is expected to take as long as the last one; the
     first as long as a tenth of the set-up, its usual share).
 
@@ -191,17 +232,16 @@ def polish(
         raise ValueError(f"vertices must be {(n, 3)} and free ({n},)")
     if not np.any(free):
         return PolishResult(V.copy(), 0, 0.0, 0.0, time.perf_counter() - t0, "converged")
-    if shape_arap.expected_setup_seconds(free) > float(seconds) - (time.perf_counter() - t0):
-        # the set-up alone would not fit in the budget: nothing is polished
+    deadline = t0 + float(seconds)
+    if not shape_arap.prepare(free, deadline=deadline):
+        # the set-up would not fit in the budget: nothing is polished
         return PolishResult(V.copy(), 0, 0.0, 0.0, time.perf_counter() - t0, "time")
-    shape_arap.prepare(free)
     s = shape_arap.solver
     region = shape_arap.region
     s.positions[:] = V[region]
     e0 = s.energy()
     held = s.positions[s.constrained].copy()
     step_tol = tolerance * shape_arap.mesh.bbox_diagonal()
-    deadline = t0 + float(seconds)
     expected = 0.1 * (time.perf_counter() - t0)
     stopped = "iterations"
     it = 0

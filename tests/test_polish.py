@@ -104,3 +104,23 @@ def test_a_wholly_free_loose_part_is_left_alone():
     assert r.iterations >= 1 and r.energy_after < r.energy_before
     assert np.array_equal(r.vertices[a.n_vertices:], V[a.n_vertices:])
     assert np.array_equal(r.vertices[: a.n_vertices][~free[: a.n_vertices]], V[: a.n_vertices][~free[: a.n_vertices]])
+
+
+def test_polish_keeps_every_held_vertex_where_the_editor_put_it():
+    from hybridedit.polish import polish_vertices
+
+    shape = bumpy_blob(3)
+    ed = HybridEditor(shape, 120)
+    x = shape.vertices[:, 0]
+    ed.set_selection([np.flatnonzero(x > x.max() - 0.3), np.flatnonzero(x < x.min() + 0.3)],
+                     roi=np.flatnonzero(np.abs(x) > 0.5))  # two handle groups, the middle fixed
+    for _ in range(5):
+        V = ed.drag(transforms={0: np.eye(4) + np.pad([[0, 0, 0, 0.1], [0, 0, 0, 0.4]], ((0, 2), (0, 0))),
+                                1: np.eye(4) + np.pad([[0, 0, 0, -0.3]], ((1, 2), (0, 0)))})
+    free = polish_vertices(ed)
+    roles = ed.vertex_roles
+    assert free.any() and not free[roles != 0].any()
+    assert set(np.flatnonzero(free)) <= set(ed.moving_vertices)
+    r = polish(ShapeARAP(shape), V, free, seconds=5.0)
+    assert r.iterations >= 1
+    assert np.array_equal(r.vertices[roles != 0], V[roles != 0])
