@@ -8,17 +8,20 @@ import os
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .atomic import WriteError, atomic_write
 from .editfile import EditFileError, load_edit
-from .editor import HybridEditor, SelectionError
+from .selection import SelectionError
 from .io import SUPPORTED_EXTENSIONS, MeshFileError, read_document, read_mesh, write_document, write_mesh
 from .mesh import MeshError, edge_stretch, rrms_edge_error
 from .outpaths import OutputPathError, check_outputs
 from .progress import TextProgress
-from .repair import cage_source
+
+if TYPE_CHECKING:
+    from .editor import HybridEditor
 
 DEFAULT_MESH = Path(__file__).resolve().parent.parent / "data" / "creature.ply"
 
@@ -65,6 +68,8 @@ def run_deform(args: argparse.Namespace) -> int:
     if not (np.isfinite(args.polish) and args.polish >= 0):
         raise CLIError(f"--polish must be a number of seconds >= 0, got {args.polish}")
     t_start = time.perf_counter()
+    from .editor import HybridEditor  # the compiled engine loads after the cheap checks
+
     edit = load_edit(args.edit)
     t_read = time.perf_counter()
     doc = read_document(src)
@@ -153,7 +158,7 @@ def run_deform(args: argparse.Namespace) -> int:
     return 0
 
 
-def _polish(ed: HybridEditor, V: np.ndarray, seconds: float, say):
+def _polish(ed: "HybridEditor", V: np.ndarray, seconds: float, say):
     """Full-resolution ARAP of the edited region, warm-started from V, for ``seconds``."""
     from .polish import ShapeARAP, polish, polish_vertices
 
@@ -177,6 +182,8 @@ def _polish(ed: HybridEditor, V: np.ndarray, seconds: float, say):
 
 def run_info(args: argparse.Namespace) -> int:
     from .meshinfo import format_report, mesh_report
+
+    from .repair import cage_source
 
     mesh = read_mesh(args.input)
     rep = mesh_report(mesh)
@@ -212,6 +219,8 @@ def _demo(path: Path, args: argparse.Namespace) -> int:
     say = _progress(False)
     out = Path(args.output or "hybridedit-demo.ply")
     check_outputs({"-o": (out, SUPPORTED_EXTENSIONS)}, inputs={"input": path})
+    from .editor import HybridEditor
+
     mesh = read_mesh(path)
     say(f"demo on {path.name}: {mesh.n_vertices} vertices")
     ed = HybridEditor(mesh, args.cage, progress=say)

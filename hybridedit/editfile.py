@@ -28,10 +28,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from .atomic import atomic_write
-from .transforms import rigid_transform
+from .transforms import decompose_rigid, rigid_transform
 
 FORMAT = "hybridedit-edit"
 VERSION = 2
@@ -75,17 +74,12 @@ class HandleEdit:
         """Describe ``T`` as a rotation about ``center`` then a translation (a general
         affine ``T`` is kept as a matrix)."""
         T = np.asarray(T, dtype=np.float64)
-        R = T[:3, :3]
         idx = np.asarray(indices, dtype=np.int64)
-        if not (np.allclose(R @ R.T, np.eye(3), atol=1e-9) and np.linalg.det(R) > 0):
+        try:
+            translate, rotate = decompose_rigid(T, center)
+        except ValueError:  # not rigid: kept as it is
             return cls(idx, matrix=T.copy())
-        c = np.asarray(center, dtype=np.float64)
-        t = T[:3, 3] + R @ c - c
-        rv = Rotation.from_matrix(R).as_rotvec()
-        angle = float(np.linalg.norm(rv))
-        if angle == 0.0:
-            return cls(idx, translate=T[:3, 3].copy())
-        return cls(idx, translate=t, rotate={"axis": rv / angle, "degrees": math.degrees(angle), "center": c})
+        return cls(idx, translate=translate, rotate=rotate)
 
     def to_json(self) -> dict:
         d: dict = {"indices": [int(i) for i in self.indices]}

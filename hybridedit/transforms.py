@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 
 def rigid_transform(
@@ -31,6 +30,8 @@ def rigid_transform(
             raise ValueError(f"rotation axis must be a nonzero finite vector, got {list(a)}")
         if not np.isfinite(degrees):
             raise ValueError(f"rotation angle must be finite, got {degrees}")
+        from scipy.spatial.transform import Rotation  # imported when used: the CLI starts fast
+
         R = Rotation.from_rotvec(a / n * np.radians(float(degrees))).as_matrix()
         c = np.zeros(3) if center is None else np.asarray(center, dtype=np.float64).reshape(3)
         T[:3, :3] = R
@@ -90,6 +91,8 @@ def decompose_rigid(T: np.ndarray, center: np.ndarray) -> tuple[np.ndarray, dict
         raise ValueError("the handle transform is not a rotation plus a translation")
     c = np.asarray(center, dtype=np.float64).reshape(3)
     translate = T[:3, 3] - (c - R @ c)
+    from scipy.spatial.transform import Rotation
+
     rotvec = Rotation.from_matrix(R).as_rotvec()
     angle = float(np.linalg.norm(rotvec))
     if angle < 1e-12:

@@ -100,3 +100,27 @@ def test_entries_failing_any_check_are_discarded_and_rebuilt(tmp_path, shape, da
     assert not b.cache_hit and np.all(np.isfinite(b.cage.vertices))
     assert (a.M != b.M).nnz == 0
     assert HybridEditor(shape, 80, cache=tmp_path).cache_hit
+
+
+def test_an_entry_that_fails_when_used_is_discarded_and_rebuilt(tmp_path, monkeypatch):
+    """An entry can pass the loader's checks and still not serve (here: a binding of
+    the wrong width, as a stale format would give): it is deleted and rebuilt."""
+    import scipy.sparse as sp
+
+    from hybridedit import bindcache
+    from hybridedit.rig import build_rig
+
+    shape = bumpy_blob(2)
+    first = build_rig(shape, cage_size=40, cache=tmp_path)
+    assert not first.cache_hit and len(list(tmp_path.glob("*.npz"))) == 1
+    real_load = bindcache.load
+
+    def stale(folder, key, mesh):
+        cage, M, notes = real_load(folder, key, mesh)
+        return cage, sp.hstack([M, sp.csr_matrix((M.shape[0], 1))]).tocsr(), notes
+
+    monkeypatch.setattr(bindcache, "load", stale)
+    again = build_rig(shape, cage_size=40, cache=tmp_path)
+    assert not again.cache_hit and again.M.shape == first.M.shape  # rebuilt, and stored again
+    monkeypatch.setattr(bindcache, "load", real_load)
+    assert build_rig(shape, cage_size=40, cache=tmp_path).cache_hit

@@ -5,6 +5,8 @@ from hybridedit import HybridEditor, SelectionError
 from hybridedit.propagate import propagate
 from hybridedit.transforms import apply_transform, rigid_transform
 
+from conftest import icosphere
+
 
 @pytest.fixture(scope="module")
 def editor(blob):
@@ -463,7 +465,6 @@ def test_masks_equal_indices(blob):
 
 
 def symmetric_blob():
-    from conftest import icosphere
     from hybridedit.mesh import Mesh
 
     s = icosphere(4)

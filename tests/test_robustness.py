@@ -274,7 +274,7 @@ def test_unexpected_errors_are_one_line(blob_file, tmp_path, capsys, monkeypatch
     with pytest.raises(RuntimeError):
         main(["info", str(blob_file)])
     monkeypatch.delenv("HYBRIDEDIT_DEBUG")
-    monkeypatch.setattr(cli.HybridEditor, "drag", boom)
+    monkeypatch.setattr(__import__("hybridedit.editor").editor.HybridEditor, "drag", boom)
     rc, out, _ = run_deform(blob_file, tmp_path, {"handle": [0], "roi": [0, 1]})
     assert rc == 1 and not out.exists()
     assert capsys.readouterr().err.strip().startswith("hybridedit: internal error: blob.obj: RuntimeError")

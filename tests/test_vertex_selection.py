@@ -1,3 +1,5 @@
+"""Tests of hybridedit/selection.py (named apart from tests/viewer/test_selection.py)."""
+
 import numpy as np
 import pytest
 
