@@ -18,6 +18,7 @@ from .selection import SelectionError
 from .io import SUPPORTED_EXTENSIONS, MeshFileError, read_document, read_mesh, write_document, write_mesh
 from .mesh import MeshError, edge_stretch, rrms_edge_error
 from .outpaths import OutputPathError, check_outputs
+from .progress import TextProgress
 
 if TYPE_CHECKING:
     from .editor import HybridEditor
@@ -49,39 +50,9 @@ def parse_cage_size(text: str) -> int | float:
 
 
 def _progress(quiet: bool, stream=None):
-    """A progress callback for HybridEditor and the CLI's own steps, on stderr.
-
-    ``say(msg)`` prints a line. ``say(stage, fraction)`` reports progress of a
-    step: on a terminal a percentage updated in place; otherwise one line when
-    the step starts and one with its duration when it ends.
-    """
-    out = stream if stream is not None else sys.stderr
-    tty = bool(getattr(out, "isatty", lambda: False)())
-    state = {"stage": None, "pct": -1, "t0": 0.0, "shown": 0.0}
-
-    def say(msg: str, fraction: float | None = None) -> None:
-        if quiet:
-            return
-        if fraction is None:
-            print(f"hybridedit: {msg}", file=out, flush=True)
-            return
-        now = time.perf_counter()
-        if msg != state["stage"]:
-            state.update(stage=msg, pct=-1, t0=now, shown=0.0)
-            if not tty:
-                print(f"hybridedit: {msg} ...", file=out, flush=True)
-        pct = int(100 * min(max(fraction, 0.0), 1.0))
-        done = fraction >= 1.0
-        if tty and (done or (pct != state["pct"] and now - state["shown"] > 0.1)):
-            end = "\n" if done else ""
-            print(f"\rhybridedit: {msg} {pct:3d}%", end=end, file=out, flush=True)
-            state.update(pct=pct, shown=now)
-        elif done and not tty:
-            print(f"hybridedit: {msg} done ({now - state['t0']:.2f} s)", file=out, flush=True)
-        if done:
-            state["stage"] = None
-
-    return say
+    """A progress callback for HybridEditor and the CLI's own steps, on stderr
+    (:class:`hybridedit.progress.TextProgress`: the time left on a terminal)."""
+    return TextProgress(quiet, stream)
 
 
 def run_deform(args: argparse.Namespace) -> int:
@@ -100,9 +71,10 @@ def run_deform(args: argparse.Namespace) -> int:
     from .editor import HybridEditor  # the compiled engine loads after the cheap checks
 
     edit = load_edit(args.edit)
+    t_read = time.perf_counter()
     doc = read_document(src)
     mesh = doc.mesh
-    say(f"read {src.name}: {mesh.n_vertices} vertices, {mesh.n_faces} faces")
+    say(f"read {src.name}: {mesh.n_vertices} vertices, {mesh.n_faces} faces ({time.perf_counter() - t_read:.2f} s)")
     ed = HybridEditor(
         mesh,
         args.cage,
@@ -133,9 +105,10 @@ def run_deform(args: argparse.Namespace) -> int:
     if args.polish:
         polished = _polish(ed, V, args.polish, say)
         V = polished.vertices
+    t_write = time.perf_counter()
     for note in write_document(dst, doc.with_vertices(V)):
         print(f"hybridedit: note: {dst.name}: {note}", file=sys.stderr, flush=True)
-    say(f"wrote {dst}")
+    say(f"wrote {dst} ({time.perf_counter() - t_write:.2f} s)")
     frame_ms = np.asarray(ed.frame_seconds) * 1e3
     edges = mesh.edges()
     stats = {

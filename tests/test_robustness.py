@@ -38,7 +38,8 @@ REFUSED = {
 
 # file -> the exact repair notes (info lists them; deform prints them on stderr), with --cage 40
 REPAIRED = {
-    "quads_ngons.obj": ["the mesh has only 12 usable vertices; the cage uses all of them instead of 40"],
+    "quads_ngons.obj": ["the mesh has only 12 usable vertices; the cage uses all of them instead of 40",
+                        "the mesh is small: it is its own cage"],
     "degenerate_faces.obj": ["dropped 4 degenerate faces (zero area or a repeated vertex)"],
     "duplicate_vertices.stl": [],  # the STL reader welds exactly equal corners itself
     "duplicate_vertices.obj": [
@@ -57,15 +58,16 @@ REPAIRED = {
     ],
     "inconsistent_orientation.obj": ["re-oriented 107 faces"],
     "inside_out.obj": ["re-oriented 320 faces"],
-    "fewer_than_cage.obj": ["the mesh has only 12 usable vertices; the cage uses all of them instead of 40"],
-    "single_triangle.obj": [
-        "the mesh is too small for a simplified cage (3 vertices); using a box around it as the cage"
-    ],
+    "fewer_than_cage.obj": ["the mesh has only 12 usable vertices; the cage uses all of them instead of 40",
+                            "the mesh is small: it is its own cage"],
+    "single_triangle.obj": ["the mesh has only 3 usable vertices; the cage uses all of them instead of 40",
+                            "the mesh is an open surface: its cage is a thin closed shell around it"],
     "huge_scale.ply": [],
     "tiny_scale.obj": [],
 }
 # notes about the cage itself (not about the shape): deform lists them, info does not
-CAGE_ONLY = ("closed ", "the mesh has only", "the mesh is too small", "flat or degenerate")
+CAGE_ONLY = ("closed ", "the mesh has only", "the mesh is small", "the mesh is an open surface",
+             "the mesh is flat", "in the cage")
 
 
 def test_catalog_is_covered():
