@@ -160,12 +160,12 @@ def run_deform(args: argparse.Namespace) -> int:
 
 def _polish(ed: "HybridEditor", V: np.ndarray, seconds: float, say):
     """Full-resolution ARAP of the edited region, warm-started from V, for ``seconds``."""
-    from .polish import ShapeARAP, polish, polish_vertices
+    from .polish import ShapeARAP, polish
 
     say("polishing", 0.0)
     t0 = time.perf_counter()
     sa = ShapeARAP(ed.mesh)
-    free = polish_vertices(ed)
+    free = ed.free_mask
     budget = max(seconds - (time.perf_counter() - t0), 0.0)
     t1 = time.perf_counter()
 

@@ -11,9 +11,9 @@ import scipy.sparse as sp
 from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
-from .arap import ARAPSolver
+from .arap import ARAPSolver, edge_weights, laplacian
 from .binding import dominant_cage_vertex
-from .constraints import BAND, FIXED, FREE, seam_band
+from .constraints import FIXED, FREE, SeamSpread
 from .editfile import Edit, HandleEdit, check_mesh, mesh_fingerprint
 from .mesh import Mesh
 from .propagate import propagate
@@ -59,9 +59,7 @@ class _Selection:
     centers: tuple[np.ndarray, ...]  # default rotation centre of each user group
     seam: np.ndarray  # constrained shape vertices whose rows lean on moving cage vertices
     seam_role: np.ndarray  # their internal roles
-    band: np.ndarray  # free shape vertices near the seam (a subset of ``rows``)
-    band_of: np.ndarray  # (band, k) index into ``seam`` of the nearest seam vertex of each role
-    band_w: np.ndarray  # (band, k) falloff weights
+    spread: SeamSpread | None  # carries the seam's correction into ``rows``
     compute: np.ndarray  # rows propagated every frame: rows and seam
 
 
@@ -168,9 +166,7 @@ class HybridEditor:
         self._scale = max(mesh.bbox_diagonal(), float(np.linalg.norm(np.ptp(cage.vertices, axis=0))))
         self._cage_to_shape = cKDTree(mesh.vertices).query(cage.vertices)[1].astype(np.int64)
         self._dominant = dominant_cage_vertex(M)
-        e = self.arap.edges[: len(self.arap.edges)]
-        self._cage_edge = float(np.mean(np.linalg.norm(cage.vertices[e[:, 0]] - cage.vertices[e[:, 1]], axis=1))) \
-            if len(e) else self._scale
+        self._laplacian: sp.csr_matrix | None = None
         self._mirrors: dict[str, Mirror] = {}
         #: rotations the residual turns with, per cage vertex (ARAP's for free
         #: vertices, the constraint's for held ones)
@@ -256,6 +252,15 @@ class HybridEditor:
         if self._sel is None:
             return np.zeros(0, dtype=np.int64)
         return np.union1d(self._sel.rows, np.flatnonzero(self._sel.roles > 0)).astype(np.int64)
+
+    @property
+    def free_mask(self) -> np.ndarray:
+        """(n,) bool: the free shape vertices a drag can move, i.e. the edited region
+        less its constraints; what a full-resolution polish may move."""
+        mask = np.zeros(self.mesh.n_vertices, dtype=bool)
+        if self._sel is not None:
+            mask[self._sel.rows] = True
+        return mask
 
     @property
     def symmetry(self) -> Mirror | None:
@@ -362,7 +367,7 @@ class HybridEditor:
         mirror = self._mirror(symmetry) if symmetry is not None else None
         roles, source, kind = self._mirrored_roles(user_roles, len(groups), mirror)
         # cage vertices held: the user's own cage picks, or those whose nearest
-        # shape vertex is constrained (the seam band smooths what that leaves)
+        # shape vertex is constrained (the seam's correction smooths what that leaves)
         near = roles[self._cage_to_shape]
         core = near if space == "shape" else np.where(given != FREE, given, near)
         cage_roles = core.astype(np.int32)
@@ -383,12 +388,11 @@ class HybridEditor:
             self.arap.set_constrained(constrained, moving=moving)
         except ValueError as e:
             raise SelectionError(str(e)) from None
-        free_cage = self.arap.free
-        slots = tuple(np.searchsorted(constrained, np.flatnonzero(cage_roles == k + 1)) for k in range(n_int))
         rows = self._rows_that_can_move(roles, cage_roles, constrained_too=True)
         seam = rows[roles[rows] != FREE]
         rows = rows[roles[rows] == FREE]
-        band, band_of, band_w = seam_band(self.mesh.vertices, seam, roles[seam], rows, BAND * self._cage_edge)
+        free_cage = self.arap.free
+        slots = tuple(np.searchsorted(constrained, np.flatnonzero(cage_roles == k + 1)) for k in range(n_int))
         sym_rows = np.zeros(0, dtype=np.int64)
         if mirror is not None:
             partners = mirror.map[rows]
@@ -402,7 +406,8 @@ class HybridEditor:
             kind=tuple(kind), shape_groups=tuple(np.flatnonzero(roles == k + 1) for k in range(n_int)),
             cage_groups=tuple(np.flatnonzero(cage_roles == k + 1) for k in range(n_int)), constrained=constrained,
             slots=slots, free_cage=free_cage, rows=rows, mirror=mirror, sym_rows=sym_rows, n_groups=len(groups),
-            centers=centers, seam=seam, seam_role=roles[seam], band=band, band_of=band_of, band_w=band_w,
+            centers=centers, seam=seam, seam_role=roles[seam],
+            spread=SeamSpread(self._shape_laplacian(), rows, seam) if seam.size else None,
             compute=np.union1d(rows, seam).astype(np.int64),
         )
         self._transforms = [np.eye(4) for _ in range(len(groups))]
@@ -431,6 +436,13 @@ class HybridEditor:
                     kind.append("mirror")
                     roles[img] = len(source)
         return roles, source, kind
+
+    def _shape_laplacian(self) -> sp.csr_matrix:
+        """Cotangent Laplacian of the shape (built on first use)."""
+        if self._laplacian is None:
+            e, w = edge_weights(self.mesh.vertices, self.mesh.faces, "cotangent")
+            self._laplacian = laplacian(self.mesh.n_vertices, e, w)
+        return self._laplacian
 
     def _rows_that_can_move(self, roles: np.ndarray, cage_roles: np.ndarray, *,
                             constrained_too: bool = False) -> np.ndarray:
@@ -570,9 +582,7 @@ class HybridEditor:
             for g, T in enumerate(internal):
                 m = sel.seam_role == g + 1
                 goal[m] = goal[m] @ T[:3, :3].T + T[:3, 3]
-            mismatch = goal - out[sel.seam]
-            if sel.band.size:
-                out[sel.band] += np.einsum("bk,bkd->bd", sel.band_w, mismatch[sel.band_of])
+            out[sel.rows] += sel.spread.correction(goal - out[sel.seam])
             out[sel.seam] = goal
         for g, T in enumerate(internal):
             rows = sel.shape_groups[g]

@@ -15,10 +15,8 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
-import scipy.sparse as sp
 
 from .arap import ARAPSolver
-from .binding import dominant_cage_vertex
 from .mesh import Mesh
 from .topology import connected_parts
 
@@ -147,44 +145,6 @@ class ShapeARAP:
         if self.solver is None:
             raise RuntimeError("call prepare first")
         return self.solver.energy(np.asarray(vertices, dtype=np.float64)[self.region])
-
-
-def polish_vertices(editor) -> np.ndarray:
-    """The shape vertices a polish of ``editor``'s pose may move: those a drag can
-    move (``editor.moving_vertices``) that are neither fixed nor in a handle
-    (``editor.vertex_roles == 0``), so that every held vertex stays exactly where
-    the editor put it.
-
-    Parameters
-    ----------
-    editor : HybridEditor
-
-    Returns
-    -------
-    (n,) bool mask.
-    """
-    free = np.zeros(editor.mesh.n_vertices, dtype=bool)
-    free[editor.moving_vertices] = True
-    free &= editor.vertex_roles == 0
-    return free
-
-
-def free_shape_vertices(M: sp.csr_matrix, free_cage: np.ndarray, n_cage: int) -> np.ndarray:
-    """Shape vertices of the edited region: those whose dominant cage vertex (largest
-    |M_ij| in their row) is free, i.e. neither fixed nor in the handle.
-
-    Parameters
-    ----------
-    M : (n, c) CSR binding; free_cage : (k,) int cage vertices that ARAP moves;
-    n_cage : c.
-
-    Returns
-    -------
-    (n,) bool mask.
-    """
-    is_free = np.zeros(n_cage, dtype=bool)
-    is_free[free_cage] = True
-    return is_free[dominant_cage_vertex(M)]
 
 
 def polish(

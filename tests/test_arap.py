@@ -8,7 +8,7 @@ from hybridedit.linsolve import SPDSolver, cholmod_available
 from hybridedit.mesh import Mesh
 from hybridedit.transforms import apply_transform, rigid_transform
 
-from conftest import bumpy_blob, icosphere
+from shapes import bumpy_blob, icosphere
 
 
 def test_cholmod_is_installed():

@@ -3,7 +3,7 @@ import pytest
 
 from hybridedit import HybridEditor, bindcache
 
-from conftest import bumpy_blob
+from shapes import bumpy_blob
 
 
 @pytest.fixture

@@ -6,7 +6,7 @@ from scipy.spatial import cKDTree
 from hybridedit.cage import build_cage, cage_vertex_target, clean_surface
 from hybridedit.mesh import Mesh, MeshError
 
-from conftest import bumpy_blob
+from shapes import bumpy_blob
 
 
 @pytest.mark.parametrize("size, target", [(400, 400), (0.05, 128), (0.1, 256)])

@@ -6,7 +6,7 @@ import pytest
 from hybridedit.cli import main, parse_cage_size
 from hybridedit.io import read_mesh, write_mesh
 
-from conftest import bumpy_blob
+from shapes import bumpy_blob
 
 
 @pytest.fixture(scope="module")

@@ -15,7 +15,7 @@ from hybridedit import HybridEditor
 from hybridedit.document import vertex_normals
 from hybridedit.io import read_document, read_mesh, write_document
 
-from conftest import SHARED_MESHES, bumpy_blob, icosphere
+from shapes import SHARED_MESHES, bumpy_blob, icosphere
 
 SPOT = SHARED_MESHES / "spot"
 

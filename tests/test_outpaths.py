@@ -14,7 +14,7 @@ import pytest
 from hybridedit import atomic, cli, outpaths
 from hybridedit.io import write_mesh
 
-from conftest import bumpy_blob
+from shapes import bumpy_blob
 
 
 @pytest.fixture

@@ -2,9 +2,9 @@ import numpy as np
 import pytest
 
 from hybridedit import HybridEditor, Mesh, rrms_edge_error
-from hybridedit.polish import ShapeARAP, free_shape_vertices, polish
+from hybridedit.polish import ShapeARAP, polish
 
-from conftest import bumpy_blob
+from shapes import bumpy_blob
 
 
 @pytest.fixture(scope="module")
@@ -23,7 +23,7 @@ def posed():
 def test_polish_lowers_energy_and_holds_the_rest(posed):
     shape, ed, V = posed
     sa = ShapeARAP(shape)
-    free = free_shape_vertices(ed.M, ed.arap.free, ed.cage.n_vertices)
+    free = ed.free_mask
     assert 0 < free.sum() < shape.n_vertices
     r = polish(sa, V, free, seconds=10.0, max_iterations=300)
     assert r.energy_after < r.energy_before
@@ -43,7 +43,7 @@ def test_polish_lowers_energy_and_holds_the_rest(posed):
 def test_polish_stops_on_cancel_and_on_time(posed):
     shape, ed, V = posed
     sa = ShapeARAP(shape)
-    free = free_shape_vertices(ed.M, ed.arap.free, ed.cage.n_vertices)
+    free = ed.free_mask
     r = polish(sa, V, free, should_stop=lambda: True)
     assert r.stopped == "cancelled" and r.iterations == 1
     assert r.energy_after <= r.energy_before
@@ -74,7 +74,7 @@ def test_bad_arguments(posed):
 def test_polish_honours_its_budget_set_up_included():
     import time
 
-    from conftest import icosphere
+    from shapes import icosphere
 
     shape = icosphere(6)  # 40,962 vertices
     v = shape.vertices
@@ -92,7 +92,7 @@ def test_polish_honours_its_budget_set_up_included():
 
 
 def test_a_wholly_free_loose_part_is_left_alone():
-    from conftest import icosphere
+    from shapes import icosphere
 
     a, b = icosphere(2), icosphere(2)
     shape = Mesh(np.vstack([a.vertices, b.vertices + [3, 0, 0]]), np.vstack([a.faces, b.faces + a.n_vertices]))
@@ -107,7 +107,6 @@ def test_a_wholly_free_loose_part_is_left_alone():
 
 
 def test_polish_keeps_every_held_vertex_where_the_editor_put_it():
-    from hybridedit.polish import polish_vertices
 
     shape = bumpy_blob(3)
     ed = HybridEditor(shape, 120)
@@ -117,7 +116,7 @@ def test_polish_keeps_every_held_vertex_where_the_editor_put_it():
     for _ in range(5):
         V = ed.drag(transforms={0: np.eye(4) + np.pad([[0, 0, 0, 0.1], [0, 0, 0, 0.4]], ((0, 2), (0, 0))),
                                 1: np.eye(4) + np.pad([[0, 0, 0, -0.3]], ((1, 2), (0, 0)))})
-    free = polish_vertices(ed)
+    free = ed.free_mask
     roles = ed.vertex_roles
     assert free.any() and not free[roles != 0].any()
     assert set(np.flatnonzero(free)) <= set(ed.moving_vertices)

@@ -23,7 +23,7 @@ from hybridedit.io import read_mesh, write_mesh
 sys.path.insert(0, str(Path(__file__).resolve().parent / "data"))
 import make_bad  # noqa: E402
 
-from conftest import bumpy_blob  # noqa: E402
+from shapes import bumpy_blob  # noqa: E402
 
 # file -> the one error line's text after "hybridedit: error: " (info and deform alike)
 REFUSED = {
