@@ -264,8 +264,6 @@ def test_a_small_part_beside_a_big_one_gets_the_cage_and_binding_it_would_have_a
     assert len(cage_links(cage)) == 0  # 0.5 m apart: neither holds the other
 
 
-@pytest.mark.xfail(strict=True, reason="the editor's seam band width is the mean edge of the whole cage "
-                                       "(HybridEditor._cage_edge), not of the part being edited")
 def test_parts_of_very_different_sizes_deform_at_their_own_scale():
     m, nb, small = _two_scales()
     s = np.arange(nb, m.n_vertices)
