@@ -154,8 +154,9 @@ def cage_parts(
 
     said: list[str] = [] if notes is None else notes
     _check_size(size)
-    src, repairs, vmap = repaired_source(mesh)
-    said.extend(repairs)
+    source = repaired_source(mesh)
+    src, vmap = source.mesh, source.vertex_map
+    said.extend(source.notes)
     n = src.n_vertices
     if isinstance(size, (int, np.integer)):
         target = int(size)
@@ -165,7 +166,7 @@ def cage_parts(
         said.append(f"the mesh has only {plural(n, 'usable vertex', 'usable vertices')}; "
                     f"the cage uses all of them instead of {target:,}")
         target = n
-    count, labels = connected_parts(src.faces, n)
+    count, labels = source.parts, source.part_labels
     # the vertices and faces of each part, grouped
     v_order = np.argsort(labels, kind="stable")
     v_start = np.searchsorted(labels[v_order], np.arange(count + 1))
@@ -176,16 +177,13 @@ def cage_parts(
     kinds: list[str] = []
     done = 0
     holes = 0
+    local = np.empty(n, dtype=np.int64)  # each vertex's index within its part
+    local[v_order] = np.arange(n) - v_start[labels[v_order]]
     for p in range(count):
         verts = v_order[v_start[p]:v_start[p + 1]]
-        local = np.full(n, -1, dtype=np.int64) if count > 1 else None
-        if local is not None:
-            local[verts] = np.arange(len(verts))
-            part = Mesh(src.vertices[verts], local[src.faces[f_order[f_start[p]:f_start[p + 1]]]])
-        else:
-            part = src
+        part = src if count == 1 else Mesh(src.vertices[verts], local[src.faces[f_order[f_start[p]:f_start[p + 1]]]])
         want = max(int(round(target * part.n_vertices / n)), MIN_PART_CAGE)
-        piece, kind, closed = _cage_piece(part, want)
+        piece, kind, closed = _cage_piece(part, want, known_closed=source.closed)
         holes += closed
         pieces.append(piece)
         kinds.append(kind)
@@ -219,12 +217,12 @@ def cage_parts(
     return CageParts(cage, offsets, owner, tuple(kinds))
 
 
-def _cage_piece(part: Mesh, want: int) -> tuple[Mesh, str, int]:
+def _cage_piece(part: Mesh, want: int, *, known_closed: bool = False) -> tuple[Mesh, str, int]:
     """The closed cage piece of one connected part, how it was made, and how many holes it closed."""
     from .repair import box_cage, close_holes, hole_loops
 
     own = want * 1.0 >= OWN_CAGE_FRACTION * part.n_vertices
-    loops = hole_loops(part.faces, part.n_vertices)
+    loops = [] if known_closed else hole_loops(part.faces, part.n_vertices)
     if loops and _roundness(close_holes(part)[0]) < MIN_ROUNDNESS:
         surface = part if own or want >= part.n_vertices else _simplify(part, max(want // 2, 3))
         shell = thicken(surface)

@@ -11,6 +11,8 @@ had to change; :func:`close_holes` closes what simplification leaves open.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numba
 import numpy as np
 
@@ -18,7 +20,7 @@ from .mesh import Mesh, MeshError
 from .topology import (connected_parts, degenerate_faces, edge_balance, group_rows, half_edges,
                        is_closed_oriented, weld)
 
-__all__ = ["cage_source", "repaired_source", "close_holes", "box_cage", "plural", "MERGE_TOLERANCE"]
+__all__ = ["CageSource", "cage_source", "repaired_source", "close_holes", "box_cage", "plural", "MERGE_TOLERANCE"]
 
 #: vertices closer than this fraction of the bounding-box diagonal are merged
 MERGE_TOLERANCE = 1e-9
@@ -151,20 +153,41 @@ def cage_source(mesh: Mesh) -> tuple[Mesh, list[str]]:
     MeshError
         When nothing usable is left (every face is degenerate).
     """
-    src, notes, _ = repaired_source(mesh)
-    return src, notes
+    src = repaired_source(mesh)
+    return src.mesh, src.notes
 
 
-def repaired_source(mesh: Mesh) -> tuple[Mesh, list[str], np.ndarray]:
-    """:func:`cage_source`, and where each input vertex went.
+@dataclass(frozen=True)
+class CageSource:
+    """What :func:`repaired_source` made of a shape.
 
-    Returns
-    -------
-    clean : Mesh
+    Attributes
+    ----------
+    mesh : Mesh
+        The cleaned copy (k vertices, all used by a face).
     notes : list of str
-    vertex_map : (n,) int64, the vertex of ``clean`` each input vertex was merged
-        into, -1 for vertices that no kept face uses
+        What was changed, in plain words.
+    vertex_map : (n,) int64
+        The vertex of ``mesh`` each input vertex was merged into, -1 for input
+        vertices that no kept face uses.
+    part_labels : (k,) int64
+        The connected part of each vertex of ``mesh`` (0 .. parts - 1).
+    parts : int
+    closed : bool
+        True when the whole surface is known to be closed, edge-manifold and
+        consistently oriented (the fast path); False when that is not known.
     """
+
+    mesh: Mesh
+    notes: list[str]
+    vertex_map: np.ndarray
+    part_labels: np.ndarray
+    parts: int
+    closed: bool
+
+
+def repaired_source(mesh: Mesh) -> CageSource:
+    """:func:`cage_source`, with where each input vertex went and the parts."""
     label = f"{mesh.name}: " if mesh.name else ""
     notes: list[str] = []
     v0, f = mesh.vertices, mesh.faces
@@ -176,21 +199,20 @@ def repaired_source(mesh: Mesh) -> tuple[Mesh, list[str], np.ndarray]:
     if unref:
         notes.append(f"ignored {plural(unref, 'unreferenced vertex', 'unreferenced vertices')} for the cage "
                      "(they still follow the deformation)")
-    fast = _already_clean(v0, f, used)
-    if fast is not None:
+    if is_closed_oriented(f, len(v0)) and not np.any(degenerate_faces(v0, f)):
         # a closed, manifold, consistently oriented surface without degenerate faces:
         # only compaction and the outward orientation of each part are left to do
         remap = np.cumsum(used) - 1
         remap[~used] = -1
         v, f = v0[used], remap[f]
-        f, flipped_mask = _outward(v, f, fast)
+        parts, labels = connected_parts(f, len(v))
+        f, flipped_mask = _outward(v, f, labels[f[:, 0]])
         flipped = int(np.count_nonzero(flipped_mask))
         if flipped:
             notes.append(f"re-oriented {plural(flipped, 'face')}")
-        parts = int(fast.max()) + 1 if len(fast) else 0
         if parts > 1:
             notes.append(f"{parts:,} disconnected parts")
-        return Mesh(v, f, name=mesh.name), notes, remap
+        return CageSource(Mesh(v, f, name=mesh.name), notes, remap, labels, parts, True)
     diag = _diagonal(v0[used])
     v, f, vmap, merged = weld(v0, f, MERGE_TOLERANCE * diag)
     if merged:
@@ -221,42 +243,55 @@ def repaired_source(mesh: Mesh) -> tuple[Mesh, list[str], np.ndarray]:
         notes.append(f"re-oriented {plural(flipped, 'face')}")
     if not orientable:
         notes.append("the surface is not orientable; some faces keep a conflicting orientation")
-    parts, _ = connected_parts(f, len(v))
+    parts, labels = connected_parts(f, len(v))
     if parts > 1:
         notes.append(f"{parts:,} disconnected parts")
-    return Mesh(v, f, name=mesh.name), notes, vmap
-
-
-def _already_clean(v: np.ndarray, f: np.ndarray, used: np.ndarray) -> np.ndarray | None:
-    """The part label of each face when the surface needs no repair but compaction and
-    outward orientation (closed, edge-manifold, consistently oriented, no degenerate
-    or duplicate face); None otherwise. Separate parts that touch or coincide stay
-    separate parts (each gets its own cage)."""
-    if not is_closed_oriented(f, len(v)):
-        return None
-    if np.any(degenerate_faces(v, f)):
-        return None
-    _, labels = connected_parts(f, len(v))
-    return labels[f[:, 0]]
+    return CageSource(Mesh(v, f, name=mesh.name), notes, vmap, labels, parts, False)
 
 
 def _outward(v: np.ndarray, f: np.ndarray, part_of_face: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Flip the parts of a consistently oriented surface whose signed volume (about
-    the part's centroid, for precision) is negative; returns the faces and the (m,)
+    the part's mean vertex, for precision) is negative; returns the faces and the (m,)
     mask of flipped ones."""
     ncomp = int(part_of_face.max()) + 1 if len(part_of_face) else 0
-    fc = (v[f[:, 0]] + v[f[:, 1]] + v[f[:, 2]]) / 3.0
-    cen = np.stack([np.bincount(part_of_face, fc[:, k], minlength=ncomp) for k in range(3)], axis=1)
-    cen /= np.maximum(np.bincount(part_of_face, minlength=ncomp), 1)[:, None]
-    c = cen[part_of_face]
-    vol = np.bincount(part_of_face, np.einsum("ij,ij->i", v[f[:, 0]] - c,
-                                              np.cross(v[f[:, 1]] - c, v[f[:, 2]] - c)), minlength=ncomp)
+    f = np.ascontiguousarray(f, dtype=np.int64)
+    part_of_face = np.ascontiguousarray(part_of_face, dtype=np.int64)
+    vol = np.zeros(ncomp)
+    _part_volumes(np.ascontiguousarray(v, dtype=np.float64), f, part_of_face, ncomp, vol)
     sel = (vol < 0)[part_of_face]
     if not np.any(sel):
         return f, sel
     out = f.copy()
     out[sel] = out[sel][:, [0, 2, 1]]
     return out, sel
+
+
+@numba.njit(cache=True)
+def _part_volumes(v, f, part, ncomp, vol):  # pragma: no cover - compiled
+    """Six times the signed volume of each part, about the mean of its face corners."""
+    cen = np.zeros((ncomp, 3))
+    cnt = np.zeros(ncomp)
+    for i in range(f.shape[0]):
+        p = part[i]
+        for j in range(3):
+            for k in range(3):
+                cen[p, k] += v[f[i, j], k]
+        cnt[p] += 3.0
+    for p in range(ncomp):
+        for k in range(3):
+            cen[p, k] /= max(cnt[p], 1.0)
+    for i in range(f.shape[0]):
+        p = part[i]
+        ax = v[f[i, 0], 0] - cen[p, 0]
+        ay = v[f[i, 0], 1] - cen[p, 1]
+        az = v[f[i, 0], 2] - cen[p, 2]
+        bx = v[f[i, 1], 0] - cen[p, 0]
+        by = v[f[i, 1], 1] - cen[p, 1]
+        bz = v[f[i, 1], 2] - cen[p, 2]
+        cx = v[f[i, 2], 0] - cen[p, 0]
+        cy = v[f[i, 2], 1] - cen[p, 1]
+        cz = v[f[i, 2], 2] - cen[p, 2]
+        vol[p] += ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)
 
 
 def _walk_cycles(starts: np.ndarray, ends: np.ndarray) -> list[list[int]]:

@@ -9,8 +9,6 @@ from __future__ import annotations
 
 import numba
 import numpy as np
-import scipy.sparse as sp
-from scipy.sparse.csgraph import connected_components
 
 __all__ = [
     "DEGENERATE_RATIO",
@@ -137,25 +135,51 @@ def is_closed_oriented(faces: np.ndarray, n_vertices: int) -> bool:
     """True when every directed edge is used exactly once and its reverse exactly once.
 
     That is a closed, edge-manifold, consistently oriented surface with no
-    duplicate face (two sorts of the 3m directed edge keys; no repair needed).
+    duplicate face (a linear-time check: no repair needed).
 
     Parameters
     ----------
     faces : (m, 3) int array
     n_vertices : int
     """
-    f = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    f = np.ascontiguousarray(faces, dtype=np.int64).reshape(-1, 3)
     if len(f) == 0:
         return False
-    n = max(int(n_vertices), 1)
-    a = f.ravel()
-    b = f[:, [1, 2, 0]].ravel()
-    if np.any(a == b):
-        return False
-    fwd = np.sort(a * n + b)
-    if np.any(fwd[1:] == fwd[:-1]):
-        return False
-    return bool(np.array_equal(fwd, np.sort(b * n + a)))
+    return bool(_closed_oriented(f, max(int(n_vertices), int(f.max()) + 1)))
+
+
+@numba.njit(cache=True)
+def _closed_oriented(f, n):  # pragma: no cover - compiled
+    m = f.shape[0]
+    start = np.zeros(n + 1, dtype=np.int64)
+    for i in range(m):
+        for j in range(3):
+            a = f[i, j]
+            if a < 0 or a == f[i, (j + 1) % 3]:
+                return False
+            start[a + 1] += 1
+    for k in range(n):
+        start[k + 1] += start[k]
+    head = start[:-1].copy()
+    out = np.empty(3 * m, dtype=np.int64)  # the heads of each vertex's outgoing half-edges
+    for i in range(m):
+        for j in range(3):
+            a = f[i, j]
+            out[head[a]] = f[i, (j + 1) % 3]
+            head[a] += 1
+    for a in range(n):
+        for k in range(start[a], start[a + 1]):
+            b = out[k]
+            for k2 in range(k + 1, start[a + 1]):  # a -> b only once
+                if out[k2] == b:
+                    return False
+            back = 0
+            for k2 in range(start[b], start[b + 1]):  # b -> a exactly once
+                if out[k2] == a:
+                    back += 1
+            if back != 1:
+                return False
+    return True
 
 
 @numba.njit(cache=True, parallel=True)
@@ -279,18 +303,47 @@ def connected_parts(faces: np.ndarray, n_vertices: int) -> tuple[int, np.ndarray
     labels : (n,) int64, the part of each vertex numbered 0..count-1 in order of
         first vertex, -1 for vertices no face uses
     """
-    f = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    f = np.ascontiguousarray(faces, dtype=np.int64).reshape(-1, 3)
     n = int(n_vertices)
     labels = np.full(n, -1, dtype=np.int64)
     if len(f) == 0 or n == 0:
         return 0, labels
-    g = sp.coo_matrix((np.ones(2 * len(f), dtype=np.int8),
-                       (np.concatenate([f[:, 0], f[:, 1]]), np.concatenate([f[:, 1], f[:, 2]]))), shape=(n, n))
-    _, lab = connected_components(g, directed=False)
-    used = np.zeros(n, dtype=bool)
-    used[f.ravel()] = True
-    _, first, inv = np.unique(lab[used], return_index=True, return_inverse=True)
-    rank = np.empty(len(first), dtype=np.int64)
-    rank[np.argsort(first, kind="stable")] = np.arange(len(first))
-    labels[used] = rank[inv.reshape(-1)]
-    return len(first), labels
+    return int(_parts(f, labels)), labels
+
+
+@numba.njit(cache=True)
+def _find(parent, a):  # pragma: no cover - compiled
+    while parent[a] != a:
+        parent[a] = parent[parent[a]]
+        a = parent[a]
+    return a
+
+
+@numba.njit(cache=True)
+def _parts(f, labels):  # pragma: no cover - compiled
+    """Union-find over the face edges; labels numbered by first vertex, -1 unused."""
+    n = labels.shape[0]
+    parent = np.arange(n)
+    used = np.zeros(n, dtype=np.bool_)
+    for i in range(f.shape[0]):
+        r0 = _find(parent, f[i, 0])
+        used[f[i, 0]] = True
+        for j in range(1, 3):
+            used[f[i, j]] = True
+            r = _find(parent, f[i, j])
+            if r != r0:
+                if r < r0:
+                    parent[r0] = r
+                    r0 = r
+                else:
+                    parent[r] = r0
+    count = 0
+    number = np.full(n, -1, dtype=np.int64)
+    for a in range(n):
+        if used[a]:
+            r = _find(parent, a)
+            if number[r] < 0:
+                number[r] = count
+                count += 1
+            labels[a] = number[r]
+    return count
