@@ -41,7 +41,10 @@ def edge_weights(vertices: np.ndarray, faces: np.ndarray, kind: str = "uniform")
     # half-edge a -> b of each face corner, and the corner opposite it
     a, b, o = f.ravel(), f[:, [1, 2, 0]].ravel(), f[:, [2, 0, 1]].ravel()
     ea, eb = v[a] - v[o], v[b] - v[o]
-    cross = np.linalg.norm(np.cross(ea, eb), axis=1)
+    cx = ea[:, 1] * eb[:, 2] - ea[:, 2] * eb[:, 1]  # |ea x eb| written out: np.cross is slow
+    cy = ea[:, 2] * eb[:, 0] - ea[:, 0] * eb[:, 2]
+    cz = ea[:, 0] * eb[:, 1] - ea[:, 1] * eb[:, 0]
+    cross = np.sqrt(cx * cx + cy * cy + cz * cz)
     cot = np.einsum("ij,ij->i", ea, eb) / np.maximum(cross, 1e-300)
     n = max(len(v), int(f.max(initial=-1)) + 1, 1)
     code, inverse = np.unique(np.minimum(a, b) * n + np.maximum(a, b), return_inverse=True)
