@@ -1,4 +1,10 @@
-"""The control mesh: QEM simplification of the shape, cleaned to a valid surface."""
+"""The control mesh and the binding to it: one closed cage piece per connected part of the shape.
+
+Each part is simplified by quadric error metrics to its share of the vertex budget
+(a tiny part is its own cage, an open surface is wrapped in a thin closed shell), its
+vertices are bound only to its own piece (M is block-diagonal over the parts), and
+:func:`cage_links` ties a piece that sits inside or against a bigger one to it for ARAP.
+"""
 
 from __future__ import annotations
 
