@@ -533,9 +533,10 @@ def cage_links(cage: Mesh) -> np.ndarray:
                 continue
             pts = v[verts[p]]
             sample = pts[:: max(1, len(pts) // 32)]
+            probe = np.vstack([pts.mean(axis=0)[None], sample[:: max(1, len(sample) // 8)]])
             host, best = -1, np.inf
             for h in cand[np.argsort(diag[cand])]:
-                if _winding(np.vstack([pts.mean(axis=0)[None], sample]), v, faces[h]).mean() > 0.5:
+                if _winding(probe, v, faces[h]).mean() > 0.5:  # inside it
                     host = int(h)
                     break
                 d = _distance_to_surface(sample, v, faces[h])
