@@ -10,6 +10,8 @@ both in % of the bounding-box diagonal, and the relative RMS edge-length error
 (RRMS-E, %) of the pose. Cases: the armadillo (../shared/meshes) with the
 canonical arm swing (rotation) and a translation-only lift; a flat 120 x 120
 sheet with a corner lifted; the armadillo with everything fixed but the handle.
+Then symmetric editing: the result's asymmetry on an exactly mirror-symmetric
+shape and on the near-symmetric default creature.
 """
 
 from __future__ import annotations
@@ -18,9 +20,9 @@ import argparse
 
 import numpy as np
 
-from common import armadillo, canonical_edit, machine
+from common import REPO, armadillo, canonical_edit, machine
 
-from hybridedit import HybridEditor, Mesh, apply_transform, rigid_transform, rrms_edge_error
+from hybridedit import HybridEditor, Mesh, apply_transform, read_mesh, rigid_transform, rrms_edge_error
 
 
 def sheet(k: int) -> Mesh:
@@ -31,6 +33,19 @@ def sheet(k: int) -> Mesh:
     b, c, d = a + k, a + k + 1, a + 1
     f = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
     return Mesh(v, f, name=f"sheet {k}x{k}")
+
+
+def symmetric_blob(subdivisions: int) -> Mesh:
+    """An elongated, bent, bumpy sphere that is exactly mirror-symmetric across x = 0."""
+    import trimesh
+
+    s = trimesh.creation.icosphere(subdivisions=subdivisions)
+    v = np.asarray(s.vertices).copy()
+    x, y, z = v.T
+    v *= (1.0 + 0.08 * np.cos(7 * x) * np.cos(5 * y) + 0.05 * np.sin(11 * z))[:, None]
+    v[:, 0] *= 2.0
+    v[:, 1] += 0.3 * np.cos(1.5 * v[:, 0])
+    return Mesh(v, np.asarray(s.faces), name="symmetric blob")
 
 
 def measure(mesh: Mesh, handle, T, *, roi=None, fixed=None, frames=30, cage=0.05):
@@ -78,6 +93,30 @@ def main() -> None:
     for name, mesh, handle, T, sel in rows:
         c, drift, miss, err = measure(mesh, handle, T, frames=frames, **sel)
         print(f"{name:>34} {mesh.n_vertices:>7} {c:>6} {drift:>12.3g} {miss:>12.3g} {err:>8.3f}")
+    print()
+    print("# symmetric editing (symmetry='x'): asymmetry of the result and of the displacement, "
+          "% of the diagonal (max over vertices)")
+    print(f"{'case':>34} {'verts':>7} {'shape asym':>11} {'result asym':>12} {'displ asym':>11}")
+    cases = [("mirror-symmetric blob", symmetric_blob(3 if args.smoke else 5))]
+    if not args.smoke:
+        cases.append(("creature (data/, near-symmetric)", read_mesh(REPO / "data" / "creature.ply")))
+    for name, mesh in cases:
+        v = mesh.vertices
+        lo, hi = v.min(axis=0), v.max(axis=0)
+        r = (v - lo) / (hi - lo)
+        ed = HybridEditor(mesh, 0.05)
+        ed.set_selection(np.flatnonzero(r[:, 0] > 0.92), roi=np.flatnonzero(r[:, 0] > 0.6), symmetry="x")
+        T = rigid_transform(translate=0.05 * mesh.bbox_diagonal() * np.array([0.5, 1.0, 0.3]),
+                            axis=(0, 0, 1), degrees=15, center=v[r[:, 0] > 0.92].mean(axis=0))
+        for _ in range(frames):
+            V = ed.drag(transform=T)
+        mir = ed.symmetry
+        S, m = mir.S, mir.map
+        diag = mesh.bbox_diagonal()
+        res = np.linalg.norm(V[m] @ S[:3, :3].T + S[:3, 3] - V, axis=1).max() / diag * 100
+        u = V - v
+        dis = np.linalg.norm(u[m] @ S[:3, :3].T - u, axis=1).max() / diag * 100
+        print(f"{name:>34} {mesh.n_vertices:>7} {mir.asymmetry * 100:>11.3g} {res:>12.3g} {dis:>11.3g}")
 
 
 if __name__ == "__main__":

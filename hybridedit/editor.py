@@ -365,7 +365,7 @@ class HybridEditor:
             given[g] = k + 1
         user_roles = given if space == "shape" else given[self._dominant]
         mirror = self._mirror(symmetry) if symmetry is not None else None
-        roles, source, kind = self._mirrored_roles(user_roles, len(groups), mirror)
+        roles, source, kind = self._mirrored_roles(user_roles, len(groups), mirror, roi_mode=roi is not None)
         # cage vertices held: the user's own cage picks, or those whose nearest
         # shape vertex is constrained (the seam's correction smooths what that leaves)
         near = roles[self._cage_to_shape]
@@ -413,28 +413,36 @@ class HybridEditor:
         self._transforms = [np.eye(4) for _ in range(len(groups))]
         self._anchor_here()
 
-    def _mirrored_roles(self, user_roles: np.ndarray, n_groups: int, mirror: Mirror | None):
-        """Internal roles after mirroring: (roles, source of each group, kind of each group)."""
+    def _mirrored_roles(self, user_roles: np.ndarray, n_groups: int, mirror: Mirror | None, *,
+                        roi_mode: bool = False):
+        """Internal roles after mirroring: (roles, source of each group, kind of each group).
+
+        A vertex takes the role of its mirror image where it has none of its own
+        (the pull-back through ``mirror.map``, so that every vertex on the other side
+        is covered even where the mesh is only nearly symmetric). With a region of
+        interest the region is mirrored (a vertex stays fixed only when its mirror
+        image is fixed too); with fixed vertices the fixed set is mirrored.
+        """
         roles = user_roles.astype(np.int32).copy()
         source = list(range(n_groups))
         kind = ["same"] * n_groups
         if mirror is None:
             return roles, source, kind
-        m = mirror.map
-        fixed_m = m[user_roles == FIXED]
-        roles[fixed_m[roles[fixed_m] == FREE]] = FIXED
+        image = user_roles[mirror.map]  # the role of each vertex's mirror image
+        if roi_mode:
+            roles[(roles == FIXED) & (image != FIXED)] = FREE
+        else:
+            roles[(roles == FREE) & (image == FIXED)] = FIXED
         for k in range(n_groups):
-            g = np.flatnonzero(user_roles == k + 1)
-            img = m[g]
-            if np.isin(img, g).mean() > 0.5:  # straddles the plane: its own mirror image
-                kind[k] = "self"
-                roles[img[roles[img] <= FREE]] = k + 1
-            else:
-                img = img[roles[img] <= FREE]
-                if img.size:
-                    source.append(k)
-                    kind.append("mirror")
-                    roles[img] = len(source)
+            own = user_roles == k + 1
+            pulled = (image == k + 1) & ~own & (user_roles <= FREE)
+            if np.count_nonzero(own & (image == k + 1)) > 0.5 * np.count_nonzero(own):
+                kind[k] = "self"  # straddles the plane: its own mirror image
+                roles[pulled] = k + 1
+            elif np.any(pulled):
+                source.append(k)
+                kind.append("mirror")
+                roles[pulled] = len(source)
         return roles, source, kind
 
     def _shape_laplacian(self) -> sp.csr_matrix:

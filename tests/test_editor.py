@@ -488,6 +488,10 @@ def test_symmetric_edit_is_symmetric():
     ed.set_selection(handle, roi=roi, symmetry="x")
     assert ed.symmetry is not None and ed.symmetry.asymmetry < 1e-9
     assert ed.n_groups == 1 and np.all(ed.vertex_roles[x[:, 0] < -1.7] == 1)  # the mirror image is held too
+    roles = ed.vertex_roles
+    assert np.all(roles[(x[:, 0] > 0.45) & (x[:, 0] < 1.65)] == 0)  # the region stays free...
+    assert np.all(roles[(x[:, 0] < -0.45) & (x[:, 0] > -1.65)] == 0)  # ...and so does its mirror image
+    assert np.all(roles[np.abs(x[:, 0]) < 0.35] == -1)
     T = rigid_transform(translate=(0.2, 0.4, 0.1), axis=(0, 0, 1), degrees=20, center=(1.8, 0.2, 0))
     for _ in range(10):
         V = ed.drag(transform=T)
@@ -532,3 +536,21 @@ def test_an_edit_of_another_mesh_is_refused(blob, tmp_path):
     other = blob.copy(blob.vertices * 1.5)
     with pytest.raises(EditFileError, match="made for another mesh"):
         HybridEditor(other, cage_size=100).apply_edit(a.edit, path="e.json")
+
+
+def test_symmetric_edit_of_a_nearly_symmetric_shape_covers_the_other_side():
+    m = symmetric_blob()
+    rng = np.random.default_rng(3)
+    x = m.vertices + rng.normal(scale=1e-3, size=m.vertices.shape)  # a scan-like, nearly symmetric copy
+    near = m.copy(x)
+    ed = HybridEditor(near, cage_size=250)
+    ed.set_selection(np.flatnonzero(x[:, 0] > 1.7), roi=np.flatnonzero(x[:, 0] > 0.4), symmetry="x")
+    assert 0 < ed.symmetry.asymmetry < 0.01
+    assert np.all(ed.vertex_roles[x[:, 0] < -1.72] == 1)  # every vertex of the other hand is held
+    T = rigid_transform(translate=(0.1, 0.3, 0.0))
+    for _ in range(10):
+        V = ed.drag(transform=T)
+    u = V - x
+    S = ed.symmetry.S[:3, :3]
+    # displacements mirror each other up to a fraction of the motion
+    assert np.abs(u[ed.symmetry.map] @ S.T - u).max() < 0.05 * np.abs(u).max()

@@ -86,7 +86,8 @@ def test_polish_honours_its_budget_set_up_included():
         t0 = time.perf_counter()
         r = polish(sa, V, free, seconds=budget, tolerance=0.0)
         wall = time.perf_counter() - t0
-        assert wall <= budget + 0.25 + 0.5 * budget, (budget, wall, r.stopped, sa.setup_seconds)  # generous
+        # generous (machines here vary by +-50% and more under load); the bug was 10 s for a 2 s budget
+        assert wall <= 2 * budget + 1.0, (budget, wall, r.stopped, sa.setup_seconds)
         assert r.stopped == "time" or r.iterations == 200
         assert np.array_equal(r.vertices[~free], V[~free])
 
