@@ -33,7 +33,8 @@ class PolishResult:
     ----------
     vertices : (n, 3) float64, the polished shape
     iterations : local/global iterations run
-    energy_before, energy_after : full-mesh ARAP energy of the input and output
+    energy_before, energy_after : ARAP energy of the edited region's faces (those
+        touching a free vertex) in the input and the output (0 when nothing was polished)
     seconds : wall time
     stopped : "converged", "time" (the budget ran out, possibly before the set-up),
         "iterations" or "cancelled"
