@@ -19,6 +19,8 @@ class Snapshot:
     anchor : (c, 3) cage pose when the selection was applied, or None when the
         selection has not been applied to the engine (no drag since it changed).
     label : what led here ("select ROI", "drag", ...), for the Edit menu.
+    engine, engine_masks, anchor_state : the engine's own state (exact shape-space
+        constraints included) and what it was set from.
     """
 
     roi: np.ndarray
@@ -27,6 +29,11 @@ class Snapshot:
     transform: np.ndarray
     anchor: np.ndarray | None
     label: str = ""
+    #: the engine's selection and pose (:meth:`hybridedit.HybridEditor.save_state`),
+    #: the mask key they were set from, and the engine state at the anchor
+    engine: object = None
+    engine_masks: tuple | None = None
+    anchor_state: object = None
 
 
 class History:

@@ -70,6 +70,7 @@ class Session:
         self.transform = np.eye(4)
         self._base = np.eye(4)
         self._anchor: np.ndarray | None = None
+        self._anchor_state = None  # the engine's state when the selection was applied
         self._engine_masks: tuple[bytes, bytes] | None = None
         self.settle_on_release = True
         self.settle_frames = 30
@@ -128,6 +129,7 @@ class Session:
             roi=self.roi.copy(), handle=self.handle.copy(), positions=self.cage_positions,
             transform=self.transform.copy(),
             anchor=None if self._anchor is None else self._anchor.copy(), label=label,
+            engine=self.editor.save_state(), engine_masks=self._engine_masks, anchor_state=self._anchor_state,
         )
 
     def _push(self, label: str) -> None:
@@ -138,13 +140,13 @@ class Session:
         self._settle_left, self._settle_label = 0, None
         self.roi = snap.roi.copy()
         self.handle = snap.handle.copy()
-        self.editor.set_cage_positions(snap.positions)
+        self.editor.restore_state(snap.engine)
+        self._engine_masks = snap.engine_masks
+        self._anchor_state = snap.anchor_state
         if snap.anchor is not None:
-            if self._engine_masks != self._mask_key():
-                self._give_engine_selection()
             self._anchor = snap.anchor.copy()
             self.transform = snap.transform.copy()
-            self._base = snap.transform.copy()
+            self._base = np.eye(4)  # the engine state carries its own transform
         else:
             self._anchor = None
             self.transform = np.eye(4)
@@ -253,6 +255,7 @@ class Session:
             )
         self._give_engine_selection()
         self._anchor = self.cage_positions
+        self._anchor_state = self.editor.save_state()
         self.transform = np.eye(4)
         self._base = np.eye(4)
 
@@ -287,7 +290,7 @@ class Session:
         """Begin solving the current transform again from the anchor (see :meth:`settle_step`)."""
         if self._anchor is None:
             return
-        self.editor.set_cage_positions(self._anchor)
+        self.editor.restore_state(self._anchor_state)
         self._base = np.eye(4)
         self._settle_left = self.settle_frames
 
@@ -346,6 +349,7 @@ class Session:
         self.editor.reset()
         if self._anchor is not None:
             self._anchor = self.cage_positions
+            self._anchor_state = self.editor.save_state()
         self.transform = np.eye(4)
         self._base = np.eye(4)
         self._push("reset pose")
@@ -379,8 +383,14 @@ class Session:
         try:
             self.roi, self.handle = roi, handle
             self.editor.reset()
-            self.apply_selection()
-            self.transform = np.asarray(T, dtype=np.float64).copy()
+            # the engine takes the edit as it is (shape space, exact constraints), as
+            # `hybridedit deform` does; the masks show it on the cage
+            self.editor.apply_edit(edit, frames=0)
+            self._engine_masks = self._mask_key()
+            self._anchor = self.editor.cage_positions
+            self._anchor_state = self.editor.save_state()
+            self.transform = self.editor.edit_transforms(edit)[0]
+            self._base = np.eye(4)
             self.settle()
         except Exception:
             self.restore(before)

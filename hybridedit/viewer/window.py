@@ -16,7 +16,6 @@ from ..editfile import EditFileError, load_edit, save_edit
 from ..editor import SelectionError
 from ..io import SUPPORTED_EXTENSIONS, MeshFileError, write_mesh
 from ..mesh import MeshError, edge_stretch, rrms_edge_error, vertex_stretch
-from ..polish import free_shape_vertices
 from .cagesize import CageSizeControl
 from .help import HOWTO, ShortcutsDialog
 from .interaction import BRUSH, CAMERA, DRAG, RECTANGLE, SELECT, ViewController
@@ -634,7 +633,7 @@ class MainWindow(QtWidgets.QMainWindow):
         if not self.polish_on_release or s is None or not s.applied or s.settling:
             return
         ed = s.editor
-        free = free_shape_vertices(ed.M, ed.arap.free, ed.cage.n_vertices)
+        free = ed.free_mask
         if not free.any():
             return
         if self._polish_holder is None or self._polish_holder.mesh is not s.mesh:
@@ -929,8 +928,9 @@ class MainWindow(QtWidgets.QMainWindow):
                     self.message("Not saved")
                     return False
         try:
-            # what is shown: the polished pose when one is on display
-            write_mesh(p, s.editor.deformed if self.polished is None else s.mesh.copy(vertices=self.polished.copy()))
+            # what is shown: the polished pose when one is on display; in the opened file's structure
+            write_mesh(p, s.editor.deformed if self.polished is None else s.mesh.copy(vertices=self.polished.copy()),
+                       like=s.path)
         except (MeshError, MeshFileError, WriteError, OSError) as e:
             self.show_error("Could not save the mesh", str(e))
             return False
