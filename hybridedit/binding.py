@@ -1,10 +1,15 @@
 """The binding: truncated mean value coordinates of the shape w.r.t. the cage.
 
-``bind`` computes the 3D mean value coordinates (:mod:`hybridedit.mvc`; by
-default its fast method, exact near each point and a quadrature farther
-away) chunk by chunk, truncates every row and assembles a CSR matrix ``M``
-with ``M @ cage_vertices ~= points``. The exact method writes a chunk of
-dense rows to a buffer and truncates them in a parallel kernel; the fast
+``bind`` computes the 3D mean value coordinates (:mod:`hybridedit.mvc`)
+chunk by chunk, truncates every row and assembles a CSR matrix ``M`` with
+``M @ cage_vertices ~= points``. By default (method "fast") the hierarchical
+kernel (:mod:`hybridedit.mvc_tree`) computes each truncated row from the
+cage vertices near the point, with far regions of the cage in aggregate;
+rows it cannot decide go to a second pass with a smaller opening ratio, then
+to the flat kernel (:mod:`hybridedit.mvc_flat`: every face per point, exact
+near, a quadrature far), which also makes whole rows (truncation 0). The
+exact method (:mod:`hybridedit.mvc_exact`, the reference) writes a chunk of
+dense rows to a buffer and truncates them in a parallel kernel; the flat
 kernel truncates each row as soon as it is made, while it is in cache, and
 stores only the kept entries.
 
@@ -325,10 +330,12 @@ def bind(
         plan = plan_fast(p, fast)
         row_of = plan.order  # chunks run over the points in the plan's order
         n_workers = min(-(-chunk // LANES) + 1, 4 * numba.get_num_threads())
-        scratch = fast_scratch(fast, 1 if tree else n_workers)
+    if flat_kind and not tree:
+        scratch = fast_scratch(fast, n_workers)
     if tree:
         hier = prepare_tree_cage(fast)
         tscratch = tree_scratch(hier, n_workers)
+        flat_scratch: dict = {}
     if sparse or tree:
         counts_buf = np.empty(chunk, dtype=np.int64)
         cols_buf = np.empty((chunk, cap), dtype=np.int32)
@@ -346,7 +353,7 @@ def bind(
             counts, vals, cols = _truncate_into_csr_parts(view, t)
         elif tree:
             counts, vals, cols = _tree_chunk(plan, hier, ratio, tscratch, t, start, stop,
-                                             counts_buf, cols_buf, vals_buf, p)
+                                             counts_buf, cols_buf, vals_buf, p, flat_scratch)
         elif not sparse:
             # Rows kept whole: restore their exact linear precision (see
             # hybridedit.mvc_flat). When truncating, that correction (~1e-5
@@ -376,12 +383,13 @@ def bind(
 
 
 def _tree_chunk(plan, hier, ratio, scratch, t, start, stop, counts_buf, cols_buf, vals_buf, p,
-                theta=THETA):
+                flat_scratch, theta=THETA):
     """(counts, data, indices) of sorted positions [start, stop), hierarchical kernel.
 
     Rows it leaves undecided (or too wide for the buffers) are tried again
     with half the opening ratio ``theta``, in batches of their own, and what
-    is still left is computed by the flat kernel.
+    is still left is computed by the flat kernel (its work arrays, made on
+    first use, are kept in the dict ``flat_scratch`` for the next chunks).
     """
     m = stop - start
     counts = counts_buf[:m]
@@ -403,10 +411,11 @@ def _tree_chunk(plan, hier, ratio, scratch, t, start, stop, counts_buf, cols_buf
             np.empty((k, cols_buf.shape[1])))
     if theta > 0.6 * THETA:
         sub = _tree_chunk(sub_plan, hier, ratio, scratch, t, 0, k, *bufs, p[plan.order[start + redo]],
-                          theta=0.5 * theta)
+                          flat_scratch, theta=0.5 * theta)
     else:
-        sub_scratch = fast_scratch(fast, min(-(-k // LANES), 4 * numba.get_num_threads()))
-        sub = _fast_truncated_chunk(sub_plan, fast, ratio, sub_scratch, t, 0, k, *bufs)
+        if "arrays" not in flat_scratch:
+            flat_scratch["arrays"] = fast_scratch(fast, 2 * numba.get_num_threads())
+        sub = _fast_truncated_chunk(sub_plan, fast, ratio, flat_scratch["arrays"], t, 0, k, *bufs)
     return _splice_rows(counts, data, indices, redo[sub_plan.order], *sub)
 
 

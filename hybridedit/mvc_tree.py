@@ -389,7 +389,8 @@ def prepare_tree_cage(fast: FastCageData) -> TreeCage:
         m1 = np.einsum("fa,fb->fab", fnorm, y1).reshape(nf, 9)
         m2 = np.einsum("fa,fbc->fabc", fnorm, S).reshape(nf, 27)
         part = np.concatenate([m0, m1, m2], axis=1)
-        np.add.at(vmom, faces[:, m], part)
+        for q in range(39):
+            vmom[:, q] += np.bincount(faces[:, m], weights=part[:, q], minlength=c)
     order, lo, hi, left, right = _build_nodes(verts, LEAF_SIZE)
     geo, mom, aux = _node_data(verts, vmom, star_ptr, star_faces, faces, star_area,
                           order, lo, hi, left, right)
