@@ -203,6 +203,15 @@ def _shift_add(dst, src, sx, sy, sz):
                                                  + src[a] * s[b] * s[cc])
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def _unit(x, y, z):
+    """(x, y, z) scaled to length 1, and its length (a zero vector stays zero)."""
+    n = math.sqrt(x * x + y * y + z * z)
+    if n > 0.0:
+        return x / n, y / n, z / n, n
+    return x, y, z, n
+
+
 @njit(cache=True, error_model="numpy")
 def _node_data(verts, vmom, star_ptr, star_faces, faces, star_area, order, lo, hi, left, right):
     """Bottom-up geometry and moments of every node (children after parents in the arrays)."""
@@ -248,12 +257,9 @@ def _node_data(verts, vmom, star_ptr, star_faces, faces, star_area, order, lo, h
                 nx += vmom[j, 0]
                 ny += vmom[j, 1]
                 nz += vmom[j, 2]
-            nl = math.sqrt(nx * nx + ny * ny + nz * nz)
+            nx, ny, nz, nl = _unit(nx, ny, nz)
             alpha = math.pi
             if nl > 0.0:
-                nx /= nl
-                ny /= nl
-                nz /= nl
                 alpha = 0.0
                 for t in range(lo[k], hi[k]):
                     j = order[t]
@@ -273,24 +279,15 @@ def _node_data(verts, vmom, star_ptr, star_faces, faces, star_area, order, lo, h
             cy = 0.5 * (mn[1] + mx[1])
             cz = 0.5 * (mn[2] + mx[2])
             r = 0.0
-            nx = 0.0
-            ny = 0.0
-            nz = 0.0
             for ch in (a, b):
                 dd = math.sqrt((geo[ch, 0] - cx) ** 2 + (geo[ch, 1] - cy) ** 2
                                + (geo[ch, 2] - cz) ** 2)
                 r = max(r, dd + geo[ch, 3])
                 _shift_add(full[k], full[ch], geo[ch, 0] - cx, geo[ch, 1] - cy, geo[ch, 2] - cz)
             amax = max(geo[a, 8], geo[b, 8])
-            nx = full[k, 0]
-            ny = full[k, 1]
-            nz = full[k, 2]
-            nl = math.sqrt(nx * nx + ny * ny + nz * nz)
+            nx, ny, nz, nl = _unit(full[k, 0], full[k, 1], full[k, 2])
             alpha = math.pi
             if nl > 0.0:
-                nx /= nl
-                ny /= nl
-                nz /= nl
                 alpha = 0.0
                 for ch in (a, b):
                     cs = nx * geo[ch, 4] + ny * geo[ch, 5] + nz * geo[ch, 6]
