@@ -156,8 +156,6 @@ def cage_parts(
     MeshError
         A shape with no usable face (every face degenerate).
     """
-    from scipy.spatial import cKDTree
-
     from .repair import plural, repaired_source
 
     said: list[str] = [] if notes is None else notes
@@ -221,6 +219,8 @@ def cage_parts(
         ok = vmap >= 0
         owner[ok] = labels[vmap[ok]]
         if not np.all(ok):
+            from scipy.spatial import cKDTree
+
             owner[~ok] = labels[cKDTree(src.vertices).query(mesh.vertices[~ok])[1]]
     return CageParts(cage, offsets, owner, tuple(kinds))
 
