@@ -54,8 +54,8 @@ def render_screenshot(path: str | os.PathLike, out: str | os.PathLike, cage: int
     pl = pv.Plotter(off_screen=True, window_size=list(size))
     try:
         scene = Scene(pl)
-        scene.load(session.shape_positions, mesh.faces, session.cage_positions, editor.cage.faces,
-                   session.states(), session.dominant)
+        scene.load(session.metrics, session.shape_positions, session.cage_positions, editor.cage.faces,
+                   session.states(), session.shape_roles())
         scene.set_cage_visible(show_cage)
         scene.reset_camera()
         pl.add_text(f"{Path(path).name}: {mesh.n_vertices:,} vertices, cage {editor.cage.n_vertices:,}",

@@ -34,7 +34,8 @@ from ..editor import HybridEditor, SelectionError
 from ..mesh import Mesh, rrms_edge_error
 from .editio import edit_to_masks, make_edit
 from .history import History, Snapshot
-from .selection import combine, vertex_states
+from .regional import ShapeMetrics
+from .selection import FIXED, HANDLE as HANDLE_STATE, combine, vertex_states
 
 ROI, HANDLE = "roi", "handle"
 TARGETS = (ROI, HANDLE)
@@ -57,7 +58,7 @@ class Session:
         self.mesh: Mesh = editor.mesh
         self.path = Path(path) if path is not None else None
         self.cage_size = cage_size
-        self.edges = self.mesh.edges()
+        self.metrics = ShapeMetrics(self.mesh.vertices, self.mesh.faces)
         self.dominant = dominant_cage_vertex(editor.M)
         c = editor.cage.n_vertices
         self.roi = np.zeros(c, dtype=bool) if roi is None else np.asarray(roi, dtype=bool).copy()
@@ -108,6 +109,31 @@ class Session:
     def states(self) -> np.ndarray:
         """Per cage vertex FIXED / FREE / HANDLE (see :mod:`.selection`)."""
         return vertex_states(self.roi, self.handle)
+
+    @property
+    def edges(self) -> np.ndarray:
+        """(e, 2) unique edges of the shape."""
+        return self.metrics.edges
+
+    def shape_roles(self) -> np.ndarray:
+        """Per shape vertex: -1 held fixed, 0 free, 1 in the handle ((n,) int8); all 0 with no selection.
+
+        The role of a vertex is the state of the cage vertex that dominates it.
+        """
+        if not self.roi.any() and not self.handle.any():
+            return np.zeros(self.mesh.n_vertices, dtype=np.int8)
+        lut = np.zeros(3, dtype=np.int8)
+        lut[FIXED], lut[HANDLE_STATE] = -1, 1
+        return lut[self.states()[self.dominant]]
+
+    def moving_vertices(self) -> np.ndarray | None:
+        """The shape vertices a drag of the applied selection can move, (k,) int64 (None: unknown)."""
+        if self._anchor is None:
+            return None
+        rows = getattr(self.editor, "moving_vertices", None)
+        if rows is None:
+            rows = getattr(self.editor, "_rows", None)
+        return None if rows is None else np.asarray(rows, dtype=np.int64)
 
     def handle_centroid(self) -> np.ndarray | None:
         """Centroid of the handle's cage vertices in the current pose, or None without a handle."""

@@ -18,6 +18,8 @@ from collections import deque
 from pyvistaqt import QtInteractor
 from qtpy import QtCore, QtGui, QtWidgets
 
+from .frames import FrameSplit
+
 
 class BrushOverlay(QtWidgets.QWidget):
     """A transparent child widget drawing the brush circle at the cursor."""
@@ -64,6 +66,7 @@ class View(QtInteractor):
     Attributes
     ----------
     render_seconds : duration of the last render (paintGL: VTK render + blit).
+    split : where the frames' time went (the render and compose stages are recorded here).
     gl_renderer : the OpenGL renderer string (known after the first frame).
     """
 
@@ -78,6 +81,9 @@ class View(QtInteractor):
         self.render_seconds = 0.0
         self._paint_times: deque[float] = deque(maxlen=120)
         self._painting = False
+        self._paint_end = 0.0
+        self.split = FrameSplit()
+        self.frameSwapped.connect(self._swapped)
         iren = self._Iren
         iren.EnableRenderOff()
         iren.AddObserver("RenderEvent", self._on_interactor_render)
@@ -104,10 +110,19 @@ class View(QtInteractor):
             self._painting = False
         t1 = time.perf_counter()
         self.render_seconds = t1 - t0
-        self._paint_times.append(t1)
+        self._paint_end = t1
+        self.split.add("render", self.render_seconds)
         if self.antialiasing is None:
             self._choose_antialiasing()
         self.rendered.emit(self.render_seconds)
+
+    def _swapped(self) -> None:
+        """The frame is on screen (Qt composed the widget into its window)."""
+        now = time.perf_counter()
+        if self._paint_end:
+            self.split.add("compose", now - self._paint_end)
+            self._paint_end = 0.0
+        self._paint_times.append(now)
 
     def _choose_antialiasing(self) -> None:
         for line in self.ren_win.ReportCapabilities().splitlines():
@@ -124,7 +139,7 @@ class View(QtInteractor):
         self.update()
 
     def display_fps(self, window: float = 1.0) -> float:
-        """Frames painted per second over the last ``window`` seconds (0 when idle)."""
+        """Frames put on screen per second over the last ``window`` seconds (0 when idle)."""
         now = time.perf_counter()
         ts = [t for t in self._paint_times if now - t <= window]
         if len(ts) < 2:

@@ -15,7 +15,7 @@ from ..atomic import WriteError
 from ..editfile import EditFileError, load_edit, save_edit
 from ..editor import SelectionError
 from ..io import SUPPORTED_EXTENSIONS, MeshFileError, write_mesh
-from ..mesh import MeshError, edge_stretch, rrms_edge_error, vertex_stretch
+from ..mesh import MeshError
 from ..polish import free_shape_vertices
 from .cagesize import CageSizeControl
 from .help import HOWTO, ShortcutsDialog
@@ -28,8 +28,7 @@ from .worker import (BuildRequest, BuildResult, BuildWorker, PolishOutcome, Poli
 
 MESH_FILTER = "Meshes (*.obj *.ply *.stl *.off);;OBJ (*.obj);;PLY (*.ply);;STL (*.stl);;OFF (*.off);;All files (*)"
 EDIT_FILTER = "Edit files (*.json);;All files (*)"
-RRMS_INTERVAL = 0.3  # seconds between edge-error evaluations while dragging
-STRETCH_INTERVAL = 0.3  # seconds between stretch-map updates while dragging
+RRMS_INTERVAL = 0.3  # seconds between edge-error updates of the status bar while dragging
 POLISH_SECONDS = 1.0  # time budget of the polish on release (iterations; the one-off set-up comes on top)
 
 def _same_file(a: Path, b: Path) -> bool:
@@ -80,6 +79,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self._pending_T: np.ndarray | None = None
         self._settle_chunk = 2
         self._rrms_dirty = False
+        self._rrms_full = True  # the next measure must walk every edge (the pose changed outside a drag)
         self._rrms_time = 0.0
         self._engine_ms = 0.0
         self.polish_on_release = True
@@ -92,8 +92,6 @@ class MainWindow(QtWidgets.QMainWindow):
         self._polish_holder: ShapeARAPHolder | None = None
         self.polished: np.ndarray | None = None  # the polished pose on display (a view state), or None
         self.last_polish: PolishOutcome | None = None
-        self._stretch_dirty = False
-        self._stretch_time = 0.0
 
         self.view = View(self)
         self.setCentralWidget(self.view)
@@ -183,9 +181,8 @@ class MainWindow(QtWidgets.QMainWindow):
         A("tool_brush", "&Brush", lambda: self._set_tool(BRUSH), "B", checkable=True, tip="Brush selection")
         A("brush_bigger", "Bigger Brush", lambda: self._scale_brush(1.25), "]", tip="Enlarge the brush")
         A("brush_smaller", "Smaller Brush", lambda: self._scale_brush(0.8), "[", tip="Shrink the brush")
-        show_cage = A("show_cage", "Show Ca&ge", self._toggle_cage, "W", checkable=True, tip="Show the cage wireframe",
-                      short="Cage")
-        show_cage.setChecked(True)
+        A("show_cage", "Show Cage &Wireframe", self._toggle_cage, "W", checkable=True,
+          tip="Show the cage wireframe (the ROI and handle cage points are always shown)", short="Cage")
         A("stretch", "S&tretch Map", self._toggle_stretch, "T", checkable=True,
           tip="Colour the shape by the relative edge-length change against the rest shape (0 to 20 %)",
           short="Stretch")
@@ -351,10 +348,8 @@ class MainWindow(QtWidgets.QMainWindow):
             self.cancel_polish()
 
     def _toggle_stretch(self) -> None:
-        on = self.actions_["stretch"].isChecked()
-        if on:
-            self._update_stretch()
-        self.scene.set_stretch_visible(on)
+        self.scene.set_stretch_visible(self.actions_["stretch"].isChecked())
+        self._measure(everything=True)
         self.view.request_render()
 
     def reset_camera(self) -> None:
@@ -470,16 +465,15 @@ class MainWindow(QtWidgets.QMainWindow):
         self.last_polish = None
         if self._polish_holder is not None and self._polish_holder.mesh is not session.mesh:
             self._polish_holder = None  # a new shape: its full-resolution set-up is built by its first polish
-        self._stretch_dirty = True
-        self.scene.load(session.shape_positions, session.mesh.faces, session.cage_positions,
-                        ed.cage.faces, session.states(), session.dominant)
+        self.scene.load(session.metrics, session.shape_positions, session.cage_positions,
+                        ed.cage.faces, session.states(), session.shape_roles())
         self.scene.gizmo.place(session.handle_centroid())
         if not rebuild:
             self.save_path = None
             self.edit_path = None
             self.scene.reset_camera()
         self.modified = False
-        self._rrms_dirty = True
+        self._rrms_dirty = self._rrms_full = True
         name = req.path.name if req.path is not None else (session.mesh.name or "shape")
         self.setWindowTitle(f"hybridedit — {name}")
         t = ed.timings
@@ -492,8 +486,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.message(msg, 20000 if notes else 10000)
         self._update_labels()
         self._update_actions()
-        if self.actions_["stretch"].isChecked():
-            self._update_stretch()
+        self._measure()
         self.view.request_render()
 
     # ================================================================== Handler (called by the view controller)
@@ -538,6 +531,8 @@ class MainWindow(QtWidgets.QMainWindow):
             self.show_error("Cannot drag", str(e))
             return False
         self._pending_T = None
+        self.scene.set_moving(self.session.moving_vertices())
+        self._measure()  # every edge once: then each frame only the moving region's
         return True
 
     def drag(self, D: np.ndarray) -> None:
@@ -565,13 +560,18 @@ class MainWindow(QtWidgets.QMainWindow):
             self._refresh_all()
             self.show_error("Drag failed", f"{e}; the drag was undone.")
             return
-        self.scene.update_shape(V)
+        t1 = time.perf_counter()
+        normals_s, upload_s = self.scene.update_shape(V)
         self.scene.update_cage(s.cage_positions)
         self.scene.gizmo.place(s.handle_centroid())
-        self._engine_ms = s.last_frame_seconds * 1e3
-        self._frame_ms = (time.perf_counter() - t0) * 1e3
+        split = self.view.split
+        split.add("engine", t1 - t0)
+        split.add("normals", normals_s)
+        split.add("vtk update", upload_s)
+        self._engine_ms = (t1 - t0) * 1e3
         self._rrms_dirty = True
-        self._stretch_dirty = True
+        if self.scene.stretch_visible:
+            self._measure(everything=False)
         self.modified = True
         self.view.request_render()
 
@@ -617,7 +617,6 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def _after_drag(self) -> None:
         self._refresh_pose()
-        self._update_rrms()
         self._update_actions()
         self._start_polish()
 
@@ -671,7 +670,7 @@ class MainWindow(QtWidgets.QMainWindow):
             return
         self.polished = None
         if self.session is not None:
-            self.scene.update_shape(self.session.shape_positions)
+            self.scene.update_shape(self.session.shape_positions, everything=True)
             self._pose_shown_changed()
             self.view.request_render()
 
@@ -685,9 +684,8 @@ class MainWindow(QtWidgets.QMainWindow):
             return  # a drag, an undo or the like came in between: the result is stale
         self.last_polish = out
         self.polished = out.result.vertices
-        self.scene.update_shape(self.polished)
+        self.scene.update_shape(self.polished, everything=True)
         self._pose_shown_changed()
-        self._update_rrms()
         self.view.request_render()
         r = out.result
         self.message(f"polished: {r.iterations} iterations, edge error {out.error_before:.2f}% → "
@@ -706,29 +704,31 @@ class MainWindow(QtWidgets.QMainWindow):
         if req is not None and req.token == self._polish_token and self.session is not None:
             self._launch_polish(req)
 
-    # ================================================================== stretch map
+    # ================================================================== edge error and stretch map
     def _pose_shown_changed(self) -> None:
-        """The shape on display changed: the edge error and the stretch map are out of date."""
-        self._rrms_dirty = True
-        if self.actions_["stretch"].isChecked():
-            self._update_stretch()
-        else:
-            self._stretch_dirty = True
+        """The shape on display changed outside a drag: edge error and stretch map are measured again."""
+        self._rrms_full = True
+        self._measure()
 
-    def stretch_values(self) -> np.ndarray | None:
-        """Per shape vertex mean |l' - l| / l over its edges, in percent, for the shape on display."""
+    def _measure(self, everything: bool | None = None) -> None:
+        """Edge error (status bar) and, when shown, the stretch map of the shape on display.
+
+        During a drag only the edges of the moving region are measured again
+        (:class:`~.regional.ShapeMetrics`); after any other change, every edge.
+        """
         s = self.session
         if s is None:
-            return None
-        V = self.shown_vertices()
-        return 100.0 * vertex_stretch(s.mesh.n_vertices, s.edges, edge_stretch(s.mesh.vertices, V, s.edges))
-
-    def _update_stretch(self) -> None:
-        self._stretch_dirty = False
-        self._stretch_time = time.perf_counter()
-        vals = self.stretch_values()
-        if vals is not None:
-            self.scene.update_stretch(vals)
+            self.error_label.setText("")
+            return
+        full = self._rrms_full if everything is None else everything
+        self._rrms_full = False
+        self._rrms_time = time.perf_counter()
+        self._rrms_dirty = False
+        err = s.metrics.update_error(self.shown_vertices(), everything=full)
+        self.error_label.setText(f"edge error {err:.2f} %{' (polished)' if self.polished is not None else ''}")
+        if self.scene.stretch_visible:
+            s.metrics.write_stretch(self.scene.stretch32, everything=full)
+            self.scene.stretch_modified()
             self.view.request_render()
 
     # ================================================================== refresh
@@ -737,7 +737,7 @@ class MainWindow(QtWidgets.QMainWindow):
         if s is None:
             return
         self.polished = None
-        self.scene.update_shape(s.shape_positions)
+        self.scene.update_shape(s.shape_positions, everything=True)
         self.scene.update_cage(s.cage_positions)
         self.scene.gizmo.place(s.handle_centroid())
         self._pose_shown_changed()
@@ -747,7 +747,7 @@ class MainWindow(QtWidgets.QMainWindow):
         s = self.session
         if s is None:
             return
-        self.scene.update_states(s.states())
+        self.scene.update_states(s.states(), s.shape_roles())
         self.scene.gizmo.place(s.handle_centroid())
         self._update_labels()
         self.view.request_render()
@@ -755,7 +755,6 @@ class MainWindow(QtWidgets.QMainWindow):
     def _refresh_all(self) -> None:
         self._refresh_pose()
         self._refresh_selection()
-        self._update_rrms()
         self._update_actions()
 
     def _update_labels(self) -> None:
@@ -771,16 +770,6 @@ class MainWindow(QtWidgets.QMainWindow):
         n_f = int(np.count_nonzero(~s.roi & ~s.handle))
         self.sel_label.setText(f"ROI {n_roi} · handle {n_h} · fixed {n_f}")
 
-    def _update_rrms(self) -> None:
-        if self.session is None:
-            self.error_label.setText("")
-            return
-        self._rrms_time = time.perf_counter()
-        self._rrms_dirty = False
-        s = self.session
-        err = rrms_edge_error(s.mesh.vertices, self.shown_vertices(), s.edges)
-        self.error_label.setText(f"edge error {err:.2f} %{' (polished)' if self.polished is not None else ''}")
-
     def _on_rendered(self, seconds: float) -> None:
         a = self.actions_["antialias"]
         if self.view.antialiasing is not None and a.isChecked() != self.view.antialiasing:
@@ -790,24 +779,21 @@ class MainWindow(QtWidgets.QMainWindow):
         if self.session is None or self.session.settling:
             return
         if self._rrms_dirty and time.perf_counter() - self._rrms_time >= RRMS_INTERVAL:
-            self._update_rrms()
-        if (self._stretch_dirty and self.actions_["stretch"].isChecked()
-                and time.perf_counter() - self._stretch_time >= STRETCH_INTERVAL):
-            self._update_stretch()
+            self._measure()
         if self.polish_worker is not None:
             self.time_label.setText("polishing…")
             return
-        r = self.view.render_seconds * 1e3
-        e = self._engine_ms
+        self.time_label.setText(self.timing_text())
+
+    def timing_text(self) -> str:
+        """Frames shown per second first (what the eye gets), then the engine's and the render's share."""
         fps = self.view.display_fps()
-        parts = []
-        if e > 0:
-            parts.append(f"engine {e:.1f} ms ({1e3 / e:.0f} fps)")
-        if r > 0:
-            parts.append(f"render {r:.1f} ms ({1e3 / r:.0f} fps)")
-        if fps > 0:
-            parts.append(f"{fps:.0f} frames/s shown")
-        self.time_label.setText(" · ".join(parts))
+        parts = [f"{fps:.0f} fps" if fps > 0 else "idle"]
+        if self._engine_ms > 0:
+            parts.append(f"engine {self._engine_ms:.1f} ms")
+        if self.view.render_seconds > 0:
+            parts.append(f"render {self.view.render_seconds * 1e3:.0f} ms")
+        return " · ".join(parts)
 
     def _update_actions(self) -> None:
         a = self.actions_

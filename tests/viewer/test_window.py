@@ -357,11 +357,12 @@ def test_drop_shortcuts_cage_toggle_and_rebuild(qtbot, win, blob_file, tmp_path,
     texts = {dlg.table.item(r, 1).text() for r in range(dlg.table.rowCount())}
     assert {"Undo", "Redo", "Drag Mode", "Reset Pose", "Save Edit…"} <= texts
     dlg.close()
-    # W hides the cage
+    # the cage wireframe is off by default; W shows it and hides it again
+    assert not w.scene.cage_front.GetVisibility()
     key(qtbot, w, Qt.Key.Key_W)
-    assert not w.scene.cage_front.GetVisibility() and not w.scene.points_actor.GetVisibility()
+    assert w.scene.cage_front.GetVisibility() and w.scene.cage_ghost.GetVisibility()
     key(qtbot, w, Qt.Key.Key_W)
-    assert w.scene.cage_front.GetVisibility()
+    assert not w.scene.cage_front.GetVisibility()
     # rebuild at another size keeps the selection (through the shape)
     P = s.cage_positions
     s.set_mask("handle", P[:, 0] > 1.4)
