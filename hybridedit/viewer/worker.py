@@ -85,10 +85,23 @@ class BuildWorker(QtCore.QThread):
             self._last_stage, self._last_emit = stage, now
             self.progress.emit(stage, float(fraction))
 
+    def _compile_kernels_once(self) -> None:
+        """First run after a plain install (scripts/setup.sh does this at set-up): compile every kernel
+        here, before there is anything to drag, and say so."""
+        from .. import warmup
+
+        if warmup.is_warm():
+            return
+        stage = "compiling the kernels for this computer (first run only, about a minute)"
+        self._report(stage, 0.0)
+        steps = iter(np.linspace(0.05, 0.95, 12))
+        warmup.run(progress=lambda _stage, _f: self._report(stage, float(next(steps, 0.95))))
+
     def run(self) -> None:  # runs in the worker thread
         t0 = time.perf_counter()
         req = self.request
         try:
+            self._compile_kernels_once()
             mesh = req.mesh
             if mesh is None:
                 self._report(f"reading {req.path.name}", 0.0)

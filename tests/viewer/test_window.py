@@ -478,3 +478,20 @@ def test_launcher_opens_the_default_mesh_and_exits_zero(qapp, blob_file, monkeyp
     assert cli.main(["--cage", str(CAGE)]) == 0
     assert seen == {"vertices": 2562, "title": "hybridedit — blob.obj"}
     assert sys.excepthook is hook
+
+
+def test_first_run_compiles_the_kernels_in_words(qtbot, blob_file, tmp_path, monkeypatch):
+    """With no record of the warm-up (a plain pip install), the build thread compiles first and says so."""
+    from hybridedit import warmup
+
+    monkeypatch.setenv("HYBRIDEDIT_CACHE_DIR", str(tmp_path))
+    assert not warmup.is_warm()
+    w = MainWindow(cage_size=CAGE)
+    qtbot.addWidget(w)
+    w.show()
+    stages = []
+    assert w.open_path(blob_file)
+    w.worker.progress.connect(lambda stage, f: stages.append(w.progress.text()))
+    wait_loaded(qtbot, w)
+    assert any(s.startswith("compiling the kernels for this computer (first run only") for s in stages)
+    assert warmup.is_warm()
