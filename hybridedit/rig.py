@@ -1,0 +1,148 @@
+"""Building step: the cage and binding of a shape, as one value the editor takes.
+
+:func:`build_rig` does everything slow that an edit needs before the first drag
+(cage by QEM, binding by truncated mean value coordinates, the on-disk cache)
+and returns a :class:`Rig`. The editor (:class:`hybridedit.HybridEditor`) only
+reads a rig, so the same rig can serve several editors (different ARAP weights,
+propagation), be rebuilt in a worker thread, or come from the cache.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+import scipy.sparse as sp
+
+from . import bindcache
+from .cage import cage_and_binding, cage_links
+from .mesh import Mesh
+
+Progress = Callable[[str, float], None]
+"""progress(stage, fraction): stage is a short message, fraction in [0, 1] of that
+stage. A callback may raise (e.g. to cancel); the exception propagates."""
+
+
+@dataclass(frozen=True)
+class Rig:
+    """A shape bound to its cage.
+
+    Attributes
+    ----------
+    mesh : Mesh
+        The shape (n vertices), never modified.
+    cage : Mesh
+        The control mesh at rest (c vertices).
+    M : (n, c) scipy.sparse.csr_matrix, float64
+        The binding: row i holds the coordinates of shape vertex i, summing to 1.
+    notes : tuple of str
+        Plain-word sentences about what was repaired or adjusted to build the cage.
+    timings : dict
+        ``cage_seconds`` and ``bind_seconds`` (a cache hit counts in ``cage_seconds``).
+    cache_hit : bool
+        True when cage and binding came from the on-disk cache.
+    cage_size, truncation
+        The settings the rig was built with.
+    """
+
+    mesh: Mesh
+    cage: Mesh
+    M: sp.csr_matrix
+    notes: tuple[str, ...] = ()
+    timings: dict = field(default_factory=dict)
+    cache_hit: bool = False
+    cage_size: int | float = 0.05
+    truncation: float = 0.03
+
+    def __post_init__(self) -> None:
+        M = sp.csr_matrix(self.M, dtype=np.float64)
+        if M.shape != (self.mesh.n_vertices, self.cage.n_vertices):
+            raise ValueError(f"binding must be {(self.mesh.n_vertices, self.cage.n_vertices)}, got {M.shape}")
+        M.sort_indices()
+        object.__setattr__(self, "M", M)
+        object.__setattr__(self, "notes", tuple(self.notes))
+
+    @property
+    def links(self) -> np.ndarray:
+        """(k, 2) int64 extra cage edges for ARAP tying separate cage parts to the
+        part that holds them (see :func:`hybridedit.cage.cage_links`)."""
+        cached = self.__dict__.get("_links")
+        if cached is None:
+            cached = cage_links(self.cage)
+            object.__setattr__(self, "_links", cached)
+        return cached
+
+    @property
+    def nnz_per_row(self) -> float:
+        """Mean number of cage vertices each shape vertex depends on."""
+        return self.M.nnz / max(self.M.shape[0], 1)
+
+
+def build_rig(
+    mesh: Mesh,
+    *,
+    cage_size: int | float = 0.05,
+    cage: Mesh | None = None,
+    binding: sp.spmatrix | None = None,
+    truncation: float = 0.03,
+    cache: bool | str | Path = False,
+    progress: Progress | None = None,
+) -> Rig:
+    """Build (or load from the cache) the cage and binding of ``mesh``.
+
+    Parameters
+    ----------
+    mesh : Mesh
+        The shape (n vertices).
+    cage_size : int or float
+        Cage vertex count (int) or fraction of the shape's vertices (float).
+    cage : Mesh, optional
+        Use this cage instead of simplifying the shape.
+    binding : (n, c) scipy sparse matrix, optional
+        Use this binding (rows summing to 1) instead of computing it; needs ``cage``.
+    truncation : float
+        Fraction of each row's coordinate magnitude dropped (the paper: 0.03).
+    cache : bool or path
+        Reuse cage and binding from the on-disk cache (True: the user cache folder,
+        :func:`hybridedit.bindcache.default_cache_dir`; a path: that folder), keyed by
+        the shape and the settings; store them there after computing them. Ignored
+        when ``cage`` or ``binding`` is given.
+    progress : callable(stage, fraction), optional
+        Called during the slow steps; it may raise to cancel them.
+
+    Returns
+    -------
+    Rig
+
+    Examples
+    --------
+    >>> import hybridedit as he
+    >>> rig = he.build_rig(he.read_mesh("data/creature.ply"), cage_size=0.05, cache=True)  # doctest: +SKIP
+    >>> ed = he.HybridEditor(rig)  # doctest: +SKIP
+    """
+    if binding is not None and cage is None:
+        raise ValueError("a binding needs its cage")
+    say = progress or (lambda stage, fraction: None)
+    t0 = time.perf_counter()
+    notes: list[str] = []
+    folder = key = None
+    if cache and cage is None:
+        folder = bindcache.default_cache_dir() if cache is True else Path(cache)
+        key = bindcache.cache_key(mesh, cage_size, float(truncation))
+        hit = bindcache.load(folder, key, mesh)
+        if hit is not None:
+            c, M, cached_notes = hit
+            t = time.perf_counter() - t0
+            return Rig(mesh, c, M, tuple(cached_notes), {"cage_seconds": t, "bind_seconds": 0.0}, True,
+                       cage_size, float(truncation))
+    timings: dict[str, float] = {}
+    c, M = cage_and_binding(mesh, cage_size, truncation=float(truncation), cage=cage, binding=binding,
+                            notes=notes, timings=timings, progress=say)
+    if folder is not None and key is not None:
+        bindcache.store(folder, key, c, M, notes)
+    timings.setdefault("cage_seconds", 0.0)
+    timings.setdefault("bind_seconds", time.perf_counter() - t0 - timings["cage_seconds"])
+    return Rig(mesh, c, M, tuple(notes), timings, False, cage_size, float(truncation))
