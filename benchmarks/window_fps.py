@@ -53,7 +53,7 @@ def run_window(mesh_path: Path, cage, size: tuple[int, int], seconds: float):
 
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication([])
     w = MainWindow(cage_size=cage)
-    w.polish_on_release = False
+    w.polisher.enabled = False
     w.show()
     w.resize(*size)
     app.processEvents()
@@ -126,7 +126,7 @@ def run_window(mesh_path: Path, cage, size: tuple[int, int], seconds: float):
     normals = np.asarray(w.scene.normals32).copy()
     faces = s.mesh.faces
     vsize = (view.width(), view.height())
-    w.modified = False
+    w.set_modified(False)  # no question on closing
     w.close()
     app.processEvents()
     return fps, s.mesh.n_vertices, split, frame_ms, (shape, normals, faces), vsize

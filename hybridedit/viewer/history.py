@@ -19,6 +19,8 @@ class Snapshot:
     anchor : (c, 3) cage pose when the selection was applied, or None when the
         selection has not been applied to the engine (no drag since it changed).
     label : what led here ("select ROI", "drag", ...), for the Edit menu.
+    editor, cage_size : the engine (cage and binding) these masks and positions belong to, and
+        its cage size: a rebuild adds snapshots on a new cage, and undo goes back to the old one.
     """
 
     roi: np.ndarray
@@ -27,6 +29,8 @@ class Snapshot:
     transform: np.ndarray
     anchor: np.ndarray | None
     label: str = ""
+    editor: object = None
+    cage_size: int | float | None = None
 
 
 class History:

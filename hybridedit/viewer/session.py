@@ -76,6 +76,10 @@ class Session:
         self.settle_frames = 30
         self.settle_iterations = 2
         self.last_frame_seconds = 0.0
+        #: a polished pose on display ((n, 3), full-resolution ARAP of the engine's pose), or None
+        self.polished: np.ndarray | None = None
+        #: bumps when the engine (cage and binding) changes: a rebuild, or undo across one
+        self.generation = 0
         self.history = History()
         self._push("open")
 
@@ -95,6 +99,11 @@ class Session:
         """Current deformed shape, (n, 3) (a view the engine updates; completes a settle under way)."""
         self.finish_settle()
         return self.editor.deformed_vertices
+
+    @property
+    def shown_positions(self) -> np.ndarray:
+        """The pose on display and saved: the polished one when there is one, else the engine's, (n, 3)."""
+        return self.polished if self.polished is not None else self.shape_positions
 
     @property
     def applied(self) -> bool:
@@ -154,6 +163,7 @@ class Session:
             roi=self.roi.copy(), handle=self.handle.copy(), positions=self.cage_positions,
             transform=self.transform.copy(),
             anchor=None if self._anchor is None else self._anchor.copy(), label=label,
+            editor=self.editor, cage_size=self.cage_size,
         )
 
     def _push(self, label: str) -> None:
@@ -162,6 +172,9 @@ class Session:
     def restore(self, snap: Snapshot) -> None:
         """Put the session back into a snapshot's state (selection, pose, transform)."""
         self._settle_left, self._settle_label = 0, None
+        self.polished = None
+        if snap.editor is not None and snap.editor is not self.editor:
+            self._use_editor(snap.editor, snap.cage_size)
         self.roi = snap.roi.copy()
         self.handle = snap.handle.copy()
         self.editor.set_cage_positions(snap.positions)
@@ -191,6 +204,55 @@ class Session:
             return False
         self.restore(snap)
         return True
+
+    # ------------------------------------------------------------------ a new cage
+    def _use_editor(self, editor: HybridEditor, cage_size: int | float | None) -> None:
+        if editor.mesh.n_vertices != self.mesh.n_vertices:
+            raise ValueError("the new engine is for another shape")
+        self.editor = editor
+        self.dominant = dominant_cage_vertex(editor.M)
+        if cage_size is not None:
+            self.cage_size = cage_size
+        self._engine_masks = None
+        self.polished = None
+        self.generation += 1
+
+    def adopt(self, editor: HybridEditor, cage_size: int | float) -> str | None:
+        """Go on with a new cage and binding of the same shape (a rebuild).
+
+        The selection carries over through the shape and the last drag is solved again
+        on the new cage from the rest pose (as ``hybridedit deform`` replays an edit);
+        the undo history stays, and undoing the rebuild goes back to the old cage and
+        its exact pose. Returns a sentence when the pose could only partly be carried
+        over (it was built by several selections, of which only the last is replayed).
+        """
+        self.finish_settle()
+        roi_s = np.flatnonzero(self.roi[self.dominant])
+        handle_s = np.flatnonzero(self.handle[self.dominant])
+        applied = self._anchor is not None and self._engine_masks == self._mask_key()
+        from_rest = self.anchor_at_rest
+        T = self.transform.copy() if applied else np.eye(4)
+        posed = self.is_posed()
+        self._use_editor(editor, cage_size)
+        c = editor.cage.n_vertices
+        self.roi = np.zeros(c, dtype=bool)
+        self.handle = np.zeros(c, dtype=bool)
+        self.roi[editor.to_cage(roi_s, "shape")] = True
+        self.handle[editor.to_cage(handle_s, "shape")] = True
+        self._anchor, self.transform, self._base = None, np.eye(4), np.eye(4)
+        note = None
+        if applied and self.handle.any() and not np.allclose(T, np.eye(4)):
+            self.editor.reset()
+            self.apply_selection()
+            self.transform = T
+            self.settle()
+            if not from_rest:
+                note = ("only the last drag was carried over to the new cage (the pose before it came from "
+                        "earlier selections); Ctrl+Z goes back to the old cage and its pose")
+        elif posed:
+            note = "the pose was not carried over to the new cage; Ctrl+Z goes back to the old cage and its pose"
+        self._push("rebuild cage")
+        return note
 
     # ------------------------------------------------------------------ selection
     def _mask_key(self) -> tuple[bytes, bytes]:
@@ -286,6 +348,7 @@ class Session:
     def begin_drag(self) -> np.ndarray:
         """Start a drag gesture: applies a changed selection; returns the current handle transform."""
         self.finish_settle()
+        self.polished = None  # a drag starts from the engine's pose
         if self._anchor is None or self._engine_masks != self._mask_key():
             self.apply_selection()
         return self.transform.copy()
@@ -369,6 +432,7 @@ class Session:
     def reset_pose(self) -> None:
         """Back to the rest pose; the selection stays and is anchored at rest."""
         self.finish_settle()
+        self.polished = None
         self.editor.reset()
         if self._anchor is not None:
             self._anchor = self.cage_positions
@@ -411,4 +475,5 @@ class Session:
         except Exception:
             self.restore(before)
             raise
+        self.polished = None
         self._push("load edit")

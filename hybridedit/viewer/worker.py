@@ -8,13 +8,14 @@ from __future__ import annotations
 
 import threading
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from qtpy import QtCore
 
 from ..editor import HybridEditor
+from ..rig import build_rig
 from ..io import read_mesh
 from ..mesh import Mesh
 
@@ -27,14 +28,13 @@ class Cancelled(Exception):
 class BuildRequest:
     """What to build: a file to read (``path``) or a shape already loaded (``mesh``).
 
-    ``carry`` is passed through to the result untouched (the window uses it to
-    carry a selection across a cage rebuild).
+    ``rebuild``: a new cage for the shape being edited (the window carries the edit over).
     """
 
     cage_size: int | float
     path: Path | None = None
     mesh: Mesh | None = None
-    carry: dict = field(default_factory=dict)
+    rebuild: bool = False
     use_cache: bool = True
 
 
@@ -108,7 +108,8 @@ class BuildWorker(QtCore.QThread):
                 mesh = read_mesh(req.path)
                 self._report(f"reading {req.path.name}", 1.0)
             # the on-disk cache makes reopening a shape (or going back to a cage size) instant
-            editor = HybridEditor(mesh, req.cage_size, progress=self._report, cache=req.use_cache)
+            rig = build_rig(mesh, cage_size=req.cage_size, cache=req.use_cache, progress=self._report)
+            editor = HybridEditor(rig)
             self._report("done", 1.0)
         except Cancelled:
             self.cancelled.emit()
