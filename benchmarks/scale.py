@@ -107,7 +107,7 @@ def run(shape: Mesh, edit, frames: int, igl_iters: int) -> dict:
         "bind_s": cold.timings["bind_seconds"],
         "cached_s": cached.timings["cage_seconds"] + cached.timings["bind_seconds"],
         "nnz": ed.nnz_per_row,
-        "rows": len(ed._rows),
+        "rows": len(ed.moving_vertices),
         **med,
         "peak_mb": peak_mb(),
     }

@@ -27,7 +27,7 @@ from common import Timer, armadillo, armadillo_21k, canonical_edit, machine
 
 from hybridedit import HybridEditor, apply_transform, rrms_edge_error
 from hybridedit.arap import ARAPSolver
-from hybridedit.polish import ShapeARAP, free_shape_vertices, polish
+from hybridedit.polish import ShapeARAP, polish
 
 # Figures of the paper's Table 1 that we have (43,244-vertex armadillo, 2,000-vertex cage,
 # uniform weights, x' = M y'); the others are not in our notes, so they print as "-".
@@ -62,7 +62,7 @@ def run_hybrid(shape, cage_n, frames, variants=VARIANTS, shape_arap=None):
                 rr[f] = rrms_edge_error(shape.vertices, V, edges)
         polished = np.nan
         if shape_arap is not None and prop == "residual":
-            free = free_shape_vertices(ed.M, ed.arap.free, ed.cage.n_vertices)
+            free = ed.free_mask
             polished = rrms_edge_error(shape.vertices, polish(shape_arap, V, free, seconds=1.0).vertices, edges)
         out.append({
             "polish": polished,

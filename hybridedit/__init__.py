@@ -1,16 +1,25 @@
 """hybridedit: interactive ARAP editing of large meshes through a QEM cage.
 
 After Borosán, Howard, Zhang and Nealen, "Hybrid Mesh Editing" (Eurographics 2010).
+
+The names below are imported on first use, so that ``import hybridedit`` (and the
+``hybridedit`` command, which can refuse a bad output path before any work) starts
+at once; the compiled engine loads when it is first needed.
 """
 
+from __future__ import annotations
+
+import importlib
 import os as _os
 import sys as _sys
+
+__version__ = "0.1.0"
 
 
 def _numba_cache_where_writable() -> None:
     """Compiled kernels are cached next to the code; where the user cannot write there (an
     installation owned by root), point numba at the user cache folder instead, so that they
-    compile once, not at every run. Must run before numba is imported by the modules below."""
+    compile once, not at every run. Runs before numba is first imported."""
     if _os.environ.get("NUMBA_CACHE_DIR"):
         return
     here = _os.path.dirname(_os.path.abspath(__file__))
@@ -27,40 +36,44 @@ def _numba_cache_where_writable() -> None:
 
 _numba_cache_where_writable()
 
-from .arap import ARAPSolver  # noqa: E402
-from .binding import bind
-from .cage import build_cage
-from .editfile import Edit, EditFileError, load_edit, save_edit
-from .editor import HybridEditor, SelectionError
-from .io import MeshFileError, read_mesh, write_mesh
-from .mesh import Mesh, MeshError, rrms_edge_error
-from .mvc import mean_value_coordinates
-from .propagate import propagate
-from .rig import Rig, build_rig
-from .transforms import apply_transform, rigid_transform
+_WHERE = {
+    "ARAPSolver": "arap",
+    "Document": "document",
+    "Edit": "editfile",
+    "EditFileError": "editfile",
+    "HybridEditor": "editor",
+    "Mesh": "mesh",
+    "MeshError": "mesh",
+    "MeshFileError": "io",
+    "Rig": "rig",
+    "SelectionError": "selection",
+    "apply_transform": "transforms",
+    "bind": "binding",
+    "build_cage": "cage",
+    "build_rig": "rig",
+    "load_edit": "editfile",
+    "mean_value_coordinates": "mvc",
+    "propagate": "propagate",
+    "read_document": "io",
+    "read_mesh": "io",
+    "rigid_transform": "transforms",
+    "rrms_edge_error": "mesh",
+    "save_edit": "editfile",
+    "write_document": "io",
+    "write_mesh": "io",
+}
 
-__version__ = "0.1.0"
+__all__ = sorted(_WHERE)
 
-__all__ = [
-    "ARAPSolver",
-    "Edit",
-    "EditFileError",
-    "HybridEditor",
-    "Mesh",
-    "MeshError",
-    "MeshFileError",
-    "Rig",
-    "SelectionError",
-    "apply_transform",
-    "bind",
-    "build_cage",
-    "build_rig",
-    "load_edit",
-    "mean_value_coordinates",
-    "propagate",
-    "read_mesh",
-    "rigid_transform",
-    "rrms_edge_error",
-    "save_edit",
-    "write_mesh",
-]
+
+def __getattr__(name: str):
+    module = _WHERE.get(name)
+    if module is None:
+        raise AttributeError(f"module 'hybridedit' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(list(globals()) + __all__)

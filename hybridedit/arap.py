@@ -204,13 +204,26 @@ class ARAPSolver:
     local/global iterations warm-started from the current positions.
     """
 
-    def __init__(self, vertices: np.ndarray, faces: np.ndarray, weights: str = "uniform", backend: str = "auto") -> None:
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray, weights: str = "uniform", backend: str = "auto",
+                 *, links: np.ndarray | None = None) -> None:
         self.rest = np.ascontiguousarray(vertices, dtype=np.float64)
         self.faces = np.asarray(faces, dtype=np.int64)
         self.weights = weights
         self.backend = backend
         n = len(self.rest)
         self.edges, self.w = edge_weights(self.rest, self.faces, weights)
+        if links is not None and len(links):
+            lk = np.sort(np.asarray(links, dtype=np.int64).reshape(-1, 2), axis=1)
+            if lk.min() < 0 or lk.max() >= n or np.any(lk[:, 0] == lk[:, 1]):
+                raise ValueError(f"links must be pairs of distinct vertex indices in [0, {n})")
+            code = np.union1d(lk[:, 0] * n + lk[:, 1], [])
+            have = self.edges[:, 0] * n + self.edges[:, 1]
+            code = np.setdiff1d(code.astype(np.int64), have)
+            if code.size:
+                # a link is as stiff as a typical edge of the mesh it joins
+                lw = np.full(code.size, float(np.median(self.w)))
+                self.edges = np.concatenate([self.edges, np.stack([code // n, code % n], axis=1)])
+                self.w = np.concatenate([self.w, lw])
         self.L = laplacian(n, self.edges, self.w)
         W = (sp.diags(self.L.diagonal()) - self.L).tocsr()
         W.sort_indices()
@@ -228,6 +241,8 @@ class ARAPSolver:
         #: global step (right-hand side and solve)
         self.last_timings = {"local_seconds": 0.0, "global_seconds": 0.0}
         self._L_fc: sp.csr_matrix | None = None
+        self.held = np.zeros(0, dtype=np.int64)
+        self._given = self.constrained
 
     @property
     def n_vertices(self) -> int:
@@ -245,11 +260,9 @@ class ARAPSolver:
             rotations that can change (of free and moving vertices and their
             neighbours), so a frame costs in proportion to the edited region.
 
-        Raises
-        ------
-        ValueError
-            When a connected component of the mesh has no constrained vertex:
-            its position would be undetermined.
+        A connected part of the mesh (edges and links) with no constrained vertex
+        would have an undetermined position: its vertices are held where they are
+        (listed in :attr:`held`, constrained like fixed vertices).
         """
         n = self.n_vertices
         c = np.unique(np.asarray(constrained, dtype=np.int64))
@@ -260,12 +273,12 @@ class ARAPSolver:
         ncomp, labels = sp.csgraph.connected_components(self.L, directed=False)
         has = np.zeros(ncomp, dtype=bool)
         has[labels[mask]] = True
-        if not np.all(has):
-            bad = int(np.count_nonzero(~has))
-            raise ValueError(
-                f"{bad} of {ncomp} connected parts of the cage have no fixed or handle vertex; "
-                "each part needs at least one"
-            )
+        #: vertices of parts with no constrained vertex, held where they are
+        self.held = np.flatnonzero(~has[labels]).astype(np.int64)
+        self._given = c
+        if self.held.size:
+            mask[self.held] = True
+            c = np.flatnonzero(mask).astype(np.int64)
         free = np.flatnonzero(~mask)
         if moving is None:
             mov = c
@@ -293,8 +306,9 @@ class ARAPSolver:
 
         Parameters
         ----------
-        constrained_positions : (k, 3) float64 array, in the order of ``constrained``
-            as given (sorted unique) to :meth:`set_constrained`.
+        constrained_positions : (k, 3) float64 array, in the order of the constrained
+            vertices as given (sorted unique) to :meth:`set_constrained`; held
+            vertices stay where they are.
         iterations : number of local/global iterations (>= 0).
 
         Returns
@@ -304,11 +318,11 @@ class ARAPSolver:
         if self._solver is None:
             raise RuntimeError("call set_constrained first")
         cp = np.asarray(constrained_positions, dtype=np.float64).reshape(-1, 3)
-        if len(cp) != len(self.constrained):
-            raise ValueError(f"expected {len(self.constrained)} constrained positions, got {len(cp)}")
-        self.positions[self.constrained] = cp
+        if len(cp) != len(self._given):
+            raise ValueError(f"expected {len(self._given)} constrained positions, got {len(cp)}")
+        self.positions[self._given] = cp
         t0 = time.perf_counter()
-        rhs_c = self._L_fc @ cp
+        rhs_c = self._L_fc @ self.positions[self.constrained]
         b = np.empty((len(self.free), 3))
         t_local = 0.0
         for _ in range(int(iterations)):

@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import errno
 import os
+import re
 import tempfile
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import IO, Any
 
-__all__ = ["WriteError", "atomic_write"]
+__all__ = ["WriteError", "atomic_write", "remove_stale_temporaries"]
 
 _REASONS = {
     errno.EACCES: "permission denied",
@@ -132,8 +134,10 @@ def atomic_write(path: str | os.PathLike[str], mode: str = "wb") -> Iterator[IO[
     if os.path.isdir(target):
         raise WriteError(shown, "it is a folder")
     mode_bits = _target_mode(target)
+    remove_stale_temporaries(folder)
     try:
-        fd, tmp = tempfile.mkstemp(dir=folder, prefix="." + name + ".", suffix=".tmp")
+        fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{name}.{_MARK}-{os.getpid()}-",
+                                   suffix=".tmp")
     except OSError as exc:
         raise WriteError(shown, _reason(exc, folder), exc) from exc
     try:
@@ -162,6 +166,56 @@ def atomic_write(path: str | os.PathLike[str], mode: str = "wb") -> Iterator[IO[
         _remove(tmp)
         raise
     _fsync_folder(folder)
+
+
+_MARK = "hybridedit"
+_OURS = re.compile(r"^\..+\." + _MARK + r"-(\d+)-[A-Za-z0-9_]{8}\.tmp$")
+_LEGACY = re.compile(r"^\..+\.[A-Za-z0-9_]{8}\.tmp$")  # before the mark: '.NAME.XXXXXXXX.tmp'
+_LEGACY_AGE = 3600.0  # seconds
+
+
+def _alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # exists but is someone else's
+        return True
+    return True
+
+
+def remove_stale_temporaries(folder: str | os.PathLike[str]) -> list[str]:
+    """Remove hidden temporary files that a killed write of ours left in ``folder``.
+
+    Ours are named ``.NAME.hybridedit-PID-XXXXXXXX.tmp``; one is stale when no
+    process PID runs (a running write's file is never touched). Files of the
+    older form ``.NAME.XXXXXXXX.tmp`` are removed once an hour old. Best effort:
+    returns the names removed.
+    """
+    removed = []
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return removed
+    now = time.time()
+    for e in entries:
+        if not e.name.endswith(".tmp") or not e.name.startswith("."):
+            continue
+        m = _OURS.match(e.name)
+        try:
+            if m:
+                stale = not _alive(int(m.group(1)))
+            else:
+                stale = bool(_LEGACY.match(e.name)) and e.is_file(follow_symlinks=False) and \
+                    now - e.stat(follow_symlinks=False).st_mtime > _LEGACY_AGE
+            if stale:
+                os.unlink(e.path)
+                removed.append(e.name)
+        except OSError:
+            continue
+    return removed
 
 
 def _remove(tmp: str) -> None:

@@ -13,7 +13,6 @@ from __future__ import annotations
 import hashlib
 import io
 import os
-import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -52,30 +51,54 @@ def _path(folder: Path, key: str) -> Path:
 
 
 def load(folder: Path, key: str, mesh: Mesh) -> tuple[Mesh, sp.csr_matrix, list[str]] | None:
-    """The cached (cage, M, notes) for ``key``, or None when absent or not valid."""
+    """The cached (cage, M, notes) for ``key``, or None when absent or not valid.
+
+    An entry that fails any check (unreadable, another key, wrong shapes, a
+    non-finite or out-of-range value, rows of M not summing to 1, a cage that
+    is not a mesh) is deleted, so that it is rebuilt and stored again.
+    """
     p = _path(folder, key)
     if not p.is_file():
         return None
     try:
-        with np.load(p, allow_pickle=False) as z:
-            if str(z["key"]) != key:
-                return None
-            cv, cf = z["cage_vertices"], z["cage_faces"]
-            shape = tuple(int(x) for x in z["shape"])
-            M = sp.csr_matrix((z["data"], z["indices"], z["indptr"]), shape=shape)
-            notes = [str(x) for x in z["notes"]] if "notes" in z.files else []
-        cage = Mesh(cv, cf, name="cage")
-        if shape != (mesh.n_vertices, cage.n_vertices):
-            return None
-        M.check_format(full_check=True)
-        if not np.all(np.isfinite(M.data)):
-            return None
-        if not np.allclose(np.asarray(M.sum(axis=1)).ravel(), 1.0, atol=1e-9):
-            return None
-        M.sort_indices()
-        return cage, M, notes
-    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, TypeError, IndexError):
+        return _checked(p, key, mesh)
+    except Exception:  # noqa: BLE001 -- whatever is wrong with the entry, it is not used
+        discard(folder, key)
         return None
+
+
+def discard(folder: Path, key: str) -> None:
+    """Delete the entry for ``key`` (for instance when using it failed); best effort."""
+    try:
+        _path(folder, key).unlink()
+    except OSError:
+        pass
+
+
+class _Invalid(Exception):
+    pass
+
+
+def _checked(p: Path, key: str, mesh: Mesh) -> tuple[Mesh, sp.csr_matrix, list[str]]:
+    with np.load(p, allow_pickle=False) as z:
+        if str(z["key"]) != key:
+            raise _Invalid("another key")
+        cv, cf = z["cage_vertices"], z["cage_faces"]
+        shape = tuple(int(x) for x in z["shape"])
+        M = sp.csr_matrix((z["data"], z["indices"], z["indptr"]), shape=shape)
+        notes = [str(x) for x in z["notes"]] if "notes" in z.files else []
+    cage = Mesh(cv, cf, name="cage")
+    if cage.n_vertices < 4 or cage.n_faces < 4 or not np.all(np.isfinite(cage.vertices)):
+        raise _Invalid("cage is not a finite mesh")
+    if shape != (mesh.n_vertices, cage.n_vertices):
+        raise _Invalid("shape")
+    M.check_format(full_check=True)
+    if not np.all(np.isfinite(M.data)):
+        raise _Invalid("non-finite weights")
+    if not np.allclose(np.asarray(M.sum(axis=1)).ravel(), 1.0, atol=1e-9):
+        raise _Invalid("rows do not sum to 1")
+    M.sort_indices()
+    return cage, M, notes
 
 
 def store(folder: Path, key: str, cage: Mesh, M: sp.csr_matrix, notes: list[str] | tuple = ()) -> Path | None:

@@ -8,28 +8,12 @@ dense rows to a buffer and truncates them in a parallel kernel; the fast
 kernel truncates each row as soon as it is made, while it is in cache, and
 stores only the kept entries.
 
-Truncation (Borosán et al., "Hybrid Mesh Editing", 2010): in each row the
-coordinates of smallest magnitude are dropped while their cumulative magnitude
-stays within ``truncation * sum_j |lambda_j|``; the kept ones are rescaled so
-that the row sums to 1 again. Rows keep at least ``1 - truncation`` of their
-magnitude, and the matrix stays a partition of unity, so a rigid motion of the
-cage still moves the shape rigidly.
-
-To avoid sorting whole rows, every entry with ``|lambda| <= truncation * S / c``
-(``S`` the row magnitude, ``c`` the row length) is dropped first: together they
-weigh at most ``truncation * S`` and they are the smallest entries, so the full
-rule would drop them all. The same argument is repeated on the survivors with
-the budget that is left, then only the few remaining candidates are sorted and
-the cumulative rule continues from the mass already dropped. Entries of
-exactly equal magnitude at the threshold are decided by their order in the
-row: the caller's column order for the exact method, the cage's internal
-vertex order for the fast one.
-
-One safeguard departs from the plain rule: if the dropped entries carry so
-much signed weight that the kept ones would sum to less than
-``MIN_KEPT_SUM`` (possible only for rows with large negative coordinates, i.e.
-points far outside the cage, where ``S > 0.5 / truncation``), the row is kept
-whole instead of being rescaled by a large factor.
+Every row is truncated by the rule of :mod:`hybridedit.truncation` (the
+paper's: the smallest coordinates are dropped up to 3% of the row's
+magnitude, the rest rescaled to sum to 1). Entries of exactly equal magnitude
+at the threshold are decided by their order in the row: the caller's column
+order for the exact method, the cage's internal vertex order for the fast
+one.
 """
 
 from __future__ import annotations
@@ -42,73 +26,29 @@ import scipy.sparse as sp
 from numba import njit, prange
 
 from .mesh import Mesh
-from .mvc import (
+from .mvc_exact import as_points, check_closed, compute_into, n_blocks, prepare_cage
+from .mvc_flat import (
     FAR_RATIO,
     LANES,
-    _select_row,
-    as_points,
-    check_closed,
     check_far_ratio,
     compute_fast_sorted,
     compute_fast_truncated,
-    compute_into,
     fast_scratch,
     plan_fast,
-    prepare_cage,
     prepare_fast_cage,
 )
+from .truncation import MIN_KEPT_SUM, check_truncation, truncate_row
 
 __all__ = ["bind", "truncate_rows", "dominant_cage_vertex", "MIN_KEPT_SUM", "METHODS"]
 
 #: The ways ``bind`` can compute the coordinates (see :func:`bind`).
 METHODS = ("fast", "exact")
 
-#: Below this signed sum of the kept coordinates a row is left untruncated.
-MIN_KEPT_SUM = 0.5
 #: Default budget for the dense coordinate buffer of one chunk, in bytes.
 CHUNK_BYTES = 64 * 2**20
 #: Nonzeros per row the fast method's truncating kernel stores (rows that
 #: keep more are recomputed through the dense buffer).
 SPARSE_ROW_CAP = 256
-
-
-@njit(cache=True, fastmath=False, error_model="numpy")
-def _truncate_row(row, truncation, min_kept_sum, surv, vals):
-    """Truncate one row in place (dropped entries set to 0); return its nnz.
-
-    Returns -1 (row untouched) if the row holds an inf or nan.
-
-    ``surv`` (int64) and ``vals`` (float64), both at least as long as the
-    row, are scratch.
-    """
-    c = row.shape[0]
-    n_drop, n_live, order, dropped = _select_row(row, truncation, surv, vals)
-    if n_live < 0:
-        return -1
-    kept_sum = 0.0
-    for k in range(n_drop, n_live):
-        kept_sum += row[surv[order[k]]]
-    if not (kept_sum >= min_kept_sum):
-        # Safeguard (see module docstring): keep every nonzero.
-        nnz = 0
-        for j in range(c):
-            if row[j] != 0.0:
-                nnz += 1
-        return nnz
-    # Rewrite the row with the kept entries only. ``order`` and ``vals`` are
-    # reused for their indices and values: entry k is written after entry
-    # n_drop + k >= k has been read.
-    n_keep = n_live - n_drop
-    for k in range(n_keep):
-        j = surv[order[n_drop + k]]
-        order[k] = j
-        vals[k] = row[j]
-    inv = 1.0 / kept_sum
-    for j in range(c):
-        row[j] = 0.0
-    for k in range(n_keep):
-        row[order[k]] = vals[k] * inv
-    return n_keep
 
 
 @njit(cache=True, fastmath=False, error_model="numpy", parallel=True)
@@ -123,8 +63,9 @@ def _truncate_block(buf, truncation, min_kept_sum, counts, n_blocks):
             continue
         surv = np.empty(c, dtype=np.int64)
         vals = np.empty(c)
+        idx = np.empty(c, dtype=np.int64)
         for i in range(start, stop):
-            counts[i] = _truncate_row(buf[i], truncation, min_kept_sum, surv, vals)
+            counts[i] = truncate_row(buf[i], truncation, min_kept_sum, surv, vals, idx)
 
 
 @njit(cache=True, fastmath=False, error_model="numpy", parallel=True)
@@ -170,16 +111,6 @@ def _pack_rows(counts, cols, vals, indices, data):
             k += 1
 
 
-def _check_truncation(truncation: float) -> float:
-    try:
-        t = float(truncation)
-    except (TypeError, ValueError):
-        raise ValueError(f"truncation must be a number in [0, 1), got {truncation!r}") from None
-    if not (0.0 <= t < 1.0):
-        raise ValueError(f"truncation must be in [0, 1), got {truncation!r}")
-    return t
-
-
 def _truncate_into_csr_parts(
     buf: np.ndarray, truncation: float, col_of: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -190,8 +121,7 @@ def _truncate_into_csr_parts(
     """
     m = buf.shape[0]
     counts = np.empty(m, dtype=np.int64)
-    n_blocks = max(1, min(m, 8 * numba.get_num_threads()))
-    _truncate_block(buf, truncation, MIN_KEPT_SUM, counts, n_blocks)
+    _truncate_block(buf, truncation, MIN_KEPT_SUM, counts, n_blocks(m))
     if m and counts.min() < 0:
         # A row with inf/nan: report it, nothing to gather.
         return counts, np.empty(0), np.empty(0, dtype=np.int32)
@@ -283,7 +213,7 @@ def truncate_rows(dense: np.ndarray, truncation: float = 0.03) -> sp.csr_matrix:
     sums to 1 (a row kept whole by the safeguard keeps its own sum).
     ``dense`` is not modified.
     """
-    t = _check_truncation(truncation)
+    t = check_truncation(truncation)
     a = np.asarray(dense)
     if a.ndim != 2:
         raise ValueError(f"dense must be a 2D array, got shape {a.shape}")
@@ -353,7 +283,7 @@ def bind(
         raise ValueError(f"cage must be a hybridedit.Mesh, got {type(cage).__name__}")
     if cage.n_faces == 0:
         raise ValueError("the cage has no faces")
-    t = _check_truncation(truncation)
+    t = check_truncation(truncation)
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     ratio = check_far_ratio(far_ratio)

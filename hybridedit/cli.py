@@ -8,15 +8,20 @@ import os
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .atomic import WriteError, atomic_write
 from .editfile import EditFileError, load_edit
-from .editor import HybridEditor, SelectionError
-from .io import MeshFileError, read_mesh, write_mesh
+from .selection import SelectionError
+from .io import SUPPORTED_EXTENSIONS, MeshFileError, read_document, read_mesh, write_document, write_mesh
 from .mesh import MeshError, edge_stretch, rrms_edge_error
-from .repair import cage_source
+from .outpaths import OutputPathError, check_outputs
+from .progress import TextProgress
+
+if TYPE_CHECKING:
+    from .editor import HybridEditor
 
 DEFAULT_MESH = Path(__file__).resolve().parent.parent / "data" / "creature.ply"
 
@@ -45,53 +50,17 @@ def parse_cage_size(text: str) -> int | float:
 
 
 def _progress(quiet: bool, stream=None):
-    """A progress callback for HybridEditor and the CLI's own steps, on stderr.
-
-    ``say(msg)`` prints a line. ``say(stage, fraction)`` reports progress of a
-    step: on a terminal a percentage updated in place; otherwise one line when
-    the step starts and one with its duration when it ends.
-    """
-    out = stream if stream is not None else sys.stderr
-    tty = bool(getattr(out, "isatty", lambda: False)())
-    state = {"stage": None, "pct": -1, "t0": 0.0, "shown": 0.0}
-
-    def say(msg: str, fraction: float | None = None) -> None:
-        if quiet:
-            return
-        if fraction is None:
-            print(f"hybridedit: {msg}", file=out, flush=True)
-            return
-        now = time.perf_counter()
-        if msg != state["stage"]:
-            state.update(stage=msg, pct=-1, t0=now, shown=0.0)
-            if not tty:
-                print(f"hybridedit: {msg} ...", file=out, flush=True)
-        pct = int(100 * min(max(fraction, 0.0), 1.0))
-        done = fraction >= 1.0
-        if tty and (done or (pct != state["pct"] and now - state["shown"] > 0.1)):
-            end = "\n" if done else ""
-            print(f"\rhybridedit: {msg} {pct:3d}%", end=end, file=out, flush=True)
-            state.update(pct=pct, shown=now)
-        elif done and not tty:
-            print(f"hybridedit: {msg} done ({now - state['t0']:.2f} s)", file=out, flush=True)
-        if done:
-            state["stage"] = None
-
-    return say
-
-
-def _same_file(a: Path, b: Path) -> bool:
-    try:
-        return a.resolve() == b.resolve() or (b.exists() and os.path.samefile(a, b))
-    except OSError:
-        return False
+    """A progress callback for HybridEditor and the CLI's own steps, on stderr
+    (:class:`hybridedit.progress.TextProgress`: the time left on a terminal)."""
+    return TextProgress(quiet, stream)
 
 
 def run_deform(args: argparse.Namespace) -> int:
     say = _progress(args.quiet)
     src, dst = Path(args.input), Path(args.output)
-    if _same_file(src, dst) and not args.force:
-        raise CLIError(f"{dst}: refusing to overwrite the input mesh (use --force)")
+    check_outputs({"-o": (dst, SUPPORTED_EXTENSIONS), "--stats": (args.stats, (".json",))},
+                  inputs={"input": src, "edit": args.edit},
+                  may_overwrite=("-o",) if args.force else ())
     if args.iterations < 0:
         raise CLIError(f"--iterations must be >= 0, got {args.iterations}")
     if args.frames < 1:
@@ -99,9 +68,13 @@ def run_deform(args: argparse.Namespace) -> int:
     if not (np.isfinite(args.polish) and args.polish >= 0):
         raise CLIError(f"--polish must be a number of seconds >= 0, got {args.polish}")
     t_start = time.perf_counter()
+    from .editor import HybridEditor  # the compiled engine loads after the cheap checks
+
     edit = load_edit(args.edit)
-    mesh = read_mesh(src)
-    say(f"read {src.name}: {mesh.n_vertices} vertices, {mesh.n_faces} faces")
+    t_read = time.perf_counter()
+    doc = read_document(src)
+    mesh = doc.mesh
+    say(f"read {src.name}: {mesh.n_vertices} vertices, {mesh.n_faces} faces ({time.perf_counter() - t_read:.2f} s)")
     ed = HybridEditor(
         mesh,
         args.cage,
@@ -119,13 +92,11 @@ def run_deform(args: argparse.Namespace) -> int:
     )
     for note in ed.notes:
         print(f"hybridedit: note: {src.name}: {note}", file=sys.stderr, flush=True)
+    say(f"deforming: {args.frames} frames of {args.iterations} ARAP iterations")
     try:
-        ed.set_selection(edit.handle, fixed=edit.fixed, roi=edit.roi, space=edit.space)
-        handle_pts = (mesh.vertices if edit.space == "shape" else ed.cage.vertices)[edit.handle]
-        T = edit.transform(default_center=handle_pts.mean(axis=0))
-        say(f"deforming: {args.frames} frames of {args.iterations} ARAP iterations")
-        for _ in range(args.frames):
-            V = ed.drag(transform=T)
+        V = ed.apply_edit(edit, frames=args.frames, path=str(args.edit))
+    except EditFileError:
+        raise
     except ValueError as e:  # SelectionError, or a transform the editor refuses
         raise CLIError(f"{args.edit}: {_one_line(e)}") from None
     if not np.all(np.isfinite(V)):
@@ -134,8 +105,10 @@ def run_deform(args: argparse.Namespace) -> int:
     if args.polish:
         polished = _polish(ed, V, args.polish, say)
         V = polished.vertices
-    write_mesh(dst, mesh.copy(V))
-    say(f"wrote {dst}")
+    t_write = time.perf_counter()
+    for note in write_document(dst, doc.with_vertices(V)):
+        print(f"hybridedit: note: {dst.name}: {note}", file=sys.stderr, flush=True)
+    say(f"wrote {dst} ({time.perf_counter() - t_write:.2f} s)")
     frame_ms = np.asarray(ed.frame_seconds) * 1e3
     edges = mesh.edges()
     stats = {
@@ -156,6 +129,7 @@ def run_deform(args: argparse.Namespace) -> int:
         "frames": args.frames,
         "frame_ms_median": float(np.median(frame_ms)),
         "frame_ms_max": float(frame_ms.max()),
+        "handle_groups": ed.n_groups,
         "handle_cage_vertices": int(ed.handle.size),
         "fixed_cage_vertices": int(ed.fixed.size),
         "propagation": args.propagation,
@@ -184,14 +158,14 @@ def run_deform(args: argparse.Namespace) -> int:
     return 0
 
 
-def _polish(ed: HybridEditor, V: np.ndarray, seconds: float, say):
+def _polish(ed: "HybridEditor", V: np.ndarray, seconds: float, say):
     """Full-resolution ARAP of the edited region, warm-started from V, for ``seconds``."""
-    from .polish import ShapeARAP, free_shape_vertices, polish
+    from .polish import ShapeARAP, polish
 
     say("polishing", 0.0)
     t0 = time.perf_counter()
     sa = ShapeARAP(ed.mesh)
-    free = free_shape_vertices(ed.M, ed.arap.free, ed.cage.n_vertices)
+    free = ed.free_mask
     budget = max(seconds - (time.perf_counter() - t0), 0.0)
     t1 = time.perf_counter()
 
@@ -208,6 +182,8 @@ def _polish(ed: HybridEditor, V: np.ndarray, seconds: float, say):
 
 def run_info(args: argparse.Namespace) -> int:
     from .meshinfo import format_report, mesh_report
+
+    from .repair import cage_source
 
     mesh = read_mesh(args.input)
     rep = mesh_report(mesh)
@@ -241,6 +217,10 @@ def run_open(args: argparse.Namespace) -> int:
 def _demo(path: Path, args: argparse.Namespace) -> int:
     """Batch demo edit: raise the part of the shape furthest along +X."""
     say = _progress(False)
+    out = Path(args.output or "hybridedit-demo.ply")
+    check_outputs({"-o": (out, SUPPORTED_EXTENSIONS)}, inputs={"input": path})
+    from .editor import HybridEditor
+
     mesh = read_mesh(path)
     say(f"demo on {path.name}: {mesh.n_vertices} vertices")
     ed = HybridEditor(mesh, args.cage, progress=say)
@@ -252,7 +232,6 @@ def _demo(path: Path, args: argparse.Namespace) -> int:
     lift = 0.15 * mesh.bbox_diagonal()
     for _ in range(30):
         V = ed.drag(translate=(0.0, lift, 0.0))
-    out = Path(args.output or "hybridedit-demo.ply")
     write_mesh(out, ed.deformed)
     say(
         f"raised the +X end by {lift:.3g}; median frame {np.median(ed.frame_seconds) * 1e3:.2f} ms; "
@@ -265,8 +244,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="hybridedit", description="Hybrid (cage + ARAP) mesh editing.")
     sub = p.add_subparsers(dest="command")
     d = sub.add_parser("deform", help="apply an edit file to a mesh and save the result")
-    d.add_argument("input", help="input mesh (.obj .ply .stl .off)")
-    d.add_argument("-o", "--output", required=True, help="output mesh (.obj .ply .stl .off)")
+    d.add_argument("input", help="input mesh (.obj .ply .stl .off .glb)")
+    d.add_argument("-o", "--output", required=True, help="output mesh (.obj .ply .stl .off .glb)")
     d.add_argument("--edit", required=True, help="edit file (JSON)")
     d.add_argument("--cage", type=parse_cage_size, default=0.05, help="cage vertices (2000) or fraction (0.05 or 5%%); default 5%%")
     d.add_argument("--iterations", type=int, default=2, help="ARAP iterations per frame (default 2)")
@@ -297,7 +276,7 @@ def build_open_parser() -> argparse.ArgumentParser:
         description="Open the hybrid mesh editor (default mesh when no file is given). "
         "Subcommands: 'hybridedit deform -h', 'hybridedit info -h'.",
     )
-    p.add_argument("mesh", nargs="?", help="mesh to open (.obj .ply .stl .off)")
+    p.add_argument("mesh", nargs="?", help="mesh to open (.obj .ply .stl .off .glb)")
     p.add_argument("--cage", type=parse_cage_size, default=0.05, help="cage vertices or fraction (default 5%%)")
     p.add_argument("--screenshot", help="render the scene to this PNG and exit")
     p.add_argument("-o", "--output", help=argparse.SUPPRESS)
@@ -313,7 +292,8 @@ def main(argv: list[str] | None = None) -> int:
         args.func = run_open
     try:
         return args.func(args)
-    except (CLIError, MeshError, MeshFileError, EditFileError, SelectionError, WriteError) as e:
+    except (CLIError, MeshError, MeshFileError, EditFileError, SelectionError, WriteError,
+            OutputPathError) as e:
         print(f"hybridedit: error: {_one_line(e)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

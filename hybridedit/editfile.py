@@ -1,7 +1,27 @@
-"""The JSON edit file: a selection plus a handle transform, replayable in batch."""
+"""The JSON edit file: a selection plus handle transforms, replayable in batch.
+
+Format (version 2; the single-handle files of version 1, with top-level
+``handle``, ``translate`` and ``rotate``, still load)::
+
+    {
+     "format": "hybridedit-edit", "version": 2,
+     "mesh": {"vertices": 43243, "faces": 86482, "topology": "…", "bbox": [...], "centroid": [...]},
+     "space": "shape",
+     "roi": [...],                       # or "fixed": [...]; neither: nothing fixed
+     "symmetry": "x",                    # optional: "x" | "y" | "z" | {"point": [...], "normal": [...]}
+     "handles": [{"indices": [...], "translate": [x, y, z],
+                  "rotate": {"axis": [x, y, z], "degrees": a, "center": [x, y, z]}}, ...]
+    }
+
+``mesh`` fingerprints the mesh the edit was made on (vertex and face counts, a
+hash of the faces, bounding box and centroid); replaying on another mesh is
+refused. Indices are shape vertex indices, or cage vertex indices with
+``"space": "cage"`` (tied to one cage: prefer shape space).
+"""
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 from dataclasses import dataclass, field
@@ -10,7 +30,12 @@ from pathlib import Path
 import numpy as np
 
 from .atomic import atomic_write
-from .transforms import rigid_transform
+from .transforms import decompose_rigid, rigid_transform
+
+FORMAT = "hybridedit-edit"
+VERSION = 2
+#: Largest edit file read (bytes): indices of a 10M-vertex mesh fit many times over.
+MAX_BYTES = 512 * 1024 * 1024
 
 
 class EditFileError(ValueError):
@@ -18,46 +43,49 @@ class EditFileError(ValueError):
 
 
 @dataclass
-class Edit:
-    """A selection and a handle transform.
+class HandleEdit:
+    """One handle group: its vertices and its transform.
 
     Attributes
     ----------
-    handle : (k,) int64 vertex indices
-    fixed : (j,) int64 vertex indices or None
-    roi : (r,) int64 vertex indices or None (everything outside it is fixed)
-    space : "shape" or "cage", what the indices refer to
-    translate : (3,) float64
-    rotate : None or {"axis": [x, y, z], "degrees": a, "center": [x, y, z]}
+    indices : (k,) int64 vertex indices
+    translate : (3,) float64, applied after the rotation
+    rotate : None or {"axis": (3,), "degrees": a, "center": (3,) or None}
+    matrix : None or (4, 4) float64, a general affine transform (instead of the two above)
     """
 
-    handle: np.ndarray
-    fixed: np.ndarray | None = None
-    roi: np.ndarray | None = None
-    space: str = "shape"
+    indices: np.ndarray
     translate: np.ndarray = field(default_factory=lambda: np.zeros(3))
     rotate: dict | None = None
+    matrix: np.ndarray | None = None
 
     def transform(self, default_center: np.ndarray | None = None) -> np.ndarray:
-        """The (4, 4) handle transform: rotation about its center, then translation."""
+        """The (4, 4) transform: rotation about its center, then translation."""
+        if self.matrix is not None:
+            return np.asarray(self.matrix, dtype=np.float64).copy()
         if self.rotate is None:
             return rigid_transform(translate=self.translate)
         center = self.rotate.get("center")
-        if center is None:
-            center = default_center
-        return rigid_transform(
-            translate=self.translate,
-            axis=self.rotate["axis"],
-            degrees=self.rotate["degrees"],
-            center=center,
-        )
+        return rigid_transform(translate=self.translate, axis=self.rotate["axis"], degrees=self.rotate["degrees"],
+                               center=default_center if center is None else center)
+
+    @classmethod
+    def from_matrix(cls, indices: np.ndarray, T: np.ndarray, *, center: np.ndarray) -> "HandleEdit":
+        """Describe ``T`` as a rotation about ``center`` then a translation (a general
+        affine ``T`` is kept as a matrix)."""
+        T = np.asarray(T, dtype=np.float64)
+        idx = np.asarray(indices, dtype=np.int64)
+        try:
+            translate, rotate = decompose_rigid(T, center)
+        except ValueError:  # not rigid: kept as it is
+            return cls(idx, matrix=T.copy())
+        return cls(idx, translate=translate, rotate=rotate)
 
     def to_json(self) -> dict:
-        d: dict = {"space": self.space, "handle": [int(i) for i in self.handle]}
-        if self.fixed is not None:
-            d["fixed"] = [int(i) for i in self.fixed]
-        if self.roi is not None:
-            d["roi"] = [int(i) for i in self.roi]
+        d: dict = {"indices": [int(i) for i in self.indices]}
+        if self.matrix is not None:
+            d["matrix"] = [[float(x) for x in row] for row in self.matrix]
+            return d
         d["translate"] = [float(x) for x in self.translate]
         if self.rotate is not None:
             r = {"axis": [float(x) for x in self.rotate["axis"]], "degrees": float(self.rotate["degrees"])}
@@ -67,7 +95,122 @@ class Edit:
         return d
 
 
-_KEYS = {"handle", "fixed", "roi", "space", "translate", "rotate"}
+class Edit:
+    """A selection and its handle transforms.
+
+    Parameters
+    ----------
+    handle : (k,) int array, optional
+        The one handle group of a single-handle edit (with ``translate`` and ``rotate``).
+    fixed : (j,) int array or None
+        Vertices that stay.
+    roi : (r,) int array or None
+        Alternatively, everything outside it (and the handles) stays.
+    space : "shape" or "cage", what the indices refer to.
+    translate, rotate : the transform of ``handle`` (see :class:`HandleEdit`).
+    handles : list of HandleEdit, optional
+        Several handle groups (instead of ``handle``).
+    symmetry : None, "x", "y", "z" or {"point": (3,), "normal": (3,)}
+    mesh : dict or None
+        Fingerprint of the mesh the edit was made on (:func:`mesh_fingerprint`).
+    """
+
+    def __init__(self, handle=None, fixed=None, roi=None, space: str = "shape", translate=None, rotate=None, *,
+                 handles: list[HandleEdit] | None = None, symmetry=None, mesh: dict | None = None) -> None:
+        if handles is None:
+            if handle is None:
+                raise ValueError("an edit needs a handle or handles")
+            handles = [HandleEdit(np.asarray(handle, dtype=np.int64),
+                                  np.zeros(3) if translate is None else np.asarray(translate, dtype=np.float64),
+                                  rotate)]
+        elif handle is not None or translate is not None or rotate is not None:
+            raise ValueError("give handles, or handle with translate/rotate, not both")
+        self.handles = list(handles)
+        self.fixed = None if fixed is None else np.asarray(fixed, dtype=np.int64)
+        self.roi = None if roi is None else np.asarray(roi, dtype=np.int64)
+        self.space = space
+        self.symmetry = symmetry
+        self.mesh = mesh
+
+    # the single-handle view of version 1
+    @property
+    def handle(self) -> np.ndarray:
+        """Vertices of handle group 0."""
+        return self.handles[0].indices
+
+    @property
+    def translate(self) -> np.ndarray:
+        return self.handles[0].translate
+
+    @property
+    def rotate(self) -> dict | None:
+        return self.handles[0].rotate
+
+    def transform(self, default_center: np.ndarray | None = None) -> np.ndarray:
+        """The (4, 4) transform of handle group 0."""
+        return self.handles[0].transform(default_center)
+
+    def to_json(self) -> dict:
+        d: dict = {"format": FORMAT, "version": VERSION}
+        if self.mesh is not None:
+            d["mesh"] = self.mesh
+        d["space"] = self.space
+        if self.fixed is not None:
+            d["fixed"] = [int(i) for i in self.fixed]
+        if self.roi is not None:
+            d["roi"] = [int(i) for i in self.roi]
+        if self.symmetry is not None:
+            d["symmetry"] = self.symmetry
+        d["handles"] = [h.to_json() for h in self.handles]
+        return d
+
+
+def mesh_fingerprint(mesh) -> dict:
+    """Vertex and face counts, a hash of the faces, bounding box and centroid of ``mesh``."""
+    v = np.asarray(mesh.vertices, dtype=np.float64)
+    f = np.ascontiguousarray(mesh.faces, dtype="<i8")
+    return {
+        "vertices": int(len(v)),
+        "faces": int(len(f)),
+        "topology": hashlib.sha256(f.tobytes()).hexdigest()[:16],
+        "bbox": [float(x) for x in np.concatenate([v.min(axis=0), v.max(axis=0)])] if len(v) else [],
+        "centroid": [float(x) for x in v.mean(axis=0)] if len(v) else [],
+    }
+
+
+#: Fingerprints agree when bounding box and centroid match to this fraction of the diagonal.
+FINGERPRINT_TOLERANCE = 1e-5
+
+
+def check_mesh(edit: Edit, mesh, path: str) -> None:
+    """Refuse (EditFileError naming ``path``) an edit made for another mesh."""
+    fp = edit.mesh
+    if fp is None:
+        return
+    here = mesh_fingerprint(mesh)
+    if (fp.get("vertices"), fp.get("faces")) != (here["vertices"], here["faces"]):
+        raise EditFileError(
+            f"{path}: made for a mesh of {fp.get('vertices'):,} vertices and {fp.get('faces'):,} faces; "
+            f"this one has {here['vertices']:,} and {here['faces']:,}: refused")
+    if fp.get("topology") != here["topology"]:
+        raise EditFileError(f"{path}: made for another mesh (same size, different faces): refused")
+    try:
+        a = np.asarray(fp.get("bbox", []) + fp.get("centroid", []), dtype=np.float64)
+    except (TypeError, ValueError):
+        raise EditFileError(f"{path}: \"mesh\" fingerprint is malformed") from None
+    b = np.asarray(here["bbox"] + here["centroid"])
+    diag = float(np.linalg.norm(b[3:6] - b[:3])) or 1.0
+    if a.shape != b.shape or not np.all(np.abs(a - b) <= FINGERPRINT_TOLERANCE * diag):
+        raise EditFileError(f"{path}: made for another mesh (same faces, vertices elsewhere): refused")
+
+
+_KEYS_V1 = {"handle", "fixed", "roi", "space", "translate", "rotate"}
+_KEYS_V2 = {"format", "version", "mesh", "space", "fixed", "roi", "symmetry", "handles"}
+_HANDLE_KEYS = {"indices", "translate", "rotate", "matrix"}
+
+
+def _is_number(x) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
 
 
 def _indices(path: str, key: str, value) -> np.ndarray:
@@ -75,54 +218,121 @@ def _indices(path: str, key: str, value) -> np.ndarray:
         raise EditFileError(f"{path}: \"{key}\" must be a list of integer vertex indices")
     if any(i < 0 for i in value):
         raise EditFileError(f"{path}: \"{key}\" has negative vertex indices")
+    big = next((i for i in value if i >= 2 ** 62), None)
+    if big is not None:
+        raise EditFileError(f"{path}: \"{key}\" has a vertex index far beyond any mesh ({big:.3g})")
     return np.asarray(value, dtype=np.int64)
 
 
 def _vector(path: str, key: str, value) -> np.ndarray:
-    ok = isinstance(value, list) and len(value) == 3 and all(
-        isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in value
-    )
-    if not ok:
+    if not (isinstance(value, list) and len(value) == 3 and all(_is_number(x) for x in value)):
         raise EditFileError(f"{path}: \"{key}\" must be a list of 3 finite numbers")
     return np.asarray(value, dtype=np.float64)
+
+
+def _rotate(path: str, key: str, r) -> dict:
+    if not isinstance(r, dict) or "axis" not in r or "degrees" not in r:
+        raise EditFileError(f"{path}: \"{key}\" must be {{\"axis\": [x,y,z], \"degrees\": a, \"center\": [x,y,z]}}")
+    extra = set(r) - {"axis", "degrees", "center"}
+    if extra:
+        raise EditFileError(f"{path}: unknown keys in \"{key}\": {sorted(extra)}")
+    axis = _vector(path, f"{key}.axis", r["axis"])
+    if not np.any(axis):
+        raise EditFileError(f"{path}: \"{key}.axis\" must not be zero")
+    if not _is_number(r["degrees"]):
+        raise EditFileError(f"{path}: \"{key}.degrees\" must be a finite number")
+    center = _vector(path, f"{key}.center", r["center"]) if r.get("center") is not None else None
+    return {"axis": axis, "degrees": float(r["degrees"]), "center": center}
+
+
+def _handle(path: str, k: int, h) -> HandleEdit:
+    key = f"handles[{k}]"
+    if not isinstance(h, dict):
+        raise EditFileError(f"{path}: \"{key}\" must be an object with \"indices\"")
+    extra = set(h) - _HANDLE_KEYS
+    if extra:
+        raise EditFileError(f"{path}: unknown keys in \"{key}\": {sorted(extra)}; allowed: {sorted(_HANDLE_KEYS)}")
+    if "indices" not in h:
+        raise EditFileError(f"{path}: \"{key}\" has no \"indices\"")
+    idx = _indices(path, f"{key}.indices", h["indices"])
+    if idx.size == 0:
+        raise EditFileError(f"{path}: \"{key}.indices\" is empty")
+    if "matrix" in h:
+        if "translate" in h or "rotate" in h:
+            raise EditFileError(f"{path}: \"{key}\": give \"matrix\", or \"translate\"/\"rotate\", not both")
+        m = h["matrix"]
+        ok = isinstance(m, list) and len(m) == 4 and all(
+            isinstance(row, list) and len(row) == 4 and all(_is_number(x) for x in row) for row in m)
+        if not ok or not np.allclose(np.asarray(m, dtype=np.float64)[3], [0, 0, 0, 1]):
+            raise EditFileError(f"{path}: \"{key}.matrix\" must be a 4x4 affine matrix (last row 0 0 0 1)")
+        return HandleEdit(idx, matrix=np.asarray(m, dtype=np.float64))
+    t = _vector(path, f"{key}.translate", h["translate"]) if "translate" in h else np.zeros(3)
+    r = _rotate(path, f"{key}.rotate", h["rotate"]) if "rotate" in h else None
+    return HandleEdit(idx, t, r)
+
+
+def _symmetry(path: str, s):
+    if s is None or s in ("x", "y", "z"):
+        return s
+    if isinstance(s, dict) and set(s) == {"point", "normal"}:
+        p, n = _vector(path, "symmetry.point", s["point"]), _vector(path, "symmetry.normal", s["normal"])
+        if not np.any(n):
+            raise EditFileError(f"{path}: \"symmetry.normal\" must not be zero")
+        return (p, n)
+    raise EditFileError(f"{path}: \"symmetry\" must be \"x\", \"y\", \"z\" or {{\"point\": [...], \"normal\": [...]}}")
+
+
+def _mesh(path: str, m) -> dict:
+    ok = isinstance(m, dict) and all(isinstance(m.get(k), int) and not isinstance(m.get(k), bool)
+                                     for k in ("vertices", "faces")) and isinstance(m.get("topology"), str)
+    if not ok:
+        raise EditFileError(f"{path}: \"mesh\" must hold \"vertices\", \"faces\" and \"topology\" of the mesh")
+    for k in ("bbox", "centroid"):
+        if not (isinstance(m.get(k, []), list) and all(_is_number(x) for x in m.get(k, []))):
+            raise EditFileError(f"{path}: \"mesh.{k}\" must be a list of numbers")
+    return m
 
 
 def parse_edit(data: object, path: str = "<edit>") -> Edit:
     """Validate decoded JSON and build an :class:`Edit`."""
     if not isinstance(data, dict):
         raise EditFileError(f"{path}: the edit must be a JSON object")
-    unknown = set(data) - _KEYS
+    v2 = "handles" in data or "format" in data
+    allowed = _KEYS_V2 if v2 else _KEYS_V1
+    unknown = set(data) - allowed
     if unknown:
-        raise EditFileError(f"{path}: unknown keys {sorted(unknown)}; allowed: {sorted(_KEYS)}")
-    if "handle" not in data:
+        raise EditFileError(f"{path}: unknown keys {sorted(unknown)}; allowed: {sorted(allowed)}")
+    if v2:
+        if data.get("format", FORMAT) != FORMAT:
+            raise EditFileError(f"{path}: \"format\" must be \"{FORMAT}\"")
+        ver = data.get("version", VERSION)
+        if not isinstance(ver, int) or isinstance(ver, bool) or ver > VERSION or ver < 1:
+            raise EditFileError(f"{path}: edit file version {ver!r} is not one this hybridedit reads "
+                                f"(1 to {VERSION})")
+        if "handles" not in data:
+            raise EditFileError(f"{path}: missing \"handles\" (a list of handle groups)")
+    elif "handle" not in data:
         raise EditFileError(f"{path}: missing \"handle\" (a list of vertex indices)")
     if "fixed" in data and "roi" in data:
         raise EditFileError(f"{path}: give \"fixed\" or \"roi\", not both")
     space = data.get("space", "shape")
     if space not in ("shape", "cage"):
         raise EditFileError(f"{path}: \"space\" must be \"shape\" or \"cage\", got {space!r}")
+    fixed = _indices(path, "fixed", data["fixed"]) if "fixed" in data else None
+    roi = _indices(path, "roi", data["roi"]) if "roi" in data else None
+    if v2:
+        hs = data["handles"]
+        if not isinstance(hs, list) or not hs:
+            raise EditFileError(f"{path}: \"handles\" must be a non-empty list of handle groups")
+        handles = [_handle(path, k, h) for k, h in enumerate(hs)]
+        return Edit(handles=handles, fixed=fixed, roi=roi, space=space,
+                    symmetry=_symmetry(path, data.get("symmetry")),
+                    mesh=_mesh(path, data["mesh"]) if "mesh" in data else None)
     handle = _indices(path, "handle", data["handle"])
     if handle.size == 0:
         raise EditFileError(f"{path}: \"handle\" is empty")
-    fixed = _indices(path, "fixed", data["fixed"]) if "fixed" in data else None
-    roi = _indices(path, "roi", data["roi"]) if "roi" in data else None
     translate = _vector(path, "translate", data["translate"]) if "translate" in data else np.zeros(3)
-    rotate = None
-    if "rotate" in data:
-        r = data["rotate"]
-        if not isinstance(r, dict) or "axis" not in r or "degrees" not in r:
-            raise EditFileError(f"{path}: \"rotate\" must be {{\"axis\": [x,y,z], \"degrees\": a, \"center\": [x,y,z]}}")
-        extra = set(r) - {"axis", "degrees", "center"}
-        if extra:
-            raise EditFileError(f"{path}: unknown keys in \"rotate\": {sorted(extra)}")
-        axis = _vector(path, "rotate.axis", r["axis"])
-        if not np.any(axis):
-            raise EditFileError(f"{path}: \"rotate.axis\" must not be zero")
-        deg = r["degrees"]
-        if not isinstance(deg, (int, float)) or isinstance(deg, bool) or not math.isfinite(deg):
-            raise EditFileError(f"{path}: \"rotate.degrees\" must be a finite number")
-        center = _vector(path, "rotate.center", r["center"]) if r.get("center") is not None else None
-        rotate = {"axis": axis, "degrees": float(deg), "center": center}
+    rotate = _rotate(path, "rotate", data["rotate"]) if "rotate" in data else None
     return Edit(handle=handle, fixed=fixed, roi=roi, space=space, translate=translate, rotate=rotate)
 
 
@@ -130,15 +340,26 @@ def load_edit(path: str | Path) -> Edit:
     """Read an edit file; raises :class:`EditFileError` naming the file on any problem."""
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
+        if p.is_file() and p.stat().st_size > MAX_BYTES:
+            raise EditFileError(f"{p}: the edit file is {p.stat().st_size / 2**20:.0f} MB; "
+                                f"more than {MAX_BYTES // 2**20} MB is refused")
+        text = p.read_text(encoding="utf-8-sig")  # a byte-order mark is text, not an error
     except FileNotFoundError:
         raise EditFileError(f"{p}: no such edit file") from None
-    except (OSError, UnicodeDecodeError) as e:
-        raise EditFileError(f"{p}: cannot read the edit file ({e.__class__.__name__}: {e})") from None
+    except IsADirectoryError:
+        raise EditFileError(f"{p}: is a folder, not an edit file") from None
+    except UnicodeDecodeError as e:
+        raise EditFileError(f"{p}: not UTF-8 text (byte {e.start}): not an edit file") from None
+    except OSError as e:
+        raise EditFileError(f"{p}: cannot read the edit file ({e.strerror or e})") from None
     try:
         data = json.loads(text)
     except json.JSONDecodeError as e:
         raise EditFileError(f"{p}: not valid JSON (line {e.lineno}, column {e.colno}: {e.msg})") from None
+    except RecursionError:
+        raise EditFileError(f"{p}: JSON nested too deeply to be an edit file") from None
+    except ValueError as e:  # e.g. an integer with more digits than Python reads
+        raise EditFileError(f"{p}: not a usable JSON file ({' '.join(str(e).split())})") from None
     return parse_edit(data, str(p))
 
 

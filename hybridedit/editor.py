@@ -3,19 +3,27 @@
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
+from scipy.spatial.transform import Rotation
 
-from .arap import ARAPSolver
+from .arap import ARAPSolver, edge_weights, laplacian
 from .binding import dominant_cage_vertex
-from .mesh import Mesh, MeshError
+from .constraints import FIXED, FREE, SeamSpread
+from .editfile import Edit, HandleEdit, check_mesh, mesh_fingerprint
+from .mesh import Mesh
 from .propagate import propagate
 from .residual import propagate_with_residual, residual_setup
 from .rig import Progress, Rig, build_rig
+from .selection import SelectionError, as_groups, as_indices
+from .symmetry import Mirror
 from .transforms import check_transform, rigid_transform
+
+__all__ = ["HybridEditor", "SelectionError", "EditorState"]
 
 SPACES = ("shape", "cage")
 #: frame times kept in ``frame_seconds`` (the older half is dropped past this)
@@ -25,27 +33,71 @@ PROPAGATIONS = ("residual", "linear")
 MAX_REACH = 1e6
 
 
+@dataclass(frozen=True)
+class _Selection:
+    """Everything :meth:`HybridEditor.set_selection` derives (never modified later).
 
-class SelectionError(ValueError):
-    """A selection (handle / fixed / ROI) that cannot be used; the message says why."""
+    Internal groups are the user's handle groups, then their mirror images
+    (``source[k]`` is the user group internal group k follows; ``kind[k]`` is
+    "same", "mirror" or "self" for a group that is its own mirror image).
+    """
+
+    user_roles: np.ndarray  # (n,) int8 roles before mirroring
+    roles: np.ndarray  # (n,) int32 internal roles: -1 fixed, 0 free, k + 1 internal group k
+    cage_roles: np.ndarray  # (c,) int32 internal roles of cage vertices
+    source: tuple[int, ...]
+    kind: tuple[str, ...]
+    shape_groups: tuple[np.ndarray, ...]  # shape vertices of each internal group
+    cage_groups: tuple[np.ndarray, ...]  # cage vertices of each internal group
+    constrained: np.ndarray  # sorted cage vertices given to ARAP (fixed and handle)
+    slots: tuple[np.ndarray, ...]  # positions of each cage group within ``constrained``
+    free_cage: np.ndarray  # cage vertices ARAP moves
+    rows: np.ndarray  # free shape vertices a drag can move (recomputed every frame)
+    mirror: Mirror | None
+    sym_rows: np.ndarray  # rows whose displacement is averaged with their mirror image
+    n_groups: int
+    centers: tuple[np.ndarray, ...]  # default rotation centre of each user group
+    seam: np.ndarray  # constrained shape vertices whose rows lean on moving cage vertices
+    seam_role: np.ndarray  # their internal roles
+    spread: SeamSpread | None  # carries the seam's correction into ``rows``
+    compute: np.ndarray  # rows propagated every frame: rows and seam
+
+
+@dataclass(frozen=True)
+class EditorState:
+    """A snapshot of an editor's selection and pose (see :meth:`HybridEditor.save_state`)."""
+
+    selection: _Selection | None
+    transforms: tuple[np.ndarray, ...]
+    cage_positions: np.ndarray
+    arap_rotations: np.ndarray
+    rotations: np.ndarray
+    shape: np.ndarray
+    anchors: tuple[np.ndarray, np.ndarray, np.ndarray] | None
 
 
 class HybridEditor:
     """Interactive hybrid mesh editing of one shape.
 
-    Builds the cage (QEM) and the binding (truncated mean value coordinates) at
-    construction; then :meth:`set_selection` and :meth:`drag` deform the cage with
-    ARAP and the shape follows as M @ cage.
+    Takes a :class:`~hybridedit.rig.Rig` (cage + binding, see :func:`hybridedit.build_rig`),
+    or builds one from a mesh; then :meth:`set_selection` and :meth:`drag` deform
+    the cage with ARAP and the shape follows as M @ cage plus the rotated residual.
+
+    Constraints hold exactly in shape space: after any drag, fixed shape vertices
+    are where they were when the selection was set and each handle group's shape
+    vertices are exactly at its transform of where they were. The cage vertices
+    those rows lean on are held the same way (:mod:`hybridedit.constraints`), so
+    the transition happens inside the region of interest.
 
     The shape is never changed: the cage is built from a repaired private copy
-    (:func:`hybridedit.repair.cage_source`; duplicate vertices merged, degenerate
-    faces dropped, holes of the cage closed, ...) and :attr:`notes` says in plain
-    words what was repaired. Every input vertex is bound, in input order.
+    and :attr:`notes` says in plain words what was repaired. Every input vertex
+    is bound, in input order.
 
     Parameters
     ----------
-    mesh : Mesh
-        The shape (n vertices).
+    mesh : Mesh or Rig
+        The shape (n vertices), or a rig built for it (the next five options are
+        then ignored).
     cage_size : int or float
         Cage vertex count (int) or fraction of the shape's vertices (float).
     cage : Mesh, optional
@@ -55,21 +107,24 @@ class HybridEditor:
     truncation : float
         Fraction of each row's coordinate magnitude dropped (the paper: 0.03).
     weights : "cotangent" (default) or "uniform" (the paper's w_ij = 1)
-        ARAP edge weights on the cage; cotangent gives the lower edge error in
-        benchmarks/table1.py.
+        ARAP edge weights on the cage.
     iterations : int
         ARAP local/global iterations per :meth:`drag` call.
     progress : callable(stage: str, fraction: float), optional
         Called during the slow steps (cage, bind); it may raise to cancel them.
     cache : bool or path
-        Reuse the cage and binding from an on-disk cache (True: the user cache
-        folder, see :func:`hybridedit.bindcache.default_cache_dir`; a path: that
-        folder), keyed by the shape, ``cage_size`` and ``truncation``; store them
-        there after computing them. Ignored when ``cage`` or ``binding`` is given.
+        Reuse the cage and binding from an on-disk cache (see :func:`hybridedit.build_rig`).
     propagation : "residual" or "linear"
         "linear" is the paper's x' = M y'. "residual" adds back, rotated with
         the cage, what M loses of the rest shape (:mod:`hybridedit.residual`),
         so that with no edit the output is the input exactly.
+
+    Examples
+    --------
+    >>> import hybridedit as he
+    >>> ed = he.HybridEditor(he.build_rig(mesh, cage_size=0.05))  # doctest: +SKIP
+    >>> ed.set_selection(handle=[hand, foot], roi=leg_and_arm)  # doctest: +SKIP
+    >>> V = ed.drag(transforms={0: T_hand, 1: T_foot})  # doctest: +SKIP
     """
 
     def __init__(
@@ -91,10 +146,13 @@ class HybridEditor:
         else:
             rig = build_rig(mesh, cage_size=cage_size, cage=cage, binding=binding, truncation=truncation,
                             cache=cache, progress=progress)
+        if propagation not in PROPAGATIONS:
+            raise ValueError(f"propagation must be one of {PROPAGATIONS}, got {propagation!r}")
         #: the cage and binding this editor works on (see :func:`hybridedit.build_rig`)
         self.rig = rig
-        mesh = rig.mesh
-        self.mesh = mesh
+        self.mesh = mesh = rig.mesh
+        self.cage = cage = rig.cage
+        self.M = M = rig.M
         self.truncation = rig.truncation
         self.iterations = int(iterations)
         self.timings: dict[str, float] = dict(rig.timings)
@@ -102,39 +160,115 @@ class HybridEditor:
         #: plain-word sentences about what was repaired or adjusted to build the cage
         #: (the shape itself is never changed), e.g. "merged 12 duplicate vertices"
         self.notes: list[str] = list(rig.notes)
-        cage = rig.cage
-        self.cage = cage
-        M = rig.M
-        self.M = M
-        if propagation not in PROPAGATIONS:
-            raise ValueError(f"propagation must be one of {PROPAGATIONS}, got {propagation!r}")
         self.propagation = propagation
         self._residual = residual_setup(M, mesh.vertices, cage.vertices) if propagation == "residual" else None
-        self.arap = ARAPSolver(cage.vertices, cage.faces, weights=weights)
+        self.arap = ARAPSolver(cage.vertices, cage.faces, weights=weights, links=rig.links)
         self._scale = max(mesh.bbox_diagonal(), float(np.linalg.norm(np.ptp(cage.vertices, axis=0))))
         self._cage_to_shape = cKDTree(mesh.vertices).query(cage.vertices)[1].astype(np.int64)
+        self._dominant = dominant_cage_vertex(M)
+        self._laplacian: sp.csr_matrix | None = None
+        self._mirrors: dict[str, Mirror] = {}
+        #: rotations the residual turns with, per cage vertex (ARAP's for free
+        #: vertices, the constraint's for held ones)
+        self._rots = np.tile(np.eye(3), (cage.n_vertices, 1, 1))
         self._out = np.empty((mesh.n_vertices, 3))
-        self._rows: np.ndarray | None = None
-        self._propagate()
-        self.handle = np.zeros(0, dtype=np.int64)
-        self.fixed = np.zeros(0, dtype=np.int64)
-        self._constrained = np.zeros(0, dtype=np.int64)
-        self._anchor = np.zeros((0, 3))
-        self._is_handle = np.zeros(0, dtype=bool)
-        self.transform = np.eye(4)
+        self._sel: _Selection | None = None
+        self._transforms: list[np.ndarray] = []
+        # pose when the selection was set: cage positions, residual rotations, shape
+        self._anchors: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._propagate_all()
         #: wall time of recent :meth:`drag` calls, oldest first (bounded, see FRAME_HISTORY)
         self.frame_seconds: list[float] = []
         #: where the last frame's time went: local_seconds, global_seconds,
         #: propagate_seconds, total_seconds
         self.frame_breakdown: dict[str, float] = {}
 
-    # ------------------------------------------------------------------ selection
+    # ------------------------------------------------------------------ properties
     @property
     def nnz_per_row(self) -> float:
         """Mean number of cage vertices each shape vertex depends on."""
         return self.M.nnz / max(self.M.shape[0], 1)
 
-    def to_cage(self, indices: np.ndarray, space: str = "shape", role: str = "selection") -> np.ndarray:
+    @property
+    def n_groups(self) -> int:
+        """Number of handle groups of the selection (0 before one is set)."""
+        return 0 if self._sel is None else self._sel.n_groups
+
+    @property
+    def transforms(self) -> list[np.ndarray]:
+        """Current (4, 4) transform of each handle group, relative to the pose when
+        the selection was set (copies)."""
+        return [T.copy() for T in self._transforms]
+
+    @property
+    def transform(self) -> np.ndarray:
+        """The transform of handle group 0 (identity before a selection is set)."""
+        return self._transforms[0].copy() if self._transforms else np.eye(4)
+
+    def _public(self, internal: np.ndarray) -> np.ndarray:
+        sel = self._sel
+        out = np.asarray(internal, dtype=np.int8).copy()
+        if sel is not None:
+            lut = np.array([FIXED, FREE] + [s + 1 for s in sel.source], dtype=np.int8)
+            out = lut[np.asarray(internal) + 1]
+        return out
+
+    @property
+    def vertex_roles(self) -> np.ndarray:
+        """(n,) int8 role of each shape vertex: -1 fixed, 0 free, g + 1 in handle group g
+        (mirror images count in their group). This is what is held exactly."""
+        if self._sel is None:
+            return np.zeros(self.mesh.n_vertices, dtype=np.int8)
+        return self._public(self._sel.roles)
+
+    @property
+    def cage_roles(self) -> np.ndarray:
+        """(c,) int8 role of each cage vertex, as :attr:`vertex_roles`; cage parts
+        with no constraint, held still, count as fixed."""
+        if self._sel is None:
+            return np.zeros(self.cage.n_vertices, dtype=np.int8)
+        roles = self._sel.cage_roles.copy()
+        roles[self.arap.held] = FIXED
+        return self._public(roles)
+
+    @property
+    def handle(self) -> np.ndarray:
+        """(h,) int64 cage vertices that follow a handle transform (all groups)."""
+        if self._sel is None:
+            return np.zeros(0, dtype=np.int64)
+        return np.flatnonzero(self._sel.cage_roles > 0).astype(np.int64)
+
+    @property
+    def fixed(self) -> np.ndarray:
+        """(f,) int64 cage vertices held where they are (fixed, and parts held still)."""
+        if self._sel is None:
+            return np.zeros(0, dtype=np.int64)
+        return np.flatnonzero(self.cage_roles == FIXED).astype(np.int64)
+
+    @property
+    def moving_vertices(self) -> np.ndarray:
+        """(k,) int64 sorted shape vertices a drag can move: the edited region
+        (free vertices bound to moving cage vertices, and the handles)."""
+        if self._sel is None:
+            return np.zeros(0, dtype=np.int64)
+        return np.union1d(self._sel.rows, np.flatnonzero(self._sel.roles > 0)).astype(np.int64)
+
+    @property
+    def free_mask(self) -> np.ndarray:
+        """(n,) bool: the free shape vertices a drag can move, i.e. the edited region
+        less its constraints; what a full-resolution polish may move."""
+        mask = np.zeros(self.mesh.n_vertices, dtype=bool)
+        if self._sel is not None:
+            mask[self._sel.rows] = True
+        return mask
+
+    @property
+    def symmetry(self) -> Mirror | None:
+        """The mirror of a symmetric selection, else None."""
+        return None if self._sel is None else self._sel.mirror
+
+    # ------------------------------------------------------------------ selection
+    def to_cage(self, indices, space: str = "shape", role: str = "selection") -> np.ndarray:
         """Map a vertex selection to cage vertex indices.
 
         Shape vertices map to the cage vertices whose nearest shape vertex is
@@ -143,7 +277,7 @@ class HybridEditor:
 
         Parameters
         ----------
-        indices : (k,) int array of vertex indices in ``space``.
+        indices : (k,) int array of vertex indices, or a boolean mask, in ``space``.
         space : "shape" or "cage".
 
         Returns
@@ -152,119 +286,282 @@ class HybridEditor:
         """
         if space not in SPACES:
             raise SelectionError(f"space must be one of {SPACES}, got {space!r}")
-        idx = np.asarray(indices)
-        if idx.size == 0:
-            return np.zeros(0, dtype=np.int64)
-        if not np.issubdtype(idx.dtype, np.integer):
-            if not np.all(np.isfinite(idx)) or not np.all(np.equal(np.mod(idx, 1), 0)):
-                raise SelectionError(f"{role} indices must be integers")
-        idx = idx.astype(np.int64).ravel()
         n = self.mesh.n_vertices if space == "shape" else self.cage.n_vertices
-        bad = (idx < 0) | (idx >= n)
-        if np.any(bad):
-            raise SelectionError(
-                f"{role} has {int(bad.sum())} {space} vertex indices out of range [0, {n - 1}], "
-                f"e.g. {int(idx[bad][0])}"
-            )
-        if space == "cage":
-            return np.unique(idx)
+        idx = as_indices(indices, n, role=role, space=space)
+        if space == "cage" or idx.size == 0:
+            return idx
         selected = np.zeros(self.mesh.n_vertices, dtype=bool)
         selected[idx] = True
         cage_idx = np.flatnonzero(selected[self._cage_to_shape])
         if cage_idx.size == 0:
-            rows = self.M[np.unique(idx)]
-            cage_idx = np.unique(dominant_cage_vertex(rows))
+            cage_idx = np.unique(self._dominant[idx])
         return cage_idx.astype(np.int64)
+
+    def _mirror(self, symmetry) -> Mirror:
+        key = repr(symmetry)
+        m = self._mirrors.get(key)
+        if m is None:
+            m = self._mirrors[key] = Mirror(self.mesh.vertices, symmetry)
+        return m
 
     def set_selection(
         self,
-        handle: np.ndarray,
-        fixed: np.ndarray | None = None,
-        roi: np.ndarray | None = None,
+        handle,
+        fixed=None,
+        roi=None,
+        *,
         space: str = "shape",
+        symmetry=None,
     ) -> None:
-        """Choose the handle and what stays fixed.
+        """Choose the handle groups and what stays fixed.
 
         Parameters
         ----------
-        handle : (k,) int array, vertices that follow the drag transform.
-        fixed : (j,) int array, vertices that stay where they are now.
-        roi : (r,) int array, alternative to ``fixed``: everything outside
-            ``roi`` (and not in the handle) is fixed.
-        space : "shape" (shape vertex indices) or "cage" (cage vertex indices).
+        handle : selection, or a list of selections (one per handle group)
+            Vertices that follow a drag transform. A selection is a boolean mask of
+            length n or a list / range / integer array of indices.
+        fixed : selection, optional
+            Vertices that stay where they are now.
+        roi : selection, optional
+            Alternative to ``fixed``: everything outside ``roi`` and the handles is fixed.
+            With neither, nothing is fixed.
+        space : "shape" (shape vertex indices) or "cage" (cage vertex indices; shape
+            vertices then take the role of the cage vertex they depend on most).
+        symmetry : None, "x", "y", "z" or (point, normal)
+            Mirror the selection across this plane (through the centre of the shape's
+            bounding box for an axis): each handle group's mirror image follows the
+            mirrored transform and the result is symmetric. A shape that is not
+            symmetric across the plane is refused with its measured asymmetry.
 
         The current pose becomes the reference of the next drags: fixed vertices
         keep their current positions and :meth:`drag` transforms are relative to
-        the handle's current position.
+        the handles' current positions.
+
+        Raises
+        ------
+        SelectionError
+            A malformed or empty selection, overlapping groups, handle and fixed
+            sharing vertices, or a shape not symmetric enough.
         """
         if fixed is not None and roi is not None:
             raise SelectionError("give either fixed or roi, not both")
-        h = self.to_cage(handle, space, "handle")
-        if h.size == 0:
-            raise SelectionError("the handle is empty: select at least one vertex to drag")
-        nc = self.cage.n_vertices
+        if space not in SPACES:
+            raise SelectionError(f"space must be one of {SPACES}, got {space!r}")
+        n, c = self.mesh.n_vertices, self.cage.n_vertices
+        count = n if space == "shape" else c
+        groups = as_groups(handle, count, space=space)
+        given = np.zeros(count, dtype=np.int32)
         if roi is not None:
-            inside = np.zeros(nc, dtype=bool)
-            inside[self.to_cage(roi, space, "roi")] = True
-            inside[h] = True
-            f = np.flatnonzero(~inside).astype(np.int64)
+            inside = np.zeros(count, dtype=bool)
+            inside[as_indices(roi, count, role="roi", space=space)] = True
+            given[~inside] = FIXED
         elif fixed is not None:
-            f = self.to_cage(fixed, space, "fixed")
-            both = np.intersect1d(h, f)
-            if both.size:
-                raise SelectionError(
-                    f"handle and fixed share {both.size} cage vertices; a vertex cannot be both"
-                )
-        else:
-            f = np.zeros(0, dtype=np.int64)
-        constrained = np.union1d(h, f)
+            f = as_indices(fixed, count, role="fixed", space=space)
+            given[f] = FIXED
+        for k, g in enumerate(groups):
+            if fixed is not None and np.any(given[g] == FIXED):
+                both = int(np.count_nonzero(given[g] == FIXED))
+                raise SelectionError(f"handle and fixed share {both:,} {space} vertices; a vertex cannot be both")
+            given[g] = k + 1
+        user_roles = given if space == "shape" else given[self._dominant]
+        mirror = self._mirror(symmetry) if symmetry is not None else None
+        roles, source, kind = self._mirrored_roles(user_roles, len(groups), mirror, roi_mode=roi is not None)
+        # cage vertices held: the user's own cage picks, or those whose nearest
+        # shape vertex is constrained (the seam's correction smooths what that leaves)
+        near = roles[self._cage_to_shape]
+        core = near if space == "shape" else np.where(given != FREE, given, near)
+        cage_roles = core.astype(np.int32)
+        n_int = len(source)
+        for k in range(n_int):
+            if not np.any(cage_roles == k + 1):
+                rows = np.flatnonzero(roles == k + 1)
+                dom = np.unique(self._dominant[rows])
+                dom = dom[cage_roles[dom] <= FREE]  # a handle takes precedence over fixed
+                if dom.size == 0:
+                    raise SelectionError(
+                        f"handle group {source[k]} has no cage vertex of its own (its neighbours claim them "
+                        "all); select a larger handle or use a finer cage")
+                cage_roles[dom] = k + 1
+        constrained = np.flatnonzero(cage_roles != FREE).astype(np.int64)
+        moving = np.flatnonzero(cage_roles > 0).astype(np.int64)
         try:
-            self.arap.set_constrained(constrained, moving=h)
+            self.arap.set_constrained(constrained, moving=moving)
         except ValueError as e:
             raise SelectionError(str(e)) from None
-        self._rows = self._rows_that_can_move()
-        self._propagate(all_rows=True)
-        self.handle = h
-        self.fixed = f
-        self._constrained = constrained
-        self._is_handle = np.isin(constrained, h)
-        self._anchor = self.arap.positions[constrained].copy()
-        self.transform = np.eye(4)
+        rows = self._rows_that_can_move(roles, cage_roles, constrained_too=True)
+        seam = rows[roles[rows] != FREE]
+        rows = rows[roles[rows] == FREE]
+        free_cage = self.arap.free
+        slots = tuple(np.searchsorted(constrained, np.flatnonzero(cage_roles == k + 1)) for k in range(n_int))
+        sym_rows = np.zeros(0, dtype=np.int64)
+        if mirror is not None:
+            partners = mirror.map[rows]
+            rows = np.union1d(rows, partners[roles[partners] == FREE]).astype(np.int64)
+            sym_rows = rows[roles[mirror.map[rows]] == FREE]
+        base = self._out
+        centers = tuple(base[user_roles == k + 1].mean(axis=0) if np.any(user_roles == k + 1)
+                        else self.arap.positions[core == k + 1].mean(axis=0) for k in range(len(groups)))
+        self._sel = _Selection(
+            user_roles=user_roles.astype(np.int8), roles=roles, cage_roles=cage_roles, source=tuple(source),
+            kind=tuple(kind), shape_groups=tuple(np.flatnonzero(roles == k + 1) for k in range(n_int)),
+            cage_groups=tuple(np.flatnonzero(cage_roles == k + 1) for k in range(n_int)), constrained=constrained,
+            slots=slots, free_cage=free_cage, rows=rows, mirror=mirror, sym_rows=sym_rows, n_groups=len(groups),
+            centers=centers, seam=seam, seam_role=roles[seam],
+            spread=SeamSpread(self._shape_laplacian(), rows, seam) if seam.size else None,
+            compute=np.union1d(rows, seam).astype(np.int64),
+        )
+        self._transforms = [np.eye(4) for _ in range(len(groups))]
+        self._anchor_here()
+
+    def _mirrored_roles(self, user_roles: np.ndarray, n_groups: int, mirror: Mirror | None, *,
+                        roi_mode: bool = False):
+        """Internal roles after mirroring: (roles, source of each group, kind of each group).
+
+        A vertex takes the role of its mirror image where it has none of its own
+        (the pull-back through ``mirror.map``, so that every vertex on the other side
+        is covered even where the mesh is only nearly symmetric). With a region of
+        interest the region is mirrored (a vertex stays fixed only when its mirror
+        image is fixed too); with fixed vertices the fixed set is mirrored.
+        """
+        roles = user_roles.astype(np.int32).copy()
+        source = list(range(n_groups))
+        kind = ["same"] * n_groups
+        if mirror is None:
+            return roles, source, kind
+        image = user_roles[mirror.map]  # the role of each vertex's mirror image
+        if roi_mode:
+            roles[(roles == FIXED) & (image != FIXED)] = FREE
+        else:
+            roles[(roles == FREE) & (image == FIXED)] = FIXED
+        for k in range(n_groups):
+            own = user_roles == k + 1
+            pulled = (image == k + 1) & ~own & (user_roles <= FREE)
+            if np.count_nonzero(own & (image == k + 1)) > 0.5 * np.count_nonzero(own):
+                kind[k] = "self"  # straddles the plane: its own mirror image
+                roles[pulled] = k + 1
+            elif np.any(pulled):
+                source.append(k)
+                kind.append("mirror")
+                roles[pulled] = len(source)
+        return roles, source, kind
+
+    def _shape_laplacian(self) -> sp.csr_matrix:
+        """Cotangent Laplacian of the shape (built on first use)."""
+        if self._laplacian is None:
+            e, w = edge_weights(self.mesh.vertices, self.mesh.faces, "cotangent")
+            self._laplacian = laplacian(self.mesh.n_vertices, e, w)
+        return self._laplacian
+
+    def _rows_that_can_move(self, roles: np.ndarray, cage_roles: np.ndarray, *,
+                            constrained_too: bool = False) -> np.ndarray:
+        """Shape vertices a drag can move: bound to a free or handle cage vertex,
+        or (residual mode) turning with one; only free ones unless ``constrained_too``."""
+        changing = cage_roles > 0
+        changing[self.arap.free] = True
+        M = self.M
+        row_of_nz = np.repeat(np.arange(M.shape[0]), np.diff(M.indptr))
+        mask = np.zeros(M.shape[0], dtype=bool)
+        mask[row_of_nz[changing[M.indices]]] = True
+        if self._residual is not None:
+            mask |= changing[self._residual[1]].any(axis=1)
+        if not constrained_too:
+            mask &= roles == FREE
+        return np.flatnonzero(mask).astype(np.int64)
+
+    def _anchor_here(self) -> None:
+        """Make the current pose the reference of the selection's constraints."""
+        self._anchors = (self.arap.positions.copy(), self._rots.copy(), self._out.copy())
 
     # ------------------------------------------------------------------ deformation
+    def _group_transform(self, k: int, T: np.ndarray) -> np.ndarray:
+        """The transform internal group k follows when its user group has ``T``."""
+        sel = self._sel
+        if sel.kind[k] == "mirror":
+            return sel.mirror.mirrored(T)
+        if sel.kind[k] == "self":
+            return sel.mirror.symmetric_part(T)
+        return T
+
+    def _as_transform(self, group: int, translate, rotate, transform) -> np.ndarray:
+        if transform is not None:
+            if translate is not None or rotate is not None:
+                raise ValueError("give transform, or translate and/or rotate, not both")
+            return check_transform(transform)
+        T = np.eye(4)
+        if rotate is not None:
+            center = self._sel.centers[group]
+            if isinstance(rotate, dict):
+                c = rotate.get("center")
+                T = rigid_transform(axis=rotate.get("axis"), degrees=float(rotate.get("degrees", 0.0)),
+                                    center=center if c is None else c)
+            else:
+                R = rotate.as_matrix() if isinstance(rotate, Rotation) else np.asarray(rotate, dtype=np.float64)
+                if R.shape != (3, 3) or not np.all(np.isfinite(R)) or not np.allclose(R @ R.T, np.eye(3), atol=1e-6) \
+                        or np.linalg.det(R) < 0:
+                    raise ValueError("rotate must be a 3x3 rotation matrix, a scipy Rotation or "
+                                     "{\"axis\": ..., \"degrees\": ..., \"center\": ...}")
+                T[:3, :3] = R
+                T[:3, 3] = center - R @ center
+        if translate is not None:
+            T = rigid_transform(translate=translate) @ T
+        return T
+
     def drag(
         self,
-        translate: np.ndarray | tuple | None = None,
+        translate=None,
+        *,
+        rotate=None,
         transform: np.ndarray | None = None,
+        group: int = 0,
+        transforms: dict | None = None,
         iterations: int | None = None,
     ) -> np.ndarray:
-        """Move the handle and deform.
+        """Move handle groups and deform.
 
         Parameters
         ----------
-        translate : (3,) translation of the handle, or
-        transform : (4, 4) affine transform of the handle; both are absolute,
-            relative to the handle's pose when the selection was set.
+        translate : (3,) translation of handle group ``group``, and/or
+        rotate : rotation of that group about its centroid: a (3, 3) matrix, a scipy
+            ``Rotation``, or ``{"axis": (3,), "degrees": a, "center": (3,)}``; or
+        transform : (4, 4) affine transform of that group. All are absolute, relative
+            to the handles' pose when the selection was set.
+        group : int
+            The handle group moved; the others keep their current transforms.
+        transforms : dict {group: (4, 4) transform}, optional
+            Set several groups at once (instead of the above).
         iterations : ARAP iterations for this call (default ``self.iterations``).
 
         Returns
         -------
         (n, 3) float64 array, the deformed shape (a view that later calls update).
         """
-        if self._constrained.size == 0:
+        sel = self._sel
+        if sel is None:
             raise SelectionError("set a selection (handle) before dragging")
-        if transform is not None and translate is not None:
-            raise ValueError("give translate or transform, not both")
-        T = check_transform(transform) if transform is not None else rigid_transform(translate=translate)
+        new = list(self._transforms)
+        if transforms is not None:
+            if translate is not None or rotate is not None or transform is not None:
+                raise ValueError("give transforms, or one group's translate/rotate/transform, not both")
+            for g, T in dict(transforms).items():
+                if not isinstance(g, (int, np.integer)) or not (0 <= int(g) < sel.n_groups):
+                    raise SelectionError(f"no handle group {g!r}; the selection has {sel.n_groups}")
+                new[int(g)] = check_transform(T)
+        else:
+            if not isinstance(group, (int, np.integer)) or not (0 <= int(group) < sel.n_groups):
+                raise SelectionError(f"no handle group {group!r}; the selection has {sel.n_groups}")
+            new[int(group)] = self._as_transform(int(group), translate, rotate, transform)
         k = self.iterations if iterations is None else int(iterations)
         if k < 0:
             raise ValueError(f"iterations must be >= 0, got {k}")
         t0 = time.perf_counter()
-        target = self._anchor.copy()
-        hp = target[self._is_handle]
+        cage0, rots0, shape0 = self._anchors
+        target = cage0[sel.constrained]
+        internal = [self._group_transform(g, new[sel.source[g]]) for g in range(len(sel.source))]
         with np.errstate(all="ignore"):
-            target[self._is_handle] = hp @ T[:3, :3].T + T[:3, 3]
-            reach = float(np.max(np.abs(target - self._anchor), initial=0.0))
+            for g, T in enumerate(internal):
+                s = sel.slots[g]
+                target[s] = target[s] @ T[:3, :3].T + T[:3, 3]
+            reach = float(np.max(np.abs(target - cage0[sel.constrained]), initial=0.0))
         if not np.all(np.isfinite(target)):
             raise ValueError("the drag moves the handle to non-finite positions; refused, nothing changed")
         limit = MAX_REACH * max(self._scale, np.finfo(float).tiny)
@@ -279,9 +576,31 @@ class HybridEditor:
             self.arap.positions[:] = saved[0]
             self.arap.rotations[:] = saved[1]
             raise ValueError("the drag produced non-finite cage positions; refused, nothing changed")
-        self.transform = T
+        self._transforms = new
         t1 = time.perf_counter()
-        self._propagate()
+        free = sel.free_cage
+        self._rots[free] = self.arap.rotations[free]
+        for g, T in enumerate(internal):
+            cg = sel.cage_groups[g]
+            self._rots[cg] = np.einsum("ij,kjl->kil", T[:3, :3], rots0[cg])
+        self._propagate_rows(sel.compute)
+        out = self._out
+        if sel.seam.size:
+            goal = shape0[sel.seam]
+            for g, T in enumerate(internal):
+                m = sel.seam_role == g + 1
+                goal[m] = goal[m] @ T[:3, :3].T + T[:3, 3]
+            out[sel.rows] += sel.spread.correction(goal - out[sel.seam])
+            out[sel.seam] = goal
+        for g, T in enumerate(internal):
+            rows = sel.shape_groups[g]
+            out[rows] = shape0[rows] @ T[:3, :3].T + T[:3, 3]
+        if sel.sym_rows.size:
+            r = sel.sym_rows
+            partner = sel.mirror.map[r]
+            U = self._out[r] - shape0[r]
+            Um = self._out[partner] - shape0[partner]
+            self._out[r] = shape0[r] + 0.5 * (U + Um @ sel.mirror.S[:3, :3].T)
         t2 = time.perf_counter()
         self.frame_seconds.append(t2 - t0)
         if len(self.frame_seconds) > FRAME_HISTORY:
@@ -292,10 +611,11 @@ class HybridEditor:
     def reset(self) -> None:
         """Back to the rest pose (the selection is kept, its reference is the rest pose)."""
         self.arap.reset()
-        self._propagate(all_rows=True)
-        if self._constrained.size:
-            self._anchor = self.arap.positions[self._constrained].copy()
-        self.transform = np.eye(4)
+        self._rots[:] = np.eye(3)
+        self._propagate_all()
+        self._transforms = [np.eye(4) for _ in self._transforms]
+        if self._sel is not None:
+            self._anchor_here()
 
     @property
     def cage_positions(self) -> np.ndarray:
@@ -303,7 +623,8 @@ class HybridEditor:
         return self.arap.positions.copy()
 
     def set_cage_positions(self, positions: np.ndarray) -> np.ndarray:
-        """Put the cage in a given pose (e.g. for undo) and update the shape.
+        """Put the cage in a given pose and update the shape (every vertex follows
+        the cage; that pose becomes the reference of the selection).
 
         Returns the (n, 3) deformed shape.
         """
@@ -311,39 +632,116 @@ class HybridEditor:
         if p.shape != self.arap.positions.shape or not np.all(np.isfinite(p)):
             raise ValueError(f"cage positions must be finite and {self.arap.positions.shape}")
         self.arap.positions[:] = p
-        self.arap.local_step()
-        if self._constrained.size:
-            self._anchor = p[self._constrained].copy()
-        self.transform = np.eye(4)
-        self._propagate(all_rows=True)
+        self._rots[:] = self.arap.local_step()
+        self._propagate_all()
+        self._transforms = [np.eye(4) for _ in self._transforms]
+        if self._sel is not None:
+            self._anchor_here()
         return self._out
 
-    def _rows_that_can_move(self) -> np.ndarray:
-        """Shape vertices that a drag can move: those bound to a free or handle cage
-        vertex, or (residual mode) rotating with a cage vertex whose rotation changes."""
-        changing = np.zeros(self.cage.n_vertices, dtype=bool)
-        changing[self.arap.active] = True  # free, their neighbours, handle
-        M = self.M
-        row_of_nz = np.repeat(np.arange(M.shape[0]), np.diff(M.indptr))
-        mask = np.zeros(M.shape[0], dtype=bool)
-        mask[row_of_nz[changing[M.indices]]] = True
-        if self._residual is not None:
-            mask |= changing[self._residual[1]].any(axis=1)
-        return np.flatnonzero(mask).astype(np.int64)
+    def save_state(self) -> EditorState:
+        """A snapshot of the selection and pose, for :meth:`restore_state` (undo)."""
+        return EditorState(self._sel, tuple(T.copy() for T in self._transforms), self.arap.positions.copy(),
+                           self.arap.rotations.copy(), self._rots.copy(), self._out.copy(), self._anchors)
 
-    def _propagate(self, all_rows: bool = False) -> None:
-        """The shape from the current cage pose, into ``self._out``.
+    def restore_state(self, state: EditorState) -> np.ndarray:
+        """Go back to a snapshot taken by :meth:`save_state`; returns the (n, 3) shape."""
+        if state.selection is not self._sel:
+            sel = state.selection
+            if sel is not None:
+                self.arap.set_constrained(sel.constrained, moving=np.flatnonzero(sel.cage_roles > 0))
+            self._sel = sel
+        self.arap.positions[:] = state.cage_positions
+        self.arap.rotations[:] = state.arap_rotations
+        self._rots[:] = state.rotations
+        self._out[:] = state.shape
+        self._transforms = [T.copy() for T in state.transforms]
+        self._anchors = state.anchors
+        return self._out
 
-        During a drag only the rows that can move are recomputed; the others
-        depend on cage vertices (and rotations) the drag does not change.
-        """
-        rows = None if all_rows or self._rows is None else self._rows
+    def _propagate_rows(self, rows: np.ndarray | None) -> None:
         if self._residual is None:
             propagate(self.M, self.arap.positions, self._out, rows=rows)
         else:
             d, idx, w = self._residual
-            propagate_with_residual(self.M, self.arap.positions, self.arap.rotations, d, idx, w, self._out, rows=rows)
+            propagate_with_residual(self.M, self.arap.positions, self._rots, d, idx, w, self._out, rows=rows)
 
+    def _propagate_all(self) -> None:
+        """Every shape vertex from the current cage pose and rotations."""
+        self._propagate_rows(None)
+
+    # ------------------------------------------------------------------ edits
+    @property
+    def edit(self) -> Edit:
+        """The current selection and handle transforms as a shape-space :class:`Edit`
+        that :meth:`apply_edit` replays on any cage of the same mesh."""
+        sel = self._sel
+        if sel is None:
+            raise SelectionError("no selection to describe: set one first")
+        roles = sel.user_roles
+        handles = []
+        for g in range(sel.n_groups):
+            handles.append(HandleEdit.from_matrix(np.flatnonzero(roles == g + 1), self._transforms[g],
+                                                  center=sel.centers[g]))
+        fixed = np.flatnonzero(roles == FIXED)
+        if fixed.size == 0:
+            fixed_kw = {"fixed": fixed}
+        elif fixed.size * 2 > roles.size:
+            fixed_kw = {"roi": np.flatnonzero(roles != FIXED)}
+        else:
+            fixed_kw = {"fixed": fixed}
+        return Edit(handles=handles, space="shape", symmetry=None if sel.mirror is None else sel.mirror.spec,
+                    mesh=mesh_fingerprint(self.mesh), **fixed_kw)
+
+    def apply_edit(self, edit: Edit, *, frames: int = 30, iterations: int | None = None,
+                   progress: Progress | None = None, path: str | None = None) -> np.ndarray:
+        """Replay an edit: set its selection, then run ``frames`` drags to its transforms.
+
+        Parameters
+        ----------
+        edit : Edit
+        frames : int
+            Drag calls (each of ``iterations`` ARAP iterations) at the edit's transforms
+            (0: set the selection only).
+        progress : callable(stage, fraction), optional
+        path : str, optional
+            The edit file's name, for messages.
+
+        Returns
+        -------
+        (n, 3) float64 array, the deformed shape.
+
+        Raises
+        ------
+        EditFileError
+            The edit was made for another mesh.
+        SelectionError
+            Its selection does not fit this mesh (indices out of range, ...).
+        """
+        if frames < 0:
+            raise ValueError(f"frames must be >= 0, got {frames}")
+        check_mesh(edit, self.mesh, path or "<edit>")
+        say = progress or (lambda stage, fraction: None)
+        self.set_selection([h.indices for h in edit.handles], fixed=edit.fixed, roi=edit.roi, space=edit.space,
+                           symmetry=edit.symmetry)
+        Ts = self.edit_transforms(edit)
+        V = self._out
+        for f in range(frames):
+            say("deforming", f / frames)
+            V = self.drag(transforms=Ts, iterations=iterations)
+        say("deforming", 1.0)
+        return V
+
+    def edit_transforms(self, edit: Edit) -> dict[int, np.ndarray]:
+        """The (4, 4) transform of each of an edit's handle groups, {group: T}; a
+        rotation without a centre turns about the group's centroid (in the edit's
+        space, in the pose the current selection was set at)."""
+        if self._anchors is None:
+            raise SelectionError("set the edit's selection first")
+        pts = self._anchors[2] if edit.space == "shape" else self._anchors[0]
+        return {g: h.transform(default_center=pts[h.indices].mean(axis=0)) for g, h in enumerate(edit.handles)}
+
+    # ------------------------------------------------------------------ results
     @property
     def deformed_vertices(self) -> np.ndarray:
         """The current deformed shape, (n, 3) float64 (a view)."""

@@ -5,63 +5,11 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
 from .mesh import Mesh
+from .topology import connected_parts, degenerate_faces, edge_face_counts
 
 __all__ = ["edge_face_counts", "format_report", "mesh_report"]
-
-
-def edge_face_counts(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
-    """How many faces use each undirected edge.
-
-    A face with a repeated index, such as (a, a, b), uses its edge a-b once;
-    self-loop "edges" a-a are not counted.
-
-    Parameters
-    ----------
-    faces : (m, 3) int array
-    n_vertices : int
-        Number of vertices; all indices must be below it.
-
-    Returns
-    -------
-    edges : (e, 2) int64 array
-        Unique undirected edges, rows sorted with column 0 < column 1.
-    counts : (e,) int64 array
-        Number of faces using each edge.
-    """
-    f = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
-    a = f.ravel()
-    b = f[:, [1, 2, 0]].ravel()
-    lo, hi = np.minimum(a, b), np.maximum(a, b)
-    keep = lo != hi
-    # a face with exactly two distinct indices yields the same edge twice
-    equal_pairs = ((f[:, 0] == f[:, 1]).astype(np.int64) + (f[:, 1] == f[:, 2])
-                   + (f[:, 2] == f[:, 0]))
-    twice = np.repeat(equal_pairs == 1, 3) & keep
-    if twice.any():
-        rows = np.flatnonzero(twice).reshape(-1, 2)
-        keep[rows[:, 1]] = False
-    n = max(int(n_vertices), 1)
-    keys, counts = np.unique(lo[keep] * n + hi[keep], return_counts=True)
-    edges = np.stack([keys // n, keys % n], axis=1)
-    return edges, counts.astype(np.int64)
-
-
-def _degenerate(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """(m,) bool: face repeats an index or has (numerically) zero area."""
-    f0, f1, f2 = faces[:, 0], faces[:, 1], faces[:, 2]
-    repeated = (f0 == f1) | (f1 == f2) | (f2 == f0)
-    p0, p1, p2 = vertices[f0], vertices[f1], vertices[f2]
-    twice_area = np.linalg.norm(np.cross(p1 - p0, p2 - p0), axis=1)
-    longest_sq = np.max(
-        [np.einsum("ij,ij->i", d, d) for d in (p1 - p0, p2 - p1, p0 - p2)], axis=0
-    ) if len(faces) else np.zeros(0)
-    # zero up to rounding: height below a few ulps of the longest edge
-    flat = twice_area <= 4 * np.finfo(np.float64).eps * longest_sq
-    return repeated | flat
 
 
 def mesh_report(mesh: Mesh) -> dict[str, Any]:
@@ -89,7 +37,8 @@ def mesh_report(mesh: Mesh) -> dict[str, Any]:
         unreferenced_vertices : int
             Vertices used by no face.
         degenerate_faces : int
-            Faces with a repeated index or zero area.
+            Faces with a repeated index or zero area
+            (:func:`hybridedit.topology.degenerate_faces`).
         bbox_min, bbox_max : list of 3 float
         bbox_diagonal : float
         closed : bool
@@ -103,14 +52,7 @@ def mesh_report(mesh: Mesh) -> dict[str, Any]:
 
     referenced = np.zeros(n, dtype=bool)
     referenced[f.ravel()] = True
-    if m:
-        rows = f.ravel()
-        cols = f[:, [1, 2, 0]].ravel()
-        graph = coo_matrix((np.ones(len(rows), dtype=np.int8), (rows, cols)), shape=(n, n))
-        _, labels = connected_components(graph, directed=False)
-        components = int(len(np.unique(labels[referenced])))
-    else:
-        components = 0
+    components, _ = connected_parts(f, n)
 
     lo, hi = mesh.bbox()
     return {
@@ -121,7 +63,7 @@ def mesh_report(mesh: Mesh) -> dict[str, Any]:
         "boundary_edges": boundary,
         "nonmanifold_edges": nonmanifold,
         "unreferenced_vertices": int(n - np.count_nonzero(referenced)),
-        "degenerate_faces": int(np.count_nonzero(_degenerate(v, f))),
+        "degenerate_faces": int(np.count_nonzero(degenerate_faces(v, f))),
         "bbox_min": [float(x) for x in lo],
         "bbox_max": [float(x) for x in hi],
         "bbox_diagonal": mesh.bbox_diagonal(),

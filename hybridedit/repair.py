@@ -11,14 +11,16 @@ had to change; :func:`close_holes` closes what simplification leaves open.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numba
 import numpy as np
-import scipy.sparse as sp
-from scipy.sparse.csgraph import connected_components
 
 from .mesh import Mesh, MeshError
+from .topology import (connected_parts, degenerate_faces, edge_balance, group_rows, half_edges,
+                       is_closed_oriented, weld)
 
-__all__ = ["cage_source", "close_holes", "box_cage", "plural", "MERGE_TOLERANCE"]
+__all__ = ["CageSource", "cage_source", "repaired_source", "close_holes", "box_cage", "plural", "MERGE_TOLERANCE"]
 
 #: vertices closer than this fraction of the bounding-box diagonal are merged
 MERGE_TOLERANCE = 1e-9
@@ -35,63 +37,11 @@ def _diagonal(v: np.ndarray) -> float:
     return float(np.linalg.norm(v.max(axis=0) - v.min(axis=0)))
 
 
-def _group_rows(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Group equal rows of an (n, k) int64 array.
-
-    Returns (first, group): ``first`` holds the index of each group's first row, in
-    input order; ``group[i]`` is the group of row i (groups numbered in order of
-    first occurrence).
-    """
-    n = len(keys)
-    if n == 0:
-        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-    order = np.lexsort(keys.T[::-1])  # stable: equal rows keep input order
-    ks = keys[order]
-    start = np.ones(n, dtype=bool)
-    start[1:] = np.any(ks[1:] != ks[:-1], axis=1)
-    gid_sorted = np.cumsum(start) - 1
-    first_sorted = order[start]  # first occurrence of each group
-    rank = np.empty(len(first_sorted), dtype=np.int64)
-    by_first = np.argsort(first_sorted, kind="stable")
-    rank[by_first] = np.arange(len(first_sorted))
-    group = np.empty(n, dtype=np.int64)
-    group[order] = rank[gid_sorted]
-    return first_sorted[by_first], group
-
-
-def merge_close_vertices(vertices: np.ndarray, faces: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray, int]:
-    """Merge vertices that fall in the same cell of a grid of spacing ``tol``.
-
-    Only referenced vertices are kept. Returns (vertices, faces, merged) where
-    ``merged`` counts referenced vertices that were folded into another one.
-    """
-    used_mask = np.zeros(len(vertices), dtype=bool)
-    used_mask[faces.ravel()] = True
-    used = np.flatnonzero(used_mask)
-    v = vertices[used]
-    lo = v.min(axis=0) if len(v) else np.zeros(3)
-    if tol > 0:
-        key = np.floor((v - lo) / tol).astype(np.int64)
-    else:
-        key = (v + 0.0).view(np.int64)  # exact equality (-0.0 == 0.0)
-    first, group = _group_rows(key)
-    remap = np.full(len(vertices), -1, dtype=np.int64)
-    remap[used] = group
-    return v[first], remap[faces], int(len(v) - len(first))
-
-
-def _half_edge_keys(f: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    a = f.ravel()
-    b = f[:, [1, 2, 0]].ravel()
-    lo, hi = np.minimum(a, b), np.maximum(a, b)
-    return lo * n + hi, a < b, np.repeat(np.arange(len(f)), 3)
-
-
 def _drop_nonmanifold(f: np.ndarray, n: int) -> tuple[np.ndarray, int]:
     """Drop faces (latest first) until no edge is used by more than two faces."""
     dropped = 0
     for _ in range(10):
-        key, _, face = _half_edge_keys(f, n)
+        key, _, face = half_edges(f, n)
         order = np.argsort(key, kind="stable")
         ks = key[order]
         start = np.ones(len(ks), dtype=bool)
@@ -146,7 +96,7 @@ def orient_faces(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, int, bool]:
     m, n = len(f), len(v)
     if m == 0:
         return f, 0, True
-    key, fwd, face = _half_edge_keys(f, n)
+    key, fwd, face = half_edges(f, n)
     order = np.argsort(key, kind="stable")
     ks = key[order]
     same_next = ks[1:] == ks[:-1]
@@ -173,19 +123,9 @@ def orient_faces(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, int, bool]:
     out = f.copy()
     fl = flip.astype(bool)
     out[fl] = out[fl][:, [0, 2, 1]]
-    # outward: positive signed volume per part (relative to its centroid, for precision)
-    fc = (v[out[:, 0]] + v[out[:, 1]] + v[out[:, 2]]) / 3.0
-    cen = np.stack([np.bincount(comp, fc[:, k], minlength=ncomp) for k in range(3)], axis=1)
-    cen /= np.maximum(np.bincount(comp, minlength=ncomp), 1)[:, None]
-    p0 = v[out[:, 0]] - cen[comp]
-    p1 = v[out[:, 1]] - cen[comp]
-    p2 = v[out[:, 2]] - cen[comp]
-    vol = np.bincount(comp, np.einsum("ij,ij->i", p0, np.cross(p1, p2)), minlength=ncomp)
-    inward = vol < 0
-    if np.any(inward):
-        sel = inward[comp]
-        out[sel] = out[sel][:, [0, 2, 1]]
-        fl ^= sel
+    # outward: positive signed volume per part
+    out, sel = _outward(v, out, comp)
+    fl ^= sel
     return out, int(np.count_nonzero(fl)), conflicts == 0
 
 
@@ -194,10 +134,11 @@ def cage_source(mesh: Mesh) -> tuple[Mesh, list[str]]:
 
     Merges duplicate vertices (exactly or nearly equal positions, within
     :data:`MERGE_TOLERANCE` of the bounding-box diagonal), leaves out
-    unreferenced vertices, drops degenerate (repeated-index or zero-area) and
-    duplicate faces, drops faces beyond the second on non-manifold edges, and
-    orients faces consistently per connected part (outward where a part
-    encloses volume).  ``mesh`` is not modified.
+    unreferenced vertices, drops degenerate faces (the rule of
+    :func:`hybridedit.topology.degenerate_faces`) and duplicate faces, drops
+    faces beyond the second on non-manifold edges, and orients faces
+    consistently per connected part (outward where a part encloses volume).
+    ``mesh`` is not modified.
 
     Returns
     -------
@@ -212,6 +153,41 @@ def cage_source(mesh: Mesh) -> tuple[Mesh, list[str]]:
     MeshError
         When nothing usable is left (every face is degenerate).
     """
+    src = repaired_source(mesh)
+    return src.mesh, src.notes
+
+
+@dataclass(frozen=True)
+class CageSource:
+    """What :func:`repaired_source` made of a shape.
+
+    Attributes
+    ----------
+    mesh : Mesh
+        The cleaned copy (k vertices, all used by a face).
+    notes : list of str
+        What was changed, in plain words.
+    vertex_map : (n,) int64
+        The vertex of ``mesh`` each input vertex was merged into, -1 for input
+        vertices that no kept face uses.
+    part_labels : (k,) int64
+        The connected part of each vertex of ``mesh`` (0 .. parts - 1).
+    parts : int
+    closed : bool
+        True when the whole surface is known to be closed, edge-manifold and
+        consistently oriented (the fast path); False when that is not known.
+    """
+
+    mesh: Mesh
+    notes: list[str]
+    vertex_map: np.ndarray
+    part_labels: np.ndarray
+    parts: int
+    closed: bool
+
+
+def repaired_source(mesh: Mesh) -> CageSource:
+    """:func:`cage_source`, with where each input vertex went and the parts."""
     label = f"{mesh.name}: " if mesh.name else ""
     notes: list[str] = []
     v0, f = mesh.vertices, mesh.faces
@@ -223,24 +199,32 @@ def cage_source(mesh: Mesh) -> tuple[Mesh, list[str]]:
     if unref:
         notes.append(f"ignored {plural(unref, 'unreferenced vertex', 'unreferenced vertices')} for the cage "
                      "(they still follow the deformation)")
+    if is_closed_oriented(f, len(v0)) and not np.any(degenerate_faces(v0, f)):
+        # a closed, manifold, consistently oriented surface without degenerate faces:
+        # only compaction and the outward orientation of each part are left to do
+        remap = np.cumsum(used) - 1
+        remap[~used] = -1
+        v, f = v0[used], remap[f]
+        parts, labels = connected_parts(f, len(v))
+        f, flipped_mask = _outward(v, f, labels[f[:, 0]])
+        flipped = int(np.count_nonzero(flipped_mask))
+        if flipped:
+            notes.append(f"re-oriented {plural(flipped, 'face')}")
+        if parts > 1:
+            notes.append(f"{parts:,} disconnected parts")
+        return CageSource(Mesh(v, f, name=mesh.name), notes, remap, labels, parts, True)
     diag = _diagonal(v0[used])
-    v, f, merged = merge_close_vertices(v0, f, MERGE_TOLERANCE * diag)
+    v, f, vmap, merged = weld(v0, f, MERGE_TOLERANCE * diag)
     if merged:
         notes.append(f"merged {plural(merged, 'duplicate vertex', 'duplicate vertices')}")
-    # degenerate faces: repeated index, or zero area relative to the longest edge
-    rep = (f[:, 0] == f[:, 1]) | (f[:, 1] == f[:, 2]) | (f[:, 2] == f[:, 0])
-    p0, p1, p2 = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
-    area2 = np.linalg.norm(np.cross(p1 - p0, p2 - p0), axis=1)
-    longest = np.max([np.einsum("ij,ij->i", d, d) for d in (p1 - p0, p2 - p1, p0 - p2)], axis=0)
-    flat = area2 <= 1e-12 * longest
-    bad = rep | flat
+    bad = degenerate_faces(v, f)
     if np.any(bad):
         f = f[~bad]
         notes.append(f"dropped {plural(int(bad.sum()), 'degenerate face')} (zero area or a repeated vertex)")
     if len(f) == 0:
         raise MeshError(f"{label}every face is degenerate (zero area); there is no surface to edit")
     # duplicate faces (same three vertices, either orientation): keep the first
-    first, _ = _group_rows(np.sort(f, axis=1))
+    first, _ = group_rows(np.sort(f, axis=1))
     if len(first) < len(f):
         notes.append(f"dropped {plural(len(f) - len(first), 'duplicate face')}")
         f = f[np.sort(first)]
@@ -251,18 +235,63 @@ def cage_source(mesh: Mesh) -> tuple[Mesh, list[str]]:
     keep = np.zeros(len(v), dtype=bool)
     keep[f.ravel()] = True
     remap = np.cumsum(keep) - 1
+    remap[~keep] = -1
     v, f = v[keep], remap[f]
+    vmap = np.where(vmap >= 0, remap[np.maximum(vmap, 0)], -1)
     f, flipped, orientable = orient_faces(v, f)
     if flipped:
         notes.append(f"re-oriented {plural(flipped, 'face')}")
     if not orientable:
         notes.append("the surface is not orientable; some faces keep a conflicting orientation")
-    n = len(v)
-    g = sp.coo_matrix((np.ones(3 * len(f), dtype=np.int8), (f.ravel(), f[:, [1, 2, 0]].ravel())), shape=(n, n))
-    parts, _ = connected_components(g, directed=False)
+    parts, labels = connected_parts(f, len(v))
     if parts > 1:
         notes.append(f"{parts:,} disconnected parts")
-    return Mesh(v, f, name=mesh.name), notes
+    return CageSource(Mesh(v, f, name=mesh.name), notes, vmap, labels, parts, False)
+
+
+def _outward(v: np.ndarray, f: np.ndarray, part_of_face: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Flip the parts of a consistently oriented surface whose signed volume (about
+    the part's mean vertex, for precision) is negative; returns the faces and the (m,)
+    mask of flipped ones."""
+    ncomp = int(part_of_face.max()) + 1 if len(part_of_face) else 0
+    f = np.ascontiguousarray(f, dtype=np.int64)
+    part_of_face = np.ascontiguousarray(part_of_face, dtype=np.int64)
+    vol = np.zeros(ncomp)
+    _part_volumes(np.ascontiguousarray(v, dtype=np.float64), f, part_of_face, ncomp, vol)
+    sel = (vol < 0)[part_of_face]
+    if not np.any(sel):
+        return f, sel
+    out = f.copy()
+    out[sel] = out[sel][:, [0, 2, 1]]
+    return out, sel
+
+
+@numba.njit(cache=True)
+def _part_volumes(v, f, part, ncomp, vol):  # pragma: no cover - compiled
+    """Six times the signed volume of each part, about the mean of its face corners."""
+    cen = np.zeros((ncomp, 3))
+    cnt = np.zeros(ncomp)
+    for i in range(f.shape[0]):
+        p = part[i]
+        for j in range(3):
+            for k in range(3):
+                cen[p, k] += v[f[i, j], k]
+        cnt[p] += 3.0
+    for p in range(ncomp):
+        for k in range(3):
+            cen[p, k] /= max(cnt[p], 1.0)
+    for i in range(f.shape[0]):
+        p = part[i]
+        ax = v[f[i, 0], 0] - cen[p, 0]
+        ay = v[f[i, 0], 1] - cen[p, 1]
+        az = v[f[i, 0], 2] - cen[p, 2]
+        bx = v[f[i, 1], 0] - cen[p, 0]
+        by = v[f[i, 1], 1] - cen[p, 1]
+        bz = v[f[i, 1], 2] - cen[p, 2]
+        cx = v[f[i, 2], 0] - cen[p, 0]
+        cy = v[f[i, 2], 1] - cen[p, 1]
+        cz = v[f[i, 2], 2] - cen[p, 2]
+        vol[p] += ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)
 
 
 def _walk_cycles(starts: np.ndarray, ends: np.ndarray) -> list[list[int]]:
@@ -290,46 +319,50 @@ def _walk_cycles(starts: np.ndarray, ends: np.ndarray) -> list[list[int]]:
     return cycles
 
 
+def hole_loops(faces: np.ndarray, n_vertices: int) -> list[np.ndarray]:
+    """The loops of unmatched half-edges (the rims of holes), each as the vertex
+    indices in the order that balances the loop (the orientation a closing fan needs).
+
+    Parameters
+    ----------
+    faces : (m, 3) int array
+    n_vertices : int
+
+    Returns
+    -------
+    list of (k,) int64 arrays, k >= 3
+    """
+    n = max(int(n_vertices), 1)
+    uniq, bal = edge_balance(faces, n)
+    bad = np.flatnonzero(bal != 0)
+    if bad.size == 0:
+        return []
+    u, w, c = uniq[bad] // n, uniq[bad] % n, bal[bad]
+    reps = np.abs(c)
+    # c > 0: u->w is unmatched c times; c < 0: w->u is (the loop runs against it)
+    s = np.repeat(np.where(c > 0, u, w), reps)
+    e = np.repeat(np.where(c > 0, w, u), reps)
+    return [np.asarray(cyc, dtype=np.int64) for cyc in _walk_cycles(s, e) if len(cyc) >= 3]
+
+
 def close_holes(cage: Mesh) -> tuple[Mesh, int]:
     """Close every hole: each loop of unmatched half-edges gets a centroid vertex
     and a fan of triangles with the orientation that balances the loop.
 
     Returns the closed mesh and the number of holes closed.
     """
-    f = cage.faces
-    n = cage.n_vertices
-    a = f.ravel()
-    b = f[:, [1, 2, 0]].ravel()
-    lo, hi = np.minimum(a, b), np.maximum(a, b)
-    key = lo * max(n, 1) + hi
-    uniq, inv = np.unique(key, return_inverse=True)
-    bal = np.bincount(inv.reshape(-1), weights=np.where(a < b, 1, -1), minlength=len(uniq)).astype(np.int64)
-    bad = np.flatnonzero(bal != 0)
-    if bad.size == 0:
+    loops = hole_loops(cage.faces, cage.n_vertices)
+    if not loops:
         return cage, 0
-    s, e = [], []
-    for k in bad.tolist():
-        u, w = int(uniq[k] // n), int(uniq[k] % n)
-        c = int(bal[k])
-        # c > 0: u->w is unmatched c times; c < 0: w->u is
-        for _ in range(abs(c)):
-            s.append(u if c > 0 else w)
-            e.append(w if c > 0 else u)
-    cycles = _walk_cycles(np.asarray(s), np.asarray(e))
+    nv = cage.n_vertices
     v = [cage.vertices]
-    new_faces = [f]
-    nv = n
-    holes = 0
-    for cyc in cycles:
-        if len(cyc) < 3:
-            continue
-        holes += 1
-        ring = np.asarray(cyc)
+    new_faces = [cage.faces]
+    for ring in loops:
         v.append(cage.vertices[ring].mean(axis=0)[None])
         nxt = np.roll(ring, -1)
         new_faces.append(np.stack([nxt, ring, np.full(len(ring), nv)], axis=1))
         nv += 1
-    return Mesh(np.vstack(v), np.vstack(new_faces), name=cage.name), holes
+    return Mesh(np.vstack(v), np.vstack(new_faces), name=cage.name), len(loops)
 
 
 def box_cage(vertices: np.ndarray, pad: float = 0.05) -> Mesh:

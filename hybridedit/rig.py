@@ -81,6 +81,17 @@ class Rig:
         return self.M.nnz / max(self.M.shape[0], 1)
 
 
+def _check_usable(rig: Rig) -> None:
+    """Raise if a rig cannot serve an editor: the cage's ARAP weights and links must
+    be computable and finite (what a cached entry is first used for)."""
+    from .arap import edge_weights
+
+    _, w = edge_weights(rig.cage.vertices, rig.cage.faces, "cotangent")
+    if not np.all(np.isfinite(w)) or not np.all(np.isfinite(rig.M.data)):
+        raise ValueError("the cage or binding has non-finite values")
+    rig.links  # noqa: B018 -- computed here, so that a bad cage fails now
+
+
 def build_rig(
     mesh: Mesh,
     *,
@@ -135,9 +146,15 @@ def build_rig(
         hit = bindcache.load(folder, key, mesh)
         if hit is not None:
             c, M, cached_notes = hit
-            t = time.perf_counter() - t0
-            return Rig(mesh, c, M, tuple(cached_notes), {"cage_seconds": t, "bind_seconds": 0.0}, True,
-                       cage_size, float(truncation))
+            try:
+                rig = Rig(mesh, c, M, tuple(cached_notes), {"cage_seconds": 0.0, "bind_seconds": 0.0}, True,
+                          cage_size, float(truncation))
+                _check_usable(rig)
+            except Exception:  # noqa: BLE001 -- an entry that fails in any way is rebuilt, never trusted
+                bindcache.discard(folder, key)
+            else:
+                rig.timings["cage_seconds"] = time.perf_counter() - t0
+                return rig
     timings: dict[str, float] = {}
     c, M = cage_and_binding(mesh, cage_size, truncation=float(truncation), cage=cage, binding=binding,
                             notes=notes, timings=timings, progress=say)

@@ -1,4 +1,4 @@
-"""Rigid transforms as 4x4 homogeneous matrices."""
+"""Rigid transforms as 4x4 homogeneous matrices (rotations through scipy's ``Rotation``)."""
 
 from __future__ import annotations
 
@@ -30,10 +30,9 @@ def rigid_transform(
             raise ValueError(f"rotation axis must be a nonzero finite vector, got {list(a)}")
         if not np.isfinite(degrees):
             raise ValueError(f"rotation angle must be finite, got {degrees}")
-        k = a / n
-        th = np.radians(float(degrees))
-        K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-        R = np.eye(3) + np.sin(th) * K + (1 - np.cos(th)) * (K @ K)
+        from scipy.spatial.transform import Rotation  # imported when used: the CLI starts fast
+
+        R = Rotation.from_rotvec(a / n * np.radians(float(degrees))).as_matrix()
         c = np.zeros(3) if center is None else np.asarray(center, dtype=np.float64).reshape(3)
         T[:3, :3] = R
         T[:3, 3] = c - R @ c
@@ -62,3 +61,40 @@ def check_transform(T: np.ndarray) -> np.ndarray:
     if not np.allclose(T[3], [0, 0, 0, 1]):
         raise ValueError("transform's last row must be 0 0 0 1")
     return T
+
+
+def decompose_rigid(T: np.ndarray, center: np.ndarray) -> tuple[np.ndarray, dict | None]:
+    """Split a rigid transform into a rotation about ``center`` and a translation.
+
+    ``x -> R (x - center) + center + translate`` equals ``T`` (as
+    :func:`rigid_transform` builds it).
+
+    Parameters
+    ----------
+    T : (4, 4) rigid transform (orthonormal rotation part, det +1).
+    center : (3,) the point the rotation is about.
+
+    Returns
+    -------
+    translate : (3,) float64
+    rotate : None for no rotation, else {"axis": (3,) unit, "degrees": float in (0, 180],
+        "center": (3,)}
+
+    Raises
+    ------
+    ValueError
+        When ``T`` is not a rigid transform.
+    """
+    T = np.asarray(T, dtype=np.float64)
+    R = T[:3, :3]
+    if not np.all(np.isfinite(T)) or not np.allclose(R.T @ R, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0:
+        raise ValueError("the handle transform is not a rotation plus a translation")
+    c = np.asarray(center, dtype=np.float64).reshape(3)
+    translate = T[:3, 3] - (c - R @ c)
+    from scipy.spatial.transform import Rotation
+
+    rotvec = Rotation.from_matrix(R).as_rotvec()
+    angle = float(np.linalg.norm(rotvec))
+    if angle < 1e-12:
+        return T[:3, 3].copy(), None
+    return translate, {"axis": rotvec / angle, "degrees": float(np.degrees(angle)), "center": c}

@@ -8,7 +8,7 @@ from hybridedit.linsolve import SPDSolver, cholmod_available
 from hybridedit.mesh import Mesh
 from hybridedit.transforms import apply_transform, rigid_transform
 
-from conftest import bumpy_blob, icosphere
+from shapes import bumpy_blob, icosphere
 
 
 def test_cholmod_is_installed():
@@ -89,15 +89,39 @@ def test_energy_never_increases(weights):
     assert np.array_equal(s.positions[c], target)
 
 
-def test_unconstrained_component_is_refused():
+def test_unconstrained_part_is_held_where_it_is():
     a = icosphere(1)
     b = icosphere(1)
     v = np.vstack([a.vertices, b.vertices + 5])
     f = np.vstack([a.faces, b.faces + a.n_vertices])
     s = ARAPSolver(v, f)
-    with pytest.raises(ValueError, match="no fixed or handle vertex"):
-        s.set_constrained([0, 1])
-    s.set_constrained([0, a.n_vertices])  # one in each part is enough
+    s.set_constrained([0, 1], moving=[0])
+    assert s.held.tolist() == list(range(a.n_vertices, len(v)))
+    target = v[[0, 1]] + [[0.3, 0.0, 0.0], [0.0, 0.0, 0.0]]
+    p = s.solve(target, 5)
+    assert np.array_equal(p[s.held], v[s.held])  # the loose part stays
+    assert not np.allclose(p[: a.n_vertices], v[: a.n_vertices])  # the constrained part deforms
+    s.set_constrained([0, a.n_vertices])  # one in each part: nothing held
+    assert s.held.size == 0
+
+
+def test_links_make_a_part_follow_its_host():
+    a = icosphere(1)
+    b = icosphere(0)
+    v = np.vstack([a.vertices, 0.2 * b.vertices])  # a small ball inside a big one
+    f = np.vstack([a.faces, b.faces + a.n_vertices])
+    inner = np.arange(a.n_vertices, len(v))
+    links = np.stack([inner, np.argmin(np.linalg.norm(a.vertices[None] - v[inner, None], axis=2), axis=1)], 1)
+    s = ARAPSolver(v, f, links=links)
+    everything_outer = np.arange(a.n_vertices)
+    s.set_constrained(everything_outer)
+    assert s.held.size == 0
+    p = s.solve(v[everything_outer] + [1.0, 2.0, 3.0], 300)
+    assert np.allclose(p[inner], v[inner] + [1.0, 2.0, 3.0], atol=1e-6)  # carried along rigidly
+    s.set_constrained(everything_outer)
+    s2 = ARAPSolver(v, f)  # without links the inner ball is held where it is
+    s2.set_constrained(everything_outer)
+    assert s2.held.tolist() == inner.tolist()
 
 
 def test_cholmod_and_scipy_agree():

@@ -3,7 +3,7 @@ import pytest
 
 from hybridedit import HybridEditor, bindcache
 
-from conftest import bumpy_blob
+from shapes import bumpy_blob
 
 
 @pytest.fixture
@@ -66,3 +66,61 @@ def test_repair_notes_survive_the_cache(tmp_path):
     assert any("re-oriented" in n for n in a.notes)
     b = HybridEditor(bad, 80, cache=tmp_path)
     assert b.cache_hit and b.notes == a.notes
+
+
+def _rewrite_entry(path, **changes):
+    with np.load(path, allow_pickle=False) as z:
+        arrays = {k: z[k] for k in z.files}
+    arrays.update(changes)
+    with open(path, "wb") as fh:
+        np.savez(fh, **arrays)
+
+
+@pytest.mark.parametrize("damage", ["nan_cage", "inf_weight", "shape", "bad_faces"])
+def test_entries_failing_any_check_are_discarded_and_rebuilt(tmp_path, shape, damage):
+    a = HybridEditor(shape, 80, cache=tmp_path)
+    (f,) = tmp_path.glob("*.npz")
+    with np.load(f) as z:
+        cv, data, cf = z["cage_vertices"].copy(), z["data"].copy(), z["cage_faces"].copy()
+    if damage == "nan_cage":
+        cv[3, 1] = np.nan
+        _rewrite_entry(f, cage_vertices=cv)
+    elif damage == "inf_weight":
+        data[0] = np.inf
+        _rewrite_entry(f, data=data)
+    elif damage == "shape":
+        _rewrite_entry(f, shape=np.array([shape.n_vertices + 1, len(cv)]))
+    else:
+        cf[0, 0] = len(cv) + 5
+        _rewrite_entry(f, cage_faces=cf)
+    key = bindcache.cache_key(shape, 80, 0.03)
+    assert bindcache.load(tmp_path, key, shape) is None
+    assert not f.exists()  # discarded, not tried again on every run
+    b = HybridEditor(shape, 80, cache=tmp_path)
+    assert not b.cache_hit and np.all(np.isfinite(b.cage.vertices))
+    assert (a.M != b.M).nnz == 0
+    assert HybridEditor(shape, 80, cache=tmp_path).cache_hit
+
+
+def test_an_entry_that_fails_when_used_is_discarded_and_rebuilt(tmp_path, monkeypatch):
+    """An entry can pass the loader's checks and still not serve (here: a binding of
+    the wrong width, as a stale format would give): it is deleted and rebuilt."""
+    import scipy.sparse as sp
+
+    from hybridedit import bindcache
+    from hybridedit.rig import build_rig
+
+    shape = bumpy_blob(2)
+    first = build_rig(shape, cage_size=40, cache=tmp_path)
+    assert not first.cache_hit and len(list(tmp_path.glob("*.npz"))) == 1
+    real_load = bindcache.load
+
+    def stale(folder, key, mesh):
+        cage, M, notes = real_load(folder, key, mesh)
+        return cage, sp.hstack([M, sp.csr_matrix((M.shape[0], 1))]).tocsr(), notes
+
+    monkeypatch.setattr(bindcache, "load", stale)
+    again = build_rig(shape, cage_size=40, cache=tmp_path)
+    assert not again.cache_hit and again.M.shape == first.M.shape  # rebuilt, and stored again
+    monkeypatch.setattr(bindcache, "load", real_load)
+    assert build_rig(shape, cage_size=40, cache=tmp_path).cache_hit

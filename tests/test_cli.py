@@ -6,7 +6,7 @@ import pytest
 from hybridedit.cli import main, parse_cage_size
 from hybridedit.io import read_mesh, write_mesh
 
-from conftest import bumpy_blob
+from shapes import bumpy_blob
 
 
 @pytest.fixture(scope="module")
@@ -142,3 +142,52 @@ def test_progress_on_a_terminal_updates_in_place():
         say("binding", f)
     text = out.getvalue()
     assert "\rhybridedit: binding   0%" in text and text.endswith("\rhybridedit: binding 100%\n")
+
+
+@pytest.mark.parametrize(
+    "text, words",
+    [
+        ('{"handle": [1180591620717411303424], "fixed": [1]}', "far beyond any mesh"),
+        ('{"handle": [2.5]}', "integer vertex indices"),
+        ("[" * 100000 + "]" * 100000, "nested too deeply"),
+        ('{"handles": [{"indices": [0, 1]}, {"indices": [1]}]}', "share 1 vertices"),
+        ('{"handles": [{"indices": [0]}], "symmetry": "x", "roi": [0, 1]}', "not symmetric"),
+        ('{"handles": [{"indices": [0]}], "mesh": {"vertices": 5, "faces": 6, "topology": "ab"}}',
+         "made for a mesh of 5 vertices"),
+    ],
+)
+def test_every_edit_file_error_names_the_edit_file_and_exits_2(tmp_path, mesh_file, capsys, text, words):
+    bad = tmp_path / "edit.json"
+    bad.write_text(text)
+    rc = main(["deform", str(mesh_file), "-o", str(tmp_path / "o.obj"), "--edit", str(bad), "--cage", "60", "-q"])
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and err.count("\n") == 0, err
+    assert err.startswith(f"hybridedit: error: {bad}: ") and words in err, err
+    assert not (tmp_path / "o.obj").exists()
+
+
+def test_a_byte_order_mark_in_the_edit_file_is_accepted(tmp_path, mesh_file):
+    e = tmp_path / "bom.json"
+    e.write_bytes(b"\xef\xbb\xbf" + json.dumps({"handle": [0], "fixed": [5], "translate": [0, 0.1, 0]}).encode())
+    assert main(["deform", str(mesh_file), "-o", str(tmp_path / "o.obj"), "--edit", str(e), "--cage", "60",
+                 "--frames", "2", "-q"]) == 0
+
+
+def test_deform_holds_constraints_exactly_with_several_groups(tmp_path, mesh_file):
+    m = read_mesh(mesh_file)
+    x = m.vertices
+    a, b = np.flatnonzero(x[:, 0] < x[:, 0].min() + 0.3), np.flatnonzero(x[:, 0] > x[:, 0].max() - 0.3)
+    mid = np.flatnonzero(np.abs(x[:, 0]) < 0.2)
+    e = write_edit(tmp_path / "e.json", format="hybridedit-edit", version=2, fixed=mid.tolist(),
+                   handles=[{"indices": a.tolist(), "translate": [0, 0.3, 0]},
+                            {"indices": b.tolist(), "rotate": {"axis": [0, 0, 1], "degrees": 25}}])
+    out = tmp_path / "o.ply"
+    assert main(["deform", str(mesh_file), "-o", str(out), "--edit", str(e), "--cage", "100", "-q"]) == 0
+    d = read_mesh(out).vertices
+    from hybridedit.transforms import rigid_transform, apply_transform
+
+    diag = m.bbox_diagonal()
+    assert np.abs(d[mid] - x[mid]).max() <= 1e-9 * diag
+    assert np.abs(d[a] - (x[a] + [0, 0.3, 0])).max() <= 1e-9 * diag
+    Tb = rigid_transform(axis=(0, 0, 1), degrees=25, center=x[b].mean(0))
+    assert np.abs(d[b] - apply_transform(Tb, x[b])).max() <= 1e-9 * diag

@@ -5,6 +5,8 @@ from hybridedit import HybridEditor, SelectionError
 from hybridedit.propagate import propagate
 from hybridedit.transforms import apply_transform, rigid_transform
 
+from shapes import icosphere
+
 
 @pytest.fixture(scope="module")
 def editor(blob):
@@ -103,13 +105,31 @@ def test_reset_and_cage_positions(ed):
     ed.set_selection(b, fixed=a)
     ed.drag(translate=(0, 0.5, 0))
     pose = ed.cage_positions
-    shape = ed.deformed_vertices.copy()
     ed.reset()
     assert np.allclose(ed.deformed_vertices, ed.M @ ed.cage.vertices)
+    assert np.array_equal(ed.transform, np.eye(4))
+    # a cage pose given directly: every shape vertex follows the cage
     ed.set_cage_positions(pose)
-    assert np.allclose(ed.deformed_vertices, shape)
+    assert np.allclose(ed.deformed_vertices, ed.M @ pose)
     m = ed.deformed
     assert m.faces is ed.mesh.faces or np.array_equal(m.faces, ed.mesh.faces)
+
+
+def test_save_and_restore_state_bring_back_selection_and_pose(ed):
+    a, b = ends(ed.mesh)
+    ed.set_selection(b, fixed=a)
+    x = ed.deformed_vertices.copy()  # the pose the constraints refer to
+    ed.drag(translate=(0, 0.5, 0))
+    state = ed.save_state()
+    shape = ed.deformed_vertices.copy()
+    ed.set_selection(a, roi=np.arange(ed.mesh.n_vertices // 2))
+    ed.drag(translate=(0.3, 0, 0))
+    ed.restore_state(state)
+    assert np.array_equal(ed.deformed_vertices, shape)
+    assert np.allclose(ed.transform[:3, 3], [0, 0.5, 0])
+    ed.drag(translate=(0, 0.6, 0))  # continues from the restored selection: constraints exact
+    assert np.abs(ed.deformed_vertices[a] - x[a]).max() == 0.0
+    assert np.allclose(ed.deformed_vertices[b], x[b] + [0, 0.6, 0], atol=1e-12)
 
 
 def test_selection_errors(ed):
@@ -199,22 +219,31 @@ def test_partial_updates_equal_a_full_recomputation(request, fixture, blob):
     a, b = ends(blob, 0.15)
     roi = np.flatnonzero(blob.vertices[:, 0] > 0.5)
     ed.set_selection(b, roi=roi)
-    assert 0 < len(ed._rows) < blob.n_vertices  # the optimisation is in play
+    x = ed.deformed_vertices.copy()  # the pose the constraints refer to (M c in linear mode)
+    assert 0 < len(ed.moving_vertices) < blob.n_vertices  # the optimisation is in play
     T = rigid_transform(translate=(0.1, 0.5, 0.2), axis=(0, 0, 1), degrees=30, center=blob.vertices[b].mean(0))
     for _ in range(5):
         V = ed.drag(transform=T)
+    V = V.copy()
+    # recompute every row of the pose the drag produced: rows outside the moving
+    # set must not change; constrained rows are placed exactly
     y = ed.arap.positions
-    rot = ed.arap.rotations.copy()
-    ed.arap.local_step()  # all rotations from the current pose
     if ed.propagation == "linear":
         full = ed.M @ y
     else:
-        # rotations of vertices outside the active set must already be current
-        others = np.setdiff1d(np.arange(ed.cage.n_vertices), ed.arap.active)
-        assert np.abs(rot[others] - ed.arap.rotations[others]).max() < 1e-12
         d, idx, w = ed._residual
-        full = propagate_with_residual(ed.M, y, rot, d, idx, w)
-    assert np.abs(V - full).max() < 1e-12
+        full = propagate_with_residual(ed.M, y, ed._rots, d, idx, w)
+    still = np.setdiff1d(np.arange(blob.n_vertices), ed.moving_vertices)
+    assert np.abs(V[still] - x[still]).max() < 1e-12
+    sel = ed._sel
+    goal = x[sel.seam]
+    for g, Tg in enumerate([T]):
+        m = sel.seam_role == g + 1
+        goal[m] = apply_transform(Tg, goal[m])
+    rows = sel.rows  # free moving rows: the propagation plus the seam's correction
+    want = full[rows] + (sel.spread.correction(goal - full[sel.seam]) if sel.spread else 0.0)
+    assert np.abs(V[rows] - want).max() < 1e-12
+    assert np.allclose(V[b], apply_transform(T, x[b]), atol=1e-12)
 
 
 # ------------------------------------------------------------------ refusals leave the state intact
@@ -227,8 +256,8 @@ def editor_state(e):
         e.deformed_vertices.copy(),
         e.handle.copy(),
         e.fixed.copy(),
-        e._constrained.copy(),
-        e._anchor.copy(),
+        e.vertex_roles.copy(),
+        e.cage_roles.copy(),
         e.transform.copy(),
         len(e.frame_seconds),
     )
@@ -284,7 +313,7 @@ def test_refused_calls_leave_the_state_intact(ed, blob):
     assert np.all(np.isfinite(ed.deformed_vertices))
 
 
-def test_free_cage_component_is_refused_and_state_kept():
+def test_free_cage_part_without_constraint_stays_where_it_is():
     import trimesh
 
     from hybridedit.mesh import Mesh
@@ -293,16 +322,13 @@ def test_free_cage_component_is_refused_and_state_kept():
     v = np.vstack([a.vertices, a.vertices + [3, 0, 0]])
     f = np.vstack([a.faces, a.faces + len(a.vertices)])
     e = HybridEditor(Mesh(v, f, name="two"), cage_size=60)
-    assert e.notes == ["2 disconnected parts"]
-    before = editor_state(e)
-    with pytest.raises(SelectionError, match="1 of 2 connected parts of the cage have no fixed or handle vertex"):
-        e.set_selection([0], roi=np.arange(len(v)))
-    assert_same_state(before, editor_state(e))
-    e.set_selection([0], roi=np.arange(len(a.vertices)))  # the other sphere stays fixed
-    V = e.drag(translate=(0, 0.2, 0))
+    assert "2 disconnected parts" in e.notes
     k = len(a.vertices)
-    # the fixed sphere's cage does not move; its shape moves only through the (global)
-    # coordinates with respect to the other sphere's cage, much less than the handle
+    e.set_selection([0], roi=np.arange(len(v)))  # the other sphere: no constraint, no host
+    V = e.drag(translate=(0, 0.2, 0))
+    assert np.allclose(V[0], v[0] + [0, 0.2, 0], atol=1e-12)
+    far = e.cage.vertices[:, 0] > 1.5
+    assert np.all(e.cage_roles[far] == -1)  # held still, shown as fixed
     assert np.abs(V[k:] - v[k:]).max() < 0.25 * np.abs(V[:k] - v[:k]).max()
 
 
@@ -326,3 +352,205 @@ def test_notes_and_input_order_for_a_messy_shape(blob):
     assert np.allclose(e.deformed_vertices, v, rtol=0, atol=1e-12)  # residual: the rest pose is the input
     assert np.array_equal(e.deformed.faces, f)
     assert HybridEditor(blob, cage_size=200).notes == []
+
+
+# ------------------------------------------------------------------ exact constraints, groups, symmetry
+
+
+def held_exactly(ed, x, T_of_role, tol=1e-9):
+    """Max distance of constrained vertices from their targets, in bounding-box diagonals."""
+    V = ed.deformed_vertices
+    roles = ed.vertex_roles
+    worst = 0.0
+    for role in np.unique(roles[roles != 0]):
+        idx = np.flatnonzero(roles == role)
+        want = apply_transform(T_of_role[int(role)], x[idx])
+        worst = max(worst, float(np.linalg.norm(V[idx] - want, axis=1).max()))
+    return worst / ed.mesh.bbox_diagonal()
+
+
+@pytest.mark.parametrize("cage", [60, 150, 400])
+@pytest.mark.parametrize("kind", ["translate", "rotate"])
+def test_fixed_and_handle_are_exact(blob, cage, kind):
+    ed = HybridEditor(blob, cage_size=cage)
+    a, b = ends(blob, 0.2)
+    roi = np.flatnonzero(blob.vertices[:, 0] > -0.5)
+    ed.set_selection(b, roi=roi)
+    x = ed.deformed_vertices.copy()
+    T = rigid_transform(translate=(0.1, 0.6, 0.2)) if kind == "translate" else \
+        rigid_transform(axis=(0, 0, 1), degrees=50, center=(0.5, 0.3, 0))
+    for _ in range(10):
+        ed.drag(transform=T)
+    assert held_exactly(ed, x, {-1: np.eye(4), 1: T}) <= 1e-9
+    assert np.all(ed.vertex_roles[np.setdiff1d(np.arange(blob.n_vertices), roi)] == -1)
+    assert np.all(ed.vertex_roles[b] == 1)
+
+
+def test_exact_on_a_scan(armadillo_path):
+    import sys
+
+    sys.path.insert(0, str(armadillo_path.parents[3] / "main" / "benchmarks"))
+    from hybridedit import read_mesh
+
+    mesh = read_mesh(armadillo_path)
+    v = mesh.vertices
+    r = (v - v.min(0)) / np.ptp(v, axis=0)
+    handle = np.flatnonzero((r[:, 0] > 0.877) & (r[:, 1] > 0.62))
+    roi = np.flatnonzero((r[:, 0] > 0.70) & (r[:, 1] > 0.52))
+    T = rigid_transform(axis=(0, 0, 1), degrees=40.0, center=v[roi].mean(0))
+    ed = HybridEditor(mesh, cage_size=0.02)
+    ed.set_selection(handle, roi=roi)
+    for _ in range(5):
+        ed.drag(transform=T)
+    assert held_exactly(ed, v, {-1: np.eye(4), 1: T}) <= 1e-9
+
+
+def test_open_sheet_is_exact():
+    from hybridedit.mesh import Mesh
+
+    k = 30
+    i, j = np.meshgrid(np.arange(k), np.arange(k), indexing="ij")
+    v = np.stack([i.ravel(), j.ravel(), np.zeros(k * k)], 1) / (k - 1)
+    a = (i[:-1, :-1] * k + j[:-1, :-1]).ravel()
+    f = np.concatenate([np.stack([a, a + k, a + k + 1], 1), np.stack([a, a + k + 1, a + 1], 1)])
+    sheet = Mesh(v, f, name="sheet")
+    ed = HybridEditor(sheet, cage_size=0.1)
+    h = np.flatnonzero((v[:, 0] > 0.8) & (v[:, 1] > 0.8))
+    ed.set_selection(h, roi=np.flatnonzero((v[:, 0] > 0.3) & (v[:, 1] > 0.3)))
+    T = rigid_transform(translate=(0, 0, 0.3))
+    for _ in range(10):
+        ed.drag(transform=T)
+    assert held_exactly(ed, v, {-1: np.eye(4), 1: T}) <= 1e-9
+
+
+def test_handle_groups_move_independently(blob):
+    ed = HybridEditor(blob, cage_size=200)
+    a, b = ends(blob, 0.15)
+    x = blob.vertices
+    mid = np.flatnonzero(np.abs(x[:, 0]) < 0.3)
+    ed.set_selection([a, b], fixed=mid)
+    assert ed.n_groups == 2
+    Ta = rigid_transform(translate=(0, 0.4, 0))
+    Tb = rigid_transform(axis=(0, 1, 0), degrees=30, center=x[b].mean(0))
+    for _ in range(5):
+        ed.drag(transform=Ta, group=0)
+    assert held_exactly(ed, x, {-1: np.eye(4), 1: Ta, 2: np.eye(4)}) <= 1e-9  # group 1 stays
+    for _ in range(5):
+        ed.drag(transform=Tb, group=1)
+    assert held_exactly(ed, x, {-1: np.eye(4), 1: Ta, 2: Tb}) <= 1e-9  # group 0 keeps its transform
+    ed.drag(transforms={0: np.eye(4), 1: np.eye(4)})
+    assert held_exactly(ed, x, {-1: np.eye(4), 1: np.eye(4), 2: np.eye(4)}) <= 1e-9
+    assert [t.tolist() for t in ed.transforms] == [np.eye(4).tolist()] * 2
+    with pytest.raises(SelectionError, match="no handle group 2"):
+        ed.drag(translate=(0, 1, 0), group=2)
+    # rotate= turns about the group's centroid
+    ed.drag(rotate={"axis": (0, 0, 1), "degrees": 20}, group=0)
+    c = x[a].mean(0)
+    assert np.allclose(ed.transforms[0] @ np.r_[c, 1.0], np.r_[c, 1.0])
+
+
+def test_masks_equal_indices(blob):
+    ed = HybridEditor(blob, cage_size=150)
+    a, b = ends(blob, 0.2)
+    ed.set_selection(b, fixed=a)
+    V1 = ed.drag(translate=(0, 0.3, 0)).copy()
+    ed.reset()
+    mb = np.zeros(blob.n_vertices, dtype=bool)
+    mb[b] = True
+    ma = np.zeros(blob.n_vertices, dtype=bool)
+    ma[a] = True
+    ed.set_selection(mb, fixed=ma)
+    assert np.array_equal(ed.drag(translate=(0, 0.3, 0)), V1)
+    with pytest.raises(SelectionError, match="boolean mask of length"):
+        ed.set_selection(mb[:-1], fixed=ma)
+    with pytest.raises(SelectionError, match="got NoneType"):
+        ed.set_selection(None)
+
+
+def symmetric_blob():
+    from hybridedit.mesh import Mesh
+
+    s = icosphere(4)
+    v = s.vertices.copy()
+    x, y, z = v.T
+    v *= (1.0 + 0.08 * np.cos(7 * x) * np.cos(5 * y) + 0.05 * np.sin(11 * z))[:, None]
+    v[:, 0] *= 2.0
+    v[:, 1] += 0.3 * np.cos(1.5 * v[:, 0])
+    return Mesh(v, s.faces, name="symmetric blob")
+
+
+def test_symmetric_edit_is_symmetric():
+    m = symmetric_blob()
+    ed = HybridEditor(m, cage_size=250)
+    x = m.vertices
+    handle = np.flatnonzero(x[:, 0] > 1.7)
+    roi = np.flatnonzero(x[:, 0] > 0.4)
+    ed.set_selection(handle, roi=roi, symmetry="x")
+    assert ed.symmetry is not None and ed.symmetry.asymmetry < 1e-9
+    assert ed.n_groups == 1 and np.all(ed.vertex_roles[x[:, 0] < -1.7] == 1)  # the mirror image is held too
+    roles = ed.vertex_roles
+    assert np.all(roles[(x[:, 0] > 0.45) & (x[:, 0] < 1.65)] == 0)  # the region stays free...
+    assert np.all(roles[(x[:, 0] < -0.45) & (x[:, 0] > -1.65)] == 0)  # ...and so does its mirror image
+    assert np.all(roles[np.abs(x[:, 0]) < 0.35] == -1)
+    T = rigid_transform(translate=(0.2, 0.4, 0.1), axis=(0, 0, 1), degrees=20, center=(1.8, 0.2, 0))
+    for _ in range(10):
+        V = ed.drag(transform=T)
+    S = ed.symmetry.S
+    mirrored = V[ed.symmetry.map] @ S[:3, :3].T + S[:3, 3]
+    assert np.abs(V - mirrored).max() / m.bbox_diagonal() <= 1e-3
+    left = np.flatnonzero(x[:, 0] < -1.7)
+    assert np.allclose(V[left], apply_transform(S @ T @ S, x[left]), atol=1e-9)
+    assert np.allclose(V[handle], apply_transform(T, x[handle]), atol=1e-9)
+    # an asymmetric shape is refused with its measured asymmetry
+    bent = m.copy(x + np.c_[np.zeros(len(x)), 0.2 * x[:, 0], np.zeros(len(x))])
+    with pytest.raises(SelectionError, match=r"not symmetric across this plane: a mirrored vertex is \d"):
+        HybridEditor(bent, cage_size=100).set_selection(handle, roi=roi, symmetry="x")
+
+
+def test_an_edit_replays_on_another_cage_size(tmp_path):
+    from hybridedit import load_edit, save_edit
+
+    m = symmetric_blob()
+    x = m.vertices
+    a = HybridEditor(m, cage_size=120)
+    a.set_selection([np.flatnonzero(x[:, 0] > 1.7), np.flatnonzero(x[:, 0] < -1.7)],
+                    fixed=np.flatnonzero(np.abs(x[:, 0]) < 0.3))
+    a.drag(translate=(0, 0.5, 0), group=0)
+    for _ in range(30):
+        a.drag(rotate={"axis": (0, 0, 1), "degrees": 30}, group=1)
+    save_edit(tmp_path / "e.json", a.edit)
+    b = HybridEditor(m, cage_size=300)
+    V = b.apply_edit(load_edit(tmp_path / "e.json"))
+    assert np.array_equal(b.vertex_roles, a.vertex_roles)
+    assert held_exactly(b, x, {-1: np.eye(4), 1: a.transforms[0], 2: a.transforms[1]}) <= 1e-9
+    # the same edit, not the same cage: the free region agrees to a fraction of the motion
+    free = a.vertex_roles == 0
+    assert np.abs(V[free] - a.deformed_vertices[free]).max() < 0.15 * np.abs(V - x).max()
+
+
+def test_an_edit_of_another_mesh_is_refused(blob, tmp_path):
+    from hybridedit import EditFileError
+
+    a = HybridEditor(blob, cage_size=100)
+    a.set_selection([0, 1, 2], roi=np.arange(50))
+    other = blob.copy(blob.vertices * 1.5)
+    with pytest.raises(EditFileError, match="made for another mesh"):
+        HybridEditor(other, cage_size=100).apply_edit(a.edit, path="e.json")
+
+
+def test_symmetric_edit_of_a_nearly_symmetric_shape_covers_the_other_side():
+    m = symmetric_blob()
+    rng = np.random.default_rng(3)
+    x = m.vertices + rng.normal(scale=1e-3, size=m.vertices.shape)  # a scan-like, nearly symmetric copy
+    near = m.copy(x)
+    ed = HybridEditor(near, cage_size=250)
+    ed.set_selection(np.flatnonzero(x[:, 0] > 1.7), roi=np.flatnonzero(x[:, 0] > 0.4), symmetry="x")
+    assert 0 < ed.symmetry.asymmetry < 0.01
+    assert np.all(ed.vertex_roles[x[:, 0] < -1.72] == 1)  # every vertex of the other hand is held
+    T = rigid_transform(translate=(0.1, 0.3, 0.0))
+    for _ in range(10):
+        V = ed.drag(transform=T)
+    u = V - x
+    S = ed.symmetry.S[:3, :3]
+    # displacements mirror each other up to a fraction of the motion
+    assert np.abs(u[ed.symmetry.map] @ S.T - u).max() < 0.05 * np.abs(u).max()

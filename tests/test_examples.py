@@ -19,7 +19,7 @@ import pytest
 from hybridedit.editfile import load_edit
 from hybridedit.io import read_mesh, write_mesh
 
-from conftest import bumpy_blob
+from shapes import bumpy_blob
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 CAGE = "100"

@@ -3,7 +3,7 @@ import pytest
 
 from hybridedit.mesh import Mesh, MeshError, edge_stretch, rrms_edge_error, unique_edges, vertex_stretch
 
-from conftest import icosphere
+from shapes import icosphere
 
 
 def test_uniform_scaling_gives_known_errors():

@@ -37,3 +37,19 @@ def test_check_transform():
     bad[3, 0] = 1
     with pytest.raises(ValueError, match="last row"):
         check_transform(bad)
+
+
+@pytest.mark.parametrize("deg", [0.0, 1e-3, 37.0, 179.999, 180.0])
+def test_decompose_rigid_inverts_rigid_transform(deg):
+    from hybridedit.transforms import decompose_rigid
+
+    axis, center = np.array([1.0, -2.0, 0.5]), np.array([0.3, 0.1, -1.0])
+    T = rigid_transform(translate=(1, 2, 3), axis=axis, degrees=deg, center=center)
+    translate, rotate = decompose_rigid(T, center)
+    if deg == 0:
+        assert rotate is None and np.allclose(translate, [1, 2, 3])
+        return
+    again = rigid_transform(translate=translate, axis=rotate["axis"], degrees=rotate["degrees"],
+                            center=rotate["center"])
+    assert np.allclose(again, T, atol=1e-12)
+    assert np.isclose(rotate["degrees"], deg)

@@ -1,8 +1,8 @@
 """The JSON edit file <-> the window's editing state.
 
 The window keeps the handle transform as a 4x4 matrix; the edit file stores a
-rotation (axis, degrees, center) followed by a translation. :func:`decompose_rigid`
-converts one into the other.
+rotation (axis, degrees, center) followed by a translation.
+:func:`hybridedit.transforms.decompose_rigid` converts one into the other.
 """
 
 from __future__ import annotations
@@ -11,48 +11,7 @@ import numpy as np
 
 from ..editfile import Edit
 from ..editor import HybridEditor
-
-
-def decompose_rigid(T: np.ndarray, center: np.ndarray) -> tuple[np.ndarray, dict | None]:
-    """Split a rigid transform into a rotation about ``center`` and a translation.
-
-    ``x -> R (x - center) + center + translate`` equals ``T`` (as
-    :func:`hybridedit.transforms.rigid_transform` builds it).
-
-    Parameters
-    ----------
-    T : (4, 4) rigid transform (orthonormal rotation part, det +1).
-    center : (3,) the point the rotation is about.
-
-    Returns
-    -------
-    translate : (3,) float64
-    rotate : None for no rotation, else {"axis": (3,), "degrees": float, "center": (3,)}
-
-    Raises
-    ------
-    ValueError
-        When ``T`` is not a rigid transform.
-    """
-    T = np.asarray(T, dtype=np.float64)
-    R = T[:3, :3]
-    if not np.all(np.isfinite(T)) or not np.allclose(R.T @ R, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0:
-        raise ValueError("the handle transform is not a rotation plus a translation")
-    c = np.asarray(center, dtype=np.float64).reshape(3)
-    cos = np.clip((np.trace(R) - 1.0) * 0.5, -1.0, 1.0)
-    angle = float(np.arccos(cos))
-    if angle < 1e-12:
-        return T[:3, 3].copy(), None
-    if angle < np.pi - 1e-6:
-        axis = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
-        axis /= 2.0 * np.sin(angle)
-    else:  # near a half turn: R + I = 2 a a^T
-        S = (R + np.eye(3)) * 0.5
-        k = int(np.argmax(np.diag(S)))
-        axis = S[:, k] / np.sqrt(max(S[k, k], 1e-300))
-    axis /= np.linalg.norm(axis)
-    translate = T[:3, 3] - (c - R @ c)
-    return translate, {"axis": axis, "degrees": float(np.degrees(angle)), "center": c}
+from ..transforms import decompose_rigid
 
 
 def make_edit(roi: np.ndarray, handle: np.ndarray, T: np.ndarray, center: np.ndarray) -> Edit:

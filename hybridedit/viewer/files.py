@@ -155,7 +155,8 @@ class FileActions:
                     w.message("Not saved")
                     return False
         try:
-            write_mesh(p, s.mesh.copy(vertices=s.shown_positions.copy()))
+            # what is shown (the polished pose when there is one), in the opened file's structure
+            write_mesh(p, s.mesh.copy(vertices=s.shown_positions.copy()), like=s.path)
         except (MeshError, MeshFileError, WriteError, OSError) as e:
             w.show_error("Could not save the mesh", str(e))
             return False

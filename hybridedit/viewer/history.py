@@ -21,6 +21,8 @@ class Snapshot:
     label : what led here ("select ROI", "drag", ...), for the Edit menu.
     editor, cage_size : the engine (cage and binding) these masks and positions belong to, and
         its cage size: a rebuild adds snapshots on a new cage, and undo goes back to the old one.
+    engine, engine_masks, anchor_state : the engine's own state (exact shape-space
+        constraints included) and what it was set from.
     """
 
     roi: np.ndarray
@@ -31,6 +33,11 @@ class Snapshot:
     label: str = ""
     editor: object = None
     cage_size: int | float | None = None
+    #: the engine's selection and pose (:meth:`hybridedit.HybridEditor.save_state`),
+    #: the mask key they were set from, and the engine state at the anchor
+    engine: object = None
+    engine_masks: tuple | None = None
+    anchor_state: object = None
 
 
 class History:

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 from qtpy import QtCore
 
-from ..polish import free_shape_vertices
 from .session import Session
 from .worker import PolishOutcome, PolishRequest, PolishWorker, ShapeARAPHolder
 
@@ -53,8 +52,7 @@ class PolishScheduler(QtCore.QObject):
         """Polish the session's (engine) pose in the background; False when there is nothing to polish."""
         if not self.enabled or not session.applied or session.settling:
             return False
-        ed = session.editor
-        free = free_shape_vertices(ed.M, ed.arap.free, ed.cage.n_vertices)
+        free = session.editor.free_mask
         if not free.any():
             return False
         if self.holder is None or self.holder.mesh is not session.mesh:

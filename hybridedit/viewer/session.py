@@ -71,6 +71,7 @@ class Session:
         self.transform = np.eye(4)
         self._base = np.eye(4)
         self._anchor: np.ndarray | None = None
+        self._anchor_state = None  # the engine's state when the selection was applied
         self._engine_masks: tuple[bytes, bytes] | None = None
         self.settle_on_release = True
         self.settle_frames = 30
@@ -127,22 +128,22 @@ class Session:
     def shape_roles(self) -> np.ndarray:
         """Per shape vertex: -1 held fixed, 0 free, 1 in the handle ((n,) int8); all 0 with no selection.
 
-        The role of a vertex is the state of the cage vertex that dominates it.
+        Once the engine has the selection these are its roles (what it holds exactly); before,
+        the same rule previewed: a vertex takes the state of the cage vertex it depends on most.
         """
         if not self.roi.any() and not self.handle.any():
             return np.zeros(self.mesh.n_vertices, dtype=np.int8)
+        if self._engine_masks == self._mask_key():
+            return self.editor.vertex_roles
         lut = np.zeros(3, dtype=np.int8)
         lut[FIXED], lut[HANDLE_STATE] = -1, 1
         return lut[self.states()[self.dominant]]
 
     def moving_vertices(self) -> np.ndarray | None:
-        """The shape vertices a drag of the applied selection can move, (k,) int64 (None: unknown)."""
+        """The shape vertices a drag of the applied selection can move, (k,) int64 (None: no selection)."""
         if self._anchor is None:
             return None
-        rows = getattr(self.editor, "moving_vertices", None)
-        if rows is None:
-            rows = getattr(self.editor, "_rows", None)
-        return None if rows is None else np.asarray(rows, dtype=np.int64)
+        return self.editor.moving_vertices
 
     def handle_centroid(self) -> np.ndarray | None:
         """Centroid of the handle's cage vertices in the current pose, or None without a handle."""
@@ -164,6 +165,7 @@ class Session:
             transform=self.transform.copy(),
             anchor=None if self._anchor is None else self._anchor.copy(), label=label,
             editor=self.editor, cage_size=self.cage_size,
+            engine=self.editor.save_state(), engine_masks=self._engine_masks, anchor_state=self._anchor_state,
         )
 
     def _push(self, label: str) -> None:
@@ -177,13 +179,13 @@ class Session:
             self._use_editor(snap.editor, snap.cage_size)
         self.roi = snap.roi.copy()
         self.handle = snap.handle.copy()
-        self.editor.set_cage_positions(snap.positions)
+        self.editor.restore_state(snap.engine)
+        self._engine_masks = snap.engine_masks
+        self._anchor_state = snap.anchor_state
         if snap.anchor is not None:
-            if self._engine_masks != self._mask_key():
-                self._give_engine_selection()
             self._anchor = snap.anchor.copy()
             self.transform = snap.transform.copy()
-            self._base = snap.transform.copy()
+            self._base = np.eye(4)  # the engine state carries its own transform
         else:
             self._anchor = None
             self.transform = np.eye(4)
@@ -341,6 +343,7 @@ class Session:
             )
         self._give_engine_selection()
         self._anchor = self.cage_positions
+        self._anchor_state = self.editor.save_state()
         self.transform = np.eye(4)
         self._base = np.eye(4)
 
@@ -376,7 +379,7 @@ class Session:
         """Begin solving the current transform again from the anchor (see :meth:`settle_step`)."""
         if self._anchor is None:
             return
-        self.editor.set_cage_positions(self._anchor)
+        self.editor.restore_state(self._anchor_state)
         self._base = np.eye(4)
         self._settle_left = self.settle_frames
 
@@ -436,6 +439,7 @@ class Session:
         self.editor.reset()
         if self._anchor is not None:
             self._anchor = self.cage_positions
+            self._anchor_state = self.editor.save_state()
         self.transform = np.eye(4)
         self._base = np.eye(4)
         self._push("reset pose")
@@ -469,8 +473,14 @@ class Session:
         try:
             self.roi, self.handle = roi, handle
             self.editor.reset()
-            self.apply_selection()
-            self.transform = np.asarray(T, dtype=np.float64).copy()
+            # the engine takes the edit as it is (shape space, exact constraints), as
+            # `hybridedit deform` does; the masks show it on the cage
+            self.editor.apply_edit(edit, frames=0)
+            self._engine_masks = self._mask_key()
+            self._anchor = self.editor.cage_positions
+            self._anchor_state = self.editor.save_state()
+            self.transform = self.editor.edit_transforms(edit)[0]
+            self._base = np.eye(4)
             self.settle()
         except Exception:
             self.restore(before)

@@ -192,9 +192,9 @@ def test_select_drag_undo_redo_save_and_replay(qtbot, win, blob_file, tmp_path):
     edit_path = tmp_path / "edit.json"
     assert w.files.save_edit_to(edit_path)
     data = json.loads(edit_path.read_text())
-    assert data["space"] == "cage" and data["handle"] == np.flatnonzero(handle).tolist()
+    assert data["space"] == "cage" and data["handles"][0]["indices"] == np.flatnonzero(handle).tolist()
     assert data["roi"] == np.flatnonzero(roi).tolist()
-    assert np.allclose(data["translate"], t, atol=1e-12)
+    assert np.allclose(data["handles"][0]["translate"], t, atol=1e-12)
     replay = tmp_path / "replay.obj"
     rc = cli.main(["deform", str(blob_file), "-o", str(replay), "--edit", str(edit_path), "--cage", str(CAGE), "-q"])
     assert rc == 0
@@ -245,7 +245,7 @@ def test_gizmo_rotate_and_translate(qtbot, win, tmp_path, blob_file):
     edit_path = tmp_path / "rot.json"
     assert w.files.save_edit_to(edit_path)
     data = json.loads(edit_path.read_text())
-    assert abs(data["rotate"]["degrees"] - ang[0]) < 1e-6 and np.allclose(np.abs(data["rotate"]["axis"]), [0, 0, 1])
+    assert abs(data["handles"][0]["rotate"]["degrees"] - ang[0]) < 1e-6 and np.allclose(np.abs(data["handles"][0]["rotate"]["axis"]), [0, 0, 1])
     replay = tmp_path / "rot.obj"
     rc = cli.main(["deform", str(blob_file), "-o", str(replay), "--edit", str(edit_path), "--cage", str(CAGE), "-q"])
     assert rc == 0

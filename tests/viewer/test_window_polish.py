@@ -10,7 +10,6 @@ from qtpy import QtCore
 from hybridedit.arap import ARAPSolver
 from hybridedit.io import read_mesh
 from hybridedit.mesh import edge_stretch, vertex_stretch
-from hybridedit.polish import free_shape_vertices
 from hybridedit.viewer import worker as worker_module
 from hybridedit.viewer.window import MainWindow
 from test_window import key, mouse_drag, projected, settled, to_widget, wait_loaded, win  # noqa: F401 (fixture)
@@ -66,7 +65,7 @@ def test_polish_on_release_lowers_the_energy_and_save_writes_it(qtbot, win, tmp_
     assert w.last_polish.result.energy_after < w.last_polish.result.energy_before
     # only the edited region moved: the handle's and the fixed part's vertices are where the hybrid pose put them
     ed = s.editor
-    free = free_shape_vertices(ed.M, ed.arap.free, ed.cage.n_vertices)
+    free = ed.free_mask
     assert free.any() and (~free).any()
     assert np.array_equal(P[~free], hybrid[~free])
     # the polish is a view state: the engine's pose and the undo history are untouched

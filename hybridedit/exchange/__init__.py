@@ -1,0 +1,227 @@
+"""Mesh files in and out: one module per format behind one reader/writer registry.
+
+:func:`read_document` reads a file into a :class:`hybridedit.document.Document`
+(the engine's mesh plus everything else the file holds); :func:`write_document`
+writes one back. Written to its own format, a document keeps the file's
+structure with only the positions (and normals) changed; written to another
+format, it carries what that format can hold (polygons, vertex colours,
+normals) and the returned note names the rest.
+"""
+
+from __future__ import annotations
+
+import os
+import struct
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from ..atomic import atomic_write
+from ..document import Document
+from ..mesh import Mesh, MeshError
+from . import glb, obj, off, ply, stl
+from .common import MeshFileError, _Bad, _validate
+
+__all__ = ["FORMATS", "Format", "MeshFileError", "SUPPORTED_EXTENSIONS", "conversion_note",
+           "read_document", "write_document"]
+
+
+@dataclass(frozen=True)
+class Format:
+    """A registered file format.
+
+    Attributes
+    ----------
+    name : str
+        As shown to users ("OBJ").
+    read : callable (path, data) -> Document
+        Raises ``_Bad`` (a message without the file name) for a bad file.
+    write : callable (Document) -> bytes
+        Gives the document's own structure back when it was read in this
+        format (its ``native`` record is this module's), else a plain file.
+    holds : frozenset of {"polygons", "colors", "normals"}
+        What this format can carry over from a document read in another one.
+    """
+
+    name: str
+    read: Callable[[str, bytes], Document]
+    write: Callable[[Document], bytes]
+    holds: frozenset[str]
+
+
+_ALL = frozenset({"polygons", "colors", "normals"})
+
+FORMATS: dict[str, Format] = {
+    ".obj": Format("OBJ", lambda path, data: obj.read(data), obj.write, _ALL),
+    ".off": Format("OFF", lambda path, data: off.read(data), off.write, _ALL),
+    ".ply": Format("PLY", ply.read, ply.write, _ALL),
+    ".stl": Format("STL", lambda path, data: stl.read(data), stl.write, frozenset()),
+    ".glb": Format("glTF binary", glb.read, glb.write, frozenset({"colors", "normals"})),
+}
+
+SUPPORTED_EXTENSIONS = tuple(FORMATS)
+
+
+def extension(path: str | os.PathLike[str]) -> str:
+    """The lower-case extension of ``path`` ('.obj'), '' for none."""
+    return os.path.splitext(os.fspath(path))[1].lower()
+
+
+def unsupported(name: str, ext: str, action: str) -> MeshFileError:
+    """The error for a file whose extension is not a registered format."""
+    supported = ", ".join(SUPPORTED_EXTENSIONS)
+    if not ext:
+        return MeshFileError(f"{name}: cannot {action} a file without an extension "
+                             f"(use one of {supported})")
+    return MeshFileError(f"{name}: unsupported file extension '{ext}' (use one of {supported})")
+
+
+def read_document(path: str | os.PathLike[str]) -> Document:
+    """Read a mesh file, choosing the format by extension (any letter case).
+
+    Parameters
+    ----------
+    path : str or path-like
+
+    Returns
+    -------
+    Document
+        ``mesh``: ``vertices`` (n, 3) float64 and ``faces`` (m, 3) int64 (polygons
+        fan-triangulated; STL and glTF corners with equal positions welded), named
+        after the file's base name; everything else the file holds beside it.
+
+    Raises
+    ------
+    MeshFileError
+        For any problem with the file; the message starts with the file name.
+    """
+    p = os.fspath(path)
+    name = os.path.basename(p) or p
+    ext = extension(name)
+    if ext not in FORMATS:
+        raise unsupported(name, ext, "read")
+    fmt = FORMATS[ext]
+    try:
+        with open(p, "rb") as f:
+            data = f.read()
+    except FileNotFoundError:
+        raise MeshFileError(f"{name}: file not found ({os.path.abspath(p)})") from None
+    except IsADirectoryError:
+        raise MeshFileError(f"{name}: is a folder, not a file") from None
+    except PermissionError:
+        raise MeshFileError(f"{name}: permission denied") from None
+    except OSError as exc:
+        raise MeshFileError(f"{name}: cannot read file ({exc.strerror or exc})") from None
+    if not data.strip():
+        raise MeshFileError(f"{name}: file is empty")
+    try:
+        # NaN/inf (even signalling NaN in binary files) are reported by _validate
+        with np.errstate(all="ignore"):
+            doc = fmt.read(p, data)
+            _validate(doc.mesh.vertices, doc.mesh.faces)
+    except (_Bad, MeshError) as exc:
+        raise MeshFileError(f"{name}: {exc}") from None
+    except (ValueError, IndexError, TypeError, KeyError, OverflowError, struct.error,
+            UnicodeError) as exc:
+        raise MeshFileError(f"{name}: not a valid {fmt.name} file ({type(exc).__name__}: {exc})") \
+            from exc
+    doc.mesh.name = name
+    doc.path = Path(p)
+    return doc
+
+
+def conversion_note(doc: Document, ext: str) -> str | None:
+    """One line naming what of ``doc`` a file of extension ``ext`` cannot hold, or None."""
+    fmt = FORMATS[ext]
+    if not doc.format or FORMATS.get("." + doc.format) is fmt:
+        return None
+    lost = []
+    counts, _ = doc.polygon_lists()
+    if doc.polygons is not None and "polygons" not in fmt.holds:
+        lost.append(f"polygons ({len(counts):,}; written as {doc.mesh.n_faces:,} triangles)")
+    if doc.colors is not None and "colors" not in fmt.holds:
+        lost.append(f"vertex colours ({doc.mesh.n_vertices:,})")
+    if doc.normals and "normals" not in fmt.holds:
+        lost.append("vertex normals")
+    lost += [f"{what} ({count:,})" for what, count in doc.extras.items()]
+    if not lost:
+        return None
+    src = FORMATS["." + doc.format].name
+    return f"{fmt.name} cannot hold everything from the {src} file; not written: " + ", ".join(lost)
+
+
+def write_document(path: str | os.PathLike[str], doc: Document) -> list[str]:
+    """Write ``doc`` atomically, choosing the format by extension.
+
+    In the format it was read from, the file's own structure comes back with
+    the new positions (see each format module); in another format, what it can
+    hold. An OBJ written into another folder than the one it was read from
+    takes its material libraries and their images along (copied to the same
+    relative place, an identical existing copy left as it is).
+
+    Parameters
+    ----------
+    path : str or path-like
+        Target file; an existing file is replaced only once the new one is
+        completely written.
+    doc : Document
+
+    Returns
+    -------
+    list of str
+        Notes for the user: what a conversion could not carry, references
+        that could not be copied.
+
+    Raises
+    ------
+    MeshFileError
+        The extension is not supported (raised before touching the disk), or
+        the document cannot be written in that format.
+    hybridedit.atomic.WriteError
+        The file could not be written; the message names the path and cause.
+    """
+    p = os.fspath(path)
+    name = os.path.basename(p) or p
+    ext = extension(name)
+    if ext not in FORMATS:
+        raise unsupported(name, ext, "write")
+    if not isinstance(doc, Document):
+        raise TypeError(f"write_document expects a Document, got {type(doc).__name__}")
+    fmt = FORMATS[ext]
+    notes = []
+    same = FORMATS.get("." + doc.format) is fmt
+    note = conversion_note(doc, ext)
+    if note:
+        notes.append(note)
+    try:
+        payload = fmt.write(doc if same else replace(doc, native=None))
+    except (_Bad, MeshError) as exc:
+        raise MeshFileError(f"{name}: {exc}") from None
+    copies: list[tuple[Path, Path]] = []
+    if same and ext == ".obj":
+        copies, more = obj.companions(doc, doc.path, Path(p))
+        notes += more
+    with atomic_write(p, "wb") as f:
+        f.write(payload)
+    for src, dst in copies:
+        if obj.same_content(src, dst):
+            continue
+        dst.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_write(dst, "wb") as f:
+            f.write(src.read_bytes())
+    return notes
+
+
+def write_mesh_like(path: str | os.PathLike[str], mesh: Mesh,
+                    like: str | os.PathLike[str] | None) -> list[str]:
+    """Write ``mesh``; with ``like``, as the document read from that file with ``mesh``'s
+    positions (its triangulation must be the file's)."""
+    if like is None:
+        return write_document(path, Document.from_mesh(mesh))
+    doc = read_document(like)
+    if doc.mesh.n_vertices != mesh.n_vertices or not np.array_equal(doc.mesh.faces, mesh.faces):
+        raise MeshFileError(f"{doc.mesh.name}: the file changed since the mesh was read from it; "
+                            "cannot write the mesh in its structure")
+    return write_document(path, doc.with_vertices(mesh.vertices))

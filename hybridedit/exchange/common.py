@@ -1,0 +1,181 @@
+"""What every format module shares: the file error, numeric parsing helpers,
+fan triangulation, welding and the checks every engine mesh passes."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from ..mesh import Mesh, MeshError
+
+
+class MeshFileError(MeshError):
+    """A mesh file is missing, unsupported or malformed.
+
+    The message starts with the file name and says the problem plainly.
+    """
+
+
+class _Bad(Exception):
+    """Internal: a problem in the file, described without the file name."""
+
+
+# --------------------------------------------------------------------------- helpers
+
+
+def _words(n: int, element: str) -> str:
+    """'1 vertex', '500 vertices', '2 faces', "3 'edge' records"."""
+    forms = {"vertex": ("vertex", "vertices"), "face": ("face", "faces"),
+             "triangle": ("triangle", "triangles")}
+    if element in forms:
+        return f"{n} {forms[element][n != 1]}"
+    return f"{n} '{element}' record" + ("" if n == 1 else "s")
+
+
+def _truncated(count: int, element: str, complete: int) -> _Bad:
+    return _Bad(f"header says {_words(count, element)} but file ends after {complete}")
+
+
+def _snippet(line: bytes, limit: int = 60) -> str:
+    text = line.decode("utf-8", "replace").strip()
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _fan(counts: np.ndarray, flat: np.ndarray) -> np.ndarray:
+    """Fan-triangulate polygons.
+
+    Parameters
+    ----------
+    counts : (p,) int array
+        Number of corners of each polygon, all >= 3.
+    flat : (sum(counts),) int64 array
+        The polygons' vertex indices, one after another.
+
+    Returns
+    -------
+    (sum(counts) - 2 p, 3) int64 array
+        Triangles (c0, c[j+1], c[j+2]) of each polygon, in polygon order.
+    """
+    counts = np.asarray(counts, dtype=np.int64)
+    flat = np.asarray(flat, dtype=np.int64)
+    if counts.size == 0:
+        return np.zeros((0, 3), dtype=np.int64)
+    if np.all(counts == 3):
+        return flat.reshape(-1, 3)
+    ntri = counts - 2
+    first = np.repeat(np.cumsum(counts) - counts, ntri)
+    j = np.arange(int(ntri.sum())) - np.repeat(np.cumsum(ntri) - ntri, ntri)
+    return np.stack([flat[first], flat[first + j + 1], flat[first + j + 2]], axis=1)
+
+
+def _weld(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Merge exactly equal positions of a triangle soup.
+
+    Parameters
+    ----------
+    points : (3 m, 3) float64 array
+        Corners of m triangles, three consecutive rows per triangle.
+
+    Returns
+    -------
+    vertices : (n, 3) float64 array
+        Distinct positions in order of first occurrence.
+    faces : (m, 3) int64 array
+    """
+    if len(points) == 0:
+        return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64)
+    p = points + 0.0  # -0.0 becomes 0.0 so that both weld together
+    bits = p.view(np.int64)
+    order = np.lexsort((bits[:, 2], bits[:, 1], bits[:, 0]))  # stable
+    ordered = bits[order]
+    starts = np.ones(len(p), dtype=bool)
+    starts[1:] = np.any(ordered[1:] != ordered[:-1], axis=1)
+    group = np.empty(len(p), dtype=np.int64)
+    group[order] = np.cumsum(starts) - 1
+    first = order[starts]  # first occurrence of each distinct position
+    by_first = np.argsort(first)
+    rank = np.empty_like(by_first)
+    rank[by_first] = np.arange(len(first))
+    return p[first[by_first]], rank[group].reshape(-1, 3)
+
+
+def _mesh(vertices: np.ndarray, faces: np.ndarray) -> Mesh:
+    """The engine mesh of a file's positions and triangles; _Bad for an index out of range."""
+    n = len(vertices)
+    faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    if faces.size:
+        bad = (faces < 0) | (faces >= n)
+        if bad.any():
+            value = int(faces.ravel()[int(np.argmax(bad.ravel()))])
+            raise _Bad(f"face index {value} out of range (file has {_words(n, 'vertex')})")
+    return Mesh(vertices, faces)
+
+
+def _validate(vertices: np.ndarray, faces: np.ndarray) -> None:
+    """Check face indices, finiteness and that there is a face; raise _Bad if not."""
+    n = len(vertices)
+    if faces.size:
+        bad = (faces < 0) | (faces >= n)
+        if bad.any():
+            value = int(faces.ravel()[int(np.argmax(bad.ravel()))])
+            raise _Bad(f"face index {value} out of range (file has {_words(n, 'vertex')})")
+    finite = np.isfinite(vertices).all(axis=1)
+    if not finite.all():
+        k = int((~finite).sum())
+        first = int(np.argmin(finite))
+        raise _Bad(f"{k} {'vertex has' if k == 1 else 'vertices have'} NaN or infinite "
+                   f"coordinates (first is vertex {first}, counting from 0)")
+    if len(faces) == 0:
+        raise _Bad("file has no faces" if n else "file has no vertices and no faces")
+
+
+def _numbers(text: bytes, dtype: type, expected: int) -> np.ndarray | None:
+    """Parse whitespace-separated numbers in C.
+
+    Returns a 1-d array of ``dtype``, or None unless every token is a number
+    and there are exactly ``expected`` of them (the caller then falls back to
+    a slower parser that can say which line is wrong).
+    """
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)  # older numpy: partial parse
+        try:
+            vals = np.fromstring(text, dtype=dtype, sep=" ")
+        except ValueError:
+            return None
+    return vals if vals.size == expected else None
+
+
+_IS_SPACE = np.zeros(256, dtype=bool)
+_IS_SPACE[list(b" \t\n\r\v\f")] = True
+
+
+def _token_count(text: bytes) -> int:
+    """Number of whitespace-separated tokens, like ``len(text.split())`` but without the list."""
+    if not text:
+        return 0
+    space = _IS_SPACE[np.frombuffer(text, dtype=np.uint8)]
+    return int(np.count_nonzero(space[:-1] & ~space[1:])) + int(not space[0])
+
+
+def _widths(lines: list[bytes]) -> np.ndarray:
+    """Number of whitespace-separated tokens of each line, (k,) int64."""
+    return np.fromiter(map(len, map(bytes.split, lines)), dtype=np.int64, count=len(lines))
+
+
+_ROWS_PER_CHUNK = 1 << 16
+
+
+def _format_rows(fmt: str, values: np.ndarray) -> str:
+    """Apply a %-format for one row to every row of a 2-d array, in chunks."""
+    out = []
+    for start in range(0, len(values), _ROWS_PER_CHUNK):
+        chunk = values[start: start + _ROWS_PER_CHUNK]
+        out.append((fmt * len(chunk)) % tuple(chunk.ravel().tolist()))
+    return "".join(out)
+
+
+
+def _number_text(values: np.ndarray) -> list[str]:
+    """Shortest text that reads back to exactly each float64 value (repr), for (k,) arrays."""
+    return [repr(x) for x in values.tolist()]

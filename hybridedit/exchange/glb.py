@@ -1,0 +1,230 @@
+"""glTF binary (.glb) through ``pygltflib``: only positions and normals change.
+
+Every triangle primitive of every mesh the scene places is read in world space
+(node transforms applied); corners with equal world positions become one engine
+vertex, so parts split at UV seams edit as one surface. Writing changes, in the
+binary buffer, the POSITION of each moved vertex (back in its node's space) and
+the NORMAL of each vertex a moved vertex touches; everything else (UVs,
+materials, embedded textures, other primitives, extensions) is kept byte for
+byte. A normal is recomputed over all corners that share its position and its
+original direction, so normals stay smooth across UV seams and split at hard
+edges. A mesh placed by several nodes is edited through its first one.
+"""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass
+
+import numpy as np
+import pygltflib
+
+from ..document import Document, grouped_normals, moved_vertices
+from .common import _Bad, _mesh
+
+__all__ = ["GlbNative", "read", "write"]
+
+_TRIANGLES = 4
+
+
+@dataclass
+class _Slot:
+    """One triangle primitive as placed in the scene."""
+
+    position: int  # accessor index
+    normal: int | None
+    world: np.ndarray  # (4, 4)
+    first: int  # first file vertex (over all slots) of this primitive
+
+
+@dataclass(eq=False)
+class GlbNative:
+    gltf: pygltflib.GLTF2
+    slots: list[_Slot]
+    file_vertex: np.ndarray  # (k,) engine vertex of each file vertex
+    rest: np.ndarray  # (n, 3) engine positions as read
+    normal_group: np.ndarray  # (k,) normal group of each file vertex
+    n_groups: int
+    file_triangles: np.ndarray  # (m, 3) file vertex indices of the engine's triangles
+
+
+def _node_matrix(node: pygltflib.Node) -> np.ndarray:
+    if node.matrix:
+        return np.asarray(node.matrix, dtype=np.float64).reshape(4, 4).T  # column-major
+    T = np.eye(4)
+    if node.scale:
+        T = np.diag([*node.scale, 1.0])
+    if node.rotation:
+        from scipy.spatial.transform import Rotation
+
+        R = np.eye(4)
+        R[:3, :3] = Rotation.from_quat(node.rotation).as_matrix()  # glTF: x y z w, as scipy
+        T = R @ T
+    if node.translation:
+        T[:3, 3] += np.asarray(node.translation, dtype=np.float64)
+    return T
+
+
+def _accessor_view(gltf: pygltflib.GLTF2, blob: bytes | bytearray, index: int) -> tuple[int, int, int, np.dtype, int]:
+    """(byte offset, stride, count, component dtype, components) of a plain accessor."""
+    acc = gltf.accessors[index]
+    if acc.sparse is not None or acc.bufferView is None:
+        raise _Bad(f"accessor {index} is sparse or has no buffer view (not supported)")
+    view = gltf.bufferViews[acc.bufferView]
+    if view.buffer != 0:
+        raise _Bad("only data in the .glb's own binary chunk is supported")
+    dtype = {5120: "i1", 5121: "u1", 5122: "<i2", 5123: "<u2", 5125: "<u4", 5126: "<f4"}[acc.componentType]
+    comps = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}[acc.type]
+    item = np.dtype(dtype).itemsize * comps
+    stride = view.byteStride or item
+    offset = (view.byteOffset or 0) + (acc.byteOffset or 0)
+    if offset + stride * (acc.count - 1) + item > len(blob):
+        raise _Bad(f"accessor {index} reaches past the end of the binary chunk")
+    return offset, stride, acc.count, np.dtype(dtype), comps
+
+
+def _read_accessor(gltf, blob, index: int) -> np.ndarray:
+    offset, stride, count, dtype, comps = _accessor_view(gltf, blob, index)
+    rows = np.ndarray((count, comps), dtype=dtype, buffer=blob, offset=offset,
+                      strides=(stride, dtype.itemsize))
+    return np.array(rows)
+
+
+def _write_accessor(blob: bytearray, gltf, index: int, rows: np.ndarray, values: np.ndarray) -> None:
+    offset, stride, count, dtype, comps = _accessor_view(gltf, blob, index)
+    view = np.ndarray((count, comps), dtype=dtype, buffer=blob, offset=offset,
+                      strides=(stride, dtype.itemsize))
+    view[rows] = values.astype(dtype)
+
+
+def _placed_meshes(gltf: pygltflib.GLTF2) -> list[tuple[int, np.ndarray]]:
+    """(mesh, world matrix) of each mesh, at its first placement in the scene."""
+    scenes = gltf.scenes or []
+    scene = scenes[gltf.scene or 0] if scenes else None
+    roots = scene.nodes if scene is not None else list(range(len(gltf.nodes)))
+    placed: dict[int, np.ndarray] = {}
+    stack = [(r, np.eye(4)) for r in reversed(roots or [])]
+    while stack:
+        i, parent = stack.pop()
+        node = gltf.nodes[i]
+        world = parent @ _node_matrix(node)
+        if node.mesh is not None and node.mesh not in placed:
+            placed[node.mesh] = world
+        stack += [(c, world) for c in reversed(node.children or [])]
+    return sorted(placed.items())
+
+
+def read(path: str, data: bytes) -> Document:
+    """Read a .glb into a :class:`Document` (raises _Bad for a bad file)."""
+    if data[:4] != b"glTF":
+        raise _Bad("not a glTF binary file (it does not start with 'glTF')")
+    try:
+        gltf = pygltflib.GLTF2.load_from_bytes(data)
+    except Exception as exc:  # noqa: BLE001 -- pygltflib raises many kinds
+        raise _Bad(f"not a valid glTF binary file ({type(exc).__name__}: {exc})") from None
+    if gltf is None:
+        raise _Bad("not a valid glTF binary file (no JSON chunk)")
+    blob = gltf.binary_blob() or b""
+    slots, points, normals, tris = [], [], [], []
+    first = 0
+    skipped = 0
+    for mesh_index, world in _placed_meshes(gltf):
+        for prim in gltf.meshes[mesh_index].primitives:
+            mode = _TRIANGLES if prim.mode is None else prim.mode
+            if mode != _TRIANGLES or prim.attributes.POSITION is None:
+                skipped += 1
+                continue
+            local = _read_accessor(gltf, blob, prim.attributes.POSITION).astype(np.float64)
+            if local.shape[1] != 3:
+                raise _Bad("POSITION must be 3 floats a vertex")
+            idx = (np.arange(len(local)) if prim.indices is None
+                   else _read_accessor(gltf, blob, prim.indices).reshape(-1).astype(np.int64))
+            if len(idx) % 3 or (idx.size and idx.max() >= len(local)):
+                raise _Bad(f"mesh {mesh_index}: indices are not triangles of its vertices")
+            pts = local @ world[:3, :3].T + world[:3, 3]
+            nrm_index = prim.attributes.NORMAL
+            if nrm_index is not None:
+                nrm = _read_accessor(gltf, blob, nrm_index).astype(np.float64)
+                nrm = nrm @ np.linalg.inv(world[:3, :3])  # (M^-T n) as rows
+            else:
+                nrm = np.zeros_like(pts)
+            slots.append(_Slot(prim.attributes.POSITION, nrm_index, world, first))
+            points.append(pts)
+            normals.append(nrm)
+            tris.append(idx.reshape(-1, 3) + first)
+            first += len(local)
+    if not slots:
+        raise _Bad("file has no triangle meshes")
+    P = np.concatenate(points)
+    file_tri = np.concatenate(tris)
+    welded, inverse = _weld_map(P)
+    faces = inverse[file_tri]
+    N = np.concatenate(normals)
+    length = np.linalg.norm(N, axis=1, keepdims=True)
+    unit = np.round(np.divide(N, length, out=np.zeros_like(N), where=length > 0), 3)
+    key = np.column_stack([inverse.astype(np.float64), unit])
+    _, group = np.unique(key, axis=0, return_inverse=True)
+    extras: dict[str, int] = {}
+    uv = sum(1 for s in gltf.meshes for p in s.primitives if p.attributes.TEXCOORD_0 is not None)
+    if uv:
+        extras["primitives with texture coordinates"] = uv
+    if gltf.materials:
+        extras["materials"] = len(gltf.materials)
+    if gltf.images:
+        extras["embedded images"] = len(gltf.images)
+    if skipped:
+        extras["non-triangle primitives"] = skipped
+    native = GlbNative(gltf=gltf, slots=slots, file_vertex=inverse, rest=welded,
+                       normal_group=group.reshape(-1), n_groups=int(group.max()) + 1,
+                       file_triangles=file_tri)
+    return Document(mesh=_mesh(welded, faces), format="glb", native=native,
+                    normals=any(s.normal is not None for s in slots), extras=extras)
+
+
+def _weld_map(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Distinct rows of ``points`` in first-occurrence order and the index of each row."""
+    p = points + 0.0
+    _, first, inverse = np.unique(p, axis=0, return_index=True, return_inverse=True)
+    order = np.argsort(first)
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    return p[first[order]], rank[inverse.reshape(-1)]
+
+
+def write(doc: Document) -> bytes:
+    """The .glb bytes of ``doc``, which must have been read from a .glb."""
+    nat = doc.native
+    if not isinstance(nat, GlbNative):
+        raise _Bad("a .glb can only be written from a .glb (write .obj, .ply, .off or .stl)")
+    gltf = copy.deepcopy(nat.gltf)
+    blob = bytearray(nat.gltf.binary_blob() or b"")
+    V = doc.mesh.vertices
+    moved = moved_vertices(nat.rest, V)
+    file_moved = moved[nat.file_vertex]
+    world_pts = V[nat.file_vertex]
+    touched = np.zeros(len(nat.file_vertex), dtype=bool)
+    tri_moved = file_moved[nat.file_triangles].any(axis=1)
+    touched[nat.file_triangles[tri_moved].ravel()] = True
+    groups = nat.normal_group[nat.file_triangles]
+    normals, valid = grouped_normals(V[nat.file_vertex], nat.file_triangles, groups, nat.n_groups)
+    bounds = [s.first for s in nat.slots] + [len(nat.file_vertex)]
+    for s, end in zip(nat.slots, bounds[1:]):
+        rows = np.flatnonzero(file_moved[s.first:end])
+        inv = np.linalg.inv(s.world)
+        if rows.size:
+            local = world_pts[s.first + rows] @ inv[:3, :3].T + inv[:3, 3]
+            _write_accessor(blob, gltf, s.position, rows, local)
+            allpos = _read_accessor(gltf, blob, s.position)
+            acc = gltf.accessors[s.position]
+            acc.min = allpos.min(axis=0).astype(float).tolist()
+            acc.max = allpos.max(axis=0).astype(float).tolist()
+        if s.normal is not None:
+            rows = np.flatnonzero(touched[s.first:end])
+            g = nat.normal_group[s.first + rows]
+            rows, g = rows[valid[g]], g[valid[g]]
+            if rows.size:
+                n = normals[g] @ s.world[:3, :3]  # back to the node's space: M^T n
+                n /= np.linalg.norm(n, axis=1, keepdims=True)
+                _write_accessor(blob, gltf, s.normal, rows, n)
+    gltf.set_binary_blob(bytes(blob))
+    return b"".join(gltf.save_to_bytes())

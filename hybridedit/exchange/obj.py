@@ -1,0 +1,380 @@
+"""OBJ: every line that is not a position or a normal passes through unchanged.
+
+No library round-trips OBJ exactly, so this reader/writer is ours. Reading keeps
+the file's lines; writing gives them back in order with each moved vertex's
+``v`` line rewritten (its colour or ``w`` kept) and each ``vn`` that a moved
+vertex touches recomputed from the deformed surface, grouped as the faces
+reference it (a normal shared by all corners of a vertex stays smooth; corner
+normals split at hard edges stay split). Faces with their corner counts and
+``v/vt/vn`` indices, ``vt``, ``mtllib``, ``usemtl``, ``o``, ``g``, ``s``,
+comments and every other statement are kept byte for byte.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from collections import Counter
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..document import Document, grouped_normals, moved_vertices, vertex_normals
+from .common import _Bad, _mesh, _fan, _format_rows, _numbers, _snippet, _token_count, _widths, _words
+
+_OBJ_V = (b"v ", b"v\t")
+_OBJ_F = (b"f ", b"f\t")
+_MARK = int(np.iinfo(np.int64).max)  # stands in for each line's "f" while parsing indices
+
+
+
+def _obj_line_number(lines: list[bytes], heads: tuple[bytes, ...], k: int) -> int:
+    """1-based line number of the k-th (0-based) line starting with one of ``heads``."""
+    seen = -1
+    for i, line in enumerate(lines):
+        if line[:2] in heads:
+            seen += 1
+            if seen == k:
+                return i + 1
+    return len(lines)
+
+
+def _obj_vertices(lines: list[bytes]) -> tuple[np.ndarray, np.ndarray | None]:
+    """x y z of every "v" line, (n, 3) float64, and the colours when every line has
+    ``v x y z r g b`` ((n, 3) float64, else None); a ``w`` column is ignored."""
+    vlines = [line for line in lines if line[:2] in _OBJ_V]
+    widths = _widths(vlines) - 1
+    if widths.size and widths.min() < 3:
+        k = int(np.argmax(widths < 3))
+        raise _Bad(f"line {_obj_line_number(lines, _OBJ_V, k)}: vertex has "
+                   f"{int(widths[k])} coordinates, expected 3 ('{_snippet(vlines[k])}')")
+    if not vlines:
+        return np.zeros((0, 3)), None
+    if widths.min() == widths.max():
+        w = int(widths[0])
+        vals = _numbers(b"\n".join([line[1:] for line in vlines]), np.float64, w * len(vlines))
+        if vals is not None:
+            table = vals.reshape(-1, w)
+            colors = np.ascontiguousarray(table[:, 3:6]) if w == 6 else None
+            return np.ascontiguousarray(table[:, :3]), colors
+    rows = [line.split()[1:4] for line in vlines]
+    try:
+        return np.array(rows).astype(np.float64), None
+    except ValueError:
+        for k, row in enumerate(rows):
+            try:
+                [float(t) for t in row]
+            except ValueError:
+                raise _Bad(f"line {_obj_line_number(lines, _OBJ_V, k)}: cannot read "
+                           f"vertex coordinates '{_snippet(vlines[k])}'") from None
+        raise
+
+
+def _obj_corners(lines: list[bytes]) -> tuple[np.ndarray, np.ndarray]:
+    """Corner count of each "f" line, (p,) int64, and its vertex indices as written
+    (1-based or negative), (sum of counts,) int64; "/t/n" parts are dropped."""
+    flines = [line for line in lines if line[:2] in _OBJ_F]
+    joined = b"\n".join(flines)
+    if b"/" in joined:
+        joined = re.sub(rb"/\S*", b"", joined)
+    marked = (b"\n" + joined).replace(b"\nf", b"\n" + str(_MARK).encode())
+    vals = _numbers(marked, np.int64, _token_count(marked))
+    if vals is not None:
+        is_mark = vals == _MARK
+        starts = np.flatnonzero(is_mark)
+        if len(starts) == len(flines):
+            counts = np.diff(np.append(starts, len(vals))) - 1
+            return counts, vals[~is_mark]
+    # slow path, which can name the line that is wrong
+    rows = [line.split()[1:] for line in joined.split(b"\n")] if flines else []
+    counts = _widths([b" ".join(r) for r in rows])
+    flat = [t for r in rows for t in r]
+    try:
+        return counts, (np.array(flat) if flat else np.zeros(0, "S1")).astype(np.int64)
+    except ValueError:
+        for k, row in enumerate(rows):
+            try:
+                [int(t) for t in row]
+            except ValueError:
+                raise _Bad(f"line {_obj_line_number(lines, _OBJ_F, k)}: cannot read "
+                           f"face indices '{_snippet(flines[k])}'") from None
+        raise
+
+
+
+def _resolve(idx: np.ndarray, counts: np.ndarray, before: list[int], lines: list[bytes],
+             what: str) -> np.ndarray:
+    """1-based absolute indices from OBJ's 1-based or negative (relative) ones.
+
+    ``before`` is, for each face line, how many ``what`` records precede it.
+    """
+    face_of = np.repeat(np.arange(len(counts)), counts)
+    if (idx == 0).any():
+        k = int(face_of[int(np.argmax(idx == 0))])
+        raise _Bad(f"line {_obj_line_number(lines, _OBJ_F, k)}: face index 0 is "
+                   "invalid (OBJ indices start at 1)")
+    base = np.repeat(np.asarray(before, dtype=np.int64), counts)
+    neg = idx < 0
+    resolved = np.where(neg, base + idx + 1, idx)
+    wrong = neg & (resolved < 1)
+    if wrong.any():
+        at = int(np.argmax(wrong))
+        k = int(face_of[at])
+        raise _Bad(f"line {_obj_line_number(lines, _OBJ_F, k)}: face index "
+                   f"{int(idx[at])} out of range (only {_words(int(base[at]), what)} "
+                   "defined before this line)")
+    return resolved
+
+
+def _defined_before(lines: list[bytes], heads: tuple[bytes, ...]) -> list[int]:
+    """For each face line, how many lines starting with ``heads`` come before it."""
+    defined, before = 0, []
+    for line in lines:
+        head = line[:3] if heads[0][:2] == b"vn" else line[:2]
+        if head in heads:
+            defined += 1
+        elif line[:2] in _OBJ_F:
+            before.append(defined)
+    return before
+
+
+_OBJ_VN = (b"vn ", b"vn\t")
+
+
+def _corner_normal_refs(lines: list[bytes], n_corners: int) -> np.ndarray:
+    """The ``vn`` index as written (1-based or negative; 0 for none) of every face corner."""
+    refs: list[int] = []
+    for line in lines:
+        if line[:2] in _OBJ_F:
+            for tok in line.split()[1:]:
+                parts = tok.split(b"/")
+                refs.append(int(parts[2]) if len(parts) > 2 and parts[2] else 0)
+    out = np.asarray(refs, dtype=np.int64)
+    if len(out) != n_corners:  # cannot happen after _obj_corners succeeded
+        raise _Bad("cannot read the face normal indices")
+    return out
+
+
+_EXTRA_NAMES = {
+    b"vt": "texture coordinates", b"mtllib": "material libraries", b"usemtl": "material references",
+    b"o": "object names", b"g": "group names", b"s": "smoothing groups",
+    b"l": "line elements", b"p": "point elements",
+}
+
+
+@dataclass(eq=False)
+class ObjNative:
+    """What :func:`write` needs to give an OBJ file back (see the module docstring)."""
+
+    lines: list[bytes]  # the file's lines without line ends (continuations joined)
+    newline: bytes
+    final_newline: bool
+    v_lines: np.ndarray  # (n,) line of each vertex
+    vn_lines: np.ndarray  # (k,) line of each normal
+    rest: np.ndarray  # (n, 3) positions as read
+    corner_vn: np.ndarray | None  # (sum of counts,) 0-based normal of each face corner, -1 none
+    counts: np.ndarray  # (p,) corners of each face
+
+
+def read(data: bytes) -> Document:
+    """Parse an OBJ file into a :class:`Document` (raises _Bad for a bad file)."""
+    if b"\0" in data:
+        raise _Bad("not a text OBJ file (it contains binary data)")
+    if b"\\" in data:  # line continuations
+        data = re.sub(rb"\\[ \t]*(\r\n|\n|\r)", b" ", data)
+    original = data.splitlines()
+    lines = original
+    if data[:1] in (b" ", b"\t") or any(nl + ws in data for nl in (b"\n", b"\r")
+                                         for ws in (b" ", b"\t")):
+        lines = [line.lstrip() for line in lines]  # some lines are indented
+    vertices, colors = _obj_vertices(lines)
+    nv = len(vertices)
+    counts, idx = _obj_corners(lines)
+    if counts.size and counts.min() < 3:
+        k = int(np.argmax(counts < 3))
+        raise _Bad(f"line {_obj_line_number(lines, _OBJ_F, k)}: face has "
+                   f"{_words(int(counts[k]), 'vertex')}, need at least 3")
+    if idx.size and idx.min() <= 0:
+        idx = _resolve(idx, counts, _defined_before(lines, _OBJ_V), lines, "vertex")
+    if idx.size and idx.max() > nv:
+        at = int(np.argmax(idx > nv))
+        k = int(np.repeat(np.arange(len(counts)), counts)[at])
+        raise _Bad(f"line {_obj_line_number(lines, _OBJ_F, k)}: face index {int(idx[at])} "
+                   f"out of range (file has {_words(nv, 'vertex')})")
+    flat = idx - 1
+
+    v_lines = np.fromiter((i for i, line in enumerate(lines) if line[:2] in _OBJ_V), np.int64)
+    vn_lines = np.fromiter((i for i, line in enumerate(lines) if line[:3] in _OBJ_VN), np.int64)
+    corner_vn = None
+    if len(vn_lines):
+        refs = _corner_normal_refs(lines, len(flat))
+        if refs.min() < 0:
+            rel = refs < 0
+            resolved = _resolve(np.where(rel, refs, 1), counts,
+                                _defined_before(lines, _OBJ_VN), lines, "normal")
+            refs = np.where(rel, resolved, refs)
+        if refs.max() > len(vn_lines):
+            raise _Bad(f"a face refers to normal {int(refs.max())} but the file has "
+                       f"{len(vn_lines)}")
+        corner_vn = refs - 1  # -1: no normal
+    counter = Counter(line.split(None, 1)[0] for line in lines
+                      if line[:2] not in _OBJ_V and line[:2] not in _OBJ_F and line.strip()
+                      and line[:3] not in _OBJ_VN and line[:1] != b"#")
+    extras: dict[str, int] = {}
+    for head, count in counter.items():
+        name = _EXTRA_NAMES.get(head, "other statements")
+        extras[name] = extras.get(name, 0) + count
+    newline = b"\r\n" if b"\r\n" in data[:65536] else (b"\r" if b"\r" in data[:65536] and
+                                                        b"\n" not in data[:65536] else b"\n")
+    native = ObjNative(lines=original, newline=newline, final_newline=data[-1:] in (b"\n", b"\r"),
+                       v_lines=v_lines, vn_lines=vn_lines, rest=vertices, corner_vn=corner_vn,
+                       counts=counts)
+    rgba = None
+    if colors is not None:
+        rgba = np.column_stack([colors, np.ones(nv)])
+    mesh = _mesh(vertices, _fan(counts, flat))
+    polygons = None if (counts.size and np.all(counts == 3)) else (counts, flat)
+    return Document(mesh=mesh, format="obj", native=native, polygons=polygons, colors=rgba,
+                    normals=bool(len(vn_lines)), extras=extras)
+
+
+def _normal_line(n: np.ndarray) -> bytes:
+    return b"vn %.7g %.7g %.7g" % tuple(n.tolist())
+
+
+def write(doc: Document) -> bytes:
+    """The OBJ text of ``doc``: its own lines with new positions, or a plain OBJ."""
+    nat = doc.native
+    if not isinstance(nat, ObjNative):
+        return _plain(doc)
+    V = doc.mesh.vertices
+    moved = moved_vertices(nat.rest, V)
+    out = list(nat.lines)
+    for i in np.flatnonzero(moved).tolist():
+        li = nat.v_lines[i]
+        tail = out[li].split()[4:]
+        out[li] = b" ".join([b"v %r %r %r" % tuple(V[i].tolist()), *tail])
+    if nat.corner_vn is not None and moved.any():
+        tri = doc.mesh.faces
+        tri_vn = _fan(nat.counts, nat.corner_vn)
+        touched = moved[tri].any(axis=1)
+        normals, valid = grouped_normals(V, tri, tri_vn, len(nat.vn_lines))
+        update = np.zeros(len(nat.vn_lines), dtype=bool)
+        groups = tri_vn[touched].ravel()
+        update[groups[groups >= 0]] = True
+        for k in np.flatnonzero(update & valid).tolist():
+            out[nat.vn_lines[k]] = _normal_line(normals[k])
+    text = nat.newline.join(out)
+    return text + nat.newline if nat.final_newline else text
+
+
+def _plain(doc: Document) -> bytes:
+    """A plain OBJ of ``doc``: v (with colours), vn per vertex if it had normals, polygons."""
+    mesh = doc.mesh
+    counts, flat = doc.polygon_lists()
+    parts = [f"# {mesh.n_vertices} vertices, {len(counts)} faces\n"]
+    if doc.colors is not None:
+        table = np.column_stack([mesh.vertices, doc.colors[:, :3]])
+        parts.append(_format_rows("v %.17g %.17g %.17g %.6g %.6g %.6g\n", table))
+    else:
+        parts.append(_format_rows("v %.17g %.17g %.17g\n", mesh.vertices))
+    sep = " "
+    if doc.normals:
+        parts.append(_format_rows("vn %.7g %.7g %.7g\n", vertex_normals(mesh.vertices, mesh.faces)))
+    one = flat + 1
+    if np.all(counts == 3):
+        fmt = "f %d//%d %d//%d %d//%d\n" if doc.normals else "f %d %d %d\n"
+        rows = np.repeat(one.reshape(-1, 3), 2, axis=1) if doc.normals else one.reshape(-1, 3)
+        parts.append(_format_rows(fmt, rows))
+    else:
+        starts = np.cumsum(counts) - counts
+        for s, c in zip(starts.tolist(), counts.tolist()):
+            corner = one[s: s + c].tolist()
+            words = [f"{i}//{i}" if doc.normals else str(i) for i in corner]
+            parts.append("f" + sep + sep.join(words) + "\n")
+    return "".join(parts).encode("ascii")
+
+
+# --------------------------------------------------------------------------- companions
+
+_MAP_STATEMENTS = {"bump", "disp", "decal", "refl", "norm"}
+
+
+def _material_libraries(doc: Document) -> list[str]:
+    nat = doc.native
+    names: list[str] = []
+    if isinstance(nat, ObjNative):
+        for line in nat.lines:
+            s = line.strip()
+            if s[:7] in (b"mtllib ", b"mtllib\t"):
+                names += [w.decode("utf-8", "replace") for w in s.split()[1:]]
+    return names
+
+
+def _texture_references(mtl: Path) -> list[str]:
+    """Image files a material library refers to (the last word of each map statement)."""
+    refs = []
+    try:
+        text = mtl.read_text(encoding="utf-8", errors="replace")
+    except OSError:
+        return refs
+    for line in text.splitlines():
+        words = line.split()
+        if len(words) >= 2 and (words[0].lower().startswith("map_") or words[0].lower() in _MAP_STATEMENTS):
+            refs.append(words[-1])
+    return refs
+
+
+def _inside(ref: str) -> bool:
+    p = Path(ref.replace("\\", "/"))
+    return not p.is_absolute() and ".." not in p.parts
+
+
+def companions(doc: Document, source: Path | None, target: Path) -> tuple[list[tuple[Path, Path]], list[str]]:
+    """Files an OBJ written to ``target`` refers to and that must travel with it.
+
+    Returns
+    -------
+    copies : list of (from, to) paths
+        Each material library the file names and each image a library names,
+        to be copied into ``target``'s folder at the same relative place, when
+        ``target`` is in another folder than ``source``.
+    notes : list of str
+        References that are not copied (missing, or outside the source folder).
+    """
+    if source is None:
+        return [], []
+    src_dir, dst_dir = source.resolve().parent, target.resolve().parent
+    if src_dir == dst_dir:
+        return [], []
+    copies, notes = [], []
+    for name in _material_libraries(doc):
+        if not _inside(name):
+            notes.append(f"material library {name} is outside the mesh's folder; not copied")
+            continue
+        mtl = src_dir / name
+        if not mtl.is_file():
+            notes.append(f"material library {name} not found next to {source.name}; not copied")
+            continue
+        copies.append((mtl, dst_dir / name))
+        for ref in _texture_references(mtl):
+            img = mtl.parent / ref.replace("\\", "/")
+            if not _inside(ref):
+                if not Path(ref).is_absolute():
+                    notes.append(f"texture {ref} is outside the material's folder; not copied")
+                continue
+            if not img.is_file():
+                notes.append(f"texture {ref} named in {name} not found; not copied")
+                continue
+            copies.append((img, (dst_dir / name).parent / ref.replace("\\", "/")))
+    return copies, notes
+
+
+def same_content(a: Path, b: Path) -> bool:
+    """``b`` exists and holds the same bytes as ``a``."""
+    try:
+        return b.is_file() and os.path.getsize(a) == os.path.getsize(b) and a.read_bytes() == b.read_bytes()
+    except OSError:
+        return False
+

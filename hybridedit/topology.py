@@ -1,0 +1,349 @@
+"""Mesh topology in one place: edge keys, closedness, welding, connected parts, degenerate faces.
+
+Every module that asks "is this surface closed?", "which faces are degenerate?",
+"which vertices coincide?" or "which parts are connected?" asks it here, so that
+the cage, the repair pass and ``hybridedit info`` agree on the answer.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+__all__ = [
+    "DEGENERATE_RATIO",
+    "check_closed",
+    "connected_parts",
+    "degenerate_faces",
+    "edge_balance",
+    "edge_face_counts",
+    "group_rows",
+    "half_edges",
+    "is_closed_oriented",
+    "weld",
+]
+
+#: A face is degenerate when it repeats a vertex index or when twice its area is at
+#: most this fraction of its longest edge squared (its height is below this fraction
+#: of its longest edge): a needle or a flattened triangle that has no direction.
+DEGENERATE_RATIO = 1e-12
+
+
+def half_edges(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The 3m half-edges of the faces, face by face (a->b, b->c, c->a).
+
+    Parameters
+    ----------
+    faces : (m, 3) int array
+    n_vertices : int
+        All indices are below it.
+
+    Returns
+    -------
+    key : (3m,) int64, the undirected edge key ``min * n + max``
+    forward : (3m,) bool, True where the half-edge runs from the lower index to the higher
+    face : (3m,) int64, the face of each half-edge
+    """
+    f = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    a = f.ravel()
+    b = f[:, [1, 2, 0]].ravel()
+    n = max(int(n_vertices), 1)
+    return np.minimum(a, b) * n + np.maximum(a, b), a < b, np.repeat(np.arange(len(f), dtype=np.int64), 3)
+
+
+def edge_face_counts(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
+    """How many faces use each undirected edge.
+
+    A face with a repeated index, such as (a, a, b), uses its edge a-b once;
+    self-loop "edges" a-a are not counted.
+
+    Parameters
+    ----------
+    faces : (m, 3) int array
+    n_vertices : int
+        Number of vertices; all indices must be below it.
+
+    Returns
+    -------
+    edges : (e, 2) int64 array
+        Unique undirected edges, rows sorted with column 0 < column 1.
+    counts : (e,) int64 array
+        Number of faces using each edge.
+    """
+    f = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    n = max(int(n_vertices), 1)
+    key, _, _ = half_edges(f, n)
+    a = f.ravel()
+    b = f[:, [1, 2, 0]].ravel()
+    keep = a != b
+    # a face with exactly two distinct indices yields the same edge twice
+    equal_pairs = ((f[:, 0] == f[:, 1]).astype(np.int64) + (f[:, 1] == f[:, 2]) + (f[:, 2] == f[:, 0]))
+    twice = np.repeat(equal_pairs == 1, 3) & keep
+    if twice.any():
+        rows = np.flatnonzero(twice).reshape(-1, 2)
+        keep[rows[:, 1]] = False
+    keys, counts = np.unique(key[keep], return_counts=True)
+    return np.stack([keys // n, keys % n], axis=1), counts.astype(np.int64)
+
+
+def edge_balance(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per undirected edge, how many more times it is used low->high than high->low.
+
+    A closed, consistently oriented surface has balance 0 on every edge; a hole's
+    rim has +-1.
+
+    Returns
+    -------
+    keys : (e,) int64 sorted undirected edge keys (``min * n + max``)
+    balance : (e,) int64
+    """
+    key, forward, _ = half_edges(faces, n_vertices)
+    uniq, inv = np.unique(key, return_inverse=True)
+    bal = np.bincount(inv.reshape(-1), weights=np.where(forward, 1, -1), minlength=len(uniq))
+    return uniq, bal.astype(np.int64)
+
+
+def check_closed(faces: np.ndarray) -> None:
+    """Raise ``ValueError`` unless the triangles form a closed, oriented surface.
+
+    Closed here means that every undirected edge is used as often in one
+    direction as in the other, which is what makes mean value coordinates
+    reproduce linear functions (non-manifold edges are fine as long as they
+    balance).
+
+    Parameters
+    ----------
+    faces : (m, 3) int array
+    """
+    f = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    if f.size == 0:
+        raise ValueError("the cage has no faces")
+    if np.any((f[:, 0] == f[:, 1]) | (f[:, 1] == f[:, 2]) | (f[:, 2] == f[:, 0])):
+        raise ValueError("the cage has a face with a repeated vertex index")
+    n = int(f.max()) + 1
+    keys, bal = edge_balance(f, n)
+    bad = np.flatnonzero(bal != 0)
+    if bad.size:
+        k = int(keys[bad[0]])
+        raise ValueError(
+            f"the cage is not a closed, consistently oriented surface: {bad.size} edge(s) "
+            f"are unbalanced, e.g. edge ({k // n}, {k % n})"
+        )
+
+
+def is_closed_oriented(faces: np.ndarray, n_vertices: int) -> bool:
+    """True when every directed edge is used exactly once and its reverse exactly once.
+
+    That is a closed, edge-manifold, consistently oriented surface with no
+    duplicate face (a linear-time check: no repair needed).
+
+    Parameters
+    ----------
+    faces : (m, 3) int array
+    n_vertices : int
+    """
+    f = np.ascontiguousarray(faces, dtype=np.int64).reshape(-1, 3)
+    if len(f) == 0:
+        return False
+    return bool(_closed_oriented(f, max(int(n_vertices), int(f.max()) + 1)))
+
+
+@numba.njit(cache=True)
+def _closed_oriented(f, n):  # pragma: no cover - compiled
+    m = f.shape[0]
+    start = np.zeros(n + 1, dtype=np.int64)
+    for i in range(m):
+        for j in range(3):
+            a = f[i, j]
+            if a < 0 or a == f[i, (j + 1) % 3]:
+                return False
+            start[a + 1] += 1
+    for k in range(n):
+        start[k + 1] += start[k]
+    head = start[:-1].copy()
+    out = np.empty(3 * m, dtype=np.int64)  # the heads of each vertex's outgoing half-edges
+    for i in range(m):
+        for j in range(3):
+            a = f[i, j]
+            out[head[a]] = f[i, (j + 1) % 3]
+            head[a] += 1
+    for a in range(n):
+        for k in range(start[a], start[a + 1]):
+            b = out[k]
+            for k2 in range(k + 1, start[a + 1]):  # a -> b only once
+                if out[k2] == b:
+                    return False
+            back = 0
+            for k2 in range(start[b], start[b + 1]):  # b -> a exactly once
+                if out[k2] == a:
+                    back += 1
+            if back != 1:
+                return False
+    return True
+
+
+@numba.njit(cache=True, parallel=True)
+def _degenerate_kernel(v, f, ratio, out):  # pragma: no cover - compiled
+    for i in numba.prange(f.shape[0]):
+        i0, i1, i2 = f[i, 0], f[i, 1], f[i, 2]
+        if i0 == i1 or i1 == i2 or i2 == i0:
+            out[i] = True
+            continue
+        ax = v[i1, 0] - v[i0, 0]
+        ay = v[i1, 1] - v[i0, 1]
+        az = v[i1, 2] - v[i0, 2]
+        bx = v[i2, 0] - v[i0, 0]
+        by = v[i2, 1] - v[i0, 1]
+        bz = v[i2, 2] - v[i0, 2]
+        cx = ay * bz - az * by
+        cy = az * bx - ax * bz
+        cz = ax * by - ay * bx
+        area2 = np.sqrt(cx * cx + cy * cy + cz * cz)
+        la = ax * ax + ay * ay + az * az
+        lb = bx * bx + by * by + bz * bz
+        dx, dy, dz = bx - ax, by - ay, bz - az
+        lc = dx * dx + dy * dy + dz * dz
+        longest = max(la, max(lb, lc))
+        # NaN compares false: a face with a non-finite corner counts as degenerate
+        out[i] = not (area2 > ratio * longest)
+
+
+def degenerate_faces(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Which faces are degenerate: a repeated index, or twice the area at most
+    :data:`DEGENERATE_RATIO` times the longest edge squared.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float array
+    faces : (m, 3) int array
+
+    Returns
+    -------
+    (m,) bool
+    """
+    v = np.ascontiguousarray(vertices, dtype=np.float64)
+    f = np.ascontiguousarray(faces, dtype=np.int64).reshape(-1, 3)
+    out = np.zeros(len(f), dtype=bool)
+    if len(f):
+        _degenerate_kernel(v, f, DEGENERATE_RATIO, out)
+    return out
+
+
+def group_rows(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Group equal rows of an (n, k) int64 array.
+
+    Returns
+    -------
+    first : (g,) int64, the index of each group's first row, in input order
+    group : (n,) int64, the group of each row (groups numbered in order of first occurrence)
+    """
+    n = len(keys)
+    if n == 0:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    order = np.lexsort(keys.T[::-1])  # stable: equal rows keep input order
+    ks = keys[order]
+    start = np.ones(n, dtype=bool)
+    start[1:] = np.any(ks[1:] != ks[:-1], axis=1)
+    gid_sorted = np.cumsum(start) - 1
+    first_sorted = order[start]  # first occurrence of each group
+    rank = np.empty(len(first_sorted), dtype=np.int64)
+    by_first = np.argsort(first_sorted, kind="stable")
+    rank[by_first] = np.arange(len(first_sorted))
+    group = np.empty(n, dtype=np.int64)
+    group[order] = rank[gid_sorted]
+    return first_sorted[by_first], group
+
+
+def weld(vertices: np.ndarray, faces: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """Merge the referenced vertices that fall in the same cell of a grid of spacing ``tol``.
+
+    ``tol = 0`` merges exactly equal positions only (-0.0 equals 0.0).
+
+    Parameters
+    ----------
+    vertices : (n, 3) float array
+    faces : (m, 3) int array
+    tol : float >= 0
+
+    Returns
+    -------
+    vertices : (k, 3) the kept vertices (first of each group, in input order)
+    faces : (m, 3) int64 faces on them
+    remap : (n,) int64, the kept vertex of each input vertex, -1 for unreferenced ones
+    merged : int, referenced vertices folded into another one
+    """
+    v0 = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    used_mask = np.zeros(len(v0), dtype=bool)
+    used_mask[f.ravel()] = True
+    used = np.flatnonzero(used_mask)
+    v = v0[used]
+    lo = v.min(axis=0) if len(v) else np.zeros(3)
+    if tol > 0:
+        key = np.floor((v - lo) / tol).astype(np.int64)
+    else:
+        key = (v + 0.0).view(np.int64)
+    first, group = group_rows(key)
+    remap = np.full(len(v0), -1, dtype=np.int64)
+    remap[used] = group
+    return v[first], remap[f], remap, int(len(v) - len(first))
+
+
+def connected_parts(faces: np.ndarray, n_vertices: int) -> tuple[int, np.ndarray]:
+    """Connected parts of a surface (faces sharing a vertex are connected).
+
+    Parameters
+    ----------
+    faces : (m, 3) int array
+    n_vertices : int
+
+    Returns
+    -------
+    count : int, the number of parts (unreferenced vertices form none)
+    labels : (n,) int64, the part of each vertex numbered 0..count-1 in order of
+        first vertex, -1 for vertices no face uses
+    """
+    f = np.ascontiguousarray(faces, dtype=np.int64).reshape(-1, 3)
+    n = int(n_vertices)
+    labels = np.full(n, -1, dtype=np.int64)
+    if len(f) == 0 or n == 0:
+        return 0, labels
+    return int(_parts(f, labels)), labels
+
+
+@numba.njit(cache=True)
+def _find(parent, a):  # pragma: no cover - compiled
+    while parent[a] != a:
+        parent[a] = parent[parent[a]]
+        a = parent[a]
+    return a
+
+
+@numba.njit(cache=True)
+def _parts(f, labels):  # pragma: no cover - compiled
+    """Union-find over the face edges; labels numbered by first vertex, -1 unused."""
+    n = labels.shape[0]
+    parent = np.arange(n)
+    used = np.zeros(n, dtype=np.bool_)
+    for i in range(f.shape[0]):
+        r0 = _find(parent, f[i, 0])
+        used[f[i, 0]] = True
+        for j in range(1, 3):
+            used[f[i, j]] = True
+            r = _find(parent, f[i, j])
+            if r != r0:
+                if r < r0:
+                    parent[r0] = r
+                    r0 = r
+                else:
+                    parent[r] = r0
+    count = 0
+    number = np.full(n, -1, dtype=np.int64)
+    for a in range(n):
+        if used[a]:
+            r = _find(parent, a)
+            if number[r] < 0:
+                number[r] = count
+                count += 1
+            labels[a] = number[r]
+    return count

@@ -1,0 +1,34 @@
+"""Shapes and paths the tests share (import them with ``from shapes import ...``).
+
+Kept out of conftest.py: tests/viewer has a conftest.py of its own, and which one
+``import conftest`` finds depends on the order pytest loads them.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from hybridedit.mesh import Mesh
+
+REPO = Path(__file__).resolve().parent.parent
+SHARED_MESHES = REPO.parent / "shared" / "meshes"
+
+
+def icosphere(subdivisions: int = 3, radius: float = 1.0) -> Mesh:
+    s = trimesh.creation.icosphere(subdivisions=subdivisions, radius=radius)
+    return Mesh(np.asarray(s.vertices), np.asarray(s.faces), name="sphere")
+
+
+def bumpy_blob(subdivisions: int = 4) -> Mesh:
+    """A closed, non-convex, elongated shape with bumps: a stand-in for a scan."""
+    s = icosphere(subdivisions)
+    v = s.vertices.copy()
+    x, y, z = v.T
+    r = 1.0 + 0.08 * np.sin(7 * x) * np.cos(5 * y) + 0.05 * np.sin(11 * z)
+    v = v * r[:, None]
+    v[:, 0] *= 2.0  # elongate along x: two "limbs" to bend
+    v[:, 1] += 0.3 * np.cos(1.5 * v[:, 0])  # and bend it, so it is not convex
+    return Mesh(v, s.faces, name="blob")

@@ -1,0 +1,351 @@
+"""Documents: everything but the positions survives a deform, in every format."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import plyfile
+import pygltflib
+import pytest
+import trimesh
+
+from hybridedit import HybridEditor
+from hybridedit.document import vertex_normals
+from hybridedit.io import read_document, read_mesh, write_document
+
+from shapes import SHARED_MESHES, bumpy_blob, icosphere
+
+SPOT = SHARED_MESHES / "spot"
+
+
+def bend(V: np.ndarray) -> np.ndarray:
+    """A smooth non-rigid edit of the +x half: (n, 3) new positions, the -x half unmoved."""
+    out = V.copy()
+    x = np.maximum(V[:, 0], 0.0)
+    out[:, 1] += 0.3 * x ** 2
+    out[:, 2] += 0.1 * x * V[:, 1]
+    return out
+
+
+def angle_degrees(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    cos = np.einsum("ij,ij->i", a, b) / (np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1))
+    return np.degrees(np.arccos(np.clip(cos, -1, 1)))
+
+
+def non_vertex_lines(data: bytes) -> list[bytes]:
+    return [line for line in data.splitlines() if not line.startswith((b"v ", b"vn "))]
+
+
+# --------------------------------------------------------------------------- OBJ: spot
+
+
+@pytest.fixture
+def spot(tmp_path: Path) -> Path:
+    """spot's quad mesh with a material library and its texture, in a folder of their own."""
+    if not (SPOT / "spot_quadrangulated.obj").exists():
+        pytest.skip(f"{SPOT} not available")
+    src = tmp_path / "in"
+    src.mkdir()
+    lines = (SPOT / "spot_quadrangulated.obj").read_bytes().splitlines(keepends=True)
+    first_f = next(i for i, line in enumerate(lines) if line.startswith(b"f "))
+    lines[first_f:first_f] = [b"o spot\n", b"g body\n", b"usemtl spot_material\n", b"s 1\n"]
+    (src / "spot.obj").write_bytes(b"# spot, with a material\nmtllib spot.mtl\n" + b"".join(lines))
+    (src / "spot.mtl").write_text("newmtl spot_material\nKd 1 1 1\nmap_Kd textures/spot_texture.png\n")
+    (src / "textures").mkdir()
+    shutil.copy(SPOT / "spot_texture.png", src / "textures" / "spot_texture.png")
+    return src / "spot.obj"
+
+
+def test_obj_without_edit_is_the_same_file(spot: Path, tmp_path: Path) -> None:
+    doc = read_document(spot)
+    assert doc.polygons is not None and set(doc.polygons[0].tolist()) == {4}
+    assert doc.extras["texture coordinates"] == 3225
+    out = tmp_path / "same" / "spot.obj"
+    out.parent.mkdir()
+    assert write_document(out, doc) == []
+    assert out.read_bytes() == spot.read_bytes()
+
+
+def test_spot_deformed_keeps_quads_uvs_material_and_texture(spot: Path, tmp_path: Path) -> None:
+    doc = read_document(spot)
+    mesh = doc.mesh
+    ed = HybridEditor(mesh, 150, cache=False)
+    z = mesh.vertices[:, 2]
+    ed.set_selection(np.flatnonzero(z > z.max() - 0.15), roi=np.flatnonzero(z > z.max() - 0.5))
+    for _ in range(5):
+        V = ed.drag(translate=(0.0, 0.2, 0.05))
+    moved = np.any(V != mesh.vertices, axis=1)
+    assert 0 < moved.sum() < mesh.n_vertices
+    out_dir = tmp_path / "out"
+    out_dir.mkdir()
+    out = out_dir / "spot_edited.obj"
+    write_document(out, doc.with_vertices(V))
+    before, after = spot.read_bytes(), out.read_bytes()
+    assert non_vertex_lines(after) == non_vertex_lines(before)  # quads, vt indices, usemtl, ...
+    back = read_document(out)
+    assert np.array_equal(back.mesh.vertices, V)  # moved where edited, bit-exact
+    assert np.array_equal(back.mesh.faces, mesh.faces)
+    v_before = [line for line in before.splitlines() if line.startswith(b"v ")]
+    v_after = [line for line in after.splitlines() if line.startswith(b"v ")]
+    assert all(a == b for a, b, m in zip(v_after, v_before, moved) if not m)
+    # what the OBJ references is in the output folder
+    assert (out_dir / "spot.mtl").read_bytes() == (spot.parent / "spot.mtl").read_bytes()
+    texture = out_dir / "textures" / "spot_texture.png"
+    assert texture.read_bytes() == (SPOT / "spot_texture.png").read_bytes()
+    # an edit of the copy writes it back without touching the existing texture
+    write_document(out, read_document(out).with_vertices(bend(V)))
+    assert texture.read_bytes() == (SPOT / "spot_texture.png").read_bytes()
+
+
+def test_conversion_names_what_the_target_cannot_hold(spot: Path, tmp_path: Path) -> None:
+    doc = read_document(spot)
+    notes = write_document(tmp_path / "spot.stl", doc)
+    assert len(notes) == 1
+    assert "texture coordinates (3,225)" in notes[0] and "polygons (2,928" in notes[0]
+    assert notes[0].startswith("STL cannot hold")
+    notes = write_document(tmp_path / "spot.ply", doc)
+    assert "polygons" not in notes[0] and "texture coordinates (3,225)" in notes[0]
+    faces = plyfile.PlyData.read(str(tmp_path / "spot.ply"))["face"].data["vertex_indices"]
+    assert {len(f) for f in faces} == {4}  # PLY holds quads: they stay quads
+    assert np.array_equal(read_mesh(tmp_path / "spot.ply").faces, doc.mesh.faces)
+
+
+# --------------------------------------------------------------------------- OBJ normals
+
+
+def smooth_obj(tmp_path: Path) -> Path:
+    """A blob with one normal per vertex (f v//v) and a colour on every v line."""
+    m = bumpy_blob(2)
+    n = vertex_normals(m.vertices, m.faces)
+    rgb = (m.vertices - m.vertices.min(0)) / np.ptp(m.vertices, axis=0)
+    text = "".join(f"v {a!r} {b!r} {c!r} {r:.3f} {g:.3f} {bb:.3f}\n"
+                   for (a, b, c), (r, g, bb) in zip(m.vertices.tolist(), rgb.tolist()))
+    text += "".join(f"vn {a:.6f} {b:.6f} {c:.6f}\n" for a, b, c in n.tolist())
+    text += "".join(f"f {a}//{a} {b}//{b} {c}//{c}\n" for a, b, c in (m.faces + 1).tolist())
+    path = tmp_path / "smooth.obj"
+    path.write_text(text)
+    return path
+
+
+def test_smooth_normals_stay_smooth_and_follow_the_surface(tmp_path: Path) -> None:
+    path = smooth_obj(tmp_path)
+    doc = read_document(path)
+    assert doc.colors is not None and doc.normals
+    V = bend(doc.mesh.vertices)
+    write_document(tmp_path / "out.obj", doc.with_vertices(V))
+    lines = (tmp_path / "out.obj").read_bytes().splitlines()
+    normals = np.array([[float(x) for x in line.split()[1:]] for line in lines if line.startswith(b"vn ")])
+    assert len(normals) == doc.mesh.n_vertices
+    assert np.allclose(np.linalg.norm(normals, axis=1), 1.0, atol=1e-5)
+    truth = vertex_normals(V, doc.mesh.faces)
+    assert angle_degrees(normals, truth).max() < 0.01
+    colours = [line.split()[4:] for line in lines if line.startswith(b"v ")]
+    original = [line.split()[4:] for line in path.read_bytes().splitlines() if line.startswith(b"v ")]
+    assert colours == original
+    assert non_vertex_lines((tmp_path / "out.obj").read_bytes()) == non_vertex_lines(path.read_bytes())
+
+
+def test_split_corner_normals_stay_split(tmp_path: Path) -> None:
+    """A box whose corners use their face's normal (hard edges): still one normal a face."""
+    box = trimesh.creation.box(extents=(2.0, 1.0, 1.0))
+    box = trimesh.Trimesh(box.vertices, box.faces, process=False)
+    box = box.subdivide().subdivide()
+    V, F = np.asarray(box.vertices), np.asarray(box.faces)
+    fn = np.asarray(box.face_normals)
+    text = "".join(f"v {a!r} {b!r} {c!r}\n" for a, b, c in V.tolist())
+    text += "".join(f"vn {a:.6f} {b:.6f} {c:.6f}\n" for a, b, c in fn.tolist())
+    text += "".join(f"f {a}//{k} {b}//{k} {c}//{k}\n"
+                    for k, (a, b, c) in enumerate((F + 1).tolist(), start=1))
+    path = tmp_path / "box.obj"
+    path.write_text(text)
+    doc = read_document(path)
+    W = bend(doc.mesh.vertices)
+    write_document(tmp_path / "bent.obj", doc.with_vertices(W))
+    out = (tmp_path / "bent.obj").read_bytes().splitlines()
+    normals = np.array([[float(x) for x in line.split()[1:]] for line in out if line.startswith(b"vn ")])
+    assert len(normals) == len(F)  # the index structure is the file's
+    bent = trimesh.Trimesh(W, F, process=False)
+    assert angle_degrees(normals, np.asarray(bent.face_normals)).max() < 0.01
+    untouched = ~np.any(W != V, axis=1)[F].any(axis=1)
+    assert np.array_equal(normals[untouched], np.round(fn[untouched], 6))
+
+
+# --------------------------------------------------------------------------- PLY
+
+
+def coloured_ply(path: Path, fmt: str) -> Path:
+    """Colours, normals, a float property, a face property, an extra element and comments."""
+    m = bumpy_blob(2)
+    n = len(m.vertices)
+    normals = vertex_normals(m.vertices, m.faces)
+    vertex = np.empty(n, dtype=[("x", "f4"), ("y", "f4"), ("z", "f4"), ("nx", "f4"), ("ny", "f4"),
+                                ("nz", "f4"), ("red", "u1"), ("green", "u1"), ("blue", "u1"),
+                                ("alpha", "u1"), ("quality", "f4")])
+    for k, name in enumerate("xyz"):
+        vertex[name] = m.vertices[:, k]
+        vertex["n" + name] = normals[:, k]
+    rng = np.random.default_rng(1)
+    for name in ("red", "green", "blue", "alpha"):
+        vertex[name] = rng.integers(0, 256, n)
+    vertex["quality"] = rng.random(n)
+    faces = np.empty(len(m.faces), dtype=[("vertex_indices", "i4", (3,)), ("flags", "u2")])
+    faces["vertex_indices"] = m.faces
+    faces["flags"] = np.arange(len(m.faces)) % 7
+    camera = np.array([(1.5, -2.0, 0.25, 35.0)],
+                      dtype=[("px", "f8"), ("py", "f8"), ("pz", "f8"), ("fov", "f4")])
+    data = plyfile.PlyData(
+        [plyfile.PlyElement.describe(vertex, "vertex"),
+         plyfile.PlyElement.describe(faces, "face", len_types={"vertex_indices": "u1"}),
+         plyfile.PlyElement.describe(camera, "camera")],
+        text=fmt == "ascii", byte_order={"ascii": "=", "binary_little_endian": "<",
+                                         "binary_big_endian": ">"}[fmt],
+        comments=["scanned by hand", "units: metres"], obj_info=["a coloured blob"])
+    data.write(str(path))
+    return path
+
+
+@pytest.mark.parametrize("fmt", ["ascii", "binary_little_endian", "binary_big_endian"])
+def test_ply_keeps_every_element_property_and_type(tmp_path: Path, fmt: str) -> None:
+    path = coloured_ply(tmp_path / "blob.ply", fmt)
+    doc = read_document(path)
+    assert doc.colors is not None and doc.normals and "'camera' records" in doc.extras
+    write_document(tmp_path / "same.ply", doc)
+    if fmt != "ascii":
+        assert (tmp_path / "same.ply").read_bytes() == path.read_bytes()
+    V = bend(doc.mesh.vertices)
+    write_document(tmp_path / "bent.ply", doc.with_vertices(V))
+    a, b = plyfile.PlyData.read(str(path)), plyfile.PlyData.read(str(tmp_path / "bent.ply"))
+    assert (b.text, b.byte_order, b.comments, b.obj_info) == (a.text, a.byte_order, a.comments, a.obj_info)
+    assert [e.name for e in b.elements] == [e.name for e in a.elements]
+    for ea, eb in zip(a.elements, b.elements):
+        assert str(eb.header) == str(ea.header)  # names and types
+    va, vb = a["vertex"].data, b["vertex"].data
+    moved = np.any(V != doc.mesh.vertices, axis=1)
+    assert moved.any() and not moved.all()
+    for k, name in enumerate("xyz"):
+        assert np.array_equal(vb[name], V[:, k].astype(np.float32))
+    for name in ("red", "green", "blue", "alpha", "quality"):
+        assert np.array_equal(vb[name], va[name])
+    assert np.array_equal(b["camera"].data, a["camera"].data)
+    assert np.array_equal(np.stack(b["face"].data["vertex_indices"]), np.stack(a["face"].data["vertex_indices"]))
+    assert np.array_equal(b["face"].data["flags"], a["face"].data["flags"])
+    n = np.column_stack([vb["nx"], vb["ny"], vb["nz"]]).astype(np.float64)
+    assert np.allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-5)
+    assert angle_degrees(n, vertex_normals(V, doc.mesh.faces)).max() < 0.01
+    far = ~moved & ~np.isin(np.arange(len(V)), doc.mesh.faces[moved[doc.mesh.faces].any(axis=1)])
+    assert np.array_equal(n[far], np.column_stack([va["nx"], va["ny"], va["nz"]])[far])
+
+
+def test_ply_polygons_and_strips_round_trip(tmp_path: Path) -> None:
+    head = ("ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\n"
+            "property float z\nelement face 2\nproperty list uchar int vertex_indices\n"
+            "element tristrips 1\nproperty list int int vertex_indices\nend_header\n")
+    body = "0 0 0\n1 0 0\n1 1 0\n0 1 0\n0.5 0.5 1\n4 0 1 2 3\n3 0 1 4\n4 1 2 4 3\n"
+    (tmp_path / "p.ply").write_text(head + body)
+    doc = read_document(tmp_path / "p.ply")
+    V = doc.mesh.vertices + np.array([[0, 0, 0]] * 4 + [[0, 0, 0.5]])
+    write_document(tmp_path / "q.ply", doc.with_vertices(V))
+    back = read_document(tmp_path / "q.ply")
+    assert np.array_equal(back.mesh.faces, doc.mesh.faces)
+    assert np.array_equal(back.mesh.vertices, V)
+    data = plyfile.PlyData.read(str(tmp_path / "q.ply"))
+    assert [len(f) for f in data["face"].data["vertex_indices"]] == [4, 3]
+    assert list(data["tristrips"].data["vertex_indices"][0]) == [1, 2, 4, 3]
+
+
+# --------------------------------------------------------------------------- OFF and STL
+
+
+def test_off_keeps_colours_polygons_and_comments(tmp_path: Path) -> None:
+    text = ("COFF\n# a house\n5 2 0\n0 0 0 255 0 0 255\n1 0 0 0 255 0 255\n1 1 0 0 0 255 255\n"
+            "0 1 0 9 9 9 255  # corner\n0.5 0.5 1 1 2 3 255\n4 0 1 2 3 200 10 10\n3 0 1 4\n")
+    (tmp_path / "h.off").write_text(text)
+    doc = read_document(tmp_path / "h.off")
+    assert doc.colors is not None and np.allclose(doc.colors[0], [1, 0, 0, 1])
+    write_document(tmp_path / "same.off", doc)
+    assert (tmp_path / "same.off").read_text() == text
+    V = doc.mesh.vertices.copy()
+    V[3] += [0.25, 0, 0]
+    write_document(tmp_path / "moved.off", doc.with_vertices(V))
+    out = (tmp_path / "moved.off").read_text().splitlines()
+    assert out[6] == "0.25 1.0 0.0 9 9 9 255 # corner"
+    assert [line for i, line in enumerate(out) if i != 6] == [
+        line for i, line in enumerate(text.splitlines()) if i != 6]
+    assert np.array_equal(read_mesh(tmp_path / "moved.off").vertices, V)
+
+
+@pytest.mark.parametrize("kind", ["binary", "ascii"])
+def test_stl_round_trip(tmp_path: Path, kind: str) -> None:
+    m = icosphere(2)
+    tm = trimesh.Trimesh(m.vertices, m.faces, process=False)
+    path = tmp_path / "s.stl"
+    path.write_bytes(trimesh.exchange.stl.export_stl(tm) if kind == "binary"
+                     else trimesh.exchange.stl.export_stl_ascii(tm).encode())
+    doc = read_document(path)
+    write_document(tmp_path / "same.stl", doc)
+    if kind == "binary":
+        assert (tmp_path / "same.stl").read_bytes() == path.read_bytes()
+    else:
+        assert (tmp_path / "same.stl").read_bytes().startswith(b"solid")
+    V = bend(doc.mesh.vertices)
+    write_document(tmp_path / "bent.stl", doc.with_vertices(V))
+    back = read_mesh(tmp_path / "bent.stl")
+    expect = V.astype(np.float32).astype(np.float64) if kind == "binary" else V
+    assert np.array_equal(back.vertices[back.faces], expect[doc.mesh.faces])
+
+
+# --------------------------------------------------------------------------- glTF binary
+
+
+def textured_glb(path: Path) -> Path:
+    """A UV-mapped sphere with a material and an embedded PNG texture, split at its UV seam."""
+    from PIL import Image
+
+    sphere = trimesh.creation.uv_sphere(radius=1.0, count=[16, 16])
+    sphere = trimesh.Trimesh(sphere.vertices, sphere.faces, process=False)
+    uv = np.column_stack([np.arctan2(sphere.vertices[:, 1], sphere.vertices[:, 0]) / (2 * np.pi) + 0.5,
+                          np.arccos(np.clip(sphere.vertices[:, 2], -1, 1)) / np.pi])
+    image = Image.fromarray((np.random.default_rng(0).random((8, 8, 3)) * 255).astype(np.uint8))
+    material = trimesh.visual.material.PBRMaterial(baseColorTexture=image, name="skin")
+    sphere.visual = trimesh.visual.TextureVisuals(uv=uv, material=material)
+    scene = trimesh.Scene()
+    scene.add_geometry(sphere, transform=trimesh.transformations.translation_matrix([0, 0, 2]))
+    path.write_bytes(scene.export(file_type="glb"))
+    return path
+
+
+def _accessor(gltf: pygltflib.GLTF2, index: int) -> np.ndarray:
+    acc = gltf.accessors[index]
+    view = gltf.bufferViews[acc.bufferView]
+    comps = {"VEC2": 2, "VEC3": 3}[acc.type]
+    start = (view.byteOffset or 0) + (acc.byteOffset or 0)
+    return np.frombuffer(gltf.binary_blob(), "<f4", acc.count * comps, start).reshape(-1, comps)
+
+
+def test_glb_keeps_uvs_material_and_texture(tmp_path: Path) -> None:
+    path = textured_glb(tmp_path / "ball.glb")
+    doc = read_document(path)
+    assert doc.extras["materials"] == 1 and doc.extras["embedded images"] == 1
+    write_document(tmp_path / "same.glb", doc)
+    a = pygltflib.GLTF2.load(str(path))
+    same = pygltflib.GLTF2.load(str(tmp_path / "same.glb"))
+    assert same.binary_blob() == a.binary_blob()
+    V = bend(doc.mesh.vertices - [0, 0, 2]) + [0, 0, 2]
+    write_document(tmp_path / "bent.glb", doc.with_vertices(V))
+    b = pygltflib.GLTF2.load(str(tmp_path / "bent.glb"))
+    assert len(b.images) == len(a.images) and len(b.materials) == len(a.materials)
+    prim_a, prim_b = a.meshes[0].primitives[0], b.meshes[0].primitives[0]
+    assert np.array_equal(_accessor(b, prim_b.attributes.TEXCOORD_0), _accessor(a, prim_a.attributes.TEXCOORD_0))
+    image = lambda g: g.binary_blob()[g.bufferViews[g.images[0].bufferView].byteOffset or 0:][
+        :g.bufferViews[g.images[0].bufferView].byteLength]
+    assert image(b) == image(a)
+    back = read_document(tmp_path / "bent.glb")
+    assert np.allclose(back.mesh.vertices, V, atol=1e-6)
+    assert np.array_equal(back.mesh.faces, doc.mesh.faces)
+    if prim_b.attributes.NORMAL is not None:
+        n = _accessor(b, prim_b.attributes.NORMAL).astype(np.float64)
+        assert np.allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-5)
+        truth = vertex_normals(V, doc.mesh.faces)[back.native.file_vertex]
+        assert np.percentile(angle_degrees(n, truth), 99) < 3.0

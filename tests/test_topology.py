@@ -1,0 +1,96 @@
+"""Tests for hybridedit.topology: one answer to closedness, degeneracy, welding and parts."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+
+from hybridedit.topology import (DEGENERATE_RATIO, check_closed, connected_parts, degenerate_faces, edge_balance,
+                                 edge_face_counts, group_rows, is_closed_oriented, weld)
+
+
+def box():
+    b = trimesh.creation.box()
+    return np.asarray(b.vertices, dtype=float), np.asarray(b.faces, dtype=np.int64)
+
+
+def test_a_closed_box_is_closed_and_oriented():
+    v, f = box()
+    check_closed(f)
+    assert is_closed_oriented(f, len(v))
+    keys, bal = edge_balance(f, len(v))
+    assert len(keys) == 18 and not bal.any()
+    edges, counts = edge_face_counts(f, len(v))
+    assert len(edges) == 18 and np.all(counts == 2) and np.all(edges[:, 0] < edges[:, 1])
+
+
+def test_open_flipped_duplicated_and_nonmanifold_are_not_closed_oriented():
+    v, f = box()
+    with pytest.raises(ValueError, match="unbalanced"):
+        check_closed(f[1:])
+    assert not is_closed_oriented(f[1:], len(v))  # a hole
+    flipped = f.copy()
+    flipped[0] = flipped[0, ::-1]
+    assert not is_closed_oriented(flipped, len(v))
+    assert not is_closed_oriented(np.vstack([f, f[:1]]), len(v))  # a duplicate face
+    # a balanced non-manifold surface: closed for mean value coordinates, not a clean manifold
+    two = np.vstack([f, f + 8])
+    two[two == 8] = 0  # two boxes sharing a vertex: still manifold edges
+    assert is_closed_oriented(two, 16)
+    fin = np.vstack([f, [[0, 1, 2], [0, 2, 1]]])  # a zero-volume pair on existing edges
+    check_closed(fin)
+    assert not is_closed_oriented(fin, len(v))
+    with pytest.raises(ValueError, match="repeated vertex"):
+        check_closed([[0, 0, 1]])
+    with pytest.raises(ValueError, match="no faces"):
+        check_closed(np.zeros((0, 3), int))
+
+
+def test_edge_face_counts_with_repeated_indices():
+    edges, counts = edge_face_counts([[0, 0, 1], [0, 1, 2]], 3)
+    assert edges.tolist() == [[0, 1], [0, 2], [1, 2]]
+    assert counts.tolist() == [2, 1, 1]  # (0, 0, 1) uses its edge once
+
+
+def test_one_degenerate_rule():
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [2, 0, 0], [0.5, 1e-13, 0], [0.5, 1e-11, 0],
+                  [np.nan, 0, 0]], float)
+    f = np.array([[0, 1, 2],  # fine
+                  [0, 0, 1],  # repeated index
+                  [0, 1, 3],  # collinear
+                  [0, 3, 4],  # height 1e-13 over a longest edge of 2: below the ratio
+                  [0, 3, 5],  # height 1e-11 over 2: above it
+                  [0, 1, 6]])  # not finite
+    assert degenerate_faces(v, f).tolist() == [False, True, True, True, False, True]
+    # the rule is relative: scaling the shape changes nothing
+    for s in (1e-9, 1e9):
+        assert degenerate_faces(v * s, f).tolist() == [False, True, True, True, False, True]
+    assert DEGENERATE_RATIO == 1e-12
+    assert degenerate_faces(v, np.zeros((0, 3), int)).shape == (0,)
+
+
+def test_weld_merges_coincident_referenced_vertices_only():
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 0, 0], [0, 1, 1e-12], [5, 5, 5]], float)
+    f = np.array([[0, 1, 2], [0, 3, 4]])
+    vw, fw, remap, merged = weld(v, f, 0.0)
+    assert merged == 1 and len(vw) == 4  # exact duplicates only; vertex 5 is unreferenced
+    assert remap.tolist() == [0, 1, 2, 1, 3, -1]
+    assert np.array_equal(vw[fw], v[f])  # exact welding moves nothing
+    vw, fw, remap, merged = weld(v, f, 1e-9)
+    assert merged == 2 and remap[4] == remap[2]
+
+
+def test_connected_parts_number_by_first_vertex_and_skip_unreferenced():
+    v, f = box()
+    faces = np.vstack([f + 9, f])  # vertex 8 unreferenced, the second box listed first
+    count, labels = connected_parts(faces, 17)
+    assert count == 2
+    assert np.all(labels[:8] == 0) and labels[8] == -1 and np.all(labels[9:] == 1)
+    assert connected_parts(np.zeros((0, 3), int), 4) == (0, pytest.approx(-np.ones(4)))
+
+
+def test_group_rows_in_order_of_first_occurrence():
+    keys = np.array([[3, 1], [1, 2], [3, 1], [0, 0], [1, 2]])
+    first, group = group_rows(keys)
+    assert first.tolist() == [0, 1, 3] and group.tolist() == [0, 1, 0, 2, 1]
