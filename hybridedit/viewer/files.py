@@ -193,8 +193,8 @@ class FileActions:
         self.edit_path = Path(path)
         note = "" if s.anchor_at_rest or not s.applied else (
             " Note: this selection was made on a deformed pose; 'hybridedit deform' replays it from the rest pose.")
-        w.message(f"Saved the edit to {path} (the last selection and its drag; cage {s.n_cage} vertices, "
-                  f"use the same --cage with hybridedit deform).{note}")
+        w.message(f"Saved the edit to {path} (the last selection and its drag, in shape vertices: it replays "
+                  f"on any cage of this mesh, e.g. hybridedit deform --edit).{note}")
         return True
 
     def load_edit_dialog(self) -> bool:
@@ -219,7 +219,7 @@ class FileActions:
             return False
         w.polisher.cancel()
         try:
-            s.load_edit(load_edit(path))
+            s.load_edit(load_edit(path), path=str(path))
         except (EditFileError, SelectionError, ValueError) as e:
             w.show_error("Could not load the edit", str(e))
             return False

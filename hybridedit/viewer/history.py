@@ -21,6 +21,7 @@ class Snapshot:
     label : what led here ("select ROI", "drag", ...), for the Edit menu.
     editor, cage_size : the engine (cage and binding) these masks and positions belong to, and
         its cage size: a rebuild adds snapshots on a new cage, and undo goes back to the old one.
+    symmetry : the mirror axis of the selection, or None.
     engine, engine_masks, anchor_state : the engine's own state (exact shape-space
         constraints included) and what it was set from.
     """
@@ -33,6 +34,7 @@ class Snapshot:
     label: str = ""
     editor: object = None
     cage_size: int | float | None = None
+    symmetry: str | None = None
     #: the engine's selection and pose (:meth:`hybridedit.HybridEditor.save_state`),
     #: the mask key they were set from, and the engine state at the anchor
     engine: object = None

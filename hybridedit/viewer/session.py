@@ -32,10 +32,9 @@ from ..binding import dominant_cage_vertex
 from ..editfile import Edit
 from ..editor import HybridEditor, SelectionError
 from ..mesh import Mesh, rrms_edge_error
-from .editio import edit_to_masks, make_edit
 from .history import History, Snapshot
 from .regional import ShapeMetrics
-from .selection import FIXED, HANDLE as HANDLE_STATE, combine, vertex_states
+from .selection import FIXED, FREE as FREE_STATE, HANDLE as HANDLE_STATE, combine, vertex_states
 
 ROI, HANDLE = "roi", "handle"
 TARGETS = (ROI, HANDLE)
@@ -69,10 +68,12 @@ class Session:
         self._settle_left = 0
         self._settle_label: str | None = None
         self.transform = np.eye(4)
+        self._others: dict[int, np.ndarray] = {}  # the other handle groups' transforms (from an edit file)
         self._base = np.eye(4)
         self._anchor: np.ndarray | None = None
         self._anchor_state = None  # the engine's state when the selection was applied
-        self._engine_masks: tuple[bytes, bytes] | None = None
+        self._engine_masks: tuple | None = None
+        self.symmetry: str | None = None  # mirror the selection across this axis's mid-plane
         self.settle_on_release = True
         self.settle_frames = 30
         self.settle_iterations = 2
@@ -117,7 +118,11 @@ class Session:
         return self._anchor is not None and bool(np.array_equal(self._anchor, self.editor.cage.vertices))
 
     def states(self) -> np.ndarray:
-        """Per cage vertex FIXED / FREE / HANDLE (see :mod:`.selection`)."""
+        """Per cage vertex FIXED / FREE / HANDLE (see :mod:`.selection`): the engine's cage roles
+        once it has the selection (mirror images included), else the masks."""
+        if self._engine_masks == self._mask_key() and (self.roi.any() or self.handle.any()):
+            roles = self.editor.cage_roles
+            return np.where(roles > 0, HANDLE_STATE, np.where(roles == 0, FREE_STATE, FIXED)).astype(np.int8)
         return vertex_states(self.roi, self.handle)
 
     @property
@@ -164,7 +169,7 @@ class Session:
             roi=self.roi.copy(), handle=self.handle.copy(), positions=self.cage_positions,
             transform=self.transform.copy(),
             anchor=None if self._anchor is None else self._anchor.copy(), label=label,
-            editor=self.editor, cage_size=self.cage_size,
+            editor=self.editor, cage_size=self.cage_size, symmetry=self.symmetry,
             engine=self.editor.save_state(), engine_masks=self._engine_masks, anchor_state=self._anchor_state,
         )
 
@@ -179,15 +184,18 @@ class Session:
             self._use_editor(snap.editor, snap.cage_size)
         self.roi = snap.roi.copy()
         self.handle = snap.handle.copy()
+        self.symmetry = snap.symmetry
         self.editor.restore_state(snap.engine)
         self._engine_masks = snap.engine_masks
         self._anchor_state = snap.anchor_state
         if snap.anchor is not None:
             self._anchor = snap.anchor.copy()
             self.transform = snap.transform.copy()
+            self._others = {g: T.copy() for g, T in enumerate(snap.engine.transforms) if g > 0}
             self._base = np.eye(4)  # the engine state carries its own transform
         else:
             self._anchor = None
+            self._others = {}
             self.transform = np.eye(4)
             self._base = np.eye(4)
 
@@ -229,36 +237,46 @@ class Session:
         over (it was built by several selections, of which only the last is replayed).
         """
         self.finish_settle()
+        applied = self._anchor is not None and self._engine_masks == self._mask_key()
+        edit = self.editor.edit if applied else None  # shape space: it fits any cage of this shape
+        from_rest = self.anchor_at_rest
         roi_s = np.flatnonzero(self.roi[self.dominant])
         handle_s = np.flatnonzero(self.handle[self.dominant])
-        applied = self._anchor is not None and self._engine_masks == self._mask_key()
-        from_rest = self.anchor_at_rest
-        T = self.transform.copy() if applied else np.eye(4)
         posed = self.is_posed()
         self._use_editor(editor, cage_size)
-        c = editor.cage.n_vertices
-        self.roi = np.zeros(c, dtype=bool)
-        self.handle = np.zeros(c, dtype=bool)
-        self.roi[editor.to_cage(roi_s, "shape")] = True
-        self.handle[editor.to_cage(handle_s, "shape")] = True
-        self._anchor, self.transform, self._base = None, np.eye(4), np.eye(4)
         note = None
-        if applied and self.handle.any() and not np.allclose(T, np.eye(4)):
-            self.editor.reset()
-            self.apply_selection()
-            self.transform = T
-            self.settle()
+        if edit is not None:
+            self._replay(edit)
             if not from_rest:
                 note = ("only the last drag was carried over to the new cage (the pose before it came from "
                         "earlier selections); Ctrl+Z goes back to the old cage and its pose")
-        elif posed:
-            note = "the pose was not carried over to the new cage; Ctrl+Z goes back to the old cage and its pose"
+        else:
+            c = editor.cage.n_vertices
+            self.roi = np.zeros(c, dtype=bool)
+            self.handle = np.zeros(c, dtype=bool)
+            self.roi[editor.to_cage(roi_s, "shape")] = True
+            self.handle[editor.to_cage(handle_s, "shape")] = True
+            self._anchor, self.transform, self._base, self._others = None, np.eye(4), np.eye(4), {}
+            self.editor.reset()
+            if posed:
+                note = "the pose was not carried over to the new cage; Ctrl+Z goes back to the old cage and its pose"
         self._push("rebuild cage")
         return note
 
     # ------------------------------------------------------------------ selection
-    def _mask_key(self) -> tuple[bytes, bytes]:
-        return (np.packbits(self.roi).tobytes(), np.packbits(self.handle).tobytes())
+    def _mask_key(self) -> tuple:
+        return (np.packbits(self.roi).tobytes(), np.packbits(self.handle).tobytes(), self.symmetry)
+
+    def set_symmetry(self, axis: str | None) -> None:
+        """Mirror the selection across the shape's mid-plane normal to ``axis`` ("x", "y", "z"), or not (None).
+
+        Applied with the next drag; the engine refuses a shape that is not symmetric
+        enough (a SelectionError with its measured asymmetry)."""
+        if axis not in (None, "x", "y", "z"):
+            raise ValueError(f"symmetry must be None, 'x', 'y' or 'z', got {axis!r}")
+        if axis != self.symmetry:
+            self.symmetry = axis
+            self._selection_changed(f"mirror {axis.upper()}" if axis else "no mirror")
 
     def _selection_changed(self, label: str) -> None:
         if self._anchor is not None and self._engine_masks != self._mask_key():
@@ -326,7 +344,8 @@ class Session:
         return True
 
     def _give_engine_selection(self) -> None:
-        self.editor.set_selection(np.flatnonzero(self.handle), roi=np.flatnonzero(self.roi), space="cage")
+        self.editor.set_selection(np.flatnonzero(self.handle), roi=np.flatnonzero(self.roi), space="cage",
+                                  symmetry=self.symmetry)
         self._engine_masks = self._mask_key()
 
     def apply_selection(self) -> None:
@@ -345,6 +364,7 @@ class Session:
         self._anchor = self.cage_positions
         self._anchor_state = self.editor.save_state()
         self.transform = np.eye(4)
+        self._others = {}
         self._base = np.eye(4)
 
     # ------------------------------------------------------------------ dragging
@@ -362,7 +382,7 @@ class Session:
         if self._anchor is None:
             raise SelectionError("no selection applied; start a drag first")
         T = np.asarray(T, dtype=np.float64)
-        V = self.editor.drag(transform=T @ np.linalg.inv(self._base), iterations=iterations)
+        V = self.editor.drag(transforms={**self._others, 0: T @ np.linalg.inv(self._base)}, iterations=iterations)
         self.transform = T.copy()
         fs = self.editor.frame_seconds
         self.last_frame_seconds = fs[-1]
@@ -392,7 +412,7 @@ class Session:
         """
         k = min(int(frames), self._settle_left)
         if k > 0:
-            self.editor.drag(transform=self.transform, iterations=k * self.settle_iterations)
+            self.editor.drag(transforms={**self._others, 0: self.transform}, iterations=k * self.settle_iterations)
             self._settle_left -= k
         if self._settle_left == 0 and self._settle_label is not None:
             label, self._settle_label = self._settle_label, None
@@ -441,47 +461,50 @@ class Session:
             self._anchor = self.cage_positions
             self._anchor_state = self.editor.save_state()
         self.transform = np.eye(4)
+        self._others = {}
         self._base = np.eye(4)
         self._push("reset pose")
 
     # ------------------------------------------------------------------ edit files
     def to_edit(self) -> Edit:
-        """The edit file for the current selection and handle transform (cage space).
+        """The current selection and handle transforms as a shape-space edit (the engine's
+        :attr:`~hybridedit.HybridEditor.edit`: it replays on any cage of this shape).
 
-        Only the drag since the selection was last applied is stored; ``hybridedit
-        deform`` replays it from the rest pose.
+        Only the drags since the selection was last applied are stored; ``hybridedit
+        deform`` replays them from the rest pose.
         """
         self.finish_settle()
         if not self.handle.any():
             raise SelectionError("The handle is empty: there is nothing to save. Select a handle first.")
-        if self._anchor is not None and self._engine_masks == self._mask_key():
-            center = self._anchor[self.handle].mean(axis=0)
-            T = self.transform
-        else:
-            center = self.cage_positions[self.handle].mean(axis=0)
-            T = np.eye(4)
-        return make_edit(self.roi, self.handle, T, center)
+        if self._anchor is None or self._engine_masks != self._mask_key():
+            self.apply_selection()  # the selection as it is now, not dragged yet
+        return self.editor.edit
 
-    def load_edit(self, edit: Edit) -> None:
+    def _replay(self, edit: Edit, path: str | None = None) -> None:
+        """Set an edit's selection from the rest pose and solve its transforms with the batch settings."""
+        self.editor.reset()
+        self.editor.apply_edit(edit, frames=0, path=path)
+        roles = self.editor.cage_roles
+        self.roi, self.handle = roles >= 0, roles > 0
+        self._engine_masks = self._mask_key()
+        self._anchor = self.editor.cage_positions
+        self._anchor_state = self.editor.save_state()
+        Ts = self.editor.edit_transforms(edit)
+        self.transform = Ts[0]
+        self._others = {g: T for g, T in Ts.items() if g != 0}
+        self._base = np.eye(4)
+        self.settle()
+
+    def load_edit(self, edit: Edit, path: str | None = None) -> None:
         """Replay an edit as ``hybridedit deform`` does: from the rest pose, with the batch settings.
 
-        On any error the session is left as it was.
+        On any error (an edit for another mesh: EditFileError; a selection that does
+        not fit: SelectionError) the session is left as it was.
         """
         self.finish_settle()
-        roi, handle, T = edit_to_masks(self.editor, edit)
         before = self._snapshot("")
         try:
-            self.roi, self.handle = roi, handle
-            self.editor.reset()
-            # the engine takes the edit as it is (shape space, exact constraints), as
-            # `hybridedit deform` does; the masks show it on the cage
-            self.editor.apply_edit(edit, frames=0)
-            self._engine_masks = self._mask_key()
-            self._anchor = self.editor.cage_positions
-            self._anchor_state = self.editor.save_state()
-            self.transform = self.editor.edit_transforms(edit)[0]
-            self._base = np.eye(4)
-            self.settle()
+            self._replay(edit, path)
         except Exception:
             self.restore(before)
             raise

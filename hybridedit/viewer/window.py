@@ -170,6 +170,11 @@ class MainWindow(QtWidgets.QMainWindow):
           tip="Selections change the region of interest (green)", short="ROI")
         A("target_handle", "Target &Handle", lambda: self._set_target(HANDLE), "H", checkable=True,
           tip="Selections change the handle (orange)", short="Handle")
+        for axis in "xyz":
+            A(f"mirror_{axis}", f"&Mirror {axis.upper()}", lambda a=axis: self._toggle_mirror(a),
+              "Shift+" + axis.upper() if axis == "x" else None, checkable=True,
+              tip=f"Mirror the selection across the shape's middle plane normal to {axis.upper()}: the mirrored "
+                  "handle follows the mirrored drag (as Blender's X-mirror)", short=f"Mirror {axis.upper()}")
         A("tool_rect", "Rec&tangle", lambda: self._set_tool(RECTANGLE), "X", checkable=True,
           tip="Rubber-band rectangle selection", short="Rect")
         A("tool_brush", "&Brush", lambda: self._set_tool(BRUSH), "B", checkable=True, tip="Brush selection")
@@ -212,6 +217,7 @@ class MainWindow(QtWidgets.QMainWindow):
             "&Edit": ["undo", "redo", None, "reset_pose", None, "select_all", "clear_sel", "invert_sel", None,
                       "settle", "polish"],
             "&Mode": ["mode_camera", "mode_select", "mode_drag", None, "target_roi", "target_handle", None,
+                      "mirror_x", "mirror_y", "mirror_z", None,
                       "tool_rect", "tool_brush", "brush_bigger", "brush_smaller"],
             "&View": ["show_cage", "stretch", "reset_camera", "antialias", None, "messages"],
             "&Cage": ["rebuild", "cancel_job"],
@@ -237,6 +243,7 @@ class MainWindow(QtWidgets.QMainWindow):
         tb.addWidget(QtWidgets.QLabel(" Target "))
         for n in ("target_roi", "target_handle"):
             tb.addAction(a[n])
+        tb.addAction(a["mirror_x"])
         tb.addSeparator()
         for n in ("tool_rect", "tool_brush"):
             tb.addAction(a[n])
@@ -391,6 +398,33 @@ class MainWindow(QtWidgets.QMainWindow):
         self.polisher.enabled = self.actions_["polish"].isChecked()
         if not self.polisher.enabled:
             self.polisher.cancel()
+
+    @guarded
+    def _toggle_mirror(self, axis: str) -> None:
+        """Mirror the selection across ``axis`` (or stop); a shape not symmetric enough is refused in words."""
+        s = self.session
+        on = self.actions_[f"mirror_{axis}"].isChecked()
+        for other in "xyz":
+            if other != axis:
+                self.actions_[f"mirror_{other}"].setChecked(False)
+        if s is None:
+            return
+        self.finish_settle()
+        self.polisher.cancel()
+        before = s.symmetry
+        s.set_symmetry(axis if on else None)
+        if s.handle.any():
+            try:
+                s.apply_selection()  # the engine measures the asymmetry now, not at the next drag
+            except SelectionError as e:
+                s.undo()  # back to the selection before the toggle
+                self.actions_[f"mirror_{axis}"].setChecked(before == axis)
+                self.show_error(f"Cannot mirror across {axis.upper()}", str(e))
+                return
+        self._refresh_selection()
+        self._update_actions()
+        self.message(f"Mirror {axis.upper()}: the selection and the drag are mirrored across the shape's middle plane"
+                     if on else "Mirror off")
 
     def _toggle_messages(self) -> None:
         self.log_dock.setVisible(self.actions_["messages"].isChecked())

@@ -210,3 +210,89 @@ def test_status_bar_shows_displayed_fps_first(qtbot, win):
     m = re.match(r"(\d+) fps · engine [0-9.]+ ms · render \d+ ms$", text)
     assert m, text
     assert int(m.group(1)) == round(w.view.display_fps()) or int(m.group(1)) > 0
+
+
+def test_an_edit_saved_at_one_cage_size_replays_at_another(qtbot, win, tmp_path, make_blob):
+    w = win
+    s = w.session
+    drag_tip(qtbot, w)
+    posed = s.shape_positions.copy()
+    roles = s.shape_roles()
+    edit = tmp_path / "tip.json"
+    assert w.files.save_edit_to(edit)
+    assert "any cage of this mesh" in w.current_message()
+    # the same mesh on a cage of another size
+    w.set_modified(False)
+    w.set_cage_size(70)
+    assert w.open_path(s.path)
+    wait_loaded(qtbot, w)
+    qtbot.waitUntil(lambda: w.session is not s, timeout=30000)
+    s2 = w.session
+    assert abs(s2.n_cage - 70) < 10 and s2.n_cage != s.n_cage
+    assert w.files.load_edit_from(edit)
+    V = s2.shape_positions
+    # the same constraints, held exactly, and the same shape up to the cage's resolution
+    assert np.array_equal(s2.shape_roles(), roles)
+    diag = s2.mesh.bbox_diagonal()
+    held = roles != 0
+    assert np.abs(V[held] - posed[held]).max() < 1e-9 * diag
+    assert np.abs(V - posed).max() < 0.05 * diag
+    # a different mesh refuses it in one line that says so, and keeps its state
+    other = tmp_path / "other.obj"
+    write_mesh(other, make_blob(3))
+    w.set_modified(False)
+    assert w.open_path(other)
+    wait_loaded(qtbot, w)
+    qtbot.waitUntil(lambda: w.session is not s2, timeout=30000)
+    before = w.session.shape_positions.copy()
+    assert not w.files.load_edit_from(edit)
+    assert "tip.json" in w.last_error and "2,562 vertices" in w.last_error and "refused" in w.last_error
+    assert len(w.last_error.splitlines()) == 1
+    assert np.array_equal(w.session.shape_positions, before)
+
+
+def test_mirror_x_moves_both_sides_or_says_why_not(qtbot, win, tmp_path):
+    import trimesh
+
+    from hybridedit.mesh import Mesh
+
+    w = win
+    # the test blob is not symmetric: refused in words, nothing changes
+    s = w.session
+    P = s.cage_positions
+    s.set_mask("roi", P[:, 0] > 0.0)
+    s.set_mask("handle", P[:, 0] > 1.4)
+    w._refresh_selection()
+    w.actions_["mirror_x"].trigger()
+    assert "mirror" in w.last_error.lower() or "symmetr" in w.last_error.lower()
+    assert s.symmetry is None and not w.actions_["mirror_x"].isChecked()
+    # an exactly symmetric capsule: the mirrored end follows the mirrored drag
+    sym = trimesh.creation.capsule(height=3.0, radius=0.6, count=[24, 24])
+    path = tmp_path / "capsule.obj"
+    write_mesh(path, Mesh(np.asarray(sym.vertices)[:, [2, 1, 0]], np.asarray(sym.faces)))  # long along X
+    w.set_modified(False)
+    assert w.open_path(path)
+    wait_loaded(qtbot, w)
+    qtbot.waitUntil(lambda: w.session is not s, timeout=30000)
+    s = w.session
+    w.scene.reset_camera(tilted=False)
+    P = s.cage_positions
+    s.set_mask("roi", P[:, 0] > 0.3)
+    s.set_mask("handle", P[:, 0] > 1.6)
+    w._refresh_selection()
+    w.actions_["mirror_x"].trigger()
+    assert s.symmetry == "x" and w.actions_["mirror_x"].isChecked()
+    states = s.states()
+    assert np.any(states[P[:, 0] < -1.6] == 2)  # the other end is a handle too, shown as one
+    w.polisher.enabled = False
+    key(qtbot, w, Qt.Key.Key_D)
+    dc, _ = projected(w, s.handle_centroid()[None])
+    a = to_widget(w, dc[0])
+    mouse_drag(qtbot, w.view, a, a + QtCore.QPoint(0, -60), steps=6)
+    settled(qtbot, w)
+    rest = s.mesh.vertices
+    V = s.shape_positions
+    right, left = rest[:, 0] > 1.8, rest[:, 0] < -1.8
+    up_r = (V[right] - rest[right])[:, 1].mean()
+    up_l = (V[left] - rest[left])[:, 1].mean()
+    assert up_r > 0.1 and abs(up_r - up_l) < 1e-3 * s.mesh.bbox_diagonal()
