@@ -89,7 +89,7 @@ class MainWindow(QtWidgets.QMainWindow):
 
         self.view = View(self)
         self.setCentralWidget(self.view)
-        self.scene = Scene(self.view)
+        self.scene = Scene(self.view.plotter)
         self.controller = ViewController(self.view, self.scene, self)
         self.actions_: dict[str, QtGui.QAction] = {}
         self._make_actions()

@@ -2,14 +2,27 @@
 
 from __future__ import annotations
 
-import atexit
+import ctypes
 import os
 import shutil
+import signal
 import subprocess
+import sys
+
+
+def _end_with_parent() -> None:
+    """In the child before exec: the kernel stops Xvfb when the process that started it ends
+    (after Qt has closed its connection; stopping it earlier makes Qt exit with an X I/O error)."""
+    if sys.platform.startswith("linux"):
+        try:
+            ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGTERM))  # PR_SET_PDEATHSIG
+        except (OSError, AttributeError):
+            pass
 
 
 class VirtualDisplay:
-    """Xvfb on a display number it picks itself (``-displayfd``); :meth:`stop` ends it.
+    """Xvfb on a display number it picks itself (``-displayfd``); it ends with this process
+    (or at :meth:`stop`, once no window uses it any more).
 
     Attributes
     ----------
@@ -28,7 +41,8 @@ class VirtualDisplay:
         r, w = os.pipe()
         try:
             proc = subprocess.Popen([exe, "-displayfd", str(w), "-screen", "0", screen, "-nolisten", "tcp"],
-                                    pass_fds=(w,), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                                    pass_fds=(w,), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                    preexec_fn=_end_with_parent)
         finally:
             os.close(w)
         data = b""
@@ -45,7 +59,6 @@ class VirtualDisplay:
             return
         self.proc = proc
         self.display = f":{int(data)}"
-        atexit.register(self.stop)
 
     def stop(self) -> None:
         if self.proc is not None:

@@ -1,7 +1,6 @@
 """The editor window tests run on a real X server: Xvfb is started here when DISPLAY is unset.
 
-Xvfb picks a free display itself (-displayfd) and is stopped when the test
-session ends. Qt uses its xcb platform (VTK renders through GLX).
+Xvfb picks a free display itself (-displayfd) and ends with the test process. Qt uses its xcb platform (VTK renders through GLX).
 """
 
 from __future__ import annotations
@@ -18,11 +17,6 @@ from hybridedit.viewer.xvfb import ensure_display
 _XVFB = ensure_display("1280x1024x24") if sys.platform.startswith("linux") else None
 _XVFB_PROBLEM = _XVFB.problem if _XVFB is not None else ""
 os.environ["QT_QPA_PLATFORM"] = "xcb"
-
-
-def pytest_unconfigure(config) -> None:  # noqa: ARG001
-    if _XVFB is not None:
-        _XVFB.stop()
 
 
 @pytest.fixture(scope="session", autouse=True)
