@@ -26,14 +26,14 @@ def _error(msg: str) -> int:
 
 
 def render_screenshot(path: str | os.PathLike, out: str | os.PathLike, cage: int | float = 0.05,
-                      size: tuple[int, int] = SCREENSHOT_SIZE, show_cage: bool = True) -> int:
-    """Render a mesh with its cage off-screen to a PNG; returns the exit status.
+                      size: tuple[int, int] = SCREENSHOT_SIZE, show_cage: bool = False) -> int:
+    """Render a mesh as the window first shows it, off-screen, to a PNG; returns the exit status.
 
     Parameters
     ----------
     path : mesh file; out : PNG file to write.
     cage : cage size (vertex count or fraction).
-    size : image size in pixels; show_cage : draw the cage overlay.
+    size : image size in pixels; show_cage : also draw the cage wireframe (View > Show Cage Wireframe).
     """
     import pyvista as pv
 
