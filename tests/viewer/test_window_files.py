@@ -16,14 +16,20 @@ Qt = QtCore.Qt
 Btn = QtWidgets.QMessageBox.StandardButton
 
 
-def drag_tip(qtbot, w, pixels: int = 80) -> None:
-    """ROI: the right half; handle: the right end; drag it up with the mouse (no polish: the engine's pose)."""
-    w.polisher.enabled = False
+def select_tip(w):
+    """ROI: the right half of the cage; handle: its right end. Returns the session."""
     s = w.session
     P = s.cage_positions
     s.set_mask("roi", P[:, 0] > 0.0)
     s.set_mask("handle", P[:, 0] > 1.4)
     w._refresh_selection()
+    return s
+
+
+def drag_tip(qtbot, w, pixels: int = 80) -> None:
+    """ROI: the right half; handle: the right end; drag it up with the mouse (no polish: the engine's pose)."""
+    w.polisher.enabled = False
+    s = select_tip(w)
     key(qtbot, w, Qt.Key.Key_D)
     dc, _ = projected(w, s.handle_centroid()[None])
     a = to_widget(w, dc[0])
@@ -192,11 +198,7 @@ def test_keyboard_returns_to_the_view_after_the_cage_box(qtbot, win):
 
 def test_status_bar_shows_displayed_fps_first(qtbot, win):
     w = win
-    s = w.session
-    P = s.cage_positions
-    s.set_mask("roi", P[:, 0] > 0.0)
-    s.set_mask("handle", P[:, 0] > 1.4)
-    w._refresh_selection()
+    s = select_tip(w)
     key(qtbot, w, Qt.Key.Key_D)
     dc, _ = projected(w, s.handle_centroid()[None])
     a = to_widget(w, dc[0])
@@ -258,11 +260,7 @@ def test_mirror_x_moves_both_sides_or_says_why_not(qtbot, win, tmp_path):
 
     w = win
     # the test blob is not symmetric: refused in words, nothing changes
-    s = w.session
-    P = s.cage_positions
-    s.set_mask("roi", P[:, 0] > 0.0)
-    s.set_mask("handle", P[:, 0] > 1.4)
-    w._refresh_selection()
+    s = select_tip(w)
     w.actions_["mirror_x"].trigger()
     assert "mirror" in w.last_error.lower() or "symmetr" in w.last_error.lower()
     assert s.symmetry is None and not w.actions_["mirror_x"].isChecked()
