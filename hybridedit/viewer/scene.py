@@ -38,13 +38,28 @@ CAGE_COLOR = (0.0, 0.55, 0.62)
 STATE_COLORS = np.array([
     [40, 95, 220],   # FIXED: blue
     [60, 190, 70],   # FREE (in the ROI): green
-    [255, 115, 20],  # HANDLE: orange
+    [255, 115, 20],  # HANDLE (group 1): orange
+    [225, 40, 160],  # handle group 2: magenta
+    [0, 190, 210],   # handle group 3: cyan
+    [240, 200, 0],   # handle group 4: yellow
+    [150, 70, 230],  # handle group 5: violet
+    [150, 90, 40],   # handle group 6: brown
 ], dtype=np.uint8)
+"""Cage point colour per state: FIXED, FREE, then one per handle group (repeating after the last)."""
+
+
+def state_rows(states: np.ndarray) -> np.ndarray:
+    """Row of :data:`STATE_COLORS` for each state (handle groups past the table repeat its colours)."""
+    s = np.asarray(states, dtype=np.int64)
+    n = len(STATE_COLORS) - 2
+    return np.where(s >= 2, 2 + (s - 2) % n, s)
+
 FIXED_TINT = (np.array([70, 110, 200], dtype=np.float64), 0.45)
-HANDLE_TINT = (np.array([255, 115, 20], dtype=np.float64), 0.65)
-"""Colour and strength of the tint of the shape's fixed and handle vertices (free ones keep the shape colour)."""
+HANDLE_TINT = 0.65
+"""Colour and strength of the tint of the shape's fixed vertices, and the strength of the handle
+groups' tint (in their point colour); free vertices keep the shape colour."""
 POINT_ALPHA = np.array([[170, 30], [255, 70], [255, 70]], dtype=np.uint8)
-"""Cage point opacity per state (rows FIXED, FREE, HANDLE), facing / facing away from the camera."""
+"""Cage point opacity (rows FIXED, FREE, any handle group), facing / facing away from the camera."""
 DISABLE_SHIFT_SCALE = 0
 """vtkOpenGLVertexBufferObject::DISABLE_SHIFT_SCALE: no bounds rescan of the points at every upload."""
 STRETCH_MAX = 20.0
@@ -65,12 +80,15 @@ def stretch_lookup_table(top: float = STRETCH_MAX) -> vtkLookupTable:
 
 def shape_tint(roles: np.ndarray) -> np.ndarray:
     """Per shape vertex RGB (uint8) for its role: -1 fixed (blue tint), 0 free (the shape colour),
-    g + 1 in handle group g (orange tint)."""
+    g + 1 in handle group g (the group's colour: orange, magenta, cyan, ...)."""
     r = np.asarray(roles)
     rgb = np.empty((len(r), 3))
     rgb[:] = SHAPE_COLOR
-    for mask, (colour, w) in ((r < 0, FIXED_TINT), (r > 0, HANDLE_TINT)):
-        rgb[mask] = (1.0 - w) * SHAPE_COLOR + w * colour
+    colour, w = FIXED_TINT
+    rgb[r < 0] = (1.0 - w) * SHAPE_COLOR + w * colour
+    h = r > 0
+    group_colour = STATE_COLORS[state_rows(r[h].astype(np.int64) + 1)].astype(np.float64)
+    rgb[h] = (1.0 - HANDLE_TINT) * SHAPE_COLOR + HANDLE_TINT * group_colour
     return np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
 
 
@@ -218,7 +236,7 @@ class Scene:
 
         pts = pv.PolyData(P.copy())
         rgba = np.full((len(P), 4), 255, dtype=np.uint8)
-        rgba[:, :3] = STATE_COLORS[np.asarray(states)]
+        rgba[:, :3] = STATE_COLORS[state_rows(states)]
         pts.point_data["state"] = rgba
         pts.point_data.active_scalars_name = "state"
         self._cage_faces = np.ascontiguousarray(cage_faces, dtype=np.int64)
@@ -320,7 +338,7 @@ class Scene:
             return
         s = np.asarray(states)
         self._states = s.astype(np.int64)
-        self.points_poly.point_data["state"][:, :3] = STATE_COLORS[s]
+        self.points_poly.point_data["state"][:, :3] = STATE_COLORS[state_rows(s)]
         _array_modified(self.points_poly, "state")
         self._update_point_cells()
         self.shape.point_data["tint"][:] = shape_tint(roles)
@@ -386,7 +404,7 @@ class Scene:
         else:
             to_cam = np.asarray(cam.GetPosition()) - self._cage_pos
             facing = np.einsum("ij,ij->i", self._cage_normals, to_cam) > 0
-        alpha = POINT_ALPHA[self._states, np.where(facing, 0, 1)]
+        alpha = POINT_ALPHA[np.minimum(self._states, 2), np.where(facing, 0, 1)]
         rgba = self.points_poly.point_data["state"]
         if not np.array_equal(rgba[:, 3], alpha):
             rgba[:, 3] = alpha

@@ -61,14 +61,19 @@ class Session:
         self.dominant = dominant_cage_vertex(editor.M)
         c = editor.cage.n_vertices
         self.roi = np.zeros(c, dtype=bool) if roi is None else np.asarray(roi, dtype=bool).copy()
-        self.handle = np.zeros(c, dtype=bool) if handle is None else np.asarray(handle, dtype=bool).copy()
-        if self.roi.shape != (c,) or self.handle.shape != (c,):
+        #: handle group of each cage vertex: 0 none, g + 1 in group g
+        self.handle_group = np.zeros(c, dtype=np.int8)
+        self.n_groups = 1
+        self.active = 0  # the handle group that selections and drags act on
+        #: transform of each handle group since the selection was applied
+        self.transforms: list[np.ndarray] = [np.eye(4)]
+        if handle is not None:
+            self.handle = handle
+        if self.roi.shape != (c,):
             raise ValueError(f"selection masks must have {c} entries (the cage vertex count)")
         self._stroke: tuple[str, np.ndarray] | None = None
         self._settle_left = 0
         self._settle_label: str | None = None
-        self.transform = np.eye(4)
-        self._others: dict[int, np.ndarray] = {}  # the other handle groups' transforms (from an edit file)
         self._base = np.eye(4)
         self._anchor: np.ndarray | None = None
         self._anchor_state = None  # the engine's state when the selection was applied
@@ -103,6 +108,63 @@ class Session:
         return self.editor.deformed_vertices
 
     @property
+    def handle(self) -> np.ndarray:
+        """(c,) bool: the cage vertices of the active handle group."""
+        return self.handle_group == self.active + 1
+
+    @handle.setter
+    def handle(self, mask) -> None:
+        m = np.asarray(mask, dtype=bool)
+        if m.shape != self.handle_group.shape:
+            raise ValueError(f"a handle mask must have {len(self.handle_group)} entries (the cage vertex count)")
+        g = self.handle_group.copy()
+        g[g == self.active + 1] = 0
+        g[m] = self.active + 1  # a vertex belongs to one group: the active one takes it
+        self.handle_group = g
+
+    @property
+    def all_handles(self) -> np.ndarray:
+        """(c,) bool: the cage vertices of every handle group."""
+        return self.handle_group > 0
+
+    @property
+    def transform(self) -> np.ndarray:
+        """(4, 4) transform of the active handle group since the selection was applied."""
+        return self.transforms[self.active]
+
+    @transform.setter
+    def transform(self, T) -> None:
+        self.transforms = list(self.transforms)
+        self.transforms[self.active] = np.asarray(T, dtype=np.float64).copy()
+
+    def _all_transforms(self, active: np.ndarray | None = None) -> dict[int, np.ndarray]:
+        """{group: transform} for the engine, with the active group at ``active`` when given."""
+        Ts = {g: T for g, T in enumerate(self.transforms)}
+        if active is not None:
+            Ts[self.active] = active
+        return Ts
+
+    def _identity_transforms(self) -> None:
+        self.transforms = [np.eye(4) for _ in range(self.n_groups)]
+
+    def new_group(self) -> bool:
+        """Start a new, empty handle group and make it the active one (False: the active one is empty)."""
+        self.finish_settle()
+        if not self.handle.any():
+            return False
+        self.n_groups += 1
+        self.active = self.n_groups - 1
+        self.transforms = list(self.transforms) + [np.eye(4)]
+        self._push("new handle group")
+        return True
+
+    def next_group(self) -> int:
+        """Make the next handle group the active one (cycling); returns its index."""
+        self.finish_settle()
+        self.active = (self.active + 1) % self.n_groups
+        return self.active
+
+    @property
     def shown_positions(self) -> np.ndarray:
         """The pose on display and saved: the polished one when there is one, else the engine's, (n, 3)."""
         return self.polished if self.polished is not None else self.shape_positions
@@ -120,10 +182,13 @@ class Session:
     def states(self) -> np.ndarray:
         """Per cage vertex FIXED / FREE / HANDLE (see :mod:`.selection`): the engine's cage roles
         once it has the selection (mirror images included), else the masks."""
-        if self._engine_masks == self._mask_key() and (self.roi.any() or self.handle.any()):
+        if self._engine_masks == self._mask_key() and (self.roi.any() or self.all_handles.any()):
             roles = self.editor.cage_roles
-            return np.where(roles > 0, HANDLE_STATE, np.where(roles == 0, FREE_STATE, FIXED)).astype(np.int8)
-        return vertex_states(self.roi, self.handle)
+            return np.where(roles > 0, HANDLE_STATE + roles - 1, np.where(roles == 0, FREE_STATE, FIXED)).astype(np.int8)
+        st = vertex_states(self.roi, self.all_handles)
+        h = self.all_handles
+        st[h] = HANDLE_STATE + self.handle_group[h] - 1  # one state (colour) per handle group
+        return st
 
     @property
     def edges(self) -> np.ndarray:
@@ -131,18 +196,17 @@ class Session:
         return self.metrics.edges
 
     def shape_roles(self) -> np.ndarray:
-        """Per shape vertex: -1 held fixed, 0 free, 1 in the handle ((n,) int8); all 0 with no selection.
+        """Per shape vertex: -1 held fixed, 0 free, g + 1 in handle group g ((n,) int8); all 0 with no selection.
 
         Once the engine has the selection these are its roles (what it holds exactly); before,
         the same rule previewed: a vertex takes the state of the cage vertex it depends on most.
         """
-        if not self.roi.any() and not self.handle.any():
+        if not self.roi.any() and not self.all_handles.any():
             return np.zeros(self.mesh.n_vertices, dtype=np.int8)
         if self._engine_masks == self._mask_key():
             return self.editor.vertex_roles
-        lut = np.zeros(3, dtype=np.int8)
-        lut[FIXED], lut[HANDLE_STATE] = -1, 1
-        return lut[self.states()[self.dominant]]
+        st = self.states()[self.dominant].astype(np.int8)
+        return np.where(st == FIXED, -1, np.where(st == FREE_STATE, 0, st - HANDLE_STATE + 1)).astype(np.int8)
 
     def moving_vertices(self) -> np.ndarray | None:
         """The shape vertices a drag of the applied selection can move, (k,) int64 (None: no selection)."""
@@ -166,8 +230,8 @@ class Session:
     # ------------------------------------------------------------------ history
     def _snapshot(self, label: str) -> Snapshot:
         return Snapshot(
-            roi=self.roi.copy(), handle=self.handle.copy(), positions=self.cage_positions,
-            transform=self.transform.copy(),
+            roi=self.roi.copy(), handle=self.handle_group.copy(), positions=self.cage_positions,
+            transform=np.stack(self.transforms), active=self.active,
             anchor=None if self._anchor is None else self._anchor.copy(), label=label,
             editor=self.editor, cage_size=self.cage_size, symmetry=self.symmetry,
             engine=self.editor.save_state(), engine_masks=self._engine_masks, anchor_state=self._anchor_state,
@@ -183,21 +247,21 @@ class Session:
         if snap.editor is not None and snap.editor is not self.editor:
             self._use_editor(snap.editor, snap.cage_size)
         self.roi = snap.roi.copy()
-        self.handle = snap.handle.copy()
+        self.handle_group = np.asarray(snap.handle).astype(np.int8)
+        Ts = np.asarray(snap.transform).reshape(-1, 4, 4)
+        self.n_groups = max(len(Ts), int(self.handle_group.max(initial=0)), 1)
+        self.active = min(snap.active, self.n_groups - 1)
         self.symmetry = snap.symmetry
         self.editor.restore_state(snap.engine)
         self._engine_masks = snap.engine_masks
         self._anchor_state = snap.anchor_state
         if snap.anchor is not None:
             self._anchor = snap.anchor.copy()
-            self.transform = snap.transform.copy()
-            self._others = {g: T.copy() for g, T in enumerate(snap.engine.transforms) if g > 0}
-            self._base = np.eye(4)  # the engine state carries its own transform
+            self.transforms = [T.copy() for T in Ts] + [np.eye(4)] * (self.n_groups - len(Ts))
         else:
             self._anchor = None
-            self._others = {}
-            self.transform = np.eye(4)
-            self._base = np.eye(4)
+            self._identity_transforms()
+        self._base = np.eye(4)  # the engine state carries its own transform
 
     def undo(self) -> bool:
         self.finish_settle()
@@ -241,7 +305,7 @@ class Session:
         edit = self.editor.edit if applied else None  # shape space: it fits any cage of this shape
         from_rest = self.anchor_at_rest
         roi_s = np.flatnonzero(self.roi[self.dominant])
-        handle_s = np.flatnonzero(self.handle[self.dominant])
+        groups_s = self.handle_group[self.dominant]
         posed = self.is_posed()
         self._use_editor(editor, cage_size)
         note = None
@@ -253,10 +317,12 @@ class Session:
         else:
             c = editor.cage.n_vertices
             self.roi = np.zeros(c, dtype=bool)
-            self.handle = np.zeros(c, dtype=bool)
             self.roi[editor.to_cage(roi_s, "shape")] = True
-            self.handle[editor.to_cage(handle_s, "shape")] = True
-            self._anchor, self.transform, self._base, self._others = None, np.eye(4), np.eye(4), {}
+            self.handle_group = np.zeros(c, dtype=np.int8)
+            for g in range(self.n_groups):
+                self.handle_group[editor.to_cage(np.flatnonzero(groups_s == g + 1), "shape")] = g + 1
+            self._anchor, self._base = None, np.eye(4)
+            self._identity_transforms()
             self.editor.reset()
             if posed:
                 note = "the pose was not carried over to the new cage; Ctrl+Z goes back to the old cage and its pose"
@@ -265,7 +331,7 @@ class Session:
 
     # ------------------------------------------------------------------ selection
     def _mask_key(self) -> tuple:
-        return (np.packbits(self.roi).tobytes(), np.packbits(self.handle).tobytes(), self.symmetry)
+        return (np.packbits(self.roi).tobytes(), self.handle_group.tobytes(), self.symmetry)
 
     def set_symmetry(self, axis: str | None) -> None:
         """Mirror the selection across the shape's mid-plane normal to ``axis`` ("x", "y", "z"), or not (None).
@@ -281,7 +347,7 @@ class Session:
     def _selection_changed(self, label: str) -> None:
         if self._anchor is not None and self._engine_masks != self._mask_key():
             self._anchor = None
-            self.transform = np.eye(4)
+            self._identity_transforms()
             self._base = np.eye(4)
         self._push(label)
 
@@ -343,9 +409,23 @@ class Session:
         self._selection_changed(f"select {'ROI' if target == ROI else 'handle'}")
         return True
 
+    def _compact_groups(self) -> None:
+        """Drop empty handle groups (the engine numbers groups 0..G-1, all non-empty)."""
+        used = [g for g in range(self.n_groups) if np.any(self.handle_group == g + 1)]
+        if len(used) == self.n_groups:
+            return
+        lut = np.zeros(self.n_groups + 1, dtype=np.int8)
+        for k, g in enumerate(used):
+            lut[g + 1] = k + 1
+        self.handle_group = lut[self.handle_group]
+        self.active = used.index(self.active) if self.active in used else 0
+        self.transforms = [self.transforms[g] for g in used] or [np.eye(4)]
+        self.n_groups = max(len(used), 1)
+
     def _give_engine_selection(self) -> None:
-        self.editor.set_selection(np.flatnonzero(self.handle), roi=np.flatnonzero(self.roi), space="cage",
-                                  symmetry=self.symmetry)
+        self._compact_groups()
+        handles = [np.flatnonzero(self.handle_group == g + 1) for g in range(self.n_groups)]
+        self.editor.set_selection(handles, roi=np.flatnonzero(self.roi), space="cage", symmetry=self.symmetry)
         self._engine_masks = self._mask_key()
 
     def apply_selection(self) -> None:
@@ -357,14 +437,15 @@ class Session:
             Empty handle, or a cage part with no fixed or handle vertex.
         """
         if not self.handle.any():
+            which = f"Handle group {self.active + 1}" if self.n_groups > 1 else "The handle"
             raise SelectionError(
-                "The handle is empty. Choose the Handle target and select the cage vertices to drag first."
+                f"{which} is empty. Choose the Handle target and select the cage vertices to drag first"
+                + (" (G switches group)." if self.n_groups > 1 else ".")
             )
         self._give_engine_selection()
         self._anchor = self.cage_positions
         self._anchor_state = self.editor.save_state()
-        self.transform = np.eye(4)
-        self._others = {}
+        self._identity_transforms()
         self._base = np.eye(4)
 
     # ------------------------------------------------------------------ dragging
@@ -382,7 +463,7 @@ class Session:
         if self._anchor is None:
             raise SelectionError("no selection applied; start a drag first")
         T = np.asarray(T, dtype=np.float64)
-        V = self.editor.drag(transforms={**self._others, 0: T @ np.linalg.inv(self._base)}, iterations=iterations)
+        V = self.editor.drag(transforms=self._all_transforms(T @ np.linalg.inv(self._base)), iterations=iterations)
         self.transform = T.copy()
         fs = self.editor.frame_seconds
         self.last_frame_seconds = fs[-1]
@@ -412,7 +493,7 @@ class Session:
         """
         k = min(int(frames), self._settle_left)
         if k > 0:
-            self.editor.drag(transforms={**self._others, 0: self.transform}, iterations=k * self.settle_iterations)
+            self.editor.drag(transforms=self._all_transforms(), iterations=k * self.settle_iterations)
             self._settle_left -= k
         if self._settle_left == 0 and self._settle_label is not None:
             label, self._settle_label = self._settle_label, None
@@ -460,8 +541,7 @@ class Session:
         if self._anchor is not None:
             self._anchor = self.cage_positions
             self._anchor_state = self.editor.save_state()
-        self.transform = np.eye(4)
-        self._others = {}
+        self._identity_transforms()
         self._base = np.eye(4)
         self._push("reset pose")
 
@@ -474,7 +554,7 @@ class Session:
         deform`` replays them from the rest pose.
         """
         self.finish_settle()
-        if not self.handle.any():
+        if not self.all_handles.any():
             raise SelectionError("The handle is empty: there is nothing to save. Select a handle first.")
         if self._anchor is None or self._engine_masks != self._mask_key():
             self.apply_selection()  # the selection as it is now, not dragged yet
@@ -485,13 +565,15 @@ class Session:
         self.editor.reset()
         self.editor.apply_edit(edit, frames=0, path=path)
         roles = self.editor.cage_roles
-        self.roi, self.handle = roles >= 0, roles > 0
+        self.roi = roles >= 0
+        self.handle_group = np.maximum(roles, 0).astype(np.int8)
+        Ts = self.editor.edit_transforms(edit)
+        self.n_groups = max(len(Ts), 1)
+        self.active = 0
+        self.transforms = [np.asarray(Ts[g], dtype=np.float64) for g in range(len(Ts))] or [np.eye(4)]
         self._engine_masks = self._mask_key()
         self._anchor = self.editor.cage_positions
         self._anchor_state = self.editor.save_state()
-        Ts = self.editor.edit_transforms(edit)
-        self.transform = Ts[0]
-        self._others = {g: T for g, T in Ts.items() if g != 0}
         self._base = np.eye(4)
         self.settle()
 

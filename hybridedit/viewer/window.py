@@ -23,7 +23,7 @@ from .files import FileActions, dropped_path
 from .help import HOWTO, ShortcutsDialog
 from .interaction import BRUSH, CAMERA, DRAG, RECTANGLE, SELECT, ViewController
 from .polishing import PolishScheduler
-from .scene import STATE_COLORS, Scene
+from .scene import STATE_COLORS, Scene, state_rows
 from .session import HANDLE, ROI, Session
 from .view import View
 from .worker import BuildRequest, BuildResult, BuildWorker, PolishOutcome
@@ -175,6 +175,11 @@ class MainWindow(QtWidgets.QMainWindow):
               "Shift+" + axis.upper() if axis == "x" else None, checkable=True,
               tip=f"Mirror the selection across the shape's middle plane normal to {axis.upper()}: the mirrored "
                   "handle follows the mirrored drag (as Blender's X-mirror)", short=f"Mirror {axis.upper()}")
+        A("new_group", "&New Handle Group", self.new_group, "Ctrl+G",
+          tip="Start another handle group (its own colour and transform); select its cage points next",
+          short="New group")
+        A("next_group", "Ne&xt Handle Group", self.next_group, "G",
+          tip="Make the next handle group the one that selections and drags act on", short="Next group")
         A("tool_rect", "Rec&tangle", lambda: self._set_tool(RECTANGLE), "X", checkable=True,
           tip="Rubber-band rectangle selection", short="Rect")
         A("tool_brush", "&Brush", lambda: self._set_tool(BRUSH), "B", checkable=True, tip="Brush selection")
@@ -217,7 +222,7 @@ class MainWindow(QtWidgets.QMainWindow):
             "&Edit": ["undo", "redo", None, "reset_pose", None, "select_all", "clear_sel", "invert_sel", None,
                       "settle", "polish"],
             "&Mode": ["mode_camera", "mode_select", "mode_drag", None, "target_roi", "target_handle", None,
-                      "mirror_x", "mirror_y", "mirror_z", None,
+                      "new_group", "next_group", None, "mirror_x", "mirror_y", "mirror_z", None,
                       "tool_rect", "tool_brush", "brush_bigger", "brush_smaller"],
             "&View": ["show_cage", "stretch", "reset_camera", "antialias", None, "messages"],
             "&Cage": ["rebuild", "cancel_job"],
@@ -243,6 +248,8 @@ class MainWindow(QtWidgets.QMainWindow):
         tb.addWidget(QtWidgets.QLabel(" Target "))
         for n in ("target_roi", "target_handle"):
             tb.addAction(a[n])
+        tb.addAction(a["new_group"])
+        tb.addAction(a["next_group"])
         tb.addAction(a["mirror_x"])
         tb.addSeparator()
         for n in ("tool_rect", "tool_brush"):
@@ -372,7 +379,8 @@ class MainWindow(QtWidgets.QMainWindow):
     def _set_target(self, target: str) -> None:
         self.target = target
         self.actions_["target_roi" if target == ROI else "target_handle"].setChecked(True)
-        rgb = STATE_COLORS[1] if target == ROI else STATE_COLORS[2]
+        active = self.session.active if self.session is not None else 0
+        rgb = STATE_COLORS[1] if target == ROI else STATE_COLORS[state_rows(2 + active)]
         self.controller.target_color = QtGui.QColor(int(rgb[0]), int(rgb[1]), int(rgb[2]))
 
     def _set_tool(self, tool: str) -> None:
@@ -425,6 +433,36 @@ class MainWindow(QtWidgets.QMainWindow):
         self._update_actions()
         self.message(f"Mirror {axis.upper()}: the selection and the drag are mirrored across the shape's middle plane"
                      if on else "Mirror off")
+
+    def _group_name(self) -> str:
+        s = self.session
+        names = ("orange", "magenta", "cyan", "yellow", "violet", "brown")
+        return f"handle group {s.active + 1} of {s.n_groups} ({names[int(state_rows(2 + s.active)) - 2]})"
+
+    @guarded
+    def new_group(self) -> None:
+        """Start a new handle group and select its cage points next (Handle target, Select mode)."""
+        s = self.session
+        if s is None or self.controller.busy:
+            return
+        self.polisher.cancel()
+        if not s.new_group():
+            self.message("The current handle group is still empty: select its cage points first")
+            return
+        self._set_target(HANDLE)
+        self._refresh_selection()
+        self._update_actions()
+        self.message(f"New {self._group_name()}: select its cage points (Select mode, Handle target)")
+
+    @guarded
+    def next_group(self) -> None:
+        s = self.session
+        if s is None or self.controller.busy:
+            return
+        s.next_group()
+        self._set_target(self.target)
+        self._refresh_selection()
+        self.message(f"Now {self._group_name()}: selections and drags act on it")
 
     def _toggle_messages(self) -> None:
         self.log_dock.setVisible(self.actions_["messages"].isChecked())
@@ -812,10 +850,12 @@ class MainWindow(QtWidgets.QMainWindow):
             return
         m, c = s.mesh, s.editor.cage
         self.size_label.setText(f"shape {_fmt(m.n_vertices)} v / {_fmt(m.n_faces)} f · cage {_fmt(c.n_vertices)} v")
-        n_roi = int(np.count_nonzero(s.roi & ~s.handle))
+        h = s.all_handles
+        n_roi = int(np.count_nonzero(s.roi & ~h))
         n_h = int(np.count_nonzero(s.handle))
-        n_f = int(np.count_nonzero(~s.roi & ~s.handle))
-        self.sel_label.setText(f"ROI {n_roi} · handle {n_h} · fixed {n_f}")
+        n_f = int(np.count_nonzero(~s.roi & ~h))
+        group = f" (group {s.active + 1} of {s.n_groups})" if s.n_groups > 1 else ""
+        self.sel_label.setText(f"ROI {n_roi} · handle {n_h}{group} · fixed {n_f}")
 
     def _on_rendered(self, seconds: float) -> None:
         a = self.actions_["antialias"]
