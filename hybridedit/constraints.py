@@ -18,11 +18,30 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
+from numba import njit
 
 from .linsolve import SPDSolver
 
 FIXED = -1
 FREE = 0
+
+
+def _bounded(L: sp.csr_matrix, free: np.ndarray) -> np.ndarray:
+    """The vertices of ``free`` in parts of the free region that touch a vertex
+    outside it (a part that touches none, e.g. a loose part carried by its host,
+    has no boundary to be solved from and is left out)."""
+    free = np.asarray(free, dtype=np.int64)
+    if free.size == 0:
+        return free
+    rows = L[free]
+    K = rows[:, free]
+    n_parts, part = sp.csgraph.connected_components(K, directed=False)
+    inside = np.zeros(L.shape[0], dtype=bool)
+    inside[free] = True
+    out_deg = np.diff(rows.indptr) - np.diff(K.tocsr().indptr)
+    touches = np.zeros(n_parts, dtype=bool)
+    touches[part[out_deg > 0]] = True
+    return free[touches[part]]
 
 
 class SeamSpread:
@@ -49,18 +68,101 @@ class SeamSpread:
         self.free = np.asarray(free, dtype=np.int64)
         self.seam = np.asarray(seam, dtype=np.int64)
         self._solver = None
+        self._rows = np.zeros(0, dtype=np.int64)
         if self.free.size and self.seam.size:
             L = sp.csr_matrix(laplacian)
-            rows = L[self.free]
-            K = rows[:, self.free].tocsc()
-            # a free part with no boundary at all (a loose part carried by its host)
-            # gets no correction rather than a singular system
-            K = K + sp.eye(K.shape[0], format="csc") * (1e-9 * max(float(K.diagonal().mean()), 1e-300))
-            self._solver = SPDSolver(K)
+            solved = _bounded(L, self.free)  # a part with no boundary gets no correction
+            self._rows = np.searchsorted(self.free, solved) if np.all(np.diff(self.free) > 0) \
+                else np.flatnonzero(np.isin(self.free, solved))
+            rows = L[solved]
+            self._solver = SPDSolver(rows[:, solved].tocsc())
             self._coupling = rows[:, self.seam].tocsr()
 
     def correction(self, mismatch: np.ndarray) -> np.ndarray:
         """(f, 3) correction of the free vertices for the seam's (s, 3) ``mismatch``."""
+        out = np.zeros((self.free.size, 3))
+        if self._solver is not None:
+            out[self._rows] = self._solver.solve(-(self._coupling @ mismatch))
+        return out
+
+
+@njit(cache=True)
+def _blend_rotations(rows, idx, w, cage_rots, out):
+    """out[i] = sum_k w[i, k] cage_rots[idx[i, k]] for i in rows (a linear blend, as the
+    residual turns with: neighbouring cage rotations differ little; making it
+    orthonormal changes the result by less than 0.2% in benchmarks/table1.py)."""
+    for r in range(rows.shape[0]):
+        i = rows[r]
+        a = out[i]
+        for p in range(3):
+            for q in range(3):
+                a[p, q] = 0.0
+        for k in range(idx.shape[1]):
+            c = w[i, k]
+            if c != 0.0:
+                rk = cage_rots[idx[i, k]]
+                for p in range(3):
+                    for q in range(3):
+                        a[p, q] += c * rk[p, q]
+
+
+class RegionStep:
+    """One full-resolution ARAP global step over the free moving vertices.
+
+    The cage gives every shape vertex a rotation (the blend of the rotations of
+    the cage vertices it depends on most, the same one its residual turns with).
+    With those rotations fixed, the positions of the free vertices that minimise
+    the shape's ARAP energy, given the constrained and still vertices around
+    them, are one sparse solve with the free region's Laplacian (factored once
+    per selection, as :class:`SeamSpread` does). It carries the seam's correction
+    into the region and removes the stretch that interpolating through the
+    coarse cage leaves.
+
+    Parameters
+    ----------
+    rest : (n, 3) float64 rest positions of the shape.
+    laplacian : (n, n) sparse shape Laplacian (positive weights).
+    free : (f,) int64 free moving shape vertices (the unknowns).
+    idx, w : (n, k) the cage vertices and blend weights of each shape vertex's
+        rotation (:func:`hybridedit.residual.residual_setup`).
+    """
+
+    def __init__(self, rest: np.ndarray, laplacian: sp.spmatrix, free: np.ndarray, idx: np.ndarray,
+                 w: np.ndarray) -> None:
+        from .arap import _rhs  # the ARAP right-hand side kernel
+
+        self._rhs = _rhs
+        self.rest = rest
+        self.free = np.asarray(free, dtype=np.int64)
+        self.idx, self.w = idx, w
+        self._solver = None
+        if self.free.size == 0:
+            return
+        L = sp.csr_matrix(laplacian)
+        n = L.shape[0]
+        self.free = _bounded(L, self.free)  # a part with no boundary keeps its propagated pose
+        if self.free.size == 0:
+            return
+        rows = L[self.free]
+        inside = np.zeros(n, dtype=bool)
+        inside[self.free] = True
+        around = np.unique(rows.indices)
+        self.boundary = around[~inside[around]].astype(np.int64)
+        self._solver = SPDSolver(rows[:, self.free].tocsc())
+        self._coupling = rows[:, self.boundary].tocsr()
+        W = (sp.diags(L.diagonal()) - L).tocsr()
+        W.sort_indices()
+        self._W = (W.indptr.astype(np.int64), W.indices.astype(np.int64), W.data.astype(np.float64))
+        self._turning = np.union1d(self.free, self.boundary).astype(np.int64)
+        self._rots = np.zeros((n, 3, 3))
+        self._b = np.empty((self.free.size, 3))
+
+    def apply(self, out: np.ndarray, cage_rotations: np.ndarray) -> None:
+        """Replace ``out[free]`` by the step's solution; the other rows of ``out``
+        (constrained and still vertices) are its boundary values."""
         if self._solver is None:
-            return np.zeros((self.free.size, 3))
-        return self._solver.solve(-(self._coupling @ mismatch))
+            return
+        _blend_rotations(self._turning, self.idx, self.w, cage_rotations, self._rots)
+        indptr, indices, data = self._W
+        self._rhs(self.rest, indptr, indices, data, self._rots, self.free, self._b)
+        out[self.free] = self._solver.solve(self._b - self._coupling @ out[self.boundary])

@@ -13,7 +13,7 @@ from scipy.spatial.transform import Rotation
 
 from .arap import ARAPSolver, edge_weights, laplacian
 from .binding import dominant_cage_vertex
-from .constraints import FIXED, FREE, SeamSpread
+from .constraints import FIXED, FREE, RegionStep, SeamSpread
 from .editfile import Edit, HandleEdit, check_mesh, mesh_fingerprint
 from .mesh import Mesh
 from .propagate import propagate
@@ -59,7 +59,7 @@ class _Selection:
     centers: tuple[np.ndarray, ...]  # default rotation centre of each user group
     seam: np.ndarray  # constrained shape vertices whose rows lean on moving cage vertices
     seam_role: np.ndarray  # their internal roles
-    spread: SeamSpread | None  # carries the seam's correction into ``rows``
+    spread: RegionStep | SeamSpread | None  # solves ``rows`` from the exact constraints around them
     compute: np.ndarray  # rows propagated every frame: rows and seam
 
 
@@ -407,7 +407,7 @@ class HybridEditor:
             cage_groups=tuple(np.flatnonzero(cage_roles == k + 1) for k in range(n_int)), constrained=constrained,
             slots=slots, free_cage=free_cage, rows=rows, mirror=mirror, sym_rows=sym_rows, n_groups=len(groups),
             centers=centers, seam=seam, seam_role=roles[seam],
-            spread=SeamSpread(self._shape_laplacian(), rows, seam) if seam.size else None,
+            spread=self._region_solver(rows, seam),
             compute=np.union1d(rows, seam).astype(np.int64),
         )
         self._transforms = [np.eye(4) for _ in range(len(groups))]
@@ -444,6 +444,16 @@ class HybridEditor:
                 kind.append("mirror")
                 roles[pulled] = len(source)
         return roles, source, kind
+
+    def _region_solver(self, rows: np.ndarray, seam: np.ndarray) -> RegionStep | SeamSpread | None:
+        """What places the free moving rows once the constrained ones are exact: with
+        the residual propagation a full-resolution ARAP step using the cage's
+        rotations; with the paper's linear propagation the harmonic spread of the
+        seam's correction (the propagation itself stays the paper's)."""
+        if self._residual is not None:
+            _, idx, w = self._residual
+            return RegionStep(self.mesh.vertices, self._shape_laplacian(), rows, idx, w)
+        return SeamSpread(self._shape_laplacian(), rows, seam) if seam.size else None
 
     def _shape_laplacian(self) -> sp.csr_matrix:
         """Cotangent Laplacian of the shape (built on first use)."""
@@ -585,16 +595,18 @@ class HybridEditor:
             self._rots[cg] = np.einsum("ij,kjl->kil", T[:3, :3], rots0[cg])
         self._propagate_rows(sel.compute)
         out = self._out
-        if sel.seam.size:
+        if isinstance(sel.spread, SeamSpread):
             goal = shape0[sel.seam]
             for g, T in enumerate(internal):
                 m = sel.seam_role == g + 1
                 goal[m] = goal[m] @ T[:3, :3].T + T[:3, 3]
             out[sel.rows] += sel.spread.correction(goal - out[sel.seam])
-            out[sel.seam] = goal
+        out[sel.seam] = shape0[sel.seam]  # fixed ones; handles are placed next
         for g, T in enumerate(internal):
             rows = sel.shape_groups[g]
             out[rows] = shape0[rows] @ T[:3, :3].T + T[:3, 3]
+        if isinstance(sel.spread, RegionStep):
+            sel.spread.apply(out, self._rots)
         if sel.sym_rows.size:
             r = sel.sym_rows
             partner = sel.mirror.map[r]

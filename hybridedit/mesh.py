@@ -92,10 +92,13 @@ def unique_edges(faces: np.ndarray) -> np.ndarray:
     -------
     (e, 2) int64 array, sorted rows with column 0 < column 1.
     """
-    f = np.asarray(faces, dtype=np.int64)
-    e = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
-    e.sort(axis=1)
-    return np.unique(e, axis=0)
+    f = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    if f.size == 0:
+        return np.zeros((0, 2), dtype=np.int64)
+    a, b = f.ravel(), f[:, [1, 2, 0]].ravel()
+    n = int(f.max()) + 1
+    code = np.unique(np.minimum(a, b) * n + np.maximum(a, b))  # sorting integers, not rows: fast
+    return np.stack([code // n, code % n], axis=1)
 
 
 def edge_lengths(vertices: np.ndarray, edges: np.ndarray) -> np.ndarray:

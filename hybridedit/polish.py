@@ -33,7 +33,8 @@ class PolishResult:
     ----------
     vertices : (n, 3) float64, the polished shape
     iterations : local/global iterations run
-    energy_before, energy_after : full-mesh ARAP energy of the input and output
+    energy_before, energy_after : ARAP energy of the edited region's faces (those
+        touching a free vertex) in the input and the output (0 when nothing was polished)
     seconds : wall time
     stopped : "converged", "time" (the budget ran out, possibly before the set-up),
         "iterations" or "cancelled"
@@ -63,6 +64,11 @@ class ShapeARAP:
     weights : "cotangent" or "uniform"
     """
 
+    #: set-up seconds per region vertex, and factorization seconds per second of
+    #: weights, of the last set-up completed in this process (estimates for the next)
+    _rate = SETUP_SECONDS_PER_VERTEX
+    _factor_ratio = 1.0
+
     def __init__(self, mesh: Mesh, weights: str = "cotangent") -> None:
         self.mesh = mesh
         self.weights = weights
@@ -73,8 +79,6 @@ class ShapeARAP:
         self.region = np.zeros(0, dtype=np.int64)
         #: seconds the last :meth:`prepare` that did work took
         self.setup_seconds = 0.0
-        self._rate = SETUP_SECONDS_PER_VERTEX
-        self._factor_ratio = 1.0  # factorization seconds per second of weights, measured
         self._pending: tuple | None = None  # a set-up stopped after its weights, for the same free set
 
     def prepared_for(self, free: np.ndarray) -> bool:
@@ -117,8 +121,9 @@ class ShapeARAP:
         t_factor = time.perf_counter() - t2
         self.solver, self.region, self._free_key, self._pending = solver, region, key, None
         self.setup_seconds = time.perf_counter() - t0
-        self._rate = self.setup_seconds / max(len(region), 1)
-        self._factor_ratio = t_factor / max(t_weights, 1e-9)
+        # what this machine takes now, for the next set-up's estimates (any shape)
+        ShapeARAP._rate = self.setup_seconds / max(len(region), 1)
+        ShapeARAP._factor_ratio = t_factor / max(t_weights, 1e-9)
         return True
 
     def _region(self, free: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -182,30 +182,46 @@ def _closed_oriented(f, n):  # pragma: no cover - compiled
     return True
 
 
+#: below this many faces the degenerate-face test runs on one thread (starting the
+#: thread pool costs more than the work)
+PARALLEL_FACES = 50_000
+
+
 @numba.njit(cache=True, parallel=True)
-def _degenerate_kernel(v, f, ratio, out):  # pragma: no cover - compiled
+def _degenerate_parallel(v, f, ratio, out):  # pragma: no cover - compiled
     for i in numba.prange(f.shape[0]):
-        i0, i1, i2 = f[i, 0], f[i, 1], f[i, 2]
-        if i0 == i1 or i1 == i2 or i2 == i0:
-            out[i] = True
-            continue
-        ax = v[i1, 0] - v[i0, 0]
-        ay = v[i1, 1] - v[i0, 1]
-        az = v[i1, 2] - v[i0, 2]
-        bx = v[i2, 0] - v[i0, 0]
-        by = v[i2, 1] - v[i0, 1]
-        bz = v[i2, 2] - v[i0, 2]
-        cx = ay * bz - az * by
-        cy = az * bx - ax * bz
-        cz = ax * by - ay * bx
-        area2 = np.sqrt(cx * cx + cy * cy + cz * cz)
-        la = ax * ax + ay * ay + az * az
-        lb = bx * bx + by * by + bz * bz
-        dx, dy, dz = bx - ax, by - ay, bz - az
-        lc = dx * dx + dy * dy + dz * dz
-        longest = max(la, max(lb, lc))
-        # NaN compares false: a face with a non-finite corner counts as degenerate
-        out[i] = not (area2 > ratio * longest)
+        _degenerate_one(v, f, ratio, out, i)
+
+
+@numba.njit(cache=True)
+def _degenerate_serial(v, f, ratio, out):  # pragma: no cover - compiled
+    for i in range(f.shape[0]):
+        _degenerate_one(v, f, ratio, out, i)
+
+
+@numba.njit(cache=True, inline="always")
+def _degenerate_one(v, f, ratio, out, i):  # pragma: no cover - compiled
+    i0, i1, i2 = f[i, 0], f[i, 1], f[i, 2]
+    if i0 == i1 or i1 == i2 or i2 == i0:
+        out[i] = True
+        return
+    ax = v[i1, 0] - v[i0, 0]
+    ay = v[i1, 1] - v[i0, 1]
+    az = v[i1, 2] - v[i0, 2]
+    bx = v[i2, 0] - v[i0, 0]
+    by = v[i2, 1] - v[i0, 1]
+    bz = v[i2, 2] - v[i0, 2]
+    cx = ay * bz - az * by
+    cy = az * bx - ax * bz
+    cz = ax * by - ay * bx
+    area2 = np.sqrt(cx * cx + cy * cy + cz * cz)
+    la = ax * ax + ay * ay + az * az
+    lb = bx * bx + by * by + bz * bz
+    dx, dy, dz = bx - ax, by - ay, bz - az
+    lc = dx * dx + dy * dy + dz * dz
+    longest = max(la, max(lb, lc))
+    # NaN compares false: a face with a non-finite corner counts as degenerate
+    out[i] = not (area2 > ratio * longest)
 
 
 def degenerate_faces(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -224,8 +240,10 @@ def degenerate_faces(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     v = np.ascontiguousarray(vertices, dtype=np.float64)
     f = np.ascontiguousarray(faces, dtype=np.int64).reshape(-1, 3)
     out = np.zeros(len(f), dtype=bool)
-    if len(f):
-        _degenerate_kernel(v, f, DEGENERATE_RATIO, out)
+    if len(f) >= PARALLEL_FACES:
+        _degenerate_parallel(v, f, DEGENERATE_RATIO, out)
+    elif len(f):
+        _degenerate_serial(v, f, DEGENERATE_RATIO, out)
     return out
 
 

@@ -399,3 +399,22 @@ def test_a_tiny_mesh_is_its_own_cage_and_is_edited(kind):
         V = ed.drag(translate=(0, 0.2, 0))
     assert np.allclose(V[top], v[top] + [0, 0.2, 0])
     assert np.allclose(V[v @ [1, 1, 1] < 0], v[v @ [1, 1, 1] < 0])
+
+
+def test_many_small_parts_are_bound_each_to_its_own_piece():
+    rng = np.random.default_rng(1)
+    parts = [_sphere([0, 0, 0], 1.0)]
+    for _ in range(120):  # debris: tiny loose triangles around a scan
+        parts.append((rng.uniform(-1.5, 1.5, 3) + rng.normal(0, 0.01, (3, 3)), np.array([[0, 1, 2]])))
+    parts.append(_sphere([3, 0, 0], 0.05, sub=1))  # and a small closed part: its own cage
+    m = _union(*parts)
+    pieces = cage_parts(m, 0.05)
+    assert pieces.kinds == ("simplified",) + ("shell",) * 120 + ("own",)
+    cage, M = cage_and_binding(m, 0.05)
+    coo = M.tocoo()
+    piece_of_col = np.searchsorted(pieces.offsets, coo.col, side="right") - 1
+    assert np.array_equal(piece_of_col, pieces.owner[coo.row])  # block-diagonal
+    assert np.allclose(np.asarray(M.sum(axis=1)).ravel(), 1.0)
+    near = np.abs(M @ cage.vertices - m.vertices).max(axis=1)
+    sizes = np.array([np.ptp(p[0], axis=0).max() for p in parts])
+    assert np.all(near <= 0.05 * np.repeat(sizes, [len(p[0]) for p in parts]))  # each at its own scale

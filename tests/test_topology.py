@@ -94,3 +94,17 @@ def test_group_rows_in_order_of_first_occurrence():
     keys = np.array([[3, 1], [1, 2], [3, 1], [0, 0], [1, 2]])
     first, group = group_rows(keys)
     assert first.tolist() == [0, 1, 3] and group.tolist() == [0, 1, 0, 2, 1]
+
+
+def test_the_parallel_and_serial_degenerate_tests_agree():
+    from hybridedit.topology import PARALLEL_FACES, _degenerate_serial
+
+    s = trimesh.creation.icosphere(subdivisions=6)
+    v = np.asarray(s.vertices).copy()
+    f = np.asarray(s.faces, dtype=np.int64).copy()
+    assert len(f) >= PARALLEL_FACES
+    f[::1000, 1] = f[::1000, 0]  # repeated indices
+    v[f[5::1000, 2]] = v[f[5::1000, 0]]  # collapsed corners
+    serial = np.zeros(len(f), dtype=bool)
+    _degenerate_serial(v, f, DEGENERATE_RATIO, serial)
+    assert np.array_equal(degenerate_faces(v, f), serial) and serial.sum() >= 2 * (len(f) // 1000)
