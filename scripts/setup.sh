@@ -47,4 +47,7 @@ fi
 spec="."
 [[ -n "$extras" ]] && spec=".[$extras]"
 "${pip[@]}" install -e "$spec"
+# compile every kernel now (cached on disk), so the first window and the first deform do not wait on it
+echo "setup: compiling the kernels (once; about a minute or two)" >&2
+.venv/bin/python -m hybridedit.warmup -q
 echo "setup: ready (.venv)" >&2

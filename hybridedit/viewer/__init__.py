@@ -13,7 +13,11 @@ interaction: mouse handling on the 3D view (rubber band, brush, gizmo, screen-pl
 gizmo      : the translate/rotate gizmo actors and its drag math
 selection  : pure projection, hit tests and add/remove/replace logic
 history    : the undo/redo stack of snapshots
-editio     : the JSON edit file <-> session state (4x4 decomposition)
+files      : open, save, edit files, screenshots, dropped files, the unsaved-pose question
+polishing  : scheduling the polish on release in background threads
+regional   : compiled per-frame kernels (points, normals, edge error, stretch) for the moving region
+frames     : where a frame's time goes (engine, normals, VTK update, render, compose)
+xvfb       : a private virtual X server for tests and benchmarks
 worker     : the QThread that reads a mesh and builds the cage and binding
 view       : the 3D widget (pyvistaqt QtInteractor rendering once per frame, timed) and brush overlay
 cagesize   : the toolbar's cage size control (% or vertex count)

@@ -26,14 +26,14 @@ def _error(msg: str) -> int:
 
 
 def render_screenshot(path: str | os.PathLike, out: str | os.PathLike, cage: int | float = 0.05,
-                      size: tuple[int, int] = SCREENSHOT_SIZE, show_cage: bool = True) -> int:
-    """Render a mesh with its cage off-screen to a PNG; returns the exit status.
+                      size: tuple[int, int] = SCREENSHOT_SIZE, show_cage: bool = False) -> int:
+    """Render a mesh as the window first shows it, off-screen, to a PNG; returns the exit status.
 
     Parameters
     ----------
     path : mesh file; out : PNG file to write.
     cage : cage size (vertex count or fraction).
-    size : image size in pixels; show_cage : draw the cage overlay.
+    size : image size in pixels; show_cage : also draw the cage wireframe (View > Show Cage Wireframe).
     """
     import pyvista as pv
 
@@ -54,8 +54,8 @@ def render_screenshot(path: str | os.PathLike, out: str | os.PathLike, cage: int
     pl = pv.Plotter(off_screen=True, window_size=list(size))
     try:
         scene = Scene(pl)
-        scene.load(session.shape_positions, mesh.faces, session.cage_positions, editor.cage.faces,
-                   session.states(), session.dominant)
+        scene.load(session.metrics, session.shape_positions, session.cage_positions, editor.cage.faces,
+                   session.states(), session.shape_roles())
         scene.set_cage_visible(show_cage)
         scene.reset_camera()
         pl.add_text(f"{Path(path).name}: {mesh.n_vertices:,} vertices, cage {editor.cage.n_vertices:,}",

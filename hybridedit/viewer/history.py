@@ -13,12 +13,17 @@ class Snapshot:
 
     Attributes
     ----------
-    roi, handle : (c,) bool masks over the cage vertices.
+    roi : (c,) bool mask over the cage vertices.
+    handle : (c,) int8 handle group of each cage vertex (0 none, g + 1 group g).
     positions : (c, 3) cage vertex positions.
-    transform : (4, 4) handle transform since the selection was applied.
+    transform : (G, 4, 4) transform of each handle group since the selection was applied.
     anchor : (c, 3) cage pose when the selection was applied, or None when the
         selection has not been applied to the engine (no drag since it changed).
     label : what led here ("select ROI", "drag", ...), for the Edit menu.
+    active : the handle group selections and drags act on.
+    editor, cage_size : the engine (cage and binding) these masks and positions belong to, and
+        its cage size: a rebuild adds snapshots on a new cage, and undo goes back to the old one.
+    symmetry : the mirror axis of the selection, or None.
     engine, engine_masks, anchor_state : the engine's own state (exact shape-space
         constraints included) and what it was set from.
     """
@@ -29,6 +34,10 @@ class Snapshot:
     transform: np.ndarray
     anchor: np.ndarray | None
     label: str = ""
+    active: int = 0
+    editor: object = None
+    cage_size: int | float | None = None
+    symmetry: str | None = None
     #: the engine's selection and pose (:meth:`hybridedit.HybridEditor.save_state`),
     #: the mask key they were set from, and the engine state at the anchor
     engine: object = None

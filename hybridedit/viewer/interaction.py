@@ -14,16 +14,18 @@ from __future__ import annotations
 from typing import Protocol
 
 import numpy as np
-from qtpy import QtCore, QtGui, QtWidgets
+from qtpy import QtCore, QtGui
 
 from . import gizmo as gz
 from .scene import Scene
 from .selection import ADD, REPLACE, brush_hits, op_from_modifiers, project_points, rectangle_hits, stroke_hits
-from .view import View
+from .view import OutlineOverlay, View
 
 CAMERA, SELECT, DRAG = "camera", "select", "drag"
 MODES = (CAMERA, SELECT, DRAG)
 RECTANGLE, BRUSH = "rectangle", "brush"
+NEAR_PIXELS = 60.0
+"""In Select mode the cage points within this many pixels of the cursor are drawn."""
 TOOLS = (RECTANGLE, BRUSH)
 
 
@@ -77,7 +79,7 @@ class ViewController(QtCore.QObject):
         self.brush_radius = 30.0  # widget pixels
         self.gesture: Gesture | None = None
         self._passthrough = False
-        self.rubber = QtWidgets.QRubberBand(QtWidgets.QRubberBand.Shape.Rectangle, view)
+        self.rubber = OutlineOverlay(view, circle=False)
         view.installEventFilter(self)
         self.set_mode(CAMERA)
 
@@ -99,6 +101,8 @@ class ViewController(QtCore.QObject):
         }
         self.view.setCursor(cursors[mode])
         self.view.brush.hide()
+        if self.scene.set_points_near(None):
+            self.view.request_render()
         if self.scene.gizmo.set_hover(None):
             self.view.request_render()
 
@@ -143,6 +147,7 @@ class ViewController(QtCore.QObject):
             return ev.button() == QtCore.Qt.MouseButton.LeftButton and self.mode != CAMERA
         if t == E.Leave:
             self.view.brush.hide()
+            self._show_points_near(None)
         return False
 
     def _matrices(self) -> tuple[np.ndarray, tuple[int, int]]:
@@ -262,7 +267,21 @@ class ViewController(QtCore.QObject):
         self._hover(pos)
         return True
 
+    def _show_points_near(self, pos: QtCore.QPointF | None) -> None:
+        """In Select mode, draw the cage points near the cursor (the others only when selected)."""
+        near = None
+        if pos is not None and self.mode == SELECT:
+            P = self.handler.cage_points()
+            if P is not None:
+                C, size = self._matrices()
+                display, front = project_points(P, C, size)
+                r = max(NEAR_PIXELS, 1.5 * self.brush_radius) * self.view.devicePixelRatioF()
+                near = brush_hits(display, front, self.view.to_display(pos), r)
+        if self.scene.set_points_near(near):
+            self.view.request_render()
+
     def _hover(self, pos: QtCore.QPointF) -> None:
+        self._show_points_near(pos)
         if self.mode == SELECT and self.tool == BRUSH:
             self.view.brush.show_at(pos, self.brush_radius, self.target_color)
             return

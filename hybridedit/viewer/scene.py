@@ -1,26 +1,35 @@
-"""The 3D scene: smooth-shaded shape, cage wireframe, coloured cage points, gizmo.
+"""The 3D scene: the smooth-shaded shape, the selection as a tint on it, a few cage points, the gizmo.
 
 Works on any pyvista plotter (the window's ``QtInteractor`` or an off-screen
 ``pyvista.Plotter`` for screenshots). The actors are built once per loaded
-shape; every frame only rewrites their point arrays in place.
+shape; every frame only rewrites the moving part of their point arrays in
+place (:mod:`.regional`).
+
+What is drawn: the shape, tinted blue where it is held fixed and orange where
+it is a handle (exactly the engine's vertex roles); cage points only where
+they help (the ROI and the handle, and all points near the cursor in Select
+mode); the cage wireframe on request (View > Show Cage Wireframe).
 
 Layers: the shape and the depth-tested cage wireframe are drawn in the main
 renderer; a second renderer on layer 1 (same camera, cleared depth) draws on
 top of everything: a faint copy of the wireframe (so hidden cage edges show
-through), the cage points (all selectable, so all visible) and the gizmo.
+through), the cage points and the gizmo.
 """
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import pyvista as pv
-from numba import njit
 from vtkmodules.vtkCommonCore import vtkLookupTable
 from vtkmodules.vtkRenderingAnnotation import vtkScalarBarActor
-from vtkmodules.vtkRenderingCore import vtkRenderer
+from vtkmodules.vtkRenderingCore import vtkPolyDataMapper, vtkRenderer
 
 from ..mesh import unique_edges
 from .gizmo import Gizmo
+from .regional import ShapeMetrics, vertex_normals
+from .selection import FIXED as FIXED_STATE
 
 BACKGROUND_TOP = (0.93, 0.94, 0.96)
 BACKGROUND_BOTTOM = (0.62, 0.66, 0.72)
@@ -29,12 +38,30 @@ CAGE_COLOR = (0.0, 0.55, 0.62)
 STATE_COLORS = np.array([
     [40, 95, 220],   # FIXED: blue
     [60, 190, 70],   # FREE (in the ROI): green
-    [255, 115, 20],  # HANDLE: orange
+    [255, 115, 20],  # HANDLE (group 1): orange
+    [225, 40, 160],  # handle group 2: magenta
+    [0, 190, 210],   # handle group 3: cyan
+    [240, 200, 0],   # handle group 4: yellow
+    [150, 70, 230],  # handle group 5: violet
+    [150, 90, 40],   # handle group 6: brown
 ], dtype=np.uint8)
-SHAPE_TINT = np.array([0.12, 0.35, 0.60])
+"""Cage point colour per state: FIXED, FREE, then one per handle group (repeating after the last)."""
+
+
+def state_rows(states: np.ndarray) -> np.ndarray:
+    """Row of :data:`STATE_COLORS` for each state (handle groups past the table repeat its colours)."""
+    s = np.asarray(states, dtype=np.int64)
+    n = len(STATE_COLORS) - 2
+    return np.where(s >= 2, 2 + (s - 2) % n, s)
+
+FIXED_TINT = (np.array([70, 110, 200], dtype=np.float64), 0.45)
+HANDLE_TINT = 0.65
+"""Colour and strength of the tint of the shape's fixed vertices, and the strength of the handle
+groups' tint (in their point colour); free vertices keep the shape colour."""
 POINT_ALPHA = np.array([[170, 30], [255, 70], [255, 70]], dtype=np.uint8)
-"""Cage point opacity per state (rows FIXED, FREE, HANDLE), facing / facing away from the camera."""
-"""How strongly each state's colour tints the shape vertices it dominates."""
+"""Cage point opacity (rows FIXED, FREE, any handle group), facing / facing away from the camera."""
+DISABLE_SHIFT_SCALE = 0
+"""vtkOpenGLVertexBufferObject::DISABLE_SHIFT_SCALE: no bounds rescan of the points at every upload."""
 STRETCH_MAX = 20.0
 """Top of the stretch map's colour scale, in percent of relative edge-length change (clipped above)."""
 
@@ -51,42 +78,17 @@ def stretch_lookup_table(top: float = STRETCH_MAX) -> vtkLookupTable:
     return lut
 
 
-@njit(cache=True)
-def _vertex_normals(V, F, out):
-    """Area-weighted unit vertex normals of triangles F over points V, written into out."""
-    n = V.shape[0]
-    acc = np.zeros((n, 3))
-    for f in range(F.shape[0]):
-        i, j, k = F[f, 0], F[f, 1], F[f, 2]
-        ax, ay, az = V[j, 0] - V[i, 0], V[j, 1] - V[i, 1], V[j, 2] - V[i, 2]
-        bx, by, bz = V[k, 0] - V[i, 0], V[k, 1] - V[i, 1], V[k, 2] - V[i, 2]
-        nx, ny, nz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
-        for v in (i, j, k):
-            acc[v, 0] += nx
-            acc[v, 1] += ny
-            acc[v, 2] += nz
-    for v in range(n):
-        L = np.sqrt(acc[v, 0] ** 2 + acc[v, 1] ** 2 + acc[v, 2] ** 2)
-        if L > 0.0:
-            out[v, 0], out[v, 1], out[v, 2] = acc[v, 0] / L, acc[v, 1] / L, acc[v, 2] / L
-        else:
-            out[v, 0], out[v, 1], out[v, 2] = 0.0, 0.0, 0.0
-
-
-def vertex_normals(V: np.ndarray, faces: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
-    """Area-weighted unit vertex normals (n, 3), written into ``out`` (float32 or float64) when given."""
-    V = np.ascontiguousarray(V, dtype=np.float64)
-    if out is None:
-        out = np.empty((len(V), 3))
-    _vertex_normals(V, np.ascontiguousarray(faces, dtype=np.int64), out)
-    return out
-
-
-def shape_tint(states: np.ndarray, dominant: np.ndarray) -> np.ndarray:
-    """Per shape vertex RGB (uint8): the base colour tinted by its dominant cage vertex's state."""
-    s = np.asarray(states)[dominant]
-    w = SHAPE_TINT[s][:, None]
-    rgb = (1.0 - w) * SHAPE_COLOR + w * STATE_COLORS[s].astype(np.float64)
+def shape_tint(roles: np.ndarray) -> np.ndarray:
+    """Per shape vertex RGB (uint8) for its role: -1 fixed (blue tint), 0 free (the shape colour),
+    g + 1 in handle group g (the group's colour: orange, magenta, cyan, ...)."""
+    r = np.asarray(roles)
+    rgb = np.empty((len(r), 3))
+    rgb[:] = SHAPE_COLOR
+    colour, w = FIXED_TINT
+    rgb[r < 0] = (1.0 - w) * SHAPE_COLOR + w * colour
+    h = r > 0
+    group_colour = STATE_COLORS[state_rows(r[h].astype(np.int64) + 1)].astype(np.float64)
+    rgb[h] = (1.0 - HANDLE_TINT) * SHAPE_COLOR + HANDLE_TINT * group_colour
     return np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
 
 
@@ -131,7 +133,10 @@ class Scene:
         self._states = np.zeros(0, dtype=np.int64)
         self._actors: list = []
         self._overlay_actors: list = []
-        self.cage_visible = True
+        self.cage_visible = False
+        self.metrics: ShapeMetrics | None = None
+        self._near = np.zeros(0, dtype=bool)
+        self._shown_points = np.zeros(0, dtype=np.int64)
         self.stretch_visible = False
         self.stretch_lut = stretch_lookup_table()
         bar = vtkScalarBarActor()
@@ -163,34 +168,46 @@ class Scene:
         self._actors, self._overlay_actors = [], []
         self.gizmo.remove()
         self.shape = self.cage_poly = self.points_poly = None
+        self.metrics = None
 
-    def load(self, shape_vertices: np.ndarray, faces: np.ndarray, cage_vertices: np.ndarray,
-             cage_faces: np.ndarray, states: np.ndarray, dominant: np.ndarray) -> None:
+    def load(self, metrics: ShapeMetrics, shape_vertices: np.ndarray, cage_vertices: np.ndarray,
+             cage_faces: np.ndarray, states: np.ndarray, roles: np.ndarray) -> None:
         """Build the actors for a shape and its cage (replacing any previous ones).
 
         Parameters
         ----------
-        shape_vertices : (n, 3) current shape; faces : (m, 3) its triangles.
+        metrics : the shape's :class:`~.regional.ShapeMetrics` (faces, and what a drag moves).
+        shape_vertices : (n, 3) current shape.
         cage_vertices : (c, 3) current cage pose; cage_faces : (k, 3).
-        states : (c,) cage vertex states; dominant : (n,) dominant cage vertex per shape vertex.
+        states : (c,) cage vertex states (FIXED / FREE / HANDLE).
+        roles : (n,) shape vertex roles (-1 fixed, 0 free, g + 1 handle group g).
         """
         self.clear()
-        self._faces = np.ascontiguousarray(faces, dtype=np.int64)
-        self._dominant = np.asarray(dominant)
-
-        V = np.asarray(shape_vertices, dtype=np.float64)
+        self.metrics = metrics
+        V = np.ascontiguousarray(shape_vertices, dtype=np.float64)
+        faces = metrics.faces
         shape = pv.PolyData(V.astype(np.float32), faces=np.hstack(
-            [np.full((len(faces), 1), 3, dtype=np.int64), self._faces]).ravel())
-        shape.point_data["Normals"] = vertex_normals(V, self._faces).astype(np.float32)
+            [np.full((len(faces), 1), 3, dtype=np.int64), faces]).ravel())
+        normals = np.zeros((len(V), 3), dtype=np.float32)
+        metrics.write_normals(V, normals, everything=True)
+        shape.point_data["Normals"] = normals
         shape.GetPointData().SetActiveNormals("Normals")
-        shape.point_data["tint"] = shape_tint(states, self._dominant)
+        shape.point_data["tint"] = shape_tint(roles)
         shape.point_data["stretch"] = np.zeros(len(V), dtype=np.float32)
         shape.point_data.active_scalars_name = "tint"
         self.shape = shape
-        mapper = pv.DataSetMapper(shape)
+        # the buffers VTK draws from, written in place (float32: no conversion at upload)
+        self.points32 = shape.points
+        self.normals32 = shape.point_data["Normals"]
+        self.stretch32 = shape.point_data["stretch"]
+        assert self.points32.dtype == np.float32 and self.normals32.dtype == np.float32
+        mapper = vtkPolyDataMapper()
+        mapper.SetInputData(shape)
+        mapper.SetVBOShiftScaleMethod(DISABLE_SHIFT_SCALE)
         mapper.SetColorModeToDirectScalars()
         mapper.SetScalarModeToUsePointData()
-        mapper.scalar_visibility = True
+        mapper.ScalarVisibilityOn()
+        mapper.SetInterpolateScalarsBeforeMapping(False)
         self.shape_mapper = mapper
         actor = pv.Actor(mapper=mapper)
         actor.prop.interpolation = "gouraud"
@@ -218,15 +235,16 @@ class Scene:
         self._actors.append(front)
 
         pts = pv.PolyData(P.copy())
-        pts.verts = np.hstack([np.ones((len(P), 1), dtype=np.int64), np.arange(len(P))[:, None]]).ravel()
         rgba = np.full((len(P), 4), 255, dtype=np.uint8)
-        rgba[:, :3] = STATE_COLORS[np.asarray(states)]
+        rgba[:, :3] = STATE_COLORS[state_rows(states)]
         pts.point_data["state"] = rgba
         pts.point_data.active_scalars_name = "state"
         self._cage_faces = np.ascontiguousarray(cage_faces, dtype=np.int64)
         self._cage_pos = np.asarray(cage_vertices, dtype=np.float64).copy()
         self._cage_normals = None
         self._states = np.asarray(states, dtype=np.int64).copy()
+        self._near = np.zeros(len(P), dtype=bool)
+        self._shown_points = np.zeros(0, dtype=np.int64)
         self.points_poly = pts
         pmapper = pv.DataSetMapper(pts)
         pmapper.SetColorModeToDirectScalars()
@@ -239,6 +257,7 @@ class Scene:
         self.overlay.AddActor(pactor)
         self.points_actor = pactor
         self._overlay_actors += [ghost, pactor]
+        self._update_point_cells()
 
         lo, hi = V.min(axis=0), V.max(axis=0)
         self.gizmo.build(0.12 * float(np.linalg.norm(hi - lo)))
@@ -257,17 +276,51 @@ class Scene:
         actor.SetPickable(False)
         return actor
 
-    # ------------------------------------------------------------------ updates
-    def update_shape(self, V: np.ndarray) -> None:
-        """Write new shape positions (n, 3) and normals into the shape actor, in place."""
-        if self.shape is None:
+    # ------------------------------------------------------------------ which cage points are drawn
+    @property
+    def shown_points(self) -> np.ndarray:
+        """Indices of the cage points drawn: the ROI, the handle and those near the cursor, (k,) int64."""
+        return self._shown_points
+
+    def _update_point_cells(self) -> None:
+        show = np.flatnonzero((self._states != FIXED_STATE) | self._near)
+        if np.array_equal(show, self._shown_points) and self.points_poly.n_verts == len(show):
             return
-        pts = self.shape.points
-        pts[:] = V
+        self._shown_points = show
+        self.points_poly.verts = np.column_stack([np.ones(len(show), dtype=np.int64), show]).ravel()
+
+    def set_points_near(self, near: np.ndarray | None) -> bool:
+        """Also draw the cage points of the (c,) mask ``near`` (None: none); True when that changed."""
+        if self.points_poly is None:
+            return False
+        m = np.zeros(len(self._states), dtype=bool) if near is None else np.asarray(near, dtype=bool)
+        if np.array_equal(m, self._near):
+            return False
+        self._near = m
+        self._update_point_cells()
+        return True
+
+    # ------------------------------------------------------------------ updates
+    def set_moving(self, moving: np.ndarray | None) -> None:
+        """The shape vertices the next drags can move ((k,) int; None: all): only they are rewritten."""
+        if self.metrics is not None:
+            self.metrics.set_moving(moving)
+
+    def update_shape(self, V: np.ndarray, *, everything: bool = False) -> tuple[float, float]:
+        """Write shape positions (n, 3) and their normals into the shape's buffers, in place.
+
+        Only the moving region (:meth:`set_moving`) unless ``everything``. Returns the
+        seconds spent on (normals, writing the points and telling VTK).
+        """
+        if self.shape is None:
+            return 0.0, 0.0
+        t0 = time.perf_counter()
+        self.metrics.write_points(V, self.points32, everything=everything)
         self.shape.GetPoints().Modified()
-        normals = self.shape.point_data["Normals"]
-        vertex_normals(V, self._faces, out=normals)
+        t1 = time.perf_counter()
+        self.metrics.write_normals(V, self.normals32, everything=everything)
         _array_modified(self.shape, "Normals")
+        return time.perf_counter() - t1, t1 - t0
 
     def update_cage(self, P: np.ndarray) -> None:
         """Write a new cage pose (c, 3) into the wireframe and the points, in place."""
@@ -279,23 +332,22 @@ class Scene:
         self._cage_pos[:] = P
         self._cage_normals = None
 
-    def update_states(self, states: np.ndarray) -> None:
-        """Recolour the cage points and the shape tint for new cage vertex states."""
+    def update_states(self, states: np.ndarray, roles: np.ndarray) -> None:
+        """New selection: recolour the cage points ((c,) states) and the shape tint ((n,) roles)."""
         if self.shape is None:
             return
         s = np.asarray(states)
         self._states = s.astype(np.int64)
-        self.points_poly.point_data["state"][:, :3] = STATE_COLORS[s]
+        self.points_poly.point_data["state"][:, :3] = STATE_COLORS[state_rows(s)]
         _array_modified(self.points_poly, "state")
-        self.shape.point_data["tint"][:] = shape_tint(s, self._dominant)
+        self._update_point_cells()
+        self.shape.point_data["tint"][:] = shape_tint(roles)
         _array_modified(self.shape, "tint")
 
-    def update_stretch(self, percent: np.ndarray) -> None:
-        """Write per shape vertex stretch values (n,), in percent, for the stretch map."""
-        if self.shape is None:
-            return
-        self.shape.point_data["stretch"][:] = percent
-        _array_modified(self.shape, "stretch")
+    def stretch_modified(self) -> None:
+        """The stretch buffer (:attr:`stretch32`) was written."""
+        if self.shape is not None:
+            _array_modified(self.shape, "stretch")
 
     def set_stretch_visible(self, visible: bool) -> None:
         """Colour the shape by the "stretch" array with a colour bar, or back to the selection tint."""
@@ -315,9 +367,9 @@ class Scene:
         m.Modified()
 
     def set_cage_visible(self, visible: bool) -> None:
-        """Show or hide the cage wireframe and points."""
+        """Show or hide the cage wireframe (the ROI and handle points stay)."""
         self.cage_visible = bool(visible)
-        for a in ("cage_front", "cage_ghost", "points_actor"):
+        for a in ("cage_front", "cage_ghost"):
             actor = getattr(self, a, None)
             if actor is not None and self.cage_poly is not None:
                 actor.SetVisibility(self.cage_visible)
@@ -342,7 +394,7 @@ class Scene:
 
     def _fade_back_points(self) -> None:
         """Cage points facing away from the camera are drawn faintly (all stay selectable)."""
-        if self.points_poly is None or not self.cage_visible:
+        if self.points_poly is None or len(self._shown_points) == 0:
             return
         if self._cage_normals is None:
             self._cage_normals = vertex_normals(self._cage_pos, self._cage_faces)
@@ -352,7 +404,7 @@ class Scene:
         else:
             to_cam = np.asarray(cam.GetPosition()) - self._cage_pos
             facing = np.einsum("ij,ij->i", self._cage_normals, to_cam) > 0
-        alpha = POINT_ALPHA[self._states, np.where(facing, 0, 1)]
+        alpha = POINT_ALPHA[np.minimum(self._states, 2), np.where(facing, 0, 1)]
         rgba = self.points_poly.point_data["state"]
         if not np.array_equal(rgba[:, 3], alpha):
             rgba[:, 3] = alpha

@@ -32,9 +32,9 @@ from ..binding import dominant_cage_vertex
 from ..editfile import Edit
 from ..editor import HybridEditor, SelectionError
 from ..mesh import Mesh, rrms_edge_error
-from .editio import edit_to_masks, make_edit
 from .history import History, Snapshot
-from .selection import combine, vertex_states
+from .regional import ShapeMetrics
+from .selection import FIXED, FREE as FREE_STATE, HANDLE as HANDLE_STATE, combine, vertex_states
 
 ROI, HANDLE = "roi", "handle"
 TARGETS = (ROI, HANDLE)
@@ -57,25 +57,36 @@ class Session:
         self.mesh: Mesh = editor.mesh
         self.path = Path(path) if path is not None else None
         self.cage_size = cage_size
-        self.edges = self.mesh.edges()
+        self.metrics = ShapeMetrics(self.mesh.vertices, self.mesh.faces)
         self.dominant = dominant_cage_vertex(editor.M)
         c = editor.cage.n_vertices
         self.roi = np.zeros(c, dtype=bool) if roi is None else np.asarray(roi, dtype=bool).copy()
-        self.handle = np.zeros(c, dtype=bool) if handle is None else np.asarray(handle, dtype=bool).copy()
-        if self.roi.shape != (c,) or self.handle.shape != (c,):
+        #: handle group of each cage vertex: 0 none, g + 1 in group g
+        self.handle_group = np.zeros(c, dtype=np.int8)
+        self.n_groups = 1
+        self.active = 0  # the handle group that selections and drags act on
+        #: transform of each handle group since the selection was applied
+        self.transforms: list[np.ndarray] = [np.eye(4)]
+        if handle is not None:
+            self.handle = handle
+        if self.roi.shape != (c,):
             raise ValueError(f"selection masks must have {c} entries (the cage vertex count)")
         self._stroke: tuple[str, np.ndarray] | None = None
         self._settle_left = 0
         self._settle_label: str | None = None
-        self.transform = np.eye(4)
         self._base = np.eye(4)
         self._anchor: np.ndarray | None = None
         self._anchor_state = None  # the engine's state when the selection was applied
-        self._engine_masks: tuple[bytes, bytes] | None = None
+        self._engine_masks: tuple | None = None
+        self.symmetry: str | None = None  # mirror the selection across this axis's mid-plane
         self.settle_on_release = True
         self.settle_frames = 30
         self.settle_iterations = 2
         self.last_frame_seconds = 0.0
+        #: a polished pose on display ((n, 3), full-resolution ARAP of the engine's pose), or None
+        self.polished: np.ndarray | None = None
+        #: bumps when the engine (cage and binding) changes: a rebuild, or undo across one
+        self.generation = 0
         self.history = History()
         self._push("open")
 
@@ -97,6 +108,68 @@ class Session:
         return self.editor.deformed_vertices
 
     @property
+    def handle(self) -> np.ndarray:
+        """(c,) bool: the cage vertices of the active handle group."""
+        return self.handle_group == self.active + 1
+
+    @handle.setter
+    def handle(self, mask) -> None:
+        m = np.asarray(mask, dtype=bool)
+        if m.shape != self.handle_group.shape:
+            raise ValueError(f"a handle mask must have {len(self.handle_group)} entries (the cage vertex count)")
+        g = self.handle_group.copy()
+        g[g == self.active + 1] = 0
+        g[m] = self.active + 1  # a vertex belongs to one group: the active one takes it
+        self.handle_group = g
+
+    @property
+    def all_handles(self) -> np.ndarray:
+        """(c,) bool: the cage vertices of every handle group."""
+        return self.handle_group > 0
+
+    @property
+    def transform(self) -> np.ndarray:
+        """(4, 4) transform of the active handle group since the selection was applied."""
+        return self.transforms[self.active]
+
+    @transform.setter
+    def transform(self, T) -> None:
+        self.transforms = list(self.transforms)
+        self.transforms[self.active] = np.asarray(T, dtype=np.float64).copy()
+
+    def _all_transforms(self, active: np.ndarray | None = None) -> dict[int, np.ndarray]:
+        """{group: transform} for the engine, with the active group at ``active`` when given."""
+        Ts = {g: T for g, T in enumerate(self.transforms)}
+        if active is not None:
+            Ts[self.active] = active
+        return Ts
+
+    def _identity_transforms(self) -> None:
+        self.transforms = [np.eye(4) for _ in range(self.n_groups)]
+
+    def new_group(self) -> bool:
+        """Start a new, empty handle group and make it the active one (False: the active one is empty)."""
+        self.finish_settle()
+        if not self.handle.any():
+            return False
+        self.n_groups += 1
+        self.active = self.n_groups - 1
+        self.transforms = list(self.transforms) + [np.eye(4)]
+        self._push("new handle group")
+        return True
+
+    def next_group(self) -> int:
+        """Make the next handle group the active one (cycling); returns its index."""
+        self.finish_settle()
+        self.active = (self.active + 1) % self.n_groups
+        return self.active
+
+    @property
+    def shown_positions(self) -> np.ndarray:
+        """The pose on display and saved: the polished one when there is one, else the engine's, (n, 3)."""
+        return self.polished if self.polished is not None else self.shape_positions
+
+    @property
     def applied(self) -> bool:
         """The selection has been given to the engine (a drag has started since it changed)."""
         return self._anchor is not None
@@ -107,8 +180,39 @@ class Session:
         return self._anchor is not None and bool(np.array_equal(self._anchor, self.editor.cage.vertices))
 
     def states(self) -> np.ndarray:
-        """Per cage vertex FIXED / FREE / HANDLE (see :mod:`.selection`)."""
-        return vertex_states(self.roi, self.handle)
+        """Per cage vertex FIXED / FREE / HANDLE (see :mod:`.selection`): the engine's cage roles
+        once it has the selection (mirror images included), else the masks."""
+        if self._engine_masks == self._mask_key() and (self.roi.any() or self.all_handles.any()):
+            roles = self.editor.cage_roles
+            return np.where(roles > 0, HANDLE_STATE + roles - 1, np.where(roles == 0, FREE_STATE, FIXED)).astype(np.int8)
+        st = vertex_states(self.roi, self.all_handles)
+        h = self.all_handles
+        st[h] = HANDLE_STATE + self.handle_group[h] - 1  # one state (colour) per handle group
+        return st
+
+    @property
+    def edges(self) -> np.ndarray:
+        """(e, 2) unique edges of the shape."""
+        return self.metrics.edges
+
+    def shape_roles(self) -> np.ndarray:
+        """Per shape vertex: -1 held fixed, 0 free, g + 1 in handle group g ((n,) int8); all 0 with no selection.
+
+        Once the engine has the selection these are its roles (what it holds exactly); before,
+        the same rule previewed: a vertex takes the state of the cage vertex it depends on most.
+        """
+        if not self.roi.any() and not self.all_handles.any():
+            return np.zeros(self.mesh.n_vertices, dtype=np.int8)
+        if self._engine_masks == self._mask_key():
+            return self.editor.vertex_roles
+        st = self.states()[self.dominant].astype(np.int8)
+        return np.where(st == FIXED, -1, np.where(st == FREE_STATE, 0, st - HANDLE_STATE + 1)).astype(np.int8)
+
+    def moving_vertices(self) -> np.ndarray | None:
+        """The shape vertices a drag of the applied selection can move, (k,) int64 (None: no selection)."""
+        if self._anchor is None:
+            return None
+        return self.editor.moving_vertices
 
     def handle_centroid(self) -> np.ndarray | None:
         """Centroid of the handle's cage vertices in the current pose, or None without a handle."""
@@ -126,9 +230,10 @@ class Session:
     # ------------------------------------------------------------------ history
     def _snapshot(self, label: str) -> Snapshot:
         return Snapshot(
-            roi=self.roi.copy(), handle=self.handle.copy(), positions=self.cage_positions,
-            transform=self.transform.copy(),
+            roi=self.roi.copy(), handle=self.handle_group.copy(), positions=self.cage_positions,
+            transform=np.stack(self.transforms), active=self.active,
             anchor=None if self._anchor is None else self._anchor.copy(), label=label,
+            editor=self.editor, cage_size=self.cage_size, symmetry=self.symmetry,
             engine=self.editor.save_state(), engine_masks=self._engine_masks, anchor_state=self._anchor_state,
         )
 
@@ -138,19 +243,25 @@ class Session:
     def restore(self, snap: Snapshot) -> None:
         """Put the session back into a snapshot's state (selection, pose, transform)."""
         self._settle_left, self._settle_label = 0, None
+        self.polished = None
+        if snap.editor is not None and snap.editor is not self.editor:
+            self._use_editor(snap.editor, snap.cage_size)
         self.roi = snap.roi.copy()
-        self.handle = snap.handle.copy()
+        self.handle_group = np.asarray(snap.handle).astype(np.int8)
+        Ts = np.asarray(snap.transform).reshape(-1, 4, 4)
+        self.n_groups = max(len(Ts), int(self.handle_group.max(initial=0)), 1)
+        self.active = min(snap.active, self.n_groups - 1)
+        self.symmetry = snap.symmetry
         self.editor.restore_state(snap.engine)
         self._engine_masks = snap.engine_masks
         self._anchor_state = snap.anchor_state
         if snap.anchor is not None:
             self._anchor = snap.anchor.copy()
-            self.transform = snap.transform.copy()
-            self._base = np.eye(4)  # the engine state carries its own transform
+            self.transforms = [T.copy() for T in Ts] + [np.eye(4)] * (self.n_groups - len(Ts))
         else:
             self._anchor = None
-            self.transform = np.eye(4)
-            self._base = np.eye(4)
+            self._identity_transforms()
+        self._base = np.eye(4)  # the engine state carries its own transform
 
     def undo(self) -> bool:
         self.finish_settle()
@@ -168,14 +279,75 @@ class Session:
         self.restore(snap)
         return True
 
+    # ------------------------------------------------------------------ a new cage
+    def _use_editor(self, editor: HybridEditor, cage_size: int | float | None) -> None:
+        if editor.mesh.n_vertices != self.mesh.n_vertices:
+            raise ValueError("the new engine is for another shape")
+        self.editor = editor
+        self.dominant = dominant_cage_vertex(editor.M)
+        if cage_size is not None:
+            self.cage_size = cage_size
+        self._engine_masks = None
+        self.polished = None
+        self.generation += 1
+
+    def adopt(self, editor: HybridEditor, cage_size: int | float) -> str | None:
+        """Go on with a new cage and binding of the same shape (a rebuild).
+
+        The selection carries over through the shape and the last drag is solved again
+        on the new cage from the rest pose (as ``hybridedit deform`` replays an edit);
+        the undo history stays, and undoing the rebuild goes back to the old cage and
+        its exact pose. Returns a sentence when the pose could only partly be carried
+        over (it was built by several selections, of which only the last is replayed).
+        """
+        self.finish_settle()
+        applied = self._anchor is not None and self._engine_masks == self._mask_key()
+        edit = self.editor.edit if applied else None  # shape space: it fits any cage of this shape
+        from_rest = self.anchor_at_rest
+        roi_s = np.flatnonzero(self.roi[self.dominant])
+        groups_s = self.handle_group[self.dominant]
+        posed = self.is_posed()
+        self._use_editor(editor, cage_size)
+        note = None
+        if edit is not None:
+            self._replay(edit)
+            if not from_rest:
+                note = ("only the last drag was carried over to the new cage (the pose before it came from "
+                        "earlier selections); Ctrl+Z goes back to the old cage and its pose")
+        else:
+            c = editor.cage.n_vertices
+            self.roi = np.zeros(c, dtype=bool)
+            self.roi[editor.to_cage(roi_s, "shape")] = True
+            self.handle_group = np.zeros(c, dtype=np.int8)
+            for g in range(self.n_groups):
+                self.handle_group[editor.to_cage(np.flatnonzero(groups_s == g + 1), "shape")] = g + 1
+            self._anchor, self._base = None, np.eye(4)
+            self._identity_transforms()
+            self.editor.reset()
+            if posed:
+                note = "the pose was not carried over to the new cage; Ctrl+Z goes back to the old cage and its pose"
+        self._push("rebuild cage")
+        return note
+
     # ------------------------------------------------------------------ selection
-    def _mask_key(self) -> tuple[bytes, bytes]:
-        return (np.packbits(self.roi).tobytes(), np.packbits(self.handle).tobytes())
+    def _mask_key(self) -> tuple:
+        return (np.packbits(self.roi).tobytes(), self.handle_group.tobytes(), self.symmetry)
+
+    def set_symmetry(self, axis: str | None) -> None:
+        """Mirror the selection across the shape's mid-plane normal to ``axis`` ("x", "y", "z"), or not (None).
+
+        Applied with the next drag; the engine refuses a shape that is not symmetric
+        enough (a SelectionError with its measured asymmetry)."""
+        if axis not in (None, "x", "y", "z"):
+            raise ValueError(f"symmetry must be None, 'x', 'y' or 'z', got {axis!r}")
+        if axis != self.symmetry:
+            self.symmetry = axis
+            self._selection_changed(f"mirror {axis.upper()}" if axis else "no mirror")
 
     def _selection_changed(self, label: str) -> None:
         if self._anchor is not None and self._engine_masks != self._mask_key():
             self._anchor = None
-            self.transform = np.eye(4)
+            self._identity_transforms()
             self._base = np.eye(4)
         self._push(label)
 
@@ -237,8 +409,23 @@ class Session:
         self._selection_changed(f"select {'ROI' if target == ROI else 'handle'}")
         return True
 
+    def _compact_groups(self) -> None:
+        """Drop empty handle groups (the engine numbers groups 0..G-1, all non-empty)."""
+        used = [g for g in range(self.n_groups) if np.any(self.handle_group == g + 1)]
+        if len(used) == self.n_groups:
+            return
+        lut = np.zeros(self.n_groups + 1, dtype=np.int8)
+        for k, g in enumerate(used):
+            lut[g + 1] = k + 1
+        self.handle_group = lut[self.handle_group]
+        self.active = used.index(self.active) if self.active in used else 0
+        self.transforms = [self.transforms[g] for g in used] or [np.eye(4)]
+        self.n_groups = max(len(used), 1)
+
     def _give_engine_selection(self) -> None:
-        self.editor.set_selection(np.flatnonzero(self.handle), roi=np.flatnonzero(self.roi), space="cage")
+        self._compact_groups()
+        handles = [np.flatnonzero(self.handle_group == g + 1) for g in range(self.n_groups)]
+        self.editor.set_selection(handles, roi=np.flatnonzero(self.roi), space="cage", symmetry=self.symmetry)
         self._engine_masks = self._mask_key()
 
     def apply_selection(self) -> None:
@@ -250,19 +437,22 @@ class Session:
             Empty handle, or a cage part with no fixed or handle vertex.
         """
         if not self.handle.any():
+            which = f"Handle group {self.active + 1}" if self.n_groups > 1 else "The handle"
             raise SelectionError(
-                "The handle is empty. Choose the Handle target and select the cage vertices to drag first."
+                f"{which} is empty. Choose the Handle target and select the cage vertices to drag first"
+                + (" (G switches group)." if self.n_groups > 1 else ".")
             )
         self._give_engine_selection()
         self._anchor = self.cage_positions
         self._anchor_state = self.editor.save_state()
-        self.transform = np.eye(4)
+        self._identity_transforms()
         self._base = np.eye(4)
 
     # ------------------------------------------------------------------ dragging
     def begin_drag(self) -> np.ndarray:
         """Start a drag gesture: applies a changed selection; returns the current handle transform."""
         self.finish_settle()
+        self.polished = None  # a drag starts from the engine's pose
         if self._anchor is None or self._engine_masks != self._mask_key():
             self.apply_selection()
         return self.transform.copy()
@@ -273,7 +463,7 @@ class Session:
         if self._anchor is None:
             raise SelectionError("no selection applied; start a drag first")
         T = np.asarray(T, dtype=np.float64)
-        V = self.editor.drag(transform=T @ np.linalg.inv(self._base), iterations=iterations)
+        V = self.editor.drag(transforms=self._all_transforms(T @ np.linalg.inv(self._base)), iterations=iterations)
         self.transform = T.copy()
         fs = self.editor.frame_seconds
         self.last_frame_seconds = fs[-1]
@@ -303,7 +493,7 @@ class Session:
         """
         k = min(int(frames), self._settle_left)
         if k > 0:
-            self.editor.drag(transform=self.transform, iterations=k * self.settle_iterations)
+            self.editor.drag(transforms=self._all_transforms(), iterations=k * self.settle_iterations)
             self._settle_left -= k
         if self._settle_left == 0 and self._settle_label is not None:
             label, self._settle_label = self._settle_label, None
@@ -346,53 +536,59 @@ class Session:
     def reset_pose(self) -> None:
         """Back to the rest pose; the selection stays and is anchored at rest."""
         self.finish_settle()
+        self.polished = None
         self.editor.reset()
         if self._anchor is not None:
             self._anchor = self.cage_positions
             self._anchor_state = self.editor.save_state()
-        self.transform = np.eye(4)
+        self._identity_transforms()
         self._base = np.eye(4)
         self._push("reset pose")
 
     # ------------------------------------------------------------------ edit files
     def to_edit(self) -> Edit:
-        """The edit file for the current selection and handle transform (cage space).
+        """The current selection and handle transforms as a shape-space edit (the engine's
+        :attr:`~hybridedit.HybridEditor.edit`: it replays on any cage of this shape).
 
-        Only the drag since the selection was last applied is stored; ``hybridedit
-        deform`` replays it from the rest pose.
+        Only the drags since the selection was last applied are stored; ``hybridedit
+        deform`` replays them from the rest pose.
         """
         self.finish_settle()
-        if not self.handle.any():
+        if not self.all_handles.any():
             raise SelectionError("The handle is empty: there is nothing to save. Select a handle first.")
-        if self._anchor is not None and self._engine_masks == self._mask_key():
-            center = self._anchor[self.handle].mean(axis=0)
-            T = self.transform
-        else:
-            center = self.cage_positions[self.handle].mean(axis=0)
-            T = np.eye(4)
-        return make_edit(self.roi, self.handle, T, center)
+        if self._anchor is None or self._engine_masks != self._mask_key():
+            self.apply_selection()  # the selection as it is now, not dragged yet
+        return self.editor.edit
 
-    def load_edit(self, edit: Edit) -> None:
+    def _replay(self, edit: Edit, path: str | None = None) -> None:
+        """Set an edit's selection from the rest pose and solve its transforms with the batch settings."""
+        self.editor.reset()
+        self.editor.apply_edit(edit, frames=0, path=path)
+        roles = self.editor.cage_roles
+        self.roi = roles >= 0
+        self.handle_group = np.maximum(roles, 0).astype(np.int8)
+        Ts = self.editor.edit_transforms(edit)
+        self.n_groups = max(len(Ts), 1)
+        self.active = 0
+        self.transforms = [np.asarray(Ts[g], dtype=np.float64) for g in range(len(Ts))] or [np.eye(4)]
+        self._engine_masks = self._mask_key()
+        self._anchor = self.editor.cage_positions
+        self._anchor_state = self.editor.save_state()
+        self._base = np.eye(4)
+        self.settle()
+
+    def load_edit(self, edit: Edit, path: str | None = None) -> None:
         """Replay an edit as ``hybridedit deform`` does: from the rest pose, with the batch settings.
 
-        On any error the session is left as it was.
+        On any error (an edit for another mesh: EditFileError; a selection that does
+        not fit: SelectionError) the session is left as it was.
         """
         self.finish_settle()
-        roi, handle, T = edit_to_masks(self.editor, edit)
         before = self._snapshot("")
         try:
-            self.roi, self.handle = roi, handle
-            self.editor.reset()
-            # the engine takes the edit as it is (shape space, exact constraints), as
-            # `hybridedit deform` does; the masks show it on the cage
-            self.editor.apply_edit(edit, frames=0)
-            self._engine_masks = self._mask_key()
-            self._anchor = self.editor.cage_positions
-            self._anchor_state = self.editor.save_state()
-            self.transform = self.editor.edit_transforms(edit)[0]
-            self._base = np.eye(4)
-            self.settle()
+            self._replay(edit, path)
         except Exception:
             self.restore(before)
             raise
+        self.polished = None
         self._push("load edit")

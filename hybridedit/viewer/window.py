@@ -1,4 +1,10 @@
-"""The main window: menus, toolbar, status bar, file dialogs; glue between the view and the session."""
+"""The main window: menus, toolbar, status bar; it wires Qt to the session.
+
+The editing state (selection, pose, polished pose, undo) lives in
+:class:`~.session.Session`; file actions in :mod:`.files`; polish scheduling
+in :mod:`.polishing`; the drawing in :mod:`.scene`; mouse gestures in
+:mod:`.interaction`.
+"""
 
 from __future__ import annotations
 
@@ -11,31 +17,18 @@ from typing import Callable
 import numpy as np
 from qtpy import QtCore, QtGui, QtWidgets
 
-from ..atomic import WriteError
-from ..editfile import EditFileError, load_edit, save_edit
 from ..editor import SelectionError
-from ..io import SUPPORTED_EXTENSIONS, MeshFileError, write_mesh
-from ..mesh import MeshError, edge_stretch, rrms_edge_error, vertex_stretch
 from .cagesize import CageSizeControl
+from .files import FileActions, dropped_path
 from .help import HOWTO, ShortcutsDialog
 from .interaction import BRUSH, CAMERA, DRAG, RECTANGLE, SELECT, ViewController
-from .scene import STATE_COLORS, Scene
+from .polishing import PolishScheduler
+from .scene import STATE_COLORS, Scene, state_rows
 from .session import HANDLE, ROI, Session
 from .view import View
-from .worker import (BuildRequest, BuildResult, BuildWorker, PolishOutcome, PolishRequest, PolishWorker,
-                     ShapeARAPHolder)
+from .worker import BuildRequest, BuildResult, BuildWorker, PolishOutcome
 
-MESH_FILTER = "Meshes (*.obj *.ply *.stl *.off);;OBJ (*.obj);;PLY (*.ply);;STL (*.stl);;OFF (*.off);;All files (*)"
-EDIT_FILTER = "Edit files (*.json);;All files (*)"
-RRMS_INTERVAL = 0.3  # seconds between edge-error evaluations while dragging
-STRETCH_INTERVAL = 0.3  # seconds between stretch-map updates while dragging
-POLISH_SECONDS = 1.0  # time budget of the polish on release (iterations; the one-off set-up comes on top)
-
-def _same_file(a: Path, b: Path) -> bool:
-    try:
-        return a.resolve() == b.resolve() or (a.exists() and b.exists() and os.path.samefile(a, b))
-    except OSError:
-        return False
+RRMS_INTERVAL = 0.3  # seconds between edge-error updates of the status bar while dragging
 
 
 def _fmt(n: int) -> str:
@@ -62,41 +55,41 @@ class MainWindow(QtWidgets.QMainWindow):
     Parameters
     ----------
     cage_size : initial cage size (int vertex count or float fraction of the shape).
+
+    Attributes
+    ----------
+    session : the shape being edited, or None.
+    files : the file actions (:class:`~.files.FileActions`).
+    polisher : polish on release (:class:`~.polishing.PolishScheduler`).
+    modified : the pose on display is not saved (shown as ``*`` in the title).
     """
 
     def __init__(self, cage_size: int | float = 0.05) -> None:
         super().__init__()
-        self.setWindowTitle("hybridedit")
         self.session: Session | None = None
-        self.save_path: Path | None = None
-        self.edit_path: Path | None = None
         self.worker: BuildWorker | None = None
         self.last_error: str | None = None
         self.modified = False
         self.settle_on_release = True
+        self.last_polish: PolishOutcome | None = None
         self._error_box: QtWidgets.QMessageBox | None = None
         self._drag_T0 = np.eye(4)
         self._pending_T: np.ndarray | None = None
         self._settle_chunk = 2
         self._rrms_dirty = False
+        self._rrms_full = True  # the next measure must walk every edge (the pose changed outside a drag)
         self._rrms_time = 0.0
         self._engine_ms = 0.0
-        self.polish_on_release = True
-        self.polish_seconds = POLISH_SECONDS
-        self.polish_iterations = 200
-        self.polish_tolerance = 1e-6
-        self.polish_worker: PolishWorker | None = None
-        self._polish_next: PolishRequest | None = None
-        self._polish_token = 0
-        self._polish_holder: ShapeARAPHolder | None = None
-        self.polished: np.ndarray | None = None  # the polished pose on display (a view state), or None
-        self.last_polish: PolishOutcome | None = None
-        self._stretch_dirty = False
-        self._stretch_time = 0.0
+        self._generation = -1  # the session's engine generation the scene shows
+        self.files = FileActions(self)
+        self.polisher = PolishScheduler(self)
+        self.polisher.succeeded.connect(self._polish_succeeded)
+        self.polisher.failed.connect(lambda m: self.message(f"Polish failed: {m}"))
+        self._set_title()
 
         self.view = View(self)
         self.setCentralWidget(self.view)
-        self.scene = Scene(self.view)
+        self.scene = Scene(self.view.plotter)
         self.controller = ViewController(self.view, self.scene, self)
         self.actions_: dict[str, QtGui.QAction] = {}
         self._make_actions()
@@ -141,13 +134,13 @@ class MainWindow(QtWidgets.QMainWindow):
     def _make_actions(self) -> None:
         A = self._action
         Seq = QtGui.QKeySequence
-        A("open", "&Open…", self.open_dialog, Seq.StandardKey.Open, tip="Open a mesh (OBJ, PLY, STL, OFF)")
-        A("save", "&Save", self.save, Seq.StandardKey.Save, tip="Save the deformed mesh")
-        A("save_as", "Save &As…", self.save_as_dialog, "Ctrl+Shift+S", tip="Save the deformed mesh to a new file")
-        A("load_edit", "&Load Edit…", self.load_edit_dialog, "Ctrl+L", tip="Load a JSON edit file and apply it")
-        A("save_edit", "Save &Edit…", self.save_edit_dialog, "Ctrl+E",
+        A("open", "&Open…", self.files.open_dialog, Seq.StandardKey.Open, tip="Open a mesh (OBJ, PLY, STL, OFF)")
+        A("save", "&Save", self.files.save, Seq.StandardKey.Save, tip="Save the deformed mesh")
+        A("save_as", "Save &As…", self.files.save_as_dialog, "Ctrl+Shift+S", tip="Save the deformed mesh to a new file")
+        A("load_edit", "&Load Edit…", self.files.load_edit_dialog, "Ctrl+L", tip="Load a JSON edit file and apply it")
+        A("save_edit", "Save &Edit…", self.files.save_edit_dialog, "Ctrl+E",
           tip="Save the selection and the handle transform as a JSON edit file (for hybridedit deform)")
-        A("screenshot", "Save Screens&hot…", self.screenshot_dialog, tip="Save the 3D view as a PNG image")
+        A("screenshot", "Save Screens&hot…", self.files.screenshot_dialog, tip="Save the 3D view as a PNG image")
         A("quit", "&Quit", self.close, Seq.StandardKey.Quit, tip="Quit")
         A("undo", "&Undo", self.undo, "Ctrl+Z", tip="Undo the last selection or drag", short="Undo")
         A("redo", "&Redo", self.redo, "Ctrl+Shift+Z", tip="Redo", short="Redo")
@@ -177,17 +170,28 @@ class MainWindow(QtWidgets.QMainWindow):
           tip="Selections change the region of interest (green)", short="ROI")
         A("target_handle", "Target &Handle", lambda: self._set_target(HANDLE), "H", checkable=True,
           tip="Selections change the handle (orange)", short="Handle")
+        for axis in "xyz":
+            A(f"mirror_{axis}", f"&Mirror {axis.upper()}", lambda a=axis: self._toggle_mirror(a),
+              "Shift+" + axis.upper() if axis == "x" else None, checkable=True,
+              tip=f"Mirror the selection across the shape's middle plane normal to {axis.upper()}: the mirrored "
+                  "handle follows the mirrored drag (as Blender's X-mirror)", short=f"Mirror {axis.upper()}")
+        A("new_group", "&New Handle Group", self.new_group, "Ctrl+G",
+          tip="Start another handle group (its own colour and transform); select its cage points next",
+          short="New group")
+        A("next_group", "Ne&xt Handle Group", self.next_group, "G",
+          tip="Make the next handle group the one that selections and drags act on", short="Next group")
         A("tool_rect", "Rec&tangle", lambda: self._set_tool(RECTANGLE), "X", checkable=True,
           tip="Rubber-band rectangle selection", short="Rect")
         A("tool_brush", "&Brush", lambda: self._set_tool(BRUSH), "B", checkable=True, tip="Brush selection")
         A("brush_bigger", "Bigger Brush", lambda: self._scale_brush(1.25), "]", tip="Enlarge the brush")
         A("brush_smaller", "Smaller Brush", lambda: self._scale_brush(0.8), "[", tip="Shrink the brush")
-        show_cage = A("show_cage", "Show Ca&ge", self._toggle_cage, "W", checkable=True, tip="Show the cage wireframe",
-                      short="Cage")
-        show_cage.setChecked(True)
+        A("show_cage", "Show Cage &Wireframe", self._toggle_cage, "W", checkable=True,
+          tip="Show the cage wireframe (the ROI and handle cage points are always shown)", short="Cage")
         A("stretch", "S&tretch Map", self._toggle_stretch, "T", checkable=True,
           tip="Colour the shape by the relative edge-length change against the rest shape (0 to 20 %)",
           short="Stretch")
+        A("messages", "&Messages", self._toggle_messages, checkable=True,
+          tip="Show every message of this session, with its time")
         A("mesh_info", "Mesh &Info…", self.show_mesh_info,
           tip="Vertex, face and cage counts; repairs made to the input")
         A("reset_camera", "&Frame Shape", self.reset_camera, "F", tip="Reset the camera to show the whole shape")
@@ -218,8 +222,9 @@ class MainWindow(QtWidgets.QMainWindow):
             "&Edit": ["undo", "redo", None, "reset_pose", None, "select_all", "clear_sel", "invert_sel", None,
                       "settle", "polish"],
             "&Mode": ["mode_camera", "mode_select", "mode_drag", None, "target_roi", "target_handle", None,
+                      "new_group", "next_group", None, "mirror_x", "mirror_y", "mirror_z", None,
                       "tool_rect", "tool_brush", "brush_bigger", "brush_smaller"],
-            "&View": ["show_cage", "stretch", "reset_camera", "antialias"],
+            "&View": ["show_cage", "stretch", "reset_camera", "antialias", None, "messages"],
             "&Cage": ["rebuild", "cancel_job"],
             "&Help": ["howto", "shortcuts", "about"],
         }
@@ -243,6 +248,9 @@ class MainWindow(QtWidgets.QMainWindow):
         tb.addWidget(QtWidgets.QLabel(" Target "))
         for n in ("target_roi", "target_handle"):
             tb.addAction(a[n])
+        tb.addAction(a["new_group"])
+        tb.addAction(a["next_group"])
+        tb.addAction(a["mirror_x"])
         tb.addSeparator()
         for n in ("tool_rect", "tool_brush"):
             tb.addAction(a[n])
@@ -257,6 +265,10 @@ class MainWindow(QtWidgets.QMainWindow):
         tb.addWidget(QtWidgets.QLabel(" Cage "))
         self.cage_control = CageSizeControl(lambda: self.session.mesh.n_vertices if self.session else None)
         tb.addWidget(self.cage_control)
+        # the boxes hand the keyboard back to the view when done, so the single-key shortcuts work again
+        self.cage_control.spin.editingFinished.connect(self._focus_view)
+        self.cage_control.unit.activated.connect(lambda *_: self._focus_view())
+        self.brush_spin.editingFinished.connect(self._focus_view)
         tb.addAction(a["rebuild"])
         tb.addAction(a["show_cage"])
         tb.addSeparator()
@@ -265,16 +277,25 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def _make_statusbar(self) -> None:
         sb = self.statusBar()
+        # the latest message, whole (it wraps rather than being cut); View > Messages keeps them all
+        self.message_label = QtWidgets.QLabel("")
+        self.message_label.setTextFormat(QtCore.Qt.TextFormat.PlainText)
+        self.message_label.setWordWrap(True)
+        self.message_label.setSizePolicy(QtWidgets.QSizePolicy.Policy.Ignored,
+                                         QtWidgets.QSizePolicy.Policy.Fixed)
+        # room for two lines whatever the message, so the view never changes size under the mouse
+        self.message_label.setFixedHeight(2 * self.message_label.fontMetrics().lineSpacing() + 4)
+        sb.addWidget(self.message_label, 1)
+        self.time_label = QtWidgets.QLabel("")
         self.size_label = QtWidgets.QLabel("no shape")
         self.sel_label = QtWidgets.QLabel("")
-        self.time_label = QtWidgets.QLabel("")
         self.error_label = QtWidgets.QLabel("")
-        for w in (self.size_label, self.sel_label, self.time_label, self.error_label):
+        for w in (self.time_label, self.size_label, self.sel_label, self.error_label):
             w.setTextFormat(QtCore.Qt.TextFormat.PlainText)
             sb.addPermanentWidget(w)
         self.progress = QtWidgets.QProgressBar()
         self.progress.setRange(0, 1000)
-        self.progress.setFixedWidth(260)
+        self.progress.setFixedWidth(420)
         self.progress.setTextVisible(True)
         self.cancel_button = QtWidgets.QPushButton("Cancel")
         self.cancel_button.clicked.connect(self.cancel_job)
@@ -282,17 +303,27 @@ class MainWindow(QtWidgets.QMainWindow):
         sb.addPermanentWidget(self.cancel_button)
         self.progress.hide()
         self.cancel_button.hide()
+        self.log = QtWidgets.QPlainTextEdit()
+        self.log.setReadOnly(True)
+        self.log.setMaximumBlockCount(2000)
+        dock = QtWidgets.QDockWidget("Messages", self)
+        dock.setObjectName("messages")
+        dock.setWidget(self.log)
+        dock.visibilityChanged.connect(lambda v: self.actions_["messages"].setChecked(v))
+        self.addDockWidget(QtCore.Qt.DockWidgetArea.BottomDockWidgetArea, dock)
+        dock.hide()
+        self.log_dock = dock
 
     # ================================================================== messages
     def show_error(self, title: str, text: str) -> None:
-        """Tell the user about a problem (a non-blocking window-modal message box)."""
+        """Tell the user about a problem (a non-blocking window-modal message box, and the message log)."""
         self.last_error = text
         box = QtWidgets.QMessageBox(QtWidgets.QMessageBox.Icon.Warning, title, text,
                                     QtWidgets.QMessageBox.StandardButton.Ok, self)
         box.setAttribute(QtCore.Qt.WidgetAttribute.WA_DeleteOnClose)
         self._error_box = box
         box.open()
-        self.statusBar().showMessage(text.splitlines()[0] if text else title, 8000)
+        self.message(f"{title}: {text}" if text else title)
 
     def confirm(self, title: str, text: str) -> bool:
         """Ask a yes/no question (No is the default)."""
@@ -300,8 +331,34 @@ class MainWindow(QtWidgets.QMainWindow):
         r = QtWidgets.QMessageBox.question(self, title, text, Btn.Yes | Btn.No, Btn.No)
         return r == Btn.Yes
 
-    def message(self, text: str, ms: int = 6000) -> None:
-        self.statusBar().showMessage(text, ms)
+    def message(self, text: str) -> None:
+        """Show a message whole in the status bar until the next one (or until it is out of date), and log it."""
+        self.message_label.setText(text)
+        self.message_label.setToolTip(text)
+        if text:
+            self.log.appendPlainText(f"{time.strftime('%H:%M:%S')}  {text}")
+
+    def current_message(self) -> str:
+        return self.message_label.text()
+
+    def clear_message(self) -> None:
+        """The state changed: the message on show may no longer be true."""
+        self.message_label.setText("")
+        self.message_label.setToolTip("")
+
+    # ================================================================== unsaved changes
+    def set_modified(self, modified: bool) -> None:
+        self.modified = bool(modified)
+        self.setWindowModified(self.modified)
+
+    def _set_title(self) -> None:
+        s = self.session
+        if s is None:
+            self.setWindowTitle("hybridedit")
+        else:
+            name = s.path.name if s.path is not None else (s.mesh.name or "shape")
+            self.setWindowTitle(f"hybridedit — {name}[*]")
+        self.setWindowModified(self.modified)
 
     # ================================================================== cage size control
     def cage_size(self) -> int | float:
@@ -322,7 +379,8 @@ class MainWindow(QtWidgets.QMainWindow):
     def _set_target(self, target: str) -> None:
         self.target = target
         self.actions_["target_roi" if target == ROI else "target_handle"].setChecked(True)
-        rgb = STATE_COLORS[1] if target == ROI else STATE_COLORS[2]
+        active = self.session.active if self.session is not None else 0
+        rgb = STATE_COLORS[1] if target == ROI else STATE_COLORS[state_rows(2 + active)]
         self.controller.target_color = QtGui.QColor(int(rgb[0]), int(rgb[1]), int(rgb[2]))
 
     def _set_tool(self, tool: str) -> None:
@@ -345,15 +403,76 @@ class MainWindow(QtWidgets.QMainWindow):
             self.session.settle_on_release = self.settle_on_release
 
     def _toggle_polish(self) -> None:
-        self.polish_on_release = self.actions_["polish"].isChecked()
-        if not self.polish_on_release:
-            self.cancel_polish()
+        self.polisher.enabled = self.actions_["polish"].isChecked()
+        if not self.polisher.enabled:
+            self.polisher.cancel()
+
+    @guarded
+    def _toggle_mirror(self, axis: str) -> None:
+        """Mirror the selection across ``axis`` (or stop); a shape not symmetric enough is refused in words."""
+        s = self.session
+        on = self.actions_[f"mirror_{axis}"].isChecked()
+        for other in "xyz":
+            if other != axis:
+                self.actions_[f"mirror_{other}"].setChecked(False)
+        if s is None:
+            return
+        self.finish_settle()
+        self.polisher.cancel()
+        before = s.symmetry
+        s.set_symmetry(axis if on else None)
+        if s.handle.any():
+            try:
+                s.apply_selection()  # the engine measures the asymmetry now, not at the next drag
+            except SelectionError as e:
+                s.undo()  # back to the selection before the toggle
+                self.actions_[f"mirror_{axis}"].setChecked(before == axis)
+                self.show_error(f"Cannot mirror across {axis.upper()}", str(e))
+                return
+        self._refresh_selection()
+        self._update_actions()
+        self.message(f"Mirror {axis.upper()}: the selection and the drag are mirrored across the shape's middle plane"
+                     if on else "Mirror off")
+
+    def _group_name(self) -> str:
+        s = self.session
+        names = ("orange", "magenta", "cyan", "yellow", "violet", "brown")
+        return f"handle group {s.active + 1} of {s.n_groups} ({names[int(state_rows(2 + s.active)) - 2]})"
+
+    @guarded
+    def new_group(self) -> None:
+        """Start a new handle group and select its cage points next (Handle target, Select mode)."""
+        s = self.session
+        if s is None or self.controller.busy:
+            return
+        self.polisher.cancel()
+        if not s.new_group():
+            self.message("The current handle group is still empty: select its cage points first")
+            return
+        self._set_target(HANDLE)
+        self._refresh_selection()
+        self._update_actions()
+        self.message(f"New {self._group_name()}: select its cage points (Select mode, Handle target)")
+
+    @guarded
+    def next_group(self) -> None:
+        s = self.session
+        if s is None or self.controller.busy:
+            return
+        s.next_group()
+        self._set_target(self.target)
+        self._refresh_selection()
+        self.message(f"Now {self._group_name()}: selections and drags act on it")
+
+    def _toggle_messages(self) -> None:
+        self.log_dock.setVisible(self.actions_["messages"].isChecked())
+
+    def _focus_view(self) -> None:
+        self.view.setFocus(QtCore.Qt.FocusReason.OtherFocusReason)
 
     def _toggle_stretch(self) -> None:
-        on = self.actions_["stretch"].isChecked()
-        if on:
-            self._update_stretch()
-        self.scene.set_stretch_visible(on)
+        self.scene.set_stretch_visible(self.actions_["stretch"].isChecked())
+        self._measure(everything=True)
         self.view.request_render()
 
     def reset_camera(self) -> None:
@@ -361,29 +480,31 @@ class MainWindow(QtWidgets.QMainWindow):
         self.view.request_render()
 
     # ================================================================== loading (worker thread)
+    @guarded
     def open_path(self, path: str | os.PathLike) -> bool:
-        """Read a mesh and build its cage and binding in the worker thread."""
+        """Read a mesh and build its cage and binding in the worker thread (asks first if the pose is unsaved)."""
         p = Path(path)
+        if not self.files.keep_work(f"opening {p.name}"):
+            return False
         return self._start_job(BuildRequest(cage_size=self.cage_size(), path=p), f"Opening {p.name}")
 
     def open_mesh(self, mesh, path: Path | None = None) -> bool:
         """Build an already loaded shape (used by tests and scripts)."""
+        if not self.files.keep_work("opening another shape"):
+            return False
         return self._start_job(BuildRequest(cage_size=self.cage_size(), path=path, mesh=mesh), "Building")
 
     @guarded
     def rebuild(self) -> bool:
-        """Build the cage and binding again at the toolbar's size; the selection carries over, the pose resets."""
-        self._finish_settle()
+        """Build the cage and binding again at the toolbar's size; selection, pose and undo history carry over."""
+        self.finish_settle()
         s = self.session
         if s is None:
             self.show_error("Rebuild cage", "Open a mesh first.")
             return False
-        carry = {
-            "rebuild": True,
-            "roi": np.flatnonzero(s.roi[s.dominant]),
-            "handle": np.flatnonzero(s.handle[s.dominant]),
-        }
-        return self._start_job(BuildRequest(cage_size=self.cage_size(), path=s.path, mesh=s.mesh, carry=carry),
+        if not self.files.keep_work("rebuilding the cage (the pose is solved again on the new cage)"):
+            return False
+        return self._start_job(BuildRequest(cage_size=self.cage_size(), path=s.path, mesh=s.mesh, rebuild=True),
                                "Rebuilding the cage")
 
     def _start_job(self, request: BuildRequest, label: str) -> bool:
@@ -391,7 +512,7 @@ class MainWindow(QtWidgets.QMainWindow):
             self.show_error("Busy", "A cage is being built; wait for it or cancel it first.")
             return False
         self.controller.cancel()
-        self.cancel_polish()
+        self.polisher.cancel()
         w = BuildWorker(request, self)
         w.progress.connect(self._job_progress)
         w.succeeded.connect(self._job_succeeded)
@@ -428,7 +549,7 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def _job_failed(self, message: str) -> None:
         req = self.worker.request if self.worker is not None else None
-        rebuilding = req is not None and req.carry.get("rebuild")
+        rebuilding = req is not None and req.rebuild
         what = "Could not rebuild the cage" if rebuilding else "Could not open the mesh"
         self.show_error(what, message)
 
@@ -448,65 +569,66 @@ class MainWindow(QtWidgets.QMainWindow):
     def _install(self, result: BuildResult) -> None:
         req = result.request
         ed = result.editor
-        rebuild = bool(req.carry.get("rebuild"))
-        roi = handle = None
-        if rebuild:
-            c = ed.cage.n_vertices
-            roi = np.zeros(c, dtype=bool)
-            handle = np.zeros(c, dtype=bool)
-            if len(req.carry["roi"]):
-                roi[ed.to_cage(req.carry["roi"], "shape")] = True
-            if len(req.carry["handle"]):
-                handle[ed.to_cage(req.carry["handle"], "shape")] = True
-        session = Session(ed, path=req.path, cage_size=req.cage_size, roi=roi, handle=handle)
-        session.settle_on_release = self.settle_on_release
         self.controller.cancel()
-        self._finish_settle()
+        self.finish_settle()
         self.settle_timer.stop()
-        self.cancel_polish()
-        self.session = session
-        self.polished = None
+        self.polisher.cancel()
+        note = None
+        if req.rebuild and self.session is not None and self.session.mesh is result.mesh:
+            note = self.session.adopt(ed, req.cage_size)
+            rebuilt = True
+        else:
+            session = Session(ed, path=req.path, cage_size=req.cage_size)
+            self.session = session
+            self.polisher.forget_shape()
+            self.files.forget_paths()
+            self.set_modified(False)
+            rebuilt = False
+        s = self.session
+        s.settle_on_release = self.settle_on_release
         self.last_polish = None
-        if self._polish_holder is not None and self._polish_holder.mesh is not session.mesh:
-            self._polish_holder = None  # a new shape: its full-resolution set-up is built by its first polish
-        self._stretch_dirty = True
-        self.scene.load(session.shape_positions, session.mesh.faces, session.cage_positions,
-                        ed.cage.faces, session.states(), session.dominant)
-        self.scene.gizmo.place(session.handle_centroid())
-        if not rebuild:
-            self.save_path = None
-            self.edit_path = None
+        self._show_engine()
+        if not rebuilt:
             self.scene.reset_camera()
-        self.modified = False
-        self._rrms_dirty = True
-        name = req.path.name if req.path is not None else (session.mesh.name or "shape")
-        self.setWindowTitle(f"hybridedit — {name}")
+        self._set_title()
+        name = req.path.name if req.path is not None else (s.mesh.name or "shape")
         t = ed.timings
         how = "from the cache" if getattr(ed, "cache_hit", False) else (
             f"cage {t.get('cage_seconds', 0):.1f} s, binding {t.get('bind_seconds', 0):.1f} s")
         notes = [str(n) for n in (getattr(ed, "notes", None) or [])]
-        msg = f"{'Rebuilt' if rebuild else 'Loaded'} {name} ({how})"
-        if notes and not rebuild:
+        msg = f"{'Rebuilt the cage of' if rebuilt else 'Loaded'} {name}: cage {s.n_cage:,} vertices ({how})"
+        if note:
+            msg += f"; {note}"
+        if notes and not rebuilt:
             msg += f" · input repaired: {'; '.join(notes)} (File ▸ Mesh Info…)"
-        self.message(msg, 20000 if notes else 10000)
-        self._update_labels()
+        self.message(msg)
         self._update_actions()
-        if self.actions_["stretch"].isChecked():
-            self._update_stretch()
+
+    def _show_engine(self) -> None:
+        """(Re)build the scene for the session's engine (a new shape, a rebuild, or undo across one)."""
+        s = self.session
+        self._generation = s.generation
+        self.set_cage_size(s.cage_size)
+        self.scene.load(s.metrics, s.shown_positions, s.cage_positions, s.editor.cage.faces, s.states(),
+                        s.shape_roles())
+        self.scene.gizmo.place(s.handle_centroid())
+        self._rrms_full = True
+        self._measure()
+        self._update_labels()
         self.view.request_render()
 
     # ================================================================== Handler (called by the view controller)
     def cage_points(self) -> np.ndarray | None:
-        self._finish_settle()
+        self.finish_settle()
         return None if self.session is None else self.session.cage_positions
 
     def handle_center(self) -> np.ndarray | None:
-        self._finish_settle()
+        self.finish_settle()
         return None if self.session is None else self.session.handle_centroid()
 
     def begin_select(self) -> bool:
-        self._finish_settle()
-        self.cancel_polish()
+        self.finish_settle()
+        self.polisher.cancel()
         if self.session is None:
             return False
         self.session.begin_stroke(self.target)
@@ -526,8 +648,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self._update_actions()
 
     def begin_drag(self) -> bool:
-        self._finish_settle()
-        self.cancel_polish()
+        self.finish_settle()
+        self.polisher.cancel()
         if self.session is None:
             return False
         self._drop_polished()  # the drag starts from the engine's pose
@@ -536,7 +658,10 @@ class MainWindow(QtWidgets.QMainWindow):
         except SelectionError as e:
             self.show_error("Cannot drag", str(e))
             return False
+        self.clear_message()
         self._pending_T = None
+        self.scene.set_moving(self.session.moving_vertices())
+        self._measure()  # every edge once: then each frame only the moving region's
         return True
 
     def drag(self, D: np.ndarray) -> None:
@@ -561,17 +686,22 @@ class MainWindow(QtWidgets.QMainWindow):
         except (ValueError, ArithmeticError) as e:  # e.g. a degenerate transform: stop this drag
             self.controller.gesture = None
             s.cancel_drag()
-            self._refresh_all()
+            self.refresh_all()
             self.show_error("Drag failed", f"{e}; the drag was undone.")
             return
-        self.scene.update_shape(V)
+        t1 = time.perf_counter()
+        normals_s, upload_s = self.scene.update_shape(V)
         self.scene.update_cage(s.cage_positions)
         self.scene.gizmo.place(s.handle_centroid())
-        self._engine_ms = s.last_frame_seconds * 1e3
-        self._frame_ms = (time.perf_counter() - t0) * 1e3
+        split = self.view.split
+        split.add("engine", t1 - t0)
+        split.add("normals", normals_s)
+        split.add("vtk update", upload_s)
+        self._engine_ms = (t1 - t0) * 1e3
         self._rrms_dirty = True
-        self._stretch_dirty = True
-        self.modified = True
+        if self.scene.stretch_visible:
+            self._measure(everything=False)
+        self.set_modified(True)
         self.view.request_render()
 
     def end_drag(self) -> None:
@@ -581,7 +711,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self._apply_pending_drag()
         if not np.all(np.isfinite(s.shape_positions)):
             s.cancel_drag()
-            self._refresh_all()
+            self.refresh_all()
             self.show_error("Drag failed", "The deformation became non-finite; the drag was undone.")
             return
         if s.end_drag():
@@ -606,7 +736,7 @@ class MainWindow(QtWidgets.QMainWindow):
             self.settle_timer.stop()
             self._after_drag()
 
-    def _finish_settle(self) -> None:
+    def finish_settle(self) -> None:
         """Complete a settle under way now (before anything reads or changes the pose)."""
         s = self.session
         if s is not None and s.settling:
@@ -616,118 +746,71 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def _after_drag(self) -> None:
         self._refresh_pose()
-        self._update_rrms()
         self._update_actions()
-        self._start_polish()
+        if self.session is not None and self.polisher.start(self.session):
+            self.time_label.setText("polishing…")
 
     # ================================================================== polish on release (worker thread)
     def shown_vertices(self) -> np.ndarray | None:
         """The shape on display: the polished pose when one is shown, else the engine's pose."""
-        if self.session is None:
-            return None
-        return self.polished if self.polished is not None else self.session.shape_positions
+        return None if self.session is None else self.session.shown_positions
 
-    def _start_polish(self) -> None:
-        """Polish the engine's pose in the background (after a drag's settle)."""
-        s = self.session
-        if not self.polish_on_release or s is None or not s.applied or s.settling:
-            return
-        ed = s.editor
-        free = ed.free_mask
-        if not free.any():
-            return
-        if self._polish_holder is None or self._polish_holder.mesh is not s.mesh:
-            self._polish_holder = ShapeARAPHolder(s.mesh)
-        self._polish_token += 1
-        req = PolishRequest(self._polish_holder, s.shape_positions.copy(), free, s.edges,
-                            seconds=self.polish_seconds, max_iterations=self.polish_iterations,
-                            tolerance=self.polish_tolerance, token=self._polish_token)
-        if self.polish_worker is not None:  # one at a time (they share the set-up): queue it
-            self.polish_worker.cancel()
-            self._polish_next = req
-        else:
-            self._launch_polish(req)
-
-    def _launch_polish(self, req: PolishRequest) -> None:
-        w = PolishWorker(req, self)
-        w.succeeded.connect(self._polish_succeeded)
-        w.failed.connect(self._polish_failed)
-        w.finished.connect(self._polish_finished)
-        self.polish_worker = w
-        self.time_label.setText("polishing…")
-        w.start()
+    @property
+    def polished(self) -> np.ndarray | None:
+        """The polished pose on display, or None."""
+        return None if self.session is None else self.session.polished
 
     def cancel_polish(self) -> None:
-        """Stop a polish under way (or queued); its result will be dropped. A polished pose on display stays."""
-        self._polish_token += 1
-        self._polish_next = None
-        if self.polish_worker is not None:
-            self.polish_worker.cancel()
+        self.polisher.cancel()
 
     def _drop_polished(self) -> None:
         """Show the engine's pose again instead of a polished one."""
-        if self.polished is None:
-            return
-        self.polished = None
-        if self.session is not None:
-            self.scene.update_shape(self.session.shape_positions)
-            self._pose_shown_changed()
-            self.view.request_render()
-
-    def _polish_current(self, out: PolishOutcome) -> bool:
         s = self.session
-        return (out.request.token == self._polish_token and s is not None and not s.settling
-                and out.request.holder is self._polish_holder and s.mesh is out.request.holder.mesh)
+        if s is None or s.polished is None:
+            return
+        s.polished = None
+        self.scene.update_shape(s.shape_positions, everything=True)
+        self._pose_shown_changed()
+        self.view.request_render()
 
     def _polish_succeeded(self, out: PolishOutcome) -> None:
-        if not self._polish_current(out):
-            return  # a drag, an undo or the like came in between: the result is stale
+        s = self.session
+        if s is None:
+            return
         self.last_polish = out
-        self.polished = out.result.vertices
-        self.scene.update_shape(self.polished)
+        s.polished = out.result.vertices
+        self.scene.update_shape(s.polished, everything=True)
         self._pose_shown_changed()
-        self._update_rrms()
         self.view.request_render()
         r = out.result
         self.message(f"polished: {r.iterations} iterations, edge error {out.error_before:.2f}% → "
-                     f"{out.error_after:.2f}% ({out.seconds:.2f} s)", 10000)
+                     f"{out.error_after:.2f}% ({out.seconds:.2f} s)")
 
-    def _polish_failed(self, message: str) -> None:
-        self.message(f"Polish failed: {message}", 10000)
-
-    def _polish_finished(self) -> None:
-        w = self.polish_worker
-        self.polish_worker = None
-        if w is not None:
-            w.wait()
-            w.deleteLater()
-        req, self._polish_next = self._polish_next, None
-        if req is not None and req.token == self._polish_token and self.session is not None:
-            self._launch_polish(req)
-
-    # ================================================================== stretch map
+    # ================================================================== edge error and stretch map
     def _pose_shown_changed(self) -> None:
-        """The shape on display changed: the edge error and the stretch map are out of date."""
-        self._rrms_dirty = True
-        if self.actions_["stretch"].isChecked():
-            self._update_stretch()
-        else:
-            self._stretch_dirty = True
+        """The shape on display changed outside a drag: edge error and stretch map are measured again."""
+        self._rrms_full = True
+        self._measure()
 
-    def stretch_values(self) -> np.ndarray | None:
-        """Per shape vertex mean |l' - l| / l over its edges, in percent, for the shape on display."""
+    def _measure(self, everything: bool | None = None) -> None:
+        """Edge error (status bar) and, when shown, the stretch map of the shape on display.
+
+        During a drag only the edges of the moving region are measured again
+        (:class:`~.regional.ShapeMetrics`); after any other change, every edge.
+        """
         s = self.session
         if s is None:
-            return None
-        V = self.shown_vertices()
-        return 100.0 * vertex_stretch(s.mesh.n_vertices, s.edges, edge_stretch(s.mesh.vertices, V, s.edges))
-
-    def _update_stretch(self) -> None:
-        self._stretch_dirty = False
-        self._stretch_time = time.perf_counter()
-        vals = self.stretch_values()
-        if vals is not None:
-            self.scene.update_stretch(vals)
+            self.error_label.setText("")
+            return
+        full = self._rrms_full if everything is None else everything
+        self._rrms_full = False
+        self._rrms_time = time.perf_counter()
+        self._rrms_dirty = False
+        err = s.metrics.update_error(s.shown_positions, everything=full)
+        self.error_label.setText(f"edge error {err:.2f} %{' (polished)' if s.polished is not None else ''}")
+        if self.scene.stretch_visible:
+            s.metrics.write_stretch(self.scene.stretch32, everything=full)
+            self.scene.stretch_modified()
             self.view.request_render()
 
     # ================================================================== refresh
@@ -735,8 +818,7 @@ class MainWindow(QtWidgets.QMainWindow):
         s = self.session
         if s is None:
             return
-        self.polished = None
-        self.scene.update_shape(s.shape_positions)
+        self.scene.update_shape(s.shown_positions, everything=True)
         self.scene.update_cage(s.cage_positions)
         self.scene.gizmo.place(s.handle_centroid())
         self._pose_shown_changed()
@@ -746,15 +828,18 @@ class MainWindow(QtWidgets.QMainWindow):
         s = self.session
         if s is None:
             return
-        self.scene.update_states(s.states())
+        self.scene.update_states(s.states(), s.shape_roles())
         self.scene.gizmo.place(s.handle_centroid())
         self._update_labels()
         self.view.request_render()
 
-    def _refresh_all(self) -> None:
+    def refresh_all(self) -> None:
+        """Show the session's whole state again (after undo, redo, loading an edit, ...)."""
+        s = self.session
+        if s is not None and s.generation != self._generation:
+            self._show_engine()  # undo or redo went across a rebuild: the other cage
         self._refresh_pose()
         self._refresh_selection()
-        self._update_rrms()
         self._update_actions()
 
     def _update_labels(self) -> None:
@@ -765,20 +850,12 @@ class MainWindow(QtWidgets.QMainWindow):
             return
         m, c = s.mesh, s.editor.cage
         self.size_label.setText(f"shape {_fmt(m.n_vertices)} v / {_fmt(m.n_faces)} f · cage {_fmt(c.n_vertices)} v")
-        n_roi = int(np.count_nonzero(s.roi & ~s.handle))
+        h = s.all_handles
+        n_roi = int(np.count_nonzero(s.roi & ~h))
         n_h = int(np.count_nonzero(s.handle))
-        n_f = int(np.count_nonzero(~s.roi & ~s.handle))
-        self.sel_label.setText(f"ROI {n_roi} · handle {n_h} · fixed {n_f}")
-
-    def _update_rrms(self) -> None:
-        if self.session is None:
-            self.error_label.setText("")
-            return
-        self._rrms_time = time.perf_counter()
-        self._rrms_dirty = False
-        s = self.session
-        err = rrms_edge_error(s.mesh.vertices, self.shown_vertices(), s.edges)
-        self.error_label.setText(f"edge error {err:.2f} %{' (polished)' if self.polished is not None else ''}")
+        n_f = int(np.count_nonzero(~s.roi & ~h))
+        group = f" (group {s.active + 1} of {s.n_groups})" if s.n_groups > 1 else ""
+        self.sel_label.setText(f"ROI {n_roi} · handle {n_h}{group} · fixed {n_f}")
 
     def _on_rendered(self, seconds: float) -> None:
         a = self.actions_["antialias"]
@@ -789,24 +866,21 @@ class MainWindow(QtWidgets.QMainWindow):
         if self.session is None or self.session.settling:
             return
         if self._rrms_dirty and time.perf_counter() - self._rrms_time >= RRMS_INTERVAL:
-            self._update_rrms()
-        if (self._stretch_dirty and self.actions_["stretch"].isChecked()
-                and time.perf_counter() - self._stretch_time >= STRETCH_INTERVAL):
-            self._update_stretch()
-        if self.polish_worker is not None:
+            self._measure()
+        if self.polisher.busy:
             self.time_label.setText("polishing…")
             return
-        r = self.view.render_seconds * 1e3
-        e = self._engine_ms
+        self.time_label.setText(self.timing_text())
+
+    def timing_text(self) -> str:
+        """Frames shown per second first (what the eye gets), then the engine's and the render's share."""
         fps = self.view.display_fps()
-        parts = []
-        if e > 0:
-            parts.append(f"engine {e:.1f} ms ({1e3 / e:.0f} fps)")
-        if r > 0:
-            parts.append(f"render {r:.1f} ms ({1e3 / r:.0f} fps)")
-        if fps > 0:
-            parts.append(f"{fps:.0f} frames/s shown")
-        self.time_label.setText(" · ".join(parts))
+        parts = [f"{fps:.0f} fps" if fps > 0 else "idle"]
+        if self._engine_ms > 0:
+            parts.append(f"engine {self._engine_ms:.1f} ms")
+        if self.view.render_seconds > 0:
+            parts.append(f"render {self.view.render_seconds * 1e3:.0f} ms")
+        return " · ".join(parts)
 
     def _update_actions(self) -> None:
         a = self.actions_
@@ -829,227 +903,71 @@ class MainWindow(QtWidgets.QMainWindow):
     def undo(self) -> None:
         if self.session is None or self.controller.busy:
             return
-        self._finish_settle()
-        self.cancel_polish()
+        self.finish_settle()
+        self.polisher.cancel()
+        label = self.session.history.undo_label()
         if self.session.undo():
-            self._refresh_all()
+            self.set_modified(True)
+            self.refresh_all()
+            self.message(f"Undid: {label}")
 
     @guarded
     def redo(self) -> None:
         if self.session is None or self.controller.busy:
             return
-        self._finish_settle()
-        self.cancel_polish()
+        self.finish_settle()
+        self.polisher.cancel()
+        label = self.session.history.redo_label()
         if self.session.redo():
-            self._refresh_all()
+            self.set_modified(True)
+            self.refresh_all()
+            self.message(f"Redid: {label}")
 
     @guarded
     def reset_pose(self) -> None:
         if self.session is None or self.controller.busy:
             return
-        self._finish_settle()
-        self.cancel_polish()
+        self.finish_settle()
+        self.polisher.cancel()
         self.session.reset_pose()
-        self._refresh_all()
+        self.set_modified(True)
+        self.refresh_all()
         self.message("Back to the rest pose")
 
     def _selection_op(self, op: str) -> None:
         s = self.session
         if s is None or self.controller.busy:
             return
-        self._finish_settle()
-        self.cancel_polish()
+        self.finish_settle()
+        self.polisher.cancel()
         {"all": s.select_all, "clear": s.clear, "invert": s.invert}[op](self.target)
+        self.clear_message()
         self._refresh_selection()
         self._update_actions()
 
-    # ================================================================== files
-    @guarded
-    def open_dialog(self) -> None:
-        start = str(self.session.path.parent) if self.session and self.session.path else os.getcwd()
-        path, _ = QtWidgets.QFileDialog.getOpenFileName(self, "Open mesh", start, MESH_FILTER)
-        if path:
-            self.open_path(path)
-
-    def _suggested_path(self, suffix: str, ext: str) -> str:
-        s = self.session
-        if s is not None and s.path is not None:
-            return str(s.path.with_name(f"{s.path.stem}{suffix}{ext}"))
-        return str(Path.cwd() / f"shape{suffix}{ext}")
-
-    @guarded
-    def save(self) -> bool:
-        if self.session is None:
-            return False
-        if self.save_path is None:
-            return bool(self.save_as_dialog())
-        return self.save_to(self.save_path, asked=False)
-
-    @guarded
-    def save_as_dialog(self) -> bool:
-        if self.session is None:
-            return False
-        ext = self.session.path.suffix.lower() if self.session.path else ".ply"
-        start = str(self.save_path) if self.save_path else self._suggested_path("-edited", ext)
-        path, selected = QtWidgets.QFileDialog.getSaveFileName(
-            self, "Save deformed mesh", start, MESH_FILTER,
-            options=QtWidgets.QFileDialog.Option.DontConfirmOverwrite)
-        if not path:
-            return False
-        p = Path(path)
-        if not p.suffix:
-            for e in SUPPORTED_EXTENSIONS:
-                if f"*{e}" in selected:
-                    p = p.with_suffix(e)
-                    break
-            else:
-                p = p.with_suffix(".ply")
-        return self.save_to(p, asked=False)
-
-    def save_to(self, path: str | os.PathLike, asked: bool = False) -> bool:
-        """Write the deformed shape; asks before replacing the opened file or any existing file."""
-        self._finish_settle()
-        s = self.session
-        if s is None:
-            return False
-        p = Path(path)
-        if p.suffix.lower() not in SUPPORTED_EXTENSIONS:
-            self.show_error("Cannot save", f"{p.name}: unsupported format; use .obj, .ply, .stl or .off")
-            return False
-        if not asked:
-            if s.path is not None and _same_file(p, s.path):
-                if not self.confirm("Overwrite the input file?",
-                                    f"{p} is the file this shape was opened from.\n\n"
-                                    "Replace it with the deformed shape? The original will be lost."):
-                    self.message("Not saved")
-                    return False
-            elif p.exists() and p != self.save_path:
-                if not self.confirm("Replace file?", f"{p} already exists. Replace it?"):
-                    self.message("Not saved")
-                    return False
-        try:
-            # what is shown: the polished pose when one is on display; in the opened file's structure
-            write_mesh(p, s.editor.deformed if self.polished is None else s.mesh.copy(vertices=self.polished.copy()),
-                       like=s.path)
-        except (MeshError, MeshFileError, WriteError, OSError) as e:
-            self.show_error("Could not save the mesh", str(e))
-            return False
-        self.save_path = p
-        self.modified = False
-        self.message(f"Saved {p}")
-        return True
-
-    @guarded
-    def save_edit_dialog(self) -> bool:
-        if self.session is None:
-            return False
-        start = str(self.edit_path) if self.edit_path else self._suggested_path("-edit", ".json")
-        path, _ = QtWidgets.QFileDialog.getSaveFileName(self, "Save edit", start, EDIT_FILTER)
-        if not path:
-            return False
-        p = Path(path)
-        if not p.suffix:
-            p = p.with_suffix(".json")
-        return self.save_edit_to(p)
-
-    def save_edit_to(self, path: str | os.PathLike) -> bool:
-        """Write the selection and handle transform as a JSON edit file (cage indices)."""
-        self._finish_settle()
-        s = self.session
-        if s is None:
-            return False
-        try:
-            edit = s.to_edit()
-            save_edit(path, edit)
-        except (SelectionError, ValueError, WriteError, OSError) as e:
-            self.show_error("Could not save the edit", str(e))
-            return False
-        self.edit_path = Path(path)
-        note = "" if s.anchor_at_rest or not s.applied else (
-            " Note: this selection was made on a deformed pose; 'hybridedit deform' replays it from the rest pose.")
-        self.message(f"Saved the edit to {path} (the last selection and its drag; cage {s.n_cage} vertices, "
-                     f"use the same --cage with hybridedit deform).{note}", 12000)
-        return True
-
-    @guarded
-    def load_edit_dialog(self) -> bool:
-        if self.session is None:
-            self.show_error("Load edit", "Open a mesh first.")
-            return False
-        start = str(self.edit_path) if self.edit_path else self._suggested_path("-edit", ".json")
-        path, _ = QtWidgets.QFileDialog.getOpenFileName(self, "Load edit", start, EDIT_FILTER)
-        if not path:
-            return False
-        return self.load_edit_from(path)
-
-    def load_edit_from(self, path: str | os.PathLike) -> bool:
-        """Apply a JSON edit file as 'hybridedit deform' does (from the rest pose)."""
-        self._finish_settle()
-        s = self.session
-        if s is None:
-            self.show_error("Load edit", "Open a mesh first.")
-            return False
-        if self.controller.busy:
-            return False
-        self.cancel_polish()
-        try:
-            edit = load_edit(path)
-            s.load_edit(edit)
-        except (EditFileError, SelectionError, ValueError) as e:
-            self.show_error("Could not load the edit", str(e))
-            return False
-        self.edit_path = Path(path)
-        self.modified = True
-        self._refresh_all()
-        self.message(f"Applied {Path(path).name}")
-        return True
-
-    @guarded
-    def screenshot_dialog(self) -> bool:
-        path, _ = QtWidgets.QFileDialog.getSaveFileName(self, "Save screenshot", self._suggested_path("", ".png"),
-                                                        "PNG images (*.png)")
-        if not path:
-            return False
-        try:
-            self.view.screenshot(path)
-        except Exception as e:  # noqa: BLE001
-            self.show_error("Could not save the screenshot", f"{path}: {e}")
-            return False
-        self.message(f"Saved {path}")
-        return True
-
     # ================================================================== drag and drop
-    @staticmethod
-    def _dropped_path(mime: QtCore.QMimeData) -> Path | None:
-        urls = mime.urls() if mime.hasUrls() else []
-        if len(urls) != 1 or not urls[0].isLocalFile():
-            return None
-        p = Path(urls[0].toLocalFile())
-        if p.suffix.lower() in SUPPORTED_EXTENSIONS + (".json",):
-            return p
-        return None
-
     def dragEnterEvent(self, ev: QtGui.QDragEnterEvent) -> None:  # noqa: N802
-        if self._dropped_path(ev.mimeData()) is not None:
+        if dropped_path(ev.mimeData()) is not None:
             ev.acceptProposedAction()
         else:
             ev.ignore()
 
     def dragMoveEvent(self, ev: QtGui.QDragMoveEvent) -> None:  # noqa: N802
-        if self._dropped_path(ev.mimeData()) is not None:
+        if dropped_path(ev.mimeData()) is not None:
             ev.acceptProposedAction()
 
     @guarded
     def dropEvent(self, ev: QtGui.QDropEvent) -> None:  # noqa: N802
-        p = self._dropped_path(ev.mimeData())
+        p = dropped_path(ev.mimeData())
         if p is None:
             ev.ignore()
             return
         ev.acceptProposedAction()
+        # let the drop finish before any question is asked
         if p.suffix.lower() == ".json":
-            self.load_edit_from(p)
+            QtCore.QTimer.singleShot(0, lambda: self.files.load_edit_from(p))
         else:
-            self.open_path(p)
+            QtCore.QTimer.singleShot(0, lambda: self.open_path(p))
 
     # ================================================================== help
     def show_shortcuts(self) -> None:
@@ -1105,10 +1023,11 @@ class MainWindow(QtWidgets.QMainWindow):
 
     # ================================================================== closing
     def closeEvent(self, ev: QtGui.QCloseEvent) -> None:  # noqa: N802
+        if not self.files.keep_work("quitting"):
+            ev.ignore()
+            return
         self.settle_timer.stop()
-        self.cancel_polish()
-        if self.polish_worker is not None:
-            self.polish_worker.wait(30000)
+        self.polisher.wait()
         if self.worker is not None:
             self.worker.cancel()
             self.worker.wait(30000)

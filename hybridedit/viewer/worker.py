@@ -8,13 +8,14 @@ from __future__ import annotations
 
 import threading
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from qtpy import QtCore
 
 from ..editor import HybridEditor
+from ..rig import build_rig
 from ..io import read_mesh
 from ..mesh import Mesh
 
@@ -27,14 +28,13 @@ class Cancelled(Exception):
 class BuildRequest:
     """What to build: a file to read (``path``) or a shape already loaded (``mesh``).
 
-    ``carry`` is passed through to the result untouched (the window uses it to
-    carry a selection across a cage rebuild).
+    ``rebuild``: a new cage for the shape being edited (the window carries the edit over).
     """
 
     cage_size: int | float
     path: Path | None = None
     mesh: Mesh | None = None
-    carry: dict = field(default_factory=dict)
+    rebuild: bool = False
     use_cache: bool = True
 
 
@@ -85,17 +85,31 @@ class BuildWorker(QtCore.QThread):
             self._last_stage, self._last_emit = stage, now
             self.progress.emit(stage, float(fraction))
 
+    def _compile_kernels_once(self) -> None:
+        """First run after a plain install (scripts/setup.sh does this at set-up): compile every kernel
+        here, before there is anything to drag, and say so."""
+        from .. import warmup
+
+        if warmup.is_warm():
+            return
+        stage = "compiling the kernels for this computer (first run only, about a minute)"
+        self._report(stage, 0.0)
+        steps = iter(np.linspace(0.05, 0.95, 12))
+        warmup.run(progress=lambda _stage, _f: self._report(stage, float(next(steps, 0.95))))
+
     def run(self) -> None:  # runs in the worker thread
         t0 = time.perf_counter()
         req = self.request
         try:
+            self._compile_kernels_once()
             mesh = req.mesh
             if mesh is None:
                 self._report(f"reading {req.path.name}", 0.0)
                 mesh = read_mesh(req.path)
                 self._report(f"reading {req.path.name}", 1.0)
             # the on-disk cache makes reopening a shape (or going back to a cage size) instant
-            editor = HybridEditor(mesh, req.cage_size, progress=self._report, cache=req.use_cache)
+            rig = build_rig(mesh, cage_size=req.cage_size, cache=req.use_cache, progress=self._report)
+            editor = HybridEditor(rig)
             self._report("done", 1.0)
         except Cancelled:
             self.cancelled.emit()

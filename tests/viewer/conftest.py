@@ -1,76 +1,22 @@
 """The editor window tests run on a real X server: Xvfb is started here when DISPLAY is unset.
 
-Xvfb picks a free display itself (-displayfd) and is stopped when the test
-session ends. Qt uses its xcb platform (VTK renders through GLX).
+Xvfb picks a free display itself (-displayfd) and ends with the test process. Qt uses its xcb platform (VTK renders through GLX).
 """
 
 from __future__ import annotations
 
-import atexit
 import os
-import shutil
-import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-_XVFB: subprocess.Popen | None = None
-_XVFB_PROBLEM = ""
+from hybridedit.viewer.xvfb import ensure_display
 
-
-def _start_xvfb() -> None:
-    """Start Xvfb on a free display and export DISPLAY; remember why not on failure."""
-    global _XVFB, _XVFB_PROBLEM
-    exe = shutil.which("Xvfb")
-    if exe is None:
-        _XVFB_PROBLEM = "Xvfb is not installed (apt-get install xvfb, or run scripts/setup.sh test)"
-        return
-    r, w = os.pipe()
-    try:
-        proc = subprocess.Popen(
-            [exe, "-displayfd", str(w), "-screen", "0", "1280x1024x24", "-nolisten", "tcp"],
-            pass_fds=(w,), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-        )
-    finally:
-        os.close(w)
-    data = b""
-    with os.fdopen(r, "rb") as fh:
-        while not data.endswith(b"\n"):
-            chunk = fh.read(1)
-            if not chunk:
-                break
-            data += chunk
-    if not data.strip().isdigit():
-        proc.kill()
-        proc.wait()
-        _XVFB_PROBLEM = "Xvfb did not start"
-        return
-    _XVFB = proc
-    os.environ["DISPLAY"] = f":{int(data)}"
-    atexit.register(_stop_xvfb)
-
-
-def _stop_xvfb() -> None:
-    global _XVFB
-    if _XVFB is not None:
-        _XVFB.terminate()
-        try:
-            _XVFB.wait(5)
-        except subprocess.TimeoutExpired:
-            _XVFB.kill()
-            _XVFB.wait()
-        _XVFB = None
-
-
-if sys.platform.startswith("linux") and not os.environ.get("DISPLAY"):
-    _start_xvfb()
+_XVFB = ensure_display("1280x1024x24") if sys.platform.startswith("linux") else None
+_XVFB_PROBLEM = _XVFB.problem if _XVFB is not None else ""
 os.environ["QT_QPA_PLATFORM"] = "xcb"
-
-
-def pytest_unconfigure(config) -> None:  # noqa: ARG001
-    _stop_xvfb()
 
 
 @pytest.fixture(scope="session", autouse=True)

@@ -5,9 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hybridedit.transforms import apply_transform, rigid_transform
+from hybridedit.transforms import apply_transform
 from hybridedit.viewer import gizmo as gz
-from hybridedit.viewer.editio import decompose_rigid
 from hybridedit.viewer.history import History, Snapshot
 from hybridedit.viewer.selection import (
     ADD, FIXED, FREE, HANDLE, REMOVE, REPLACE, brush_hits, combine, fixed_mask, op_from_modifiers,
@@ -88,25 +87,6 @@ def test_states_and_fixed():
     handle = np.array([False, True, False, True])
     assert vertex_states(roi, handle).tolist() == [FREE, HANDLE, FIXED, HANDLE]
     assert fixed_mask(roi, handle).tolist() == [False, False, True, False]
-
-
-@pytest.mark.parametrize("axis,deg", [((0, 0, 1), 30.0), ((1, 2, -0.5), 175.0), ((0, 1, 0), 180.0), ((1, 0, 0), 0.0)])
-def test_decompose_rigid_round_trip(axis, deg):
-    center = np.array([0.3, -1.0, 2.0])
-    T = rigid_transform(translate=(0.1, 0.2, -0.3), axis=axis, degrees=deg, center=(1.0, 1.0, 0.0))
-    translate, rotate = decompose_rigid(T, center)
-    if rotate is None:
-        T2 = rigid_transform(translate=translate)
-    else:
-        assert np.allclose(rotate["center"], center)
-        T2 = rigid_transform(translate=translate, axis=rotate["axis"], degrees=rotate["degrees"], center=center)
-    assert np.allclose(T, T2, atol=1e-12)
-
-
-def test_decompose_rejects_non_rigid():
-    T = np.diag([2.0, 1.0, 1.0, 1.0])
-    with pytest.raises(ValueError):
-        decompose_rigid(T, np.zeros(3))
 
 
 def test_gizmo_drag_math_follows_the_mouse():

@@ -39,14 +39,14 @@ def drag_up(qtbot, w: MainWindow, pixels: int = 80) -> None:
 
 
 def polished(qtbot, w: MainWindow, timeout: int = 20000) -> None:
-    qtbot.waitUntil(lambda: w.polished is not None and w.polish_worker is None, timeout=timeout)
+    qtbot.waitUntil(lambda: w.polished is not None and w.polisher.worker is None, timeout=timeout)
     qtbot.wait(10)
 
 
 def test_polish_on_release_lowers_the_energy_and_save_writes_it(qtbot, win, tmp_path):
     w = win
     s = w.session
-    assert w.actions_["polish"].isChecked() and w.polish_on_release
+    assert w.actions_["polish"].isChecked() and w.polisher.enabled
     rest = s.shape_positions.copy()
     select_tip(qtbot, w)
     drag_up(qtbot, w)
@@ -56,7 +56,7 @@ def test_polish_on_release_lowers_the_energy_and_save_writes_it(qtbot, win, tmp_
     # the polish ran in the background and the window shows its result
     assert np.allclose(np.asarray(w.scene.shape.points), P, atol=1e-5)
     assert not np.allclose(P, hybrid, atol=1e-6)
-    msg = w.statusBar().currentMessage()
+    msg = w.current_message()
     assert msg.startswith("polished: ") and "iterations, edge error" in msg and "→" in msg
     assert w.error_label.text().endswith("(polished)")
     # lower full-mesh ARAP energy than the hybrid pose
@@ -72,7 +72,7 @@ def test_polish_on_release_lowers_the_energy_and_save_writes_it(qtbot, win, tmp_
     assert np.array_equal(s.shape_positions, hybrid)
     # save writes what is shown (the polished pose)
     out = tmp_path / "polished.obj"
-    assert w.save_to(out)
+    assert w.files.save_to(out)
     assert np.array_equal(read_mesh(out).vertices, P)
     assert "polish" in w.mesh_info_text().lower()
     # undo restores what it always did (the pose before the drag) and shows it
@@ -83,13 +83,13 @@ def test_polish_on_release_lowers_the_energy_and_save_writes_it(qtbot, win, tmp_
     # redo brings the hybrid pose back (no polish: it only follows a release)
     key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier | Qt.KeyboardModifier.ShiftModifier)
     assert np.allclose(s.shape_positions, hybrid, atol=1e-12) and w.polished is None
-    assert w.polish_worker is None
+    assert w.polisher.worker is None
     # off: a release shows the engine's pose only
     w.actions_["polish"].trigger()
-    assert not w.polish_on_release
+    assert not w.polisher.enabled
     drag_up(qtbot, w, 30)
     qtbot.wait(200)
-    assert w.polish_worker is None and w.polished is None
+    assert w.polisher.worker is None and w.polished is None
     assert np.allclose(np.asarray(w.scene.shape.points), s.shape_positions, atol=1e-5)
 
 
@@ -98,18 +98,18 @@ def test_a_new_drag_or_undo_cancels_a_running_polish(qtbot, win):
     s = w.session
     select_tip(qtbot, w)
     # a polish that would run for a minute: never converges, no iteration cap
-    w.polish_seconds, w.polish_iterations, w.polish_tolerance = 60.0, 10 ** 9, 0.0
+    w.polisher.seconds, w.polisher.iterations, w.polisher.tolerance = 60.0, 10 ** 9, 0.0
     drag_up(qtbot, w)
-    qtbot.waitUntil(lambda: w.polish_worker is not None and w._polish_holder.shape_arap is not None, timeout=10000)
+    qtbot.waitUntil(lambda: w.polisher.worker is not None and w.polisher.holder.shape_arap is not None, timeout=10000)
     qtbot.wait(150)  # iterating now
-    running = w.polish_worker
+    running = w.polisher.worker
     assert running.isRunning()
     # pressing on the handle starts a new drag: the polish stops after its current iteration
     a = handle_point(w)
     t0 = time.perf_counter()
     qtbot.mousePress(w.view, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier, a)
     assert running.cancel_requested
-    qtbot.waitUntil(lambda: w.polish_worker is None, timeout=5000)
+    qtbot.waitUntil(lambda: w.polisher.worker is None, timeout=5000)
     assert time.perf_counter() - t0 < 5.0
     assert w.polished is None and w.last_polish is None  # the result was dropped
     for k in range(1, 4):
@@ -118,12 +118,12 @@ def test_a_new_drag_or_undo_cancels_a_running_polish(qtbot, win):
     qtbot.mouseRelease(w.view, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier, a + QtCore.QPoint(0, -30))
     settled(qtbot, w)
     # the release started another long polish; undo cancels it too and shows the pose before that drag
-    qtbot.waitUntil(lambda: w.polish_worker is not None, timeout=5000)
-    running = w.polish_worker
+    qtbot.waitUntil(lambda: w.polisher.worker is not None, timeout=5000)
+    running = w.polisher.worker
     before = s.history.current
     key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
     assert running.cancel_requested and s.history.current is not before
-    qtbot.waitUntil(lambda: w.polish_worker is None, timeout=5000)
+    qtbot.waitUntil(lambda: w.polisher.worker is None, timeout=5000)
     qtbot.wait(50)
     assert w.polished is None and w.last_polish is None
     assert np.allclose(np.asarray(w.scene.shape.points), s.shape_positions, atol=1e-5)
@@ -185,7 +185,7 @@ def test_repair_notes_are_shown_after_loading(qtbot, blob_file, monkeypatch):
     assert not w.actions_["mesh_info"].isEnabled()
     assert w.open_path(blob_file)
     wait_loaded(qtbot, w)
-    msg = w.statusBar().currentMessage()
+    msg = w.current_message()
     assert "repaired" in msg and notes[0] in msg and notes[1] in msg
     assert w.actions_["mesh_info"].isEnabled()
     w.actions_["mesh_info"].trigger()

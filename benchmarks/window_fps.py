@@ -1,0 +1,218 @@
+"""Displayed frame rate of the editor window while dragging, against a bare pyvista render.
+
+    python benchmarks/window_fps.py MESH [--seconds 4] [--cage 0.05] [--size 1280x900]
+    python benchmarks/window_fps.py --smoke          (a small generated mesh, about a second)
+
+Opens MESH in the real window (its own Xvfb when there is no display),
+selects the top 5% of the shape along its longest axis as the handle and the
+top 30% as the region of interest, and drags the handle in circles with real
+Qt mouse events for a few seconds; then, in the same run, renders the same
+mesh (same normals, same size, anti-aliasing off) in a bare pyvista plotter
+as fast as it can, its points rewritten every frame as a drag would.
+Prints the frame split (per displayed frame, in ms) and last the line
+
+    window_fps: <file> <n_vertices> displayed_fps=<x> bare_fps=<y> overhead=<bare_fps/displayed_fps>
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from hybridedit.viewer.xvfb import ensure_display  # noqa: E402
+
+
+def parse_size(text: str) -> tuple[int, int]:
+    w, h = text.lower().split("x")
+    return int(w), int(h)
+
+
+def top_fraction(V: np.ndarray, fraction: float) -> np.ndarray:
+    """Shape vertex indices in the top ``fraction`` of the bounding box along its longest axis."""
+    axis = int(np.argmax(np.ptp(V, axis=0)))
+    x = V[:, axis]
+    lo, hi = float(x.min()), float(x.max())
+    return np.flatnonzero(x >= hi - fraction * (hi - lo))
+
+
+def run_window(mesh_path: Path, cage, size: tuple[int, int], seconds: float):
+    """Drag in the window; returns (displayed fps, n_vertices, per-frame split in ms, final shape, view size)."""
+    from qtpy import QtCore, QtGui, QtWidgets
+
+    from hybridedit.viewer.interaction import DRAG
+    from hybridedit.viewer.session import HANDLE, ROI
+    from hybridedit.viewer.window import MainWindow
+
+    app = QtWidgets.QApplication.instance() or QtWidgets.QApplication([])
+    w = MainWindow(cage_size=cage)
+    w.polisher.enabled = False
+    w.show()
+    w.resize(*size)
+    app.processEvents()
+    w.open_path(mesh_path)
+    t0 = time.perf_counter()
+    while w.worker is not None or w.session is None:
+        app.processEvents(QtCore.QEventLoop.ProcessEventsFlag.AllEvents, 50)
+        time.sleep(0.01)
+        if time.perf_counter() - t0 > 900:
+            raise SystemExit(f"window_fps: {mesh_path}: the window did not load the mesh")
+    s = w.session
+    V = s.mesh.vertices
+    ed = s.editor
+    for target, frac in ((ROI, 0.30), (HANDLE, 0.05)):
+        m = np.zeros(s.n_cage, dtype=bool)
+        m[ed.to_cage(top_fraction(V, frac), "shape")] = True
+        s.set_mask(target, m)
+    w._refresh_selection()
+    w.set_mode(DRAG)
+    w.scene.reset_camera()
+    view = w.view
+    view.request_render()
+    for _ in range(20):
+        app.processEvents()
+        time.sleep(0.01)
+
+    # press beside the gizmo (a drag in the view plane), then circle with the button down
+    rect = view.rect()
+    c = QtCore.QPointF(rect.width() * 0.3, rect.height() * 0.5)
+    radius = 0.08 * rect.height()
+    Qt = QtCore.Qt
+
+    def send(kind, pos, buttons):
+        button = Qt.MouseButton.LeftButton if kind != QtCore.QEvent.Type.MouseMove else Qt.MouseButton.NoButton
+        ev = QtGui.QMouseEvent(kind, pos, view.mapToGlobal(pos), button, buttons, Qt.KeyboardModifier.NoModifier)
+        QtWidgets.QApplication.sendEvent(view, ev)
+
+    send(QtCore.QEvent.Type.MouseButtonPress, c, Qt.MouseButton.LeftButton)
+    if w.controller.gesture is None:
+        raise SystemExit("window_fps: the drag did not start (no handle?)")
+    phase = [0.0]
+
+    def move():
+        phase[0] += 0.05
+        p = c + QtCore.QPointF(radius * np.sin(phase[0]), radius * (1.0 - np.cos(phase[0])))
+        send(QtCore.QEvent.Type.MouseMove, p, Qt.MouseButton.LeftButton)
+
+    timer = QtCore.QTimer()
+    timer.setInterval(8)  # a 125 Hz mouse
+    timer.timeout.connect(move)
+    timer.start()
+    warm_until = time.perf_counter() + min(1.0, 0.3 * seconds)
+    while time.perf_counter() < warm_until:
+        app.processEvents()
+    view.split.reset()
+    shown: list[float] = []
+    view.rendered.connect(lambda _s: shown.append(time.perf_counter()))
+    t_start = time.perf_counter()
+    while time.perf_counter() - t_start < seconds:
+        app.processEvents()
+    t_end = time.perf_counter()
+    timer.stop()
+    send(QtCore.QEvent.Type.MouseButtonRelease, c, Qt.MouseButton.NoButton)
+    n = len(shown)
+    fps = (n - 1) / (shown[-1] - shown[0]) if n >= 2 else 0.0
+    split = {k: view.split.seconds[k] * 1e3 / max(n, 1) for k in view.split.seconds}
+    frame_ms = (t_end - t_start) * 1e3 / max(n, 1)
+    split["other"] = max(frame_ms - sum(split.values()), 0.0)
+    shape = np.asarray(s.shape_positions, dtype=np.float64).copy()
+    normals = np.asarray(w.scene.normals32).copy()
+    faces = s.mesh.faces
+    vsize = (view.width(), view.height())
+    w.set_modified(False)  # no question on closing
+    w.close()
+    app.processEvents()
+    return fps, s.mesh.n_vertices, split, frame_ms, (shape, normals, faces), vsize
+
+
+def run_bare(shape, normals, faces, size: tuple[int, int], seconds: float) -> float:
+    """Frames per second of a bare pyvista plotter showing the same mesh, its points rewritten every frame."""
+    import pyvista as pv
+
+    poly = pv.PolyData(shape.astype(np.float32), faces=np.hstack([np.full((len(faces), 1), 3), faces]).ravel())
+    poly.point_data["Normals"] = normals.astype(np.float32)
+    poly.GetPointData().SetActiveNormals("Normals")
+    pl = pv.Plotter(window_size=list(size), lighting="none")
+    pl.ren_win.SetMultiSamples(0)  # anti-aliasing off, as in the window with software OpenGL
+    pl.disable_anti_aliasing()
+    pl.add_light(pv.Light(light_type="headlight"))  # the window's one light
+    pl.add_mesh(poly, color=(0.89, 0.82, 0.72), smooth_shading=False)  # lit with the given normals
+    pl.show(interactive_update=True, auto_close=False)
+    pl.view_xy()
+    pl.reset_camera()
+    pts = poly.points
+    base = pts.copy()
+    for _ in range(5):
+        pl.render()
+    n = 0
+    t0 = time.perf_counter()
+    while time.perf_counter() - t0 < seconds:
+        pts[:] = base + np.float32(1e-4 * (n % 2))
+        poly.GetPoints().Modified()
+        pl.render()
+        n += 1
+    fps = n / (time.perf_counter() - t0)
+    pl.close()
+    return fps
+
+
+def smoke_mesh() -> Path:
+    """A small closed shape (about 10K vertices) written to a temporary file."""
+    import trimesh
+
+    from hybridedit.io import write_mesh
+    from hybridedit.mesh import Mesh
+
+    s = trimesh.creation.icosphere(subdivisions=5)
+    v = np.asarray(s.vertices) * np.array([2.0, 1.0, 1.0])
+    p = Path(tempfile.mkdtemp(prefix="window_fps-")) / "smoke.ply"
+    write_mesh(p, Mesh(v, np.asarray(s.faces), name="smoke"))
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("mesh", nargs="?", help="mesh file (OBJ, PLY, STL, OFF)")
+    ap.add_argument("--seconds", type=float, default=4.0, help="how long to drag (and to render bare)")
+    ap.add_argument("--cage", type=float, default=0.05, help="cage size as a fraction (default 0.05)")
+    ap.add_argument("--size", type=parse_size, default=(1280, 900), help="window size, WxH (default 1280x900)")
+    ap.add_argument("--smoke", action="store_true", help="a quick run on a small generated mesh")
+    args = ap.parse_args(argv)
+    if args.smoke:
+        mesh, seconds = Path(args.mesh) if args.mesh else smoke_mesh(), 1.0
+    elif args.mesh:
+        mesh, seconds = Path(args.mesh), args.seconds
+    else:
+        ap.error("give a mesh file (or --smoke)")
+    if not mesh.is_file():
+        print(f"window_fps: {mesh}: no such file", file=sys.stderr)
+        return 2
+    vd = ensure_display()
+    if vd is not None and not vd.display:
+        print(f"window_fps: no display and {vd.problem}", file=sys.stderr)
+        return 2
+    if sys.platform.startswith("linux"):
+        os.environ.setdefault("QT_QPA_PLATFORM", "xcb")
+    # (a private Xvfb ends with this process, after Qt has let go of it)
+    fps, n, split, frame_ms, (shape, normals, faces), vsize = run_window(mesh, args.cage, args.size, seconds)
+    bare = run_bare(shape, normals, faces, vsize, seconds)
+    print(f"view {vsize[0]}x{vsize[1]} px, {n:,} vertices, dragged {seconds:.1f} s")
+    print(f"{'stage':<12} {'ms per displayed frame':>24}")
+    for k, v in split.items():
+        print(f"{k:<12} {v:>24.1f}")
+    print(f"{'frame':<12} {frame_ms:>24.1f}")
+    print(f"{'bare frame':<12} {1e3 / bare if bare else float('inf'):>24.1f}")
+    overhead = bare / fps if fps > 0 else float("inf")
+    print(f"window_fps: {mesh.name} {n} displayed_fps={fps:.2f} bare_fps={bare:.2f} overhead={overhead:.2f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

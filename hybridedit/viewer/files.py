@@ -1,0 +1,245 @@
+"""The window's file actions: open, save, save as, edit files, screenshots, dropped files, and the
+Save / Discard / Cancel question before anything would lose an unsaved pose."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from qtpy import QtCore, QtWidgets
+
+from ..atomic import WriteError
+from ..editfile import EditFileError, load_edit, save_edit
+from ..editor import SelectionError
+from ..io import SUPPORTED_EXTENSIONS, MeshFileError, write_mesh
+from ..mesh import MeshError
+
+if TYPE_CHECKING:
+    from .window import MainWindow
+
+MESH_FILTER = "Meshes (*.obj *.ply *.stl *.off);;OBJ (*.obj);;PLY (*.ply);;STL (*.stl);;OFF (*.off);;All files (*)"
+EDIT_FILTER = "Edit files (*.json);;All files (*)"
+
+SAVE, DISCARD, CANCEL = "save", "discard", "cancel"
+
+
+def same_file(a: Path, b: Path) -> bool:
+    try:
+        return a.resolve() == b.resolve() or (a.exists() and b.exists() and os.path.samefile(a, b))
+    except OSError:
+        return False
+
+
+def dropped_path(mime: QtCore.QMimeData) -> Path | None:
+    """The one local mesh or edit file being dropped, else None."""
+    urls = mime.urls() if mime.hasUrls() else []
+    if len(urls) != 1 or not urls[0].isLocalFile():
+        return None
+    p = Path(urls[0].toLocalFile())
+    if p.suffix.lower() in SUPPORTED_EXTENSIONS + (".json",):
+        return p
+    return None
+
+
+class FileActions:
+    """File menu actions of a :class:`~.window.MainWindow` (dialogs are parented to it).
+
+    Attributes
+    ----------
+    save_path : where Save writes without asking (set by the first Save As), or None.
+    edit_path : the last edit file saved or loaded, or None.
+    """
+
+    def __init__(self, window: "MainWindow") -> None:
+        self.w = window
+        self.save_path: Path | None = None
+        self.edit_path: Path | None = None
+        self.unsaved_box: QtWidgets.QMessageBox | None = None
+
+    @property
+    def session(self):
+        return self.w.session
+
+    def forget_paths(self) -> None:
+        """A new shape: nothing saved yet."""
+        self.save_path = None
+        self.edit_path = None
+
+    def suggested_path(self, suffix: str, ext: str) -> str:
+        s = self.session
+        if s is not None and s.path is not None:
+            return str(s.path.with_name(f"{s.path.stem}{suffix}{ext}"))
+        return str(Path.cwd() / f"shape{suffix}{ext}")
+
+    # ------------------------------------------------------------------ unsaved work
+    def keep_work(self, doing: str) -> bool:
+        """Before ``doing`` something that would drop an unsaved pose: ask Save / Discard / Cancel.
+
+        Returns True when it may go ahead (saved, discarded, or nothing unsaved).
+        """
+        if not self.w.modified or self.session is None:
+            return True
+        Btn = QtWidgets.QMessageBox.StandardButton
+        name = self.session.path.name if self.session.path is not None else "the shape"
+        box = QtWidgets.QMessageBox(QtWidgets.QMessageBox.Icon.Question, "Unsaved pose",
+                                    f"The pose of {name} is not saved.\n\nSave it before {doing}?",
+                                    Btn.Save | Btn.Discard | Btn.Cancel, self.w)
+        box.setDefaultButton(Btn.Save)
+        box.setEscapeButton(Btn.Cancel)
+        self.unsaved_box = box
+        try:
+            choice = box.exec()
+        finally:
+            self.unsaved_box = None
+        if choice == Btn.Save:
+            return bool(self.save())
+        return choice == Btn.Discard
+
+    # ------------------------------------------------------------------ meshes
+    def open_dialog(self) -> None:
+        s = self.session
+        start = str(s.path.parent) if s and s.path else os.getcwd()
+        path, _ = QtWidgets.QFileDialog.getOpenFileName(self.w, "Open mesh", start, MESH_FILTER)
+        if path:
+            self.w.open_path(path)
+
+    def save(self) -> bool:
+        if self.session is None:
+            return False
+        if self.save_path is None:
+            return bool(self.save_as_dialog())
+        return self.save_to(self.save_path, asked=False)
+
+    def save_as_dialog(self) -> bool:
+        s = self.session
+        if s is None:
+            return False
+        ext = s.path.suffix.lower() if s.path else ".ply"
+        start = str(self.save_path) if self.save_path else self.suggested_path("-edited", ext)
+        path, selected = QtWidgets.QFileDialog.getSaveFileName(
+            self.w, "Save deformed mesh", start, MESH_FILTER,
+            options=QtWidgets.QFileDialog.Option.DontConfirmOverwrite)
+        if not path:
+            return False
+        p = Path(path)
+        if not p.suffix:
+            for e in SUPPORTED_EXTENSIONS:
+                if f"*{e}" in selected:
+                    p = p.with_suffix(e)
+                    break
+            else:
+                p = p.with_suffix(".ply")
+        return self.save_to(p, asked=False)
+
+    def save_to(self, path: str | os.PathLike, asked: bool = False) -> bool:
+        """Write the shape on display; asks before replacing the opened file or any existing file."""
+        w = self.w
+        w.finish_settle()
+        s = self.session
+        if s is None:
+            return False
+        p = Path(path)
+        if p.suffix.lower() not in SUPPORTED_EXTENSIONS:
+            w.show_error("Cannot save", f"{p.name}: unsupported format; use .obj, .ply, .stl or .off")
+            return False
+        if not asked:
+            if s.path is not None and same_file(p, s.path):
+                if not w.confirm("Overwrite the input file?",
+                                 f"{p} is the file this shape was opened from.\n\n"
+                                 "Replace it with the deformed shape? The original will be lost."):
+                    w.message("Not saved")
+                    return False
+            elif p.exists() and p != self.save_path:
+                if not w.confirm("Replace file?", f"{p} already exists. Replace it?"):
+                    w.message("Not saved")
+                    return False
+        try:
+            # what is shown (the polished pose when there is one), in the opened file's structure
+            write_mesh(p, s.mesh.copy(vertices=s.shown_positions.copy()), like=s.path)
+        except (MeshError, MeshFileError, WriteError, OSError) as e:
+            w.show_error("Could not save the mesh", str(e))
+            return False
+        self.save_path = p
+        w.set_modified(False)
+        w.message(f"Saved {p}")
+        return True
+
+    # ------------------------------------------------------------------ edit files
+    def save_edit_dialog(self) -> bool:
+        if self.session is None:
+            return False
+        start = str(self.edit_path) if self.edit_path else self.suggested_path("-edit", ".json")
+        path, _ = QtWidgets.QFileDialog.getSaveFileName(self.w, "Save edit", start, EDIT_FILTER)
+        if not path:
+            return False
+        p = Path(path)
+        if not p.suffix:
+            p = p.with_suffix(".json")
+        return self.save_edit_to(p)
+
+    def save_edit_to(self, path: str | os.PathLike) -> bool:
+        """Write the selection and handle transform as a JSON edit file."""
+        w = self.w
+        w.finish_settle()
+        s = self.session
+        if s is None:
+            return False
+        try:
+            save_edit(path, s.to_edit())
+        except (SelectionError, ValueError, WriteError, OSError) as e:
+            w.show_error("Could not save the edit", str(e))
+            return False
+        self.edit_path = Path(path)
+        note = "" if s.anchor_at_rest or not s.applied else (
+            " Note: this selection was made on a deformed pose; 'hybridedit deform' replays it from the rest pose.")
+        w.message(f"Saved the edit to {path} (the last selection and its drag, in shape vertices: it replays "
+                  f"on any cage of this mesh, e.g. hybridedit deform --edit).{note}")
+        return True
+
+    def load_edit_dialog(self) -> bool:
+        if self.session is None:
+            self.w.show_error("Load edit", "Open a mesh first.")
+            return False
+        start = str(self.edit_path) if self.edit_path else self.suggested_path("-edit", ".json")
+        path, _ = QtWidgets.QFileDialog.getOpenFileName(self.w, "Load edit", start, EDIT_FILTER)
+        if not path:
+            return False
+        return self.load_edit_from(path)
+
+    def load_edit_from(self, path: str | os.PathLike) -> bool:
+        """Apply a JSON edit file as 'hybridedit deform' does (from the rest pose)."""
+        w = self.w
+        w.finish_settle()
+        s = self.session
+        if s is None:
+            w.show_error("Load edit", "Open a mesh first.")
+            return False
+        if w.controller.busy:
+            return False
+        w.polisher.cancel()
+        try:
+            s.load_edit(load_edit(path), path=str(path))
+        except (EditFileError, SelectionError, ValueError) as e:
+            w.show_error("Could not load the edit", str(e))
+            return False
+        self.edit_path = Path(path)
+        w.set_modified(True)
+        w.refresh_all()
+        w.message(f"Applied {Path(path).name}")
+        return True
+
+    # ------------------------------------------------------------------ screenshots
+    def screenshot_dialog(self) -> bool:
+        w = self.w
+        path, _ = QtWidgets.QFileDialog.getSaveFileName(w, "Save screenshot", self.suggested_path("", ".png"),
+                                                        "PNG images (*.png)")
+        if not path:
+            return False
+        try:
+            w.view.screenshot(path)
+        except Exception as e:  # noqa: BLE001
+            w.show_error("Could not save the screenshot", f"{path}: {e}")
+            return False
+        w.message(f"Saved {path}")
+        return True

@@ -1,0 +1,27 @@
+"""Where the window's frames go: per-stage time sums for the status bar and benchmarks/window_fps.py."""
+
+from __future__ import annotations
+
+STAGES = ("engine", "normals", "vtk update", "render", "compose")
+"""engine: the engine's drag; normals: the moving region's normals; vtk update: writing the points
+into VTK's buffers; render: VTK's render (paintGL); compose: Qt putting the frame on screen."""
+
+
+class FrameSplit:
+    """Running sums of seconds per stage since the last :meth:`reset`."""
+
+    def __init__(self) -> None:
+        self.reset()
+
+    def reset(self) -> None:
+        self.seconds = dict.fromkeys(STAGES, 0.0)
+        self.counts = dict.fromkeys(STAGES, 0)
+
+    def add(self, stage: str, seconds: float) -> None:
+        self.seconds[stage] += float(seconds)
+        self.counts[stage] += 1
+
+    def mean_ms(self, stage: str) -> float:
+        """Mean milliseconds per occurrence of ``stage`` (0 if none)."""
+        n = self.counts[stage]
+        return 1e3 * self.seconds[stage] / n if n else 0.0

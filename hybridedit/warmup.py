@@ -1,0 +1,313 @@
+"""Compile every numba kernel once, ahead of use: ``python -m hybridedit.warmup``.
+
+``scripts/setup.sh`` runs this after installing, so that the first window,
+the first ``hybridedit deform`` and the first drag find every kernel in
+numba's on-disk cache instead of compiling it (tens of seconds on a small
+machine). The window runs it too, in its build thread, when it finds that it
+never ran for this code (a plain ``pip install``), and says so on screen.
+
+It compiles by running the real public pipeline on small generated shapes:
+cage (with its repair pass on a shape that needs one), binding (fast and
+exact), both propagations, ARAP drags, polish, edit replay and the window's
+own per-frame kernels. Several kernels switch to a parallel variant above a
+size threshold (module constants named ``PARALLEL_MIN*``); the pipeline runs
+a second time with those thresholds at zero so the parallel variants compile
+as well. :func:`uncovered` then lists any kernel the pipeline did not reach,
+so a new kernel cannot be forgotten silently.
+
+No Qt or VTK is imported.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import hashlib
+import importlib
+import os
+import pkgutil
+import sys
+import time
+from pathlib import Path
+from typing import Callable, Iterator
+
+import numpy as np
+
+import hybridedit
+
+PACKAGE_DIR = Path(hybridedit.__file__).resolve().parent
+
+Progress = Callable[[str, float], None]
+
+
+# ---------------------------------------------------------------------------- finding the kernels
+
+
+def kernel_modules() -> list[str]:
+    """Names of the hybridedit modules that define numba kernels (found from their source)."""
+    names = []
+    for info in pkgutil.walk_packages([str(PACKAGE_DIR)], prefix="hybridedit."):
+        if info.ispkg:
+            continue
+        path = PACKAGE_DIR.joinpath(*info.name.split(".")[1:]).with_suffix(".py")
+        try:
+            text = path.read_text(encoding="utf-8")
+        except OSError:
+            continue
+        if any(mark in text for mark in ("@njit", "@numba.njit", "@jit", "@numba.jit")):
+            names.append(info.name)
+    return sorted(names)
+
+
+def kernels() -> dict[str, object]:
+    """Every numba dispatcher defined at module level in :func:`kernel_modules`, by qualified name."""
+    from numba.core.registry import CPUDispatcher
+
+    out = {}
+    for name in kernel_modules():
+        mod = importlib.import_module(name)
+        for attr, obj in vars(mod).items():
+            if isinstance(obj, CPUDispatcher) and getattr(obj, "__module__", name) == name:
+                out[f"{name}.{attr}"] = obj
+    return out
+
+
+def _code_names(code) -> set[str]:
+    names = set(code.co_names)
+    for c in code.co_consts:
+        if hasattr(c, "co_names"):
+            names |= _code_names(c)
+    return names
+
+
+def entry_kernels() -> dict[str, object]:
+    """The kernels called from Python: neither inlined nor named inside another kernel.
+
+    A kernel called only by other kernels is compiled into them, and a compiled
+    caller loaded from the cache does not load it, so only entry kernels tell
+    whether the pipeline reached everything.
+    """
+    ks = kernels()
+    out = {}
+    for qual, disp in ks.items():
+        if disp.targetoptions.get("inline", "never") == "always":
+            continue
+        name = qual.rsplit(".", 1)[1]
+        if any(name in _code_names(d.py_func.__code__) for q, d in ks.items() if q != qual):
+            continue
+        out[qual] = disp
+    return out
+
+
+def uncovered() -> list[str]:
+    """Entry kernels with no compiled (or cache-loaded) version in this process."""
+    return sorted(q for q, d in entry_kernels().items() if not d.overloads)
+
+
+def cache_counts() -> tuple[int, int]:
+    """(loaded from the cache, compiled) kernel versions in this process so far."""
+    hits = misses = 0
+    for d in kernels().values():
+        hits += sum(d._cache_hits.values())
+        misses += sum(d._cache_misses.values())
+    return hits, misses
+
+
+@contextlib.contextmanager
+def record_compiles() -> Iterator[list]:
+    """Collect numba's compile events (one per kernel version compiled, not loaded) in the block."""
+    from numba.core import event
+
+    with event.install_recorder("numba:compile") as rec:
+        yield rec.buffer
+
+
+@contextlib.contextmanager
+def parallel_everywhere() -> Iterator[None]:
+    """Set every ``PARALLEL_MIN*`` threshold of the kernel modules to 0 (restored after)."""
+    saved = []
+    for name in kernel_modules():
+        mod = sys.modules.get(name) or importlib.import_module(name)
+        for attr, value in list(vars(mod).items()):
+            if attr.startswith("PARALLEL_MIN") and isinstance(value, int):
+                saved.append((mod, attr, value))
+                setattr(mod, attr, 0)
+    try:
+        yield
+    finally:
+        for mod, attr, value in saved:
+            setattr(mod, attr, value)
+
+
+# ---------------------------------------------------------------------------- the shapes
+
+
+def blob(subdivisions: int = 3):
+    """A closed bumpy capsule along X (642 vertices at subdivision 3)."""
+    import trimesh
+
+    from .mesh import Mesh
+
+    s = trimesh.creation.icosphere(subdivisions=subdivisions, radius=1.0)
+    v = np.asarray(s.vertices, dtype=np.float64).copy()
+    x, y, z = v.T
+    v *= (1.0 + 0.06 * np.sin(6 * x) * np.cos(4 * y) + 0.04 * np.sin(9 * z))[:, None]
+    v[:, 0] *= 2.0
+    return Mesh(v, np.asarray(s.faces, dtype=np.int64), name="warmup")
+
+
+def needs_repair(mesh):
+    """The same shape with a duplicated vertex and some faces flipped (runs the repair pass)."""
+    from .mesh import Mesh
+
+    v = np.vstack([mesh.vertices, mesh.vertices[:1]])
+    f = mesh.faces.copy()
+    f[f == 0] = len(v) - 1  # the copy of vertex 0 replaces it in its faces: a duplicate to merge
+    f[::7] = f[::7, ::-1]  # inconsistent orientation
+    return Mesh(v, f, name="warmup-repair")
+
+
+# ---------------------------------------------------------------------------- the pipeline
+
+
+def _selection(mesh):
+    x = mesh.vertices[:, 0]
+    lo, hi = x.min(), x.max()
+    handle = np.flatnonzero(x > hi - 0.15 * (hi - lo))
+    roi = np.flatnonzero(x > hi - 0.6 * (hi - lo))
+    return handle, roi
+
+
+def _edit_session(mesh, say: Progress, label: str) -> None:
+    """Cage, binding, both propagations, drags, polish and the window's kernels on one shape."""
+    from . import HybridEditor, rigid_transform
+    from .binding import bind
+    from .polish import ShapeARAP, polish
+    from .viewer.regional import ShapeMetrics
+
+    say(f"{label}: cage and binding", 0.0)
+    ed = HybridEditor(mesh, 0.1, cache=False)
+    handle, roi = _selection(mesh)
+    center = mesh.vertices[handle].mean(axis=0)
+    metrics = ShapeMetrics(mesh.vertices, mesh.faces)
+    points = np.zeros((mesh.n_vertices, 3), dtype=np.float32)
+    normals = np.zeros((mesh.n_vertices, 3), dtype=np.float32)
+    stretch = np.zeros(mesh.n_vertices, dtype=np.float32)
+    for propagation in ("residual", "linear"):
+        say(f"{label}: drags ({propagation})", 0.3)
+        e = HybridEditor(mesh, cage=ed.cage, binding=ed.M, propagation=propagation)
+        e.set_selection(handle, roi=roi)
+        moving = getattr(e, "moving_vertices", None)
+        metrics.set_moving(moving if moving is not None else np.arange(mesh.n_vertices))
+        for k in range(1, 4):
+            V = e.drag(transform=rigid_transform(translate=(0.0, 0.05 * k, 0.0), axis=(0, 0, 1),
+                                                 degrees=5.0 * k, center=center))
+            metrics.write_points(V, points)
+            metrics.write_normals(V, normals)
+            metrics.update_error(V)
+            metrics.write_stretch(stretch)
+        metrics.update_error(V, everything=True)
+        metrics.write_normals(V, normals, everything=True)
+        e.reset()
+    say(f"{label}: polish", 0.6)
+    free = np.zeros(mesh.n_vertices, dtype=bool)
+    free[roi] = True
+    free[handle] = False
+    polish(ShapeARAP(mesh), V, free, seconds=5.0, max_iterations=2)
+    say(f"{label}: exact binding", 0.8)
+    bind(mesh.vertices[:50], ed.cage, method="exact")
+
+
+def _rare_paths(shape) -> None:
+    """Binding rows wider than the fast kernel's row buffer, and public kernels the pipeline does not call."""
+    from .binding import bind
+    from .mvc import atan2_pos_array
+    from .rotations import closest_rotations
+
+    bind(0.5 * shape.vertices[:8], shape, truncation=0.0)  # the shape as its own cage, untruncated
+
+    closest_rotations(np.tile(np.eye(3), (4, 1, 1)), np.empty((4, 3, 3)))
+    atan2_pos_array(np.ones(4), np.ones(4))
+
+
+def run(progress: Progress | None = None) -> dict:
+    """Compile (or load from the cache) every kernel; returns what happened.
+
+    Returns
+    -------
+    dict with ``seconds``, ``compiled`` and ``loaded`` (kernel versions) and
+    ``uncovered`` (entry kernels the pipeline did not reach; empty when all is well).
+    """
+    say = progress or (lambda stage, fraction: None)
+    t0 = time.perf_counter()
+    with record_compiles() as compiled:
+        shape = blob(3)
+        _edit_session(needs_repair(shape), say, "serial kernels")
+        with parallel_everywhere():
+            _edit_session(shape, say, "parallel kernels")
+        _rare_paths(shape)
+    hits, _ = cache_counts()
+    result = {"seconds": time.perf_counter() - t0, "compiled": len(compiled), "loaded": hits,
+              "uncovered": uncovered()}
+    if not result["uncovered"]:
+        write_stamp()
+    say("kernels ready", 1.0)
+    return result
+
+
+# ---------------------------------------------------------------------------- has it run for this code?
+
+
+def stamp_path() -> Path:
+    """The file that says the warm-up ran for this code, numba and Python (in the user cache folder)."""
+    import numba
+
+    from .bindcache import default_cache_dir
+
+    h = hashlib.sha256()
+    h.update(f"{numba.__version__} {sys.version} {sys.platform} {PACKAGE_DIR}".encode())
+    h.update(os.environ.get("NUMBA_CACHE_DIR", "").encode())
+    for name in kernel_modules():
+        h.update(PACKAGE_DIR.joinpath(*name.split(".")[1:]).with_suffix(".py").read_bytes())
+    return default_cache_dir() / f"kernels-{h.hexdigest()[:20]}.ready"
+
+
+def write_stamp() -> None:
+    p = stamp_path()
+    try:
+        p.parent.mkdir(parents=True, exist_ok=True)
+        p.write_text("compiled by hybridedit.warmup\n", encoding="utf-8")
+    except OSError:
+        pass  # then the window warms up again next time: slower, never wrong
+
+
+def is_warm() -> bool:
+    """The warm-up has run for this code (so no kernel compiles at run time)."""
+    try:
+        return stamp_path().is_file()
+    except OSError:
+        return False
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m hybridedit.warmup", description=__doc__.split("\n\n")[0])
+    ap.add_argument("-q", "--quiet", action="store_true", help="print only the summary line")
+    args = ap.parse_args(argv)
+    last = [""]
+
+    def say(stage: str, fraction: float) -> None:
+        if not args.quiet and stage != last[0]:
+            last[0] = stage
+            print(f"warmup: {stage}", file=sys.stderr, flush=True)
+
+    r = run(say)
+    print(f"warmup: {r['compiled']} kernel versions compiled, {r['loaded']} loaded from the cache "
+          f"in {r['seconds']:.1f} s", file=sys.stderr)
+    if r["uncovered"]:
+        print(f"warmup: error: not reached by the warm-up pipeline: {', '.join(r['uncovered'])}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,45 @@
+"""A clear view: the shape is what is seen; cage points only where they help; the fixed region as a tint."""
+
+from __future__ import annotations
+
+import numpy as np
+from qtpy import QtCore
+
+from hybridedit.viewer.scene import SHAPE_COLOR
+from test_window import key, projected, to_widget, win  # noqa: F401 (fixture)
+
+Qt = QtCore.Qt
+
+
+def test_cage_points_only_where_they_help(qtbot, win):
+    w = win
+    s = w.session
+    assert len(w.scene.shown_points) == 0  # nothing selected: no cage point hides the shape
+    assert not w.scene.cage_front.GetVisibility()  # the wireframe is a toggle (W), off
+    tint = np.asarray(w.scene.shape.point_data["tint"])
+    assert np.all(tint == SHAPE_COLOR.astype(np.uint8))
+    P = s.cage_positions
+    s.set_mask("roi", P[:, 0] > 0.0)
+    s.set_mask("handle", P[:, 0] > 1.4)
+    w._refresh_selection()
+    shown = set(w.scene.shown_points.tolist())
+    assert shown == set(np.flatnonzero(s.states() != 0).tolist())  # the ROI and the handle
+    assert w.scene.points_poly.n_verts == len(shown)
+    # the fixed region is a tint on the shape, the free region keeps the shape's colour, the handle orange
+    roles = s.shape_roles()
+    tint = np.asarray(w.scene.shape.point_data["tint"])
+    base = SHAPE_COLOR.astype(np.uint8)
+    assert (roles < 0).any() and np.all(np.any(tint[roles < 0] != base, axis=1))
+    assert np.all(tint[roles == 0] == base)
+    assert np.all(tint[roles > 0, 0] > tint[roles > 0, 2])  # warm: orange over the handle
+    # Select mode: the cage points near the cursor show too, wherever it is
+    key(qtbot, w, Qt.Key.Key_S)
+    far_end = P[P[:, 0] < -1.5].mean(axis=0)
+    dc, _ = projected(w, far_end[None])
+    qtbot.mouseMove(w.view, to_widget(w, dc[0]))
+    qtbot.wait(30)
+    near = set(w.scene.shown_points.tolist()) - shown
+    assert near and np.all(P[sorted(near), 0] < -0.5)
+    # back in Camera mode they go
+    key(qtbot, w, Qt.Key.Key_C)
+    assert set(w.scene.shown_points.tolist()) == shown

@@ -1,0 +1,63 @@
+"""Several handle groups in the window: new group, switch group, each its own colour and transform."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+from qtpy import QtCore
+
+from hybridedit.viewer.scene import STATE_COLORS
+from test_window import key, mouse_drag, projected, settled, to_widget, win  # noqa: F401 (fixture)
+
+Qt = QtCore.Qt
+
+
+def drag_active(qtbot, w, dy: int) -> None:
+    dc, _ = projected(w, w.session.handle_centroid()[None])
+    a = to_widget(w, dc[0])  # the gizmo's centre: a drag in the view plane
+    mouse_drag(qtbot, w.view, a, a + QtCore.QPoint(0, dy), steps=6)
+    settled(qtbot, w)
+
+
+def test_two_handle_groups_move_independently(qtbot, win, tmp_path):
+    w = win
+    s = w.session
+    w.polisher.enabled = False
+    P = s.cage_positions
+    rest = s.mesh.vertices
+    s.set_mask("roi", np.abs(P[:, 0]) > 0.4)
+    s.set_mask("handle", P[:, 0] > 1.4)
+    w.actions_["new_group"].trigger()  # Ctrl+G
+    assert s.n_groups == 2 and s.active == 1 and not s.handle.any()
+    s.set_mask("handle", P[:, 0] < -1.4)
+    w._refresh_selection()
+    assert np.all(s.handle_group[P[:, 0] > 1.4] == 1) and np.all(s.handle_group[P[:, 0] < -1.4] == 2)
+    # each group its own colour, on the cage points and on the shape
+    rgba = np.asarray(w.scene.points_poly.point_data["state"])[:, :3]
+    assert np.all(rgba[P[:, 0] > 1.4] == STATE_COLORS[2]) and np.all(rgba[P[:, 0] < -1.4] == STATE_COLORS[3])
+    key(qtbot, w, Qt.Key.Key_D)
+    # drag group 2 (the left end) up: the right end stays
+    drag_active(qtbot, w, -60)
+    V1 = s.shape_positions.copy()
+    left, right = rest[:, 0] < -1.9, rest[:, 0] > 1.9
+    assert (V1[left] - rest[left])[:, 1].min() > 0.1
+    assert np.abs(V1[right] - rest[right]).max() < 1e-9
+    assert s.editor.n_groups == 2 and set(np.unique(s.editor.vertex_roles)) >= {1, 2}
+    tint = np.asarray(w.scene.shape.point_data["tint"])
+    assert not np.array_equal(tint[s.editor.vertex_roles == 1][0], tint[s.editor.vertex_roles == 2][0])
+    # G: group 1 (the right end); dragging it keeps group 2 where it was put
+    key(qtbot, w, Qt.Key.Key_G)
+    assert s.active == 0
+    drag_active(qtbot, w, 60)
+    V2 = s.shape_positions.copy()
+    assert (V2[right] - rest[right])[:, 1].max() < -0.1
+    assert np.abs(V2[left] - V1[left]).max() < 1e-9
+    # the edit file has both groups with their transforms
+    edit = tmp_path / "two.json"
+    assert w.files.save_edit_to(edit)
+    data = json.loads(edit.read_text())
+    assert len(data["handles"]) == 2
+    # undo the last drag: group 2's pose is back, group 1 at rest
+    key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
+    assert np.allclose(s.shape_positions, V1, atol=1e-6)
