@@ -166,7 +166,10 @@ class HybridEditor:
         self._scale = max(mesh.bbox_diagonal(), float(np.linalg.norm(np.ptp(cage.vertices, axis=0))))
         self._cage_to_shape = cKDTree(mesh.vertices).query(cage.vertices)[1].astype(np.int64)
         self._dominant = dominant_cage_vertex(M)
-        self._laplacian: sp.csr_matrix | None = None
+        # the shape's cotangent Laplacian, for the free region's solve: built here (in
+        # the window, in the build thread) rather than at the first drag
+        e, w = edge_weights(mesh.vertices, mesh.faces, "cotangent")
+        self._laplacian = laplacian(mesh.n_vertices, e, w)
         self._mirrors: dict[str, Mirror] = {}
         #: rotations the residual turns with, per cage vertex (ARAP's for free
         #: vertices, the constraint's for held ones)
@@ -459,10 +462,7 @@ class HybridEditor:
         return SeamSpread(self._shape_laplacian(), rows, seam) if seam.size else None
 
     def _shape_laplacian(self) -> sp.csr_matrix:
-        """Cotangent Laplacian of the shape (built on first use)."""
-        if self._laplacian is None:
-            e, w = edge_weights(self.mesh.vertices, self.mesh.faces, "cotangent")
-            self._laplacian = laplacian(self.mesh.n_vertices, e, w)
+        """Cotangent Laplacian of the shape."""
         return self._laplacian
 
     def _rows_that_can_move(self, roles: np.ndarray, cage_roles: np.ndarray, *,
