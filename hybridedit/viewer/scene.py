@@ -101,7 +101,7 @@ class Scene:
 
     Parameters
     ----------
-    plotter : a pyvista plotter (``pyvistaqt.QtInteractor`` or ``pyvista.Plotter``).
+    plotter : a pyvista plotter (the view's :class:`~.view.ScenePlotter` or an off-screen ``pyvista.Plotter``).
     """
 
     def __init__(self, plotter) -> None:
