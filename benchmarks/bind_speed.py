@@ -1,4 +1,4 @@
-"""Speed and accuracy of bind(), exact and fast methods side by side.
+"""Speed and accuracy of bind(), exact, flat and fast (hierarchical) methods side by side.
 
 Usage (from the repository root)::
 
@@ -17,8 +17,10 @@ warm-up call (compilation or cache load not counted), the minimum of
 * ``ns/pair``  wall-clock ns per (point, cage face) pair;
 * ``nnz/row``  mean nonzeros per row of the truncated matrix;
 * ``rrms``     sqrt(mean |M @ cage - points|^2) / bbox diagonal of the shape;
+* ``same``     (flat and fast) the fraction of rows keeping exactly the entries
+  the exact method keeps;
 
-and ``row diff``: the largest difference between the fast and the exact
+and ``row diff``: the largest difference between the flat and the exact
 un-truncated coordinates of a point, ``max_j |fast_j - exact_j| / sum_j
 |exact_j|``, over the points of ``--sample-batches`` random batches of the
 fast kernel (computed as bind computes them, with the linear precision
@@ -149,14 +151,15 @@ def main(argv: list[str] | None = None) -> int:
     # Warm-up: compile (or load from the cache) every kernel once.
     t0 = time.perf_counter()
     small = simplify(mesh, 200)
-    for method in ("exact", "fast"):
+    for method in ("exact", "flat", "fast"):
         bind(mesh.vertices[:64], small, truncation=args.truncation, method=method)
         bind(mesh.vertices[:64], small, truncation=0.0, method=method)
     print(f"warm-up (compile or cache load): {time.perf_counter() - t0:.2f} s\n")
 
     head = (f"{'shape V':>8} {'cage V':>6} {'cage F':>6} | {'exact s':>7} {'ns/pair':>7} "
-            f"{'nnz/row':>7} {'rrms':>8} | {'fast s':>7} {'ns/pair':>7} {'nnz/row':>7} "
-            f"{'rrms':>8} | {'speedup':>7} {'row diff':>8}")
+            f"{'nnz/row':>7} {'rrms':>8} | {'flat s':>7} {'nnz/row':>7} {'rrms':>8} {'same':>5} | "
+            f"{'fast s':>7} {'ns/pair':>7} {'nnz/row':>7} {'rrms':>8} {'same':>5} | {'speedup':>7} "
+            f"{'row diff':>8}")
     print(head)
     print("-" * len(head))
     rng = np.random.default_rng(0)
@@ -165,15 +168,22 @@ def main(argv: list[str] | None = None) -> int:
         diag = shape.bbox_diagonal()
         pairs = len(pts) * cage.n_faces
         cols = []
-        for method in ("exact", "fast"):
+        exact_sets = None
+        for method in ("exact", "flat", "fast"):
             secs, M = timed_bind(pts, cage, method, args.truncation, args.repeat)
             nnz, rrms = stats(M, cage, pts, diag)
-            cols.append((secs, secs * 1e9 / pairs, nnz, rrms))
+            sets = np.split(M.indices, M.indptr[1:-1])
+            if exact_sets is None:
+                exact_sets, same = sets, 1.0
+            else:
+                same = float(np.mean([np.array_equal(a, b) for a, b in zip(sets, exact_sets)]))
+            cols.append((secs, secs * 1e9 / pairs, nnz, rrms, same))
             del M
         diff = row_difference(pts, cage, args.sample_batches, rng)
-        (es, ens, ennz, err), (fs, fns, fnnz, frr) = cols
+        (es, ens, ennz, err, _), (ls, _, lnnz, lrr, lsame), (fs, fns, fnnz, frr, fsame) = cols
         print(f"{shape.n_vertices:>8} {cage.n_vertices:>6} {cage.n_faces:>6} | {es:>7.2f} {ens:>7.2f} "
-              f"{ennz:>7.1f} {err:>8.2e} | {fs:>7.2f} {fns:>7.2f} {fnnz:>7.1f} {frr:>8.2e} | "
+              f"{ennz:>7.1f} {err:>8.2e} | {ls:>7.2f} {lnnz:>7.1f} {lrr:>8.2e} {lsame:>5.3f} | "
+              f"{fs:>7.2f} {fns:>7.2f} {fnnz:>7.1f} {frr:>8.2e} {fsame:>5.3f} | "
               f"{es / fs:>7.1f} {diff:>8.1e}", flush=True)
     return 0
 

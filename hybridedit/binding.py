@@ -1,10 +1,15 @@
 """The binding: truncated mean value coordinates of the shape w.r.t. the cage.
 
-``bind`` computes the 3D mean value coordinates (:mod:`hybridedit.mvc`; by
-default its fast method, exact near each point and a quadrature farther
-away) chunk by chunk, truncates every row and assembles a CSR matrix ``M``
-with ``M @ cage_vertices ~= points``. The exact method writes a chunk of
-dense rows to a buffer and truncates them in a parallel kernel; the fast
+``bind`` computes the 3D mean value coordinates (:mod:`hybridedit.mvc`)
+chunk by chunk, truncates every row and assembles a CSR matrix ``M`` with
+``M @ cage_vertices ~= points``. By default (method "fast") the hierarchical
+kernel (:mod:`hybridedit.mvc_tree`) computes each truncated row from the
+cage vertices near the point, with far regions of the cage in aggregate;
+rows it cannot decide go to a second pass with a smaller opening ratio, then
+to the flat kernel (:mod:`hybridedit.mvc_flat`: every face per point, exact
+near, a quadrature far), which also makes whole rows (truncation 0). The
+exact method (:mod:`hybridedit.mvc_exact`, the reference) writes a chunk of
+dense rows to a buffer and truncates them in a parallel kernel; the flat
 kernel truncates each row as soon as it is made, while it is in cache, and
 stores only the kept entries.
 
@@ -37,12 +42,13 @@ from .mvc_flat import (
     plan_fast,
     prepare_fast_cage,
 )
+from .mvc_tree import THETA, compute_tree_truncated, prepare_tree_cage, tree_scratch
 from .truncation import MIN_KEPT_SUM, check_truncation, truncate_row
 
 __all__ = ["bind", "truncate_rows", "dominant_cage_vertex", "MIN_KEPT_SUM", "METHODS"]
 
 #: The ways ``bind`` can compute the coordinates (see :func:`bind`).
-METHODS = ("fast", "exact")
+METHODS = ("fast", "flat", "exact")
 
 #: Default budget for the dense coordinate buffer of one chunk, in bytes.
 CHUNK_BYTES = 64 * 2**20
@@ -253,17 +259,22 @@ def bind(
         Called with the fraction of points done (0 before the first chunk,
         then after every chunk). An exception raised by it propagates, which
         cancels the binding.
-    method : "fast" or "exact"
+    method : "fast", "flat" or "exact"
         "exact" evaluates the coordinates of every point with every cage face
-        exactly. "fast" (the default) does so only for faces closer to the
-        point than ``far_ratio`` times their size and integrates the others
-        by a quadrature (see :mod:`hybridedit.mvc`); at the default ratio its
+        exactly. "flat" does so only for faces closer to the point than
+        ``far_ratio`` times their size and integrates the others by a
+        quadrature (see :mod:`hybridedit.mvc_flat`); at the default ratio its
         rows differ from the exact ones by about 1e-5 of their magnitude,
-        far below what the truncation drops. Both give partitions of unity,
-        and with truncation 0 both reproduce linear functions to rounding.
+        far below what the truncation drops. "fast" (the default) is "flat"
+        for whole rows (truncation 0); when truncating it visits only the
+        cage vertices near each point and accounts for far regions of the
+        cage in aggregate (:mod:`hybridedit.mvc_tree`), with the rows of the
+        truncation rule on the flat coordinates up to the far field's
+        approximation. All give partitions of unity, and with truncation 0
+        all reproduce linear functions to rounding.
     far_ratio : float >= 1
-        Only for "fast": larger is more accurate and slower; ``inf`` makes
-        every face exact.
+        Only for "fast" and "flat": larger is more accurate and slower;
+        ``inf`` makes every near face exact.
 
     Returns
     -------
@@ -289,15 +300,17 @@ def bind(
     ratio = check_far_ratio(far_ratio)
     c = cage.n_vertices
     n = p.shape[0]
-    sparse = method == "fast" and t > 0.0  # truncate inside the fast kernel
+    flat_kind = method in ("fast", "flat")
+    tree = method == "fast" and t > 0.0  # hierarchical, truncated as made
+    sparse = method == "flat" and t > 0.0  # every face per point, truncated as made
     cap = min(c, SPARSE_ROW_CAP)
     if chunk_size is None:
-        if sparse:
+        if sparse or tree:
             chunk = max(1, CHUNK_BYTES // (12 * cap))
         else:
             chunk = max(1, CHUNK_BYTES // (8 * c))
-        if method == "fast":
-            # Whole batches of the fast kernel (a batch split between two
+        if flat_kind:
+            # Whole batches of the fast kernels (a batch split between two
             # chunks would be computed twice).
             chunk = max(LANES, chunk - chunk % LANES)
     else:
@@ -313,12 +326,17 @@ def bind(
     if n == 0:
         return sp.csr_matrix((0, c))
     chunk = min(chunk, n)
-    if method == "fast":
+    if flat_kind:
         plan = plan_fast(p, fast)
         row_of = plan.order  # chunks run over the points in the plan's order
-        n_batches = -(-chunk // LANES) + 1
-        scratch = fast_scratch(fast, min(n_batches, 4 * numba.get_num_threads()))
-    if sparse:
+        n_workers = min(-(-chunk // LANES) + 1, 4 * numba.get_num_threads())
+    if flat_kind and not tree:
+        scratch = fast_scratch(fast, n_workers)
+    if tree:
+        hier = prepare_tree_cage(fast)
+        tscratch = tree_scratch(hier, n_workers)
+        flat_scratch: dict = {}
+    if sparse or tree:
         counts_buf = np.empty(chunk, dtype=np.int64)
         cols_buf = np.empty((chunk, cap), dtype=np.int32)
         vals_buf = np.empty((chunk, cap))
@@ -333,10 +351,13 @@ def bind(
             view = buf[: stop - start]
             compute_into(p[start:stop], data, view)
             counts, vals, cols = _truncate_into_csr_parts(view, t)
+        elif tree:
+            counts, vals, cols = _tree_chunk(plan, hier, ratio, tscratch, t, start, stop,
+                                             counts_buf, cols_buf, vals_buf, p, flat_scratch)
         elif not sparse:
             # Rows kept whole: restore their exact linear precision (see
-            # hybridedit.mvc). When truncating, that correction (~1e-5 of a
-            # row) is far below what the truncation drops and is skipped.
+            # hybridedit.mvc_flat). When truncating, that correction (~1e-5
+            # of a row) is far below what the truncation drops and is skipped.
             view = buf[: stop - start]
             compute_fast_sorted(plan, fast, start, stop, view, ratio, correct=True, scratch=scratch)
             counts, vals, cols = _truncate_into_csr_parts(view, t, fast.inv_perm)
@@ -345,7 +366,7 @@ def bind(
                 plan, fast, ratio, scratch, t, start, stop, counts_buf, cols_buf, vals_buf)
         if counts.size and counts.min() < 0:
             bad = start + int(np.flatnonzero(counts < 0)[0])
-            if method == "fast":
+            if flat_kind:
                 bad = int(row_of[bad])
             raise ValueError(
                 f"mean value coordinates of point {bad} ({p[bad].tolist()}) are not finite; "
@@ -355,10 +376,79 @@ def bind(
         if progress is not None:
             progress(stop / n)
     M = _assemble(parts, n, c)
-    if method == "fast":
+    if flat_kind:
         M = M[np.argsort(row_of)]
         M.has_sorted_indices = True
     return M
+
+
+def _tree_chunk(plan, hier, ratio, scratch, t, start, stop, counts_buf, cols_buf, vals_buf, p,
+                flat_scratch, theta=THETA):
+    """(counts, data, indices) of sorted positions [start, stop), hierarchical kernel.
+
+    Rows it leaves undecided (or too wide for the buffers) are tried again
+    with half the opening ratio ``theta``, in batches of their own, and what
+    is still left is computed by the flat kernel (its work arrays, made on
+    first use, are kept in the dict ``flat_scratch`` for the next chunks).
+    """
+    m = stop - start
+    counts = counts_buf[:m]
+    compute_tree_truncated(plan, hier, start, stop, t, MIN_KEPT_SUM, counts, cols_buf, vals_buf,
+                           ratio, scratch, theta=theta)
+    redo = np.flatnonzero(counts < 0)
+    counts = counts.copy()
+    counts[redo] = 0
+    nnz = int(counts.sum())
+    data = np.empty(nnz)
+    indices = np.empty(nnz, dtype=np.int32)
+    _pack_rows(counts, cols_buf, vals_buf, indices, data)
+    if not redo.size:
+        return counts, data, indices
+    fast = hier.fast
+    sub_plan = plan_fast(p[plan.order[start + redo]], fast)
+    k = len(redo)
+    bufs = (np.empty(k, dtype=np.int64), np.empty((k, cols_buf.shape[1]), dtype=np.int32),
+            np.empty((k, cols_buf.shape[1])))
+    if theta > 0.6 * THETA:
+        sub = _tree_chunk(sub_plan, hier, ratio, scratch, t, 0, k, *bufs, p[plan.order[start + redo]],
+                          flat_scratch, theta=0.5 * theta)
+    else:
+        if "arrays" not in flat_scratch:
+            flat_scratch["arrays"] = fast_scratch(fast, 2 * numba.get_num_threads())
+        sub = _fast_truncated_chunk(sub_plan, fast, ratio, flat_scratch["arrays"], t, 0, k, *bufs)
+    return _splice_rows(counts, data, indices, redo[sub_plan.order], *sub)
+
+
+def _splice_rows(counts, data, indices, rows, sub_counts, sub_data, sub_indices):
+    """Rows ``rows`` (empty in ``counts``) filled with the rows of the second matrix.
+
+    A row of ``sub_counts`` that is -1 (not finite) makes its row -1 and the
+    data empty.
+    """
+    if sub_counts.size and sub_counts.min() < 0:
+        out = counts.copy()
+        out[rows[sub_counts < 0]] = -1
+        return out, np.empty(0), np.empty(0, dtype=np.int32)
+    m = counts.shape[0]
+    new = counts.copy()
+    new[rows] = sub_counts
+    ptr = np.zeros(m + 1, dtype=np.int64)
+    np.cumsum(new, out=ptr[1:])
+    old_ptr = np.zeros(m + 1, dtype=np.int64)
+    np.cumsum(counts, out=old_ptr[1:])
+    out_data = np.empty(int(ptr[-1]))
+    out_idx = np.empty(int(ptr[-1]), dtype=np.int32)
+    r = np.repeat(np.arange(m), counts)
+    at = ptr[r] + np.arange(r.size) - old_ptr[r]
+    out_data[at] = data
+    out_idx[at] = indices
+    sub_ptr = np.zeros(len(rows) + 1, dtype=np.int64)
+    np.cumsum(sub_counts, out=sub_ptr[1:])
+    k = np.repeat(np.arange(len(rows)), sub_counts)
+    at = ptr[rows[k]] + np.arange(k.size) - sub_ptr[k]
+    out_data[at] = sub_data
+    out_idx[at] = sub_indices
+    return new, out_data, out_idx
 
 
 def dominant_cage_vertex(M: sp.spmatrix) -> np.ndarray:

@@ -75,7 +75,7 @@ class SeamSpread:
             self._rows = np.searchsorted(self.free, solved) if np.all(np.diff(self.free) > 0) \
                 else np.flatnonzero(np.isin(self.free, solved))
             rows = L[solved]
-            self._solver = SPDSolver(rows[:, solved].tocsc())
+            self._solver = SPDSolver(rows[:, solved].tocsc(), simplicial=True)
             self._coupling = rows[:, self.seam].tocsr()
 
     def correction(self, mismatch: np.ndarray) -> np.ndarray:
@@ -93,17 +93,23 @@ def _blend_rotations(rows, idx, w, cage_rots, out):
     orthonormal changes the result by less than 0.2% in benchmarks/table1.py)."""
     for r in range(rows.shape[0]):
         i = rows[r]
-        a = out[i]
         for p in range(3):
             for q in range(3):
-                a[p, q] = 0.0
-        for k in range(idx.shape[1]):
-            c = w[i, k]
-            if c != 0.0:
-                rk = cage_rots[idx[i, k]]
-                for p in range(3):
-                    for q in range(3):
-                        a[p, q] += c * rk[p, q]
+                acc = 0.0
+                for k in range(idx.shape[1]):
+                    acc += w[i, k] * cage_rots[idx[i, k], p, q]
+                out[i, p, q] = acc
+
+
+@njit(cache=True)
+def place(rows, source, T, out):
+    """out[i] = T applied to source[i] for i in rows ((4, 4) affine T): the exact
+    position of constrained vertices, in one pass."""
+    for r in range(rows.shape[0]):
+        i = rows[r]
+        x0, x1, x2 = source[i, 0], source[i, 1], source[i, 2]
+        for p in range(3):
+            out[i, p] = T[p, 0] * x0 + T[p, 1] * x1 + T[p, 2] * x2 + T[p, 3]
 
 
 class RegionStep:
@@ -148,7 +154,7 @@ class RegionStep:
         inside[self.free] = True
         around = np.unique(rows.indices)
         self.boundary = around[~inside[around]].astype(np.int64)
-        self._solver = SPDSolver(rows[:, self.free].tocsc())
+        self._solver = SPDSolver(rows[:, self.free].tocsc(), simplicial=True)
         self._coupling = rows[:, self.boundary].tocsr()
         W = (sp.diags(L.diagonal()) - L).tocsr()
         W.sort_indices()

@@ -13,7 +13,7 @@ from scipy.spatial.transform import Rotation
 
 from .arap import ARAPSolver, edge_weights, laplacian
 from .binding import dominant_cage_vertex
-from .constraints import FIXED, FREE, RegionStep, SeamSpread
+from .constraints import FIXED, FREE, RegionStep, SeamSpread, place
 from .editfile import Edit, HandleEdit, check_mesh, mesh_fingerprint
 from .mesh import Mesh
 from .propagate import propagate
@@ -60,7 +60,7 @@ class _Selection:
     seam: np.ndarray  # constrained shape vertices whose rows lean on moving cage vertices
     seam_role: np.ndarray  # their internal roles
     spread: RegionStep | SeamSpread | None  # solves ``rows`` from the exact constraints around them
-    compute: np.ndarray  # rows propagated every frame: rows and seam
+    compute: np.ndarray  # rows propagated through M every frame (those nothing else places)
 
 
 @dataclass(frozen=True)
@@ -398,6 +398,11 @@ class HybridEditor:
             partners = mirror.map[rows]
             rows = np.union1d(rows, partners[roles[partners] == FREE]).astype(np.int64)
             sym_rows = rows[roles[mirror.map[rows]] == FREE]
+        spread = self._region_solver(rows, seam)
+        if isinstance(spread, RegionStep):  # it places its rows itself: propagate only the others
+            compute = np.setdiff1d(rows, spread.free).astype(np.int64)
+        else:
+            compute = np.union1d(rows, seam).astype(np.int64)
         base = self._out
         centers = tuple(base[user_roles == k + 1].mean(axis=0) if np.any(user_roles == k + 1)
                         else self.arap.positions[core == k + 1].mean(axis=0) for k in range(len(groups)))
@@ -406,9 +411,7 @@ class HybridEditor:
             kind=tuple(kind), shape_groups=tuple(np.flatnonzero(roles == k + 1) for k in range(n_int)),
             cage_groups=tuple(np.flatnonzero(cage_roles == k + 1) for k in range(n_int)), constrained=constrained,
             slots=slots, free_cage=free_cage, rows=rows, mirror=mirror, sym_rows=sym_rows, n_groups=len(groups),
-            centers=centers, seam=seam, seam_role=roles[seam],
-            spread=self._region_solver(rows, seam),
-            compute=np.union1d(rows, seam).astype(np.int64),
+            centers=centers, seam=seam, seam_role=roles[seam], spread=spread, compute=compute,
         )
         self._transforms = [np.eye(4) for _ in range(len(groups))]
         self._anchor_here()
@@ -601,10 +604,9 @@ class HybridEditor:
                 m = sel.seam_role == g + 1
                 goal[m] = goal[m] @ T[:3, :3].T + T[:3, 3]
             out[sel.rows] += sel.spread.correction(goal - out[sel.seam])
-        out[sel.seam] = shape0[sel.seam]  # fixed ones; handles are placed next
+            out[sel.seam] = shape0[sel.seam]  # fixed ones (propagated above); handles are placed next
         for g, T in enumerate(internal):
-            rows = sel.shape_groups[g]
-            out[rows] = shape0[rows] @ T[:3, :3].T + T[:3, 3]
+            place(sel.shape_groups[g], shape0, T, out)
         if isinstance(sel.spread, RegionStep):
             sel.spread.apply(out, self._rots)
         if sel.sym_rows.size:

@@ -21,7 +21,7 @@ from numba.extending import intrinsic
 from .mvc_exact import (
     CageData,
     exact_face,
-    exact_face_lanes,
+    compile_exact_face_lanes,
     morton_order,
     near_block,
     prepare_cage,
@@ -32,6 +32,8 @@ from .truncation import truncate_row_sparse
 __all__ = ["FastCageData", "FastPlan", "prepare_fast_cage", "plan_fast", "fast_scratch",
            "compute_fast_sorted", "compute_fast_truncated", "check_far_ratio", "LANES",
            "FAR_RATIO"]
+
+exact_face_lanes = compile_exact_face_lanes()
 
 
 # ---------------------------------------------------------------------------
@@ -257,7 +259,7 @@ _F32_ROW = types.Array(types.float32, 1, "C")
 
 
 @intrinsic
-def _far_rows(typingctx, Y0, Y1, Y2, G0, G1, G2, M01, M12, M20, A0, A1, A2, q0, q1, q2, q3):
+def far_rows(typingctx, Y0, Y1, Y2, G0, G1, G2, M01, M12, M20, A0, A1, A2, q0, q1, q2, q3):
     """A_k[l] += q(l) * (3 G_k[l] - 4 M_opp(k)[l] + 8 (M01 + M12 + M20)[l] - (G0 + G1 + G2)[l]).
 
     All rows float32 of the same length (a multiple of _VW), ``q(l) = q0 +
@@ -295,7 +297,7 @@ def _far_rows(typingctx, Y0, Y1, Y2, G0, G1, G2, M01, M12, M20, A0, A1, A2, q0, 
 
 
 @intrinsic
-def _g_row(typingctx, Y0, Y1, Y2, G, px, py, pz):
+def g_row(typingctx, Y0, Y1, Y2, G, px, py, pz):
     """G[l] = min(1 / r2^2, _G_MAX), r2 = |(px, py, pz) - (Y0, Y1, Y2)[l]|^2 (float32 rows)."""
     sig = types.void(*([_F32_ROW] * 4), types.float32, types.float32, types.float32)
 
@@ -336,7 +338,7 @@ def _g_pass(Y, cx, cy, cz, pts_t, g, v0, v1):
     Y1 = Y[1]
     Y2 = Y[2]
     for v in range(v0, v1):
-        _g_row(Y0, Y1, Y2, g[v], np.float32(pts_t[0, v] - cx), np.float32(pts_t[1, v] - cy),
+        g_row(Y0, Y1, Y2, g[v], np.float32(pts_t[0, v] - cx), np.float32(pts_t[1, v] - cy),
                np.float32(pts_t[2, v] - cz))
 
 
@@ -350,7 +352,7 @@ def _far_face(Y, cx, cy, cz, qcoef, far_idx, gv, ge, accf, f):
     i0 = far_idx[f, 0]
     i1 = far_idx[f, 1]
     i2 = far_idx[f, 2]
-    _far_rows(Y[0], Y[1], Y[2], gv[i0], gv[i1], gv[i2], ge[far_idx[f, 3]], ge[far_idx[f, 4]],
+    far_rows(Y[0], Y[1], Y[2], gv[i0], gv[i1], gv[i2], ge[far_idx[f, 3]], ge[far_idx[f, 4]],
               ge[far_idx[f, 5]], accf[i0], accf[i1], accf[i2], q0, np.float32(q1),
               np.float32(q2), np.float32(q3))
 

@@ -184,7 +184,7 @@ def _closed_oriented(f, n):  # pragma: no cover - compiled
 
 #: below this many faces the degenerate-face test runs on one thread (starting the
 #: thread pool costs more than the work)
-PARALLEL_FACES = 50_000
+PARALLEL_MIN_FACES = 50_000
 
 
 @numba.njit(cache=True, parallel=True)
@@ -240,7 +240,7 @@ def degenerate_faces(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     v = np.ascontiguousarray(vertices, dtype=np.float64)
     f = np.ascontiguousarray(faces, dtype=np.int64).reshape(-1, 3)
     out = np.zeros(len(f), dtype=bool)
-    if len(f) >= PARALLEL_FACES:
+    if len(f) >= PARALLEL_MIN_FACES:
         _degenerate_parallel(v, f, DEGENERATE_RATIO, out)
     elif len(f):
         _degenerate_serial(v, f, DEGENERATE_RATIO, out)

@@ -48,6 +48,12 @@ __all__ = ["MIN_KEPT_SUM", "check_truncation", "keep_row", "truncate_row", "trun
 #: Below this signed sum of the kept coordinates a row is left untruncated.
 MIN_KEPT_SUM = 0.5
 
+#: Rounds of stage 1b before stage 1c takes over.
+MAX_ROUNDS = 3
+#: Live entries above which stage 1c runs, and its number of buckets.
+BUCKET_MIN = 64
+N_BUCKETS = 1024
+
 #: Return codes of the row functions (a count of kept entries otherwise).
 NOT_FINITE = -1
 TOO_WIDE = -2
@@ -118,7 +124,9 @@ def _select_row(row, truncation, pre_dropped, surv, vals):
     # are the smallest survivors. Repeat while it drops something; each round
     # moves the still-live entries to the front of surv/vals.
     n_live = n_surv
-    while n_live > 0:
+    rounds = 0
+    while n_live > 0 and rounds < MAX_ROUNDS:
+        rounds += 1
         tau = (budget - dropped) / n_live
         k = 0
         gone = 0.0
@@ -138,6 +146,39 @@ def _select_row(row, truncation, pre_dropped, surv, vals):
             break
         dropped += gone
         n_live = k
+    if n_live > BUCKET_MIN:
+        # Stage 1c (rows whose magnitudes spread evenly, where 1b would
+        # take many rounds): a histogram of the magnitudes by their leading
+        # bits (16 buckets per octave, exact order between buckets). Every
+        # bucket below the one where the cumulative sum crosses the budget
+        # is dropped whole; the rest go to stage 2.
+        bits = vals[:n_live].view(np.int64)
+        kmax = 0
+        for m in range(n_live):
+            kmax = max(kmax, bits[m] >> 48)
+        base = kmax - (N_BUCKETS - 1)
+        hist = np.zeros(N_BUCKETS)
+        for m in range(n_live):
+            hist[max(0, (bits[m] >> 48) - base)] += vals[m]
+        left = budget - dropped
+        cum = 0.0
+        cut = 0
+        while cut < N_BUCKETS and cum + hist[cut] <= left:
+            cum += hist[cut]
+            cut += 1
+        if cut > 0:
+            k = 0
+            gone = 0.0
+            for m in range(n_live):
+                a = vals[m]
+                if max(0, (bits[m] >> 48) - base) < cut:
+                    gone += a
+                else:
+                    surv[k] = surv[m]
+                    vals[k] = a
+                    k += 1
+            dropped += gone
+            n_live = k
     # Stage 2: sort what is left, smallest first, and drop while the budget
     # allows.
     order = np.argsort(vals[:n_live], kind="mergesort")

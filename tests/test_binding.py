@@ -170,7 +170,7 @@ def test_bind_fast_untruncated_is_close_to_exact_and_linearly_precise():
     np.testing.assert_allclose(fast, fast_dense(pts, cage, correct=True), rtol=1e-14, atol=1e-17)
 
 
-@pytest.mark.parametrize("method", ["fast", "exact"])
+@pytest.mark.parametrize("method", ["fast", "flat", "exact"])
 def test_bind_chunking_does_not_change_the_result(method):
     pts, cage = bumpy_shape_and_cage()
     pts = pts[::20]
@@ -183,7 +183,7 @@ def test_bind_chunking_does_not_change_the_result(method):
         np.testing.assert_array_equal(a.data, other.data)
 
 
-@pytest.mark.parametrize("method", ["fast", "exact"])
+@pytest.mark.parametrize("method", ["flat", "exact"])
 def test_bind_truncated_properties_bumpy_sphere(method):
     pts, cage = bumpy_shape_and_cage()
     t = 0.03
@@ -225,7 +225,7 @@ def check_truncated(M, exact, t):
 
 
 @pytest.mark.skipif(not ARMADILLO.exists(), reason=f"{ARMADILLO} not available")
-@pytest.mark.parametrize("method", ["fast", "exact"])
+@pytest.mark.parametrize("method", ["flat", "exact"])
 def test_bind_real_simplified_mesh(method):
     import fast_simplification
 
@@ -340,7 +340,7 @@ def test_fast_binding_accuracy_against_exact():
 
 
 def test_fast_truncating_kernel_matches_dense_truncation(monkeypatch):
-    """bind's fast path truncates rows inside the kernel and stores them
+    """bind's flat path truncates rows inside the kernel and stores them
     sparse; rows keeping more than binding.SPARSE_ROW_CAP entries go through
     the dense buffer. Either way: the same matrix as truncating the dense
     fast rows, including the safeguard rows of points far outside."""
@@ -359,10 +359,10 @@ def test_fast_truncating_kernel_matches_dense_truncation(monkeypatch):
         want = truncate_rows(rows[:, perm], t).tocoo()
         want = sp.csr_matrix((want.data, (want.row, perm[want.col])), shape=rows.shape)
         want.sort_indices()
-        got = bind(pts, cage, truncation=t)
+        got = bind(pts, cage, truncation=t, method="flat")
         for cap in (2, 7):
             monkeypatch.setattr(binding, "SPARSE_ROW_CAP", cap)
-            narrow = bind(pts, cage, truncation=t, chunk_size=50)
+            narrow = bind(pts, cage, truncation=t, chunk_size=50, method="flat")
             monkeypatch.undo()
             assert np.count_nonzero(np.diff(narrow.indptr) > cap) > 10
             for other in (got, narrow):

@@ -97,12 +97,12 @@ def test_group_rows_in_order_of_first_occurrence():
 
 
 def test_the_parallel_and_serial_degenerate_tests_agree():
-    from hybridedit.topology import PARALLEL_FACES, _degenerate_serial
+    from hybridedit.topology import PARALLEL_MIN_FACES, _degenerate_serial
 
     s = trimesh.creation.icosphere(subdivisions=6)
     v = np.asarray(s.vertices).copy()
     f = np.asarray(s.faces, dtype=np.int64).copy()
-    assert len(f) >= PARALLEL_FACES
+    assert len(f) >= PARALLEL_MIN_FACES
     f[::1000, 1] = f[::1000, 0]  # repeated indices
     v[f[5::1000, 2]] = v[f[5::1000, 0]]  # collapsed corners
     serial = np.zeros(len(f), dtype=bool)
