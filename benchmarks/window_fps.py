@@ -6,9 +6,10 @@
 Opens MESH in the real window (its own Xvfb when there is no display),
 selects the top 5% of the shape along its longest axis as the handle and the
 top 30% as the region of interest, and drags the handle in circles with real
-Qt mouse events for a few seconds; then, in the same run, renders the same
-mesh (same normals, same size, anti-aliasing off) in a bare pyvista plotter
-as fast as it can, its points rewritten every frame as a drag would.
+Qt mouse events for a few seconds; in turns with the window (four slices
+each, so both see the same machine load), a bare pyvista plotter renders the
+same mesh (same normals, same size, same camera, anti-aliasing off) as fast
+as it can, its points rewritten every frame as a drag would.
 Prints the frame split (per displayed frame, in ms) and last the line
 
     window_fps: <file> <n_vertices> displayed_fps=<x> bare_fps=<y> overhead=<bare_fps/displayed_fps>
@@ -43,8 +44,9 @@ def top_fraction(V: np.ndarray, fraction: float) -> np.ndarray:
     return np.flatnonzero(x >= hi - fraction * (hi - lo))
 
 
-def run_window(mesh_path: Path, cage, size: tuple[int, int], seconds: float):
-    """Drag in the window; returns (displayed fps, n_vertices, per-frame split in ms, final shape, view size)."""
+def run(mesh_path: Path, cage, size: tuple[int, int], seconds: float):
+    """Drag in the window and render bare, in turns; returns (displayed fps, bare fps, n_vertices,
+    per-frame split in ms, frame ms, view size)."""
     from qtpy import QtCore, QtGui, QtWidgets
 
     from hybridedit.viewer.interaction import DRAG
@@ -104,63 +106,91 @@ def run_window(mesh_path: Path, cage, size: tuple[int, int], seconds: float):
     timer = QtCore.QTimer()
     timer.setInterval(8)  # a 125 Hz mouse
     timer.timeout.connect(move)
-    timer.start()
-    warm_until = time.perf_counter() + min(1.0, 0.3 * seconds)
-    while time.perf_counter() < warm_until:
-        app.processEvents()
-    view.split.reset()
     shown: list[float] = []
-    view.rendered.connect(lambda _s: shown.append(time.perf_counter()))
-    t_start = time.perf_counter()
-    while time.perf_counter() - t_start < seconds:
-        app.processEvents()
-    t_end = time.perf_counter()
-    timer.stop()
+    counting = [False]
+    view.rendered.connect(lambda _s: shown.append(time.perf_counter()) if counting[0] else None)
+
+    def window_slice(length: float) -> None:
+        timer.start()
+        t = time.perf_counter()
+        while time.perf_counter() - t < length:
+            app.processEvents()
+        timer.stop()
+        app.processEvents()  # the frame of the last move
+
+    window_slice(min(1.0, 0.3 * seconds))  # warm-up
+    bare = BarePlotter(np.asarray(s.shape_positions), np.asarray(w.scene.normals32), s.mesh.faces,
+                       (view.width(), view.height()), w.scene.renderer.GetActiveCamera())
+    bare.run(0.5)  # warm-up
+    # window and bare plotter in alternating slices, so that both see the same machine load
+    view.split.reset()
+    window_seconds = bare_frames = bare_seconds = 0.0
+    slice_len = seconds / ROUNDS
+    for _ in range(ROUNDS):
+        counting[0] = True
+        t = time.perf_counter()
+        window_slice(slice_len)
+        window_seconds += time.perf_counter() - t
+        counting[0] = False
+        n, dt = bare.run(slice_len, np.asarray(s.shape_positions))
+        bare_frames += n
+        bare_seconds += dt
     send(QtCore.QEvent.Type.MouseButtonRelease, c, Qt.MouseButton.NoButton)
     n = len(shown)
-    fps = (n - 1) / (shown[-1] - shown[0]) if n >= 2 else 0.0
+    fps = n / window_seconds
     split = {k: view.split.seconds[k] * 1e3 / max(n, 1) for k in view.split.seconds}
-    frame_ms = (t_end - t_start) * 1e3 / max(n, 1)
+    frame_ms = window_seconds * 1e3 / max(n, 1)
     split["other"] = max(frame_ms - sum(split.values()), 0.0)
-    shape = np.asarray(s.shape_positions, dtype=np.float64).copy()
-    normals = np.asarray(w.scene.normals32).copy()
-    faces = s.mesh.faces
     vsize = (view.width(), view.height())
+    bare.close()
     w.set_modified(False)  # no question on closing
     w.close()
     app.processEvents()
-    return fps, s.mesh.n_vertices, split, frame_ms, (shape, normals, faces), vsize
+    return fps, bare_frames / bare_seconds, s.mesh.n_vertices, split, frame_ms, vsize
 
 
-def run_bare(shape, normals, faces, size: tuple[int, int], seconds: float) -> float:
-    """Frames per second of a bare pyvista plotter showing the same mesh, its points rewritten every frame."""
-    import pyvista as pv
+ROUNDS = 4
+"""Window and bare plotter take turns this many times (each a quarter of --seconds)."""
 
-    poly = pv.PolyData(shape.astype(np.float32), faces=np.hstack([np.full((len(faces), 1), 3), faces]).ravel())
-    poly.point_data["Normals"] = normals.astype(np.float32)
-    poly.GetPointData().SetActiveNormals("Normals")
-    pl = pv.Plotter(window_size=list(size), lighting="none")
-    pl.ren_win.SetMultiSamples(0)  # anti-aliasing off, as in the window with software OpenGL
-    pl.disable_anti_aliasing()
-    pl.add_light(pv.Light(light_type="headlight"))  # the window's one light
-    pl.add_mesh(poly, color=(0.89, 0.82, 0.72), smooth_shading=False)  # lit with the given normals
-    pl.show(interactive_update=True, auto_close=False)
-    pl.view_xy()
-    pl.reset_camera()
-    pts = poly.points
-    base = pts.copy()
-    for _ in range(5):
-        pl.render()
-    n = 0
-    t0 = time.perf_counter()
-    while time.perf_counter() - t0 < seconds:
-        pts[:] = base + np.float32(1e-4 * (n % 2))
-        poly.GetPoints().Modified()
-        pl.render()
-        n += 1
-    fps = n / (time.perf_counter() - t0)
-    pl.close()
-    return fps
+
+class BarePlotter:
+    """A bare pyvista plotter showing the same mesh (same normals, same size, same camera, one
+    headlight, anti-aliasing off), its points rewritten every frame as a drag would."""
+
+    def __init__(self, shape, normals, faces, size: tuple[int, int], camera) -> None:
+        import pyvista as pv
+
+        poly = pv.PolyData(np.asarray(shape, dtype=np.float32),
+                           faces=np.hstack([np.full((len(faces), 1), 3), faces]).ravel())
+        poly.point_data["Normals"] = np.asarray(normals, dtype=np.float32)
+        poly.GetPointData().SetActiveNormals("Normals")
+        pl = pv.Plotter(window_size=list(size), lighting="none")
+        pl.ren_win.SetMultiSamples(0)  # anti-aliasing off, as in the window with software OpenGL
+        pl.disable_anti_aliasing()
+        pl.add_light(pv.Light(light_type="headlight"))  # the window's one light
+        pl.add_mesh(poly, color=(0.89, 0.82, 0.72), smooth_shading=False)  # lit with the given normals
+        pl.show(interactive_update=True, auto_close=False)
+        pl.renderer.GetActiveCamera().DeepCopy(camera)
+        pl.renderer.ResetCameraClippingRange()
+        self.pl, self.poly = pl, poly
+        self.n = 0
+
+    def run(self, seconds: float, shape=None) -> tuple[int, float]:
+        """Render for ``seconds``; returns (frames, seconds)."""
+        pts = self.poly.points
+        base = pts.copy() if shape is None else np.asarray(shape, dtype=np.float32)
+        frames = 0
+        t0 = time.perf_counter()
+        while time.perf_counter() - t0 < seconds:
+            self.n += 1
+            pts[:] = base + np.float32(1e-4 * (self.n % 2))
+            self.poly.GetPoints().Modified()
+            self.pl.render()
+            frames += 1
+        return frames, time.perf_counter() - t0
+
+    def close(self) -> None:
+        self.pl.close()
 
 
 def smoke_mesh() -> Path:
@@ -201,8 +231,7 @@ def main(argv: list[str] | None = None) -> int:
     if sys.platform.startswith("linux"):
         os.environ.setdefault("QT_QPA_PLATFORM", "xcb")
     # (a private Xvfb ends with this process, after Qt has let go of it)
-    fps, n, split, frame_ms, (shape, normals, faces), vsize = run_window(mesh, args.cage, args.size, seconds)
-    bare = run_bare(shape, normals, faces, vsize, seconds)
+    fps, bare, n, split, frame_ms, vsize = run(mesh, args.cage, args.size, seconds)
     print(f"view {vsize[0]}x{vsize[1]} px, {n:,} vertices, dragged {seconds:.1f} s")
     print(f"{'stage':<12} {'ms per displayed frame':>24}")
     for k, v in split.items():

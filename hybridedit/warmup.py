@@ -10,9 +10,9 @@ It compiles by running the real public pipeline on small generated shapes:
 cage (with its repair pass on a shape that needs one), binding (fast and
 exact), both propagations, ARAP drags, polish, edit replay and the window's
 own per-frame kernels. Several kernels switch to a parallel variant above a
-size threshold (module constants named ``PARALLEL_MIN*``); the pipeline runs
-a second time with those thresholds at zero so the parallel variants compile
-as well. :func:`uncovered` then lists any kernel the pipeline did not reach,
+size threshold (module constants named ``PARALLEL*``, e.g. ``PARALLEL_MIN``,
+``PARALLEL_FACES``); the pipeline runs a second time with those thresholds at
+zero so the parallel variants compile as well. :func:`uncovered` then lists any kernel the pipeline did not reach,
 so a new kernel cannot be forgotten silently.
 
 No Qt or VTK is imported.
@@ -124,12 +124,12 @@ def record_compiles() -> Iterator[list]:
 
 @contextlib.contextmanager
 def parallel_everywhere() -> Iterator[None]:
-    """Set every ``PARALLEL_MIN*`` threshold of the kernel modules to 0 (restored after)."""
+    """Set every ``PARALLEL*`` size threshold of the kernel modules to 0 (restored after)."""
     saved = []
     for name in kernel_modules():
         mod = sys.modules.get(name) or importlib.import_module(name)
         for attr, value in list(vars(mod).items()):
-            if attr.startswith("PARALLEL_MIN") and isinstance(value, int):
+            if attr.startswith("PARALLEL") and isinstance(value, int) and not isinstance(value, bool):
                 saved.append((mod, attr, value))
                 setattr(mod, attr, 0)
     try:

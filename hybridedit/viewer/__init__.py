@@ -19,7 +19,7 @@ regional   : compiled per-frame kernels (points, normals, edge error, stretch) f
 frames     : where a frame's time goes (engine, normals, VTK update, render, compose)
 xvfb       : a private virtual X server for tests and benchmarks
 worker     : the QThread that reads a mesh and builds the cage and binding
-view       : the 3D widget (pyvistaqt QtInteractor rendering once per frame, timed) and brush overlay
+view       : the 3D widget (VTK rendering into a native window, once per frame, timed) and outline overlays
 cagesize   : the toolbar's cage size control (% or vertex count)
 help       : help texts and the shortcuts dialog
 """

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 STAGES = ("engine", "normals", "vtk update", "render", "compose")
 """engine: the engine's drag; normals: the moving region's normals; vtk update: writing the points
-into VTK's buffers; render: VTK's render (paintGL); compose: Qt putting the frame on screen."""
+into VTK's buffers; render: VTK's render and buffer swap; compose: Qt putting the rendered frame on
+screen afterwards (none with the native view, where VTK swaps the window's buffers itself)."""
 
 
 class FrameSplit:

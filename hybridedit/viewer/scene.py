@@ -31,8 +31,9 @@ from .gizmo import Gizmo
 from .regional import ShapeMetrics, vertex_normals
 from .selection import FIXED as FIXED_STATE
 
-BACKGROUND_TOP = (0.93, 0.94, 0.96)
-BACKGROUND_BOTTOM = (0.62, 0.66, 0.72)
+BACKGROUND = (0.78, 0.80, 0.84)
+"""One colour: a gradient background is a full-window shading pass that cost about 20 ms a frame
+with software OpenGL (benchmarks/window_fps.py, creature: overhead 1.30 -> 1.08)."""
 SHAPE_COLOR = np.array([226, 210, 184], dtype=np.float64)
 CAGE_COLOR = (0.0, 0.55, 0.62)
 STATE_COLORS = np.array([
@@ -101,13 +102,13 @@ class Scene:
 
     Parameters
     ----------
-    plotter : a pyvista plotter (``pyvistaqt.QtInteractor`` or ``pyvista.Plotter``).
+    plotter : a pyvista plotter (the view's :class:`~.view.ScenePlotter` or an off-screen ``pyvista.Plotter``).
     """
 
     def __init__(self, plotter) -> None:
         self.pl = plotter
         self.renderer = plotter.renderer
-        self.renderer.set_background(BACKGROUND_BOTTOM, top=BACKGROUND_TOP)
+        self.renderer.set_background(BACKGROUND)
         # one light at the camera: cheap per pixel (software OpenGL) and it lights what you look at
         self.renderer.remove_all_lights()
         self.renderer.add_light(pv.Light(light_type="headlight"))

@@ -751,17 +751,10 @@ class MainWindow(QtWidgets.QMainWindow):
             self.time_label.setText("polishing…")
 
     # ================================================================== polish on release (worker thread)
-    def shown_vertices(self) -> np.ndarray | None:
-        """The shape on display: the polished pose when one is shown, else the engine's pose."""
-        return None if self.session is None else self.session.shown_positions
-
     @property
     def polished(self) -> np.ndarray | None:
         """The polished pose on display, or None."""
         return None if self.session is None else self.session.polished
-
-    def cancel_polish(self) -> None:
-        self.polisher.cancel()
 
     def _drop_polished(self) -> None:
         """Show the engine's pose again instead of a polished one."""
