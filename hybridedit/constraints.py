@@ -112,6 +112,36 @@ def place(rows, source, T, out):
             out[i, p] = T[p, 0] * x0 + T[p, 1] * x1 + T[p, 2] * x2 + T[p, 3]
 
 
+#: A free region up to this many vertices is solved whole every frame; a larger one
+#: only in a band around the seam (its inside follows the cage as in the paper),
+#: so that a frame costs about the same as the plain propagation on big regions.
+REGION_WHOLE_MAX = 8000
+#: Width of that band, in mean cage edge lengths.
+BAND_CAGE_EDGES = 2.0
+
+
+def region_to_solve(points: np.ndarray, free: np.ndarray, seam: np.ndarray, cage_edge: float) -> np.ndarray:
+    """The free vertices the region step solves: all of them for a small region,
+    else those within :data:`BAND_CAGE_EDGES` cage edges of the seam.
+
+    Parameters
+    ----------
+    points : (n, 3) float64 shape positions; free : (f,) int64; seam : (s,) int64;
+    cage_edge : mean cage edge length.
+
+    Returns
+    -------
+    (b,) int64 sorted subset of ``free``.
+    """
+    free = np.asarray(free, dtype=np.int64)
+    if free.size <= REGION_WHOLE_MAX or seam.size == 0:
+        return free
+    from scipy.spatial import cKDTree
+
+    d, _ = cKDTree(points[seam]).query(points[free], distance_upper_bound=BAND_CAGE_EDGES * cage_edge)
+    return free[np.isfinite(d)]
+
+
 class RegionStep:
     """One full-resolution ARAP global step over the free moving vertices.
 

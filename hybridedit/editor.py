@@ -13,7 +13,7 @@ from scipy.spatial.transform import Rotation
 
 from .arap import ARAPSolver, edge_weights, laplacian
 from .binding import dominant_cage_vertex
-from .constraints import FIXED, FREE, RegionStep, SeamSpread, place
+from .constraints import FIXED, FREE, RegionStep, SeamSpread, place, region_to_solve
 from .editfile import Edit, HandleEdit, check_mesh, mesh_fingerprint
 from .mesh import Mesh
 from .propagate import propagate
@@ -170,6 +170,9 @@ class HybridEditor:
         # the window, in the build thread) rather than at the first drag
         e, w = edge_weights(mesh.vertices, mesh.faces, "cotangent")
         self._laplacian = laplacian(mesh.n_vertices, e, w)
+        ce = self.arap.edges
+        self._cage_edge = float(np.mean(np.linalg.norm(cage.vertices[ce[:, 0]] - cage.vertices[ce[:, 1]], axis=1))) \
+            if len(ce) else self._scale
         self._mirrors: dict[str, Mirror] = {}
         #: rotations the residual turns with, per cage vertex (ARAP's for free
         #: vertices, the constraint's for held ones)
@@ -454,11 +457,14 @@ class HybridEditor:
     def _region_solver(self, rows: np.ndarray, seam: np.ndarray) -> RegionStep | SeamSpread | None:
         """What places the free moving rows once the constrained ones are exact: with
         the residual propagation a full-resolution ARAP step using the cage's
-        rotations; with the paper's linear propagation the harmonic spread of the
-        seam's correction (the propagation itself stays the paper's)."""
+        rotations (over the whole region when it is small, else over a band around
+        the seam, see :func:`hybridedit.constraints.region_to_solve`); with the
+        paper's linear propagation the harmonic spread of the seam's correction
+        (the propagation itself stays the paper's)."""
         if self._residual is not None:
             _, idx, w = self._residual
-            return RegionStep(self.mesh.vertices, self._shape_laplacian(), rows, idx, w)
+            solve = region_to_solve(self.mesh.vertices, rows, seam, self._cage_edge)
+            return RegionStep(self.mesh.vertices, self._shape_laplacian(), solve, idx, w)
         return SeamSpread(self._shape_laplacian(), rows, seam) if seam.size else None
 
     def _shape_laplacian(self) -> sp.csr_matrix:

@@ -45,3 +45,35 @@ def test_a_free_part_with_no_boundary_gets_no_correction():
 def test_empty_seam():
     s = SeamSpread(path_laplacian(3), np.arange(3), np.zeros(0, dtype=np.int64))
     assert s.correction(np.zeros((0, 3))).shape == (3, 3)
+
+
+def test_a_large_region_is_solved_in_a_band_around_the_seam(monkeypatch):
+    import hybridedit.constraints as C
+    from hybridedit import HybridEditor
+    from hybridedit.transforms import apply_transform, rigid_transform
+
+    from shapes import bumpy_blob
+
+    blob = bumpy_blob(4)
+    x = blob.vertices
+    ed = HybridEditor(blob, cage_size=300)
+    handle, fixed = np.flatnonzero(x[:, 0] > 1.6), np.flatnonzero(x[:, 0] < -1.0)
+    monkeypatch.setattr(C, "REGION_WHOLE_MAX", 100)
+    ed.set_selection(handle, fixed=fixed)
+    sel = ed._sel
+    solved = sel.spread.free
+    assert 0 < solved.size < sel.rows.size  # a band, not the whole region
+    d = np.linalg.norm(x[solved][:, None] - x[sel.seam][None], axis=2).min(axis=1)
+    assert d.max() <= C.BAND_CAGE_EDGES * ed._cage_edge + 1e-12
+    T = rigid_transform(translate=(0, 0.4, 0.1), axis=(0, 0, 1), degrees=20, center=x[handle].mean(0))
+    for _ in range(5):
+        V = ed.drag(transform=T)
+    assert np.abs(V[fixed] - x[fixed]).max() == 0.0
+    assert np.allclose(V[handle], apply_transform(T, x[handle]), atol=1e-12)
+    # the inside of the region follows the cage: exactly the propagation there
+    inside = np.setdiff1d(sel.rows, solved)
+    d, idx, w = ed._residual
+    from hybridedit.residual import propagate_with_residual
+
+    full = propagate_with_residual(ed.M, ed.arap.positions, ed._rots, d, idx, w)
+    assert np.abs(V[inside] - full[inside]).max() < 1e-12
