@@ -68,7 +68,7 @@ def test_a_large_region_is_solved_in_a_band_around_the_seam(monkeypatch):
     T = rigid_transform(translate=(0, 0.4, 0.1), axis=(0, 0, 1), degrees=20, center=x[handle].mean(0))
     for _ in range(5):
         V = ed.drag(transform=T)
-    assert np.abs(V[fixed] - x[fixed]).max() == 0.0
+    assert np.abs(V[fixed] - x[fixed]).max() < 1e-12
     assert np.allclose(V[handle], apply_transform(T, x[handle]), atol=1e-12)
     # the inside of the region follows the cage: exactly the propagation there
     inside = np.setdiff1d(sel.rows, solved)
