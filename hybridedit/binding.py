@@ -460,6 +460,24 @@ def dominant_cage_vertex(M: sp.spmatrix) -> np.ndarray:
 
     Returns
     -------
-    (n,) int64 cage vertex indices.
+    (n,) int64 cage vertex indices (the lowest index among equal largest ones; 0
+    for an empty row).
     """
-    return np.asarray(abs(M).argmax(axis=1)).ravel().astype(np.int64)
+    M = sp.csr_matrix(M)
+    if not M.has_canonical_format:  # sorted, no duplicates (the caller's matrix is not changed)
+        M = M.copy()
+        M.sum_duplicates()
+    n = M.shape[0]
+    out = np.zeros(n, dtype=np.int64)
+    counts = np.diff(M.indptr)
+    full = np.flatnonzero(counts > 0)
+    if full.size == 0:
+        return out
+    a = np.abs(M.data)
+    # vectorised over all entries (scipy's argmax loops over rows in Python: 3.5 s at 690K)
+    row_max = np.maximum.reduceat(a, M.indptr[full])
+    row_of = np.repeat(np.arange(n), counts)
+    is_max = np.flatnonzero(a == np.repeat(row_max, counts[full]))
+    rows, first = np.unique(row_of[is_max], return_index=True)
+    out[rows] = M.indices[is_max[first]]
+    return out

@@ -459,3 +459,17 @@ def test_bind_reports_progress_and_can_be_cancelled(method):
 
     with pytest.raises(Stop):
         bind(pts, cage, chunk_size=20, progress=cancel, method=method)
+
+
+def test_dominant_cage_vertex_is_the_row_argmax_of_the_magnitudes():
+    import scipy.sparse as sp
+
+    from hybridedit.binding import dominant_cage_vertex
+
+    for seed in range(4):
+        M = sp.random(500, 80, density=0.05, random_state=seed, format="csr")
+        M.data -= 0.5  # negative coordinates too
+        M = sp.vstack([M, sp.csr_matrix((1, 80)), sp.csr_matrix(([0.3, -0.3], ([0, 0], [7, 3])), (1, 80))]).tocsr()
+        want = np.asarray(abs(M).argmax(axis=1)).ravel()  # scipy's (slow) definition; ties: lowest index
+        assert np.array_equal(dominant_cage_vertex(M), want)
+        assert dominant_cage_vertex(M)[-1] == 3 and dominant_cage_vertex(M)[-2] == 0
