@@ -50,4 +50,9 @@ spec="."
 # compile every kernel now (cached on disk), so the first window and the first deform do not wait on it
 echo "setup: compiling the kernels (once; about a minute or two)" >&2
 .venv/bin/python -m hybridedit.warmup -q
+# and build the default mesh's cage and binding into the user cache, so that the
+# first launch opens it as fast as every later one
+echo "setup: preparing the default mesh (once)" >&2
+.venv/bin/python -c "import hybridedit as he; from hybridedit.cli import DEFAULT_MESH; \
+he.build_rig(he.read_mesh(DEFAULT_MESH), cage_size=0.05, cache=True)"
 echo "setup: ready (.venv)" >&2
