@@ -158,6 +158,7 @@ class TextProgress:
         self._clock = clock
         self._timer = StepTimer(clock)
         self._step: str | None = None
+        self._finished: str | None = None  # the step that just ended (a repeated end is not a new step)
         self._shown = -1.0
         self._width = 0
 
@@ -167,6 +168,9 @@ class TextProgress:
         if fraction is None:
             print(f"{self.prefix}{message}", file=self.out, flush=True)
             return
+        if message == self._finished and fraction >= 1.0:
+            return  # the step's end reported again (by a caller and by its callee): said already
+        self._finished = None
         r = self._timer.update(message, fraction)
         first = message != self._step
         if first:
@@ -191,3 +195,4 @@ class TextProgress:
             print(f"{self.prefix}{r.text()}", file=self.out, flush=True)
         if r.done:
             self._step = None
+            self._finished = message

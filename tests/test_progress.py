@@ -125,3 +125,22 @@ def test_log_gets_a_start_and_a_done_line_and_quiet_nothing():
     q("x", 0.5)
     q("y")
     assert quiet.getvalue() == ""
+
+
+def test_an_end_reported_twice_is_said_once():
+    # the cage builder reports its end, and so does the step around it
+    clock = Clock()
+    out = io.StringIO()
+    say = TextProgress(stream=out, clock=clock)
+    say("building the cage", 0.0)
+    clock.t += 1.25
+    say("building the cage", 1.0)
+    say("building the cage", 1.0)
+    say("binding", 0.0)
+    say("binding", 1.0)
+    say("binding", 0.0)  # the same name again, from the start: a new step
+    say("binding", 1.0)
+    assert out.getvalue().splitlines() == [
+        "hybridedit: building the cage ...", "hybridedit: building the cage done (1.25 s)",
+        "hybridedit: binding ...", "hybridedit: binding done (0.00 s)",
+        "hybridedit: binding ...", "hybridedit: binding done (0.00 s)"]
