@@ -11,6 +11,7 @@ from numba import njit, prange
 from .linsolve import SPDSolver
 from .mesh import unique_edges
 from .rotations import closest_rotation
+from .topology import edge_index
 
 WEIGHTS = ("uniform", "cotangent")
 
@@ -37,21 +38,29 @@ def edge_weights(vertices: np.ndarray, faces: np.ndarray, kind: str = "uniform")
     if kind == "uniform":
         edges = unique_edges(f)
         return edges, np.ones(len(edges))
-    v = vertices
-    # half-edge a -> b of each face corner, and the corner opposite it
-    a, b, o = f.ravel(), f[:, [1, 2, 0]].ravel(), f[:, [2, 0, 1]].ravel()
-    ea, eb = v[a] - v[o], v[b] - v[o]
-    cx = ea[:, 1] * eb[:, 2] - ea[:, 2] * eb[:, 1]  # |ea x eb| written out: np.cross is slow
-    cy = ea[:, 2] * eb[:, 0] - ea[:, 0] * eb[:, 2]
-    cz = ea[:, 0] * eb[:, 1] - ea[:, 1] * eb[:, 0]
-    cross = np.sqrt(cx * cx + cy * cy + cz * cz)
-    cot = np.einsum("ij,ij->i", ea, eb) / np.maximum(cross, 1e-300)
-    n = max(len(v), int(f.max(initial=-1)) + 1, 1)
-    code, inverse = np.unique(np.minimum(a, b) * n + np.maximum(a, b), return_inverse=True)
-    edges = np.stack([code // n, code % n], axis=1)
-    w = np.bincount(inverse.ravel(), weights=0.5 * cot, minlength=len(code))
+    v = np.ascontiguousarray(vertices, dtype=np.float64)
+    cot = np.empty(f.size)
+    _corner_cotangents(v, np.ascontiguousarray(f), cot)
+    edges, inverse = edge_index(f, len(v))
+    w = np.bincount(inverse, weights=cot, minlength=len(edges))
     floor = 1e-3 * max(float(np.mean(np.abs(w))), 1e-300)
     return edges, np.maximum(w, floor)
+
+
+@njit(cache=True)
+def _corner_cotangents(v, f, out):  # pragma: no cover - compiled
+    """out[3t + c] = half the cotangent of the angle opposite half-edge c of face t
+    (a -> b, b -> c, c -> a); a degenerate corner gets a huge finite value."""
+    for t in range(f.shape[0]):
+        for c in range(3):
+            a, b, o = f[t, c], f[t, (c + 1) % 3], f[t, (c + 2) % 3]
+            ea0, ea1, ea2 = v[a, 0] - v[o, 0], v[a, 1] - v[o, 1], v[a, 2] - v[o, 2]
+            eb0, eb1, eb2 = v[b, 0] - v[o, 0], v[b, 1] - v[o, 1], v[b, 2] - v[o, 2]
+            cx = ea1 * eb2 - ea2 * eb1
+            cy = ea2 * eb0 - ea0 * eb2
+            cz = ea0 * eb1 - ea1 * eb0
+            cross = np.sqrt(cx * cx + cy * cy + cz * cz)
+            out[3 * t + c] = 0.5 * (ea0 * eb0 + ea1 * eb1 + ea2 * eb2) / max(cross, 1e-300)
 
 
 def laplacian(n: int, edges: np.ndarray, weights: np.ndarray) -> sp.csr_matrix:

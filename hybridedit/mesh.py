@@ -95,10 +95,9 @@ def unique_edges(faces: np.ndarray) -> np.ndarray:
     f = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
     if f.size == 0:
         return np.zeros((0, 2), dtype=np.int64)
-    a, b = f.ravel(), f[:, [1, 2, 0]].ravel()
-    n = int(f.max()) + 1
-    code = np.unique(np.minimum(a, b) * n + np.maximum(a, b))  # sorting integers, not rows: fast
-    return np.stack([code // n, code % n], axis=1)
+    from .topology import edge_index  # compiled: imported when first needed
+
+    return edge_index(f, int(f.max()) + 1)[0]
 
 
 def edge_lengths(vertices: np.ndarray, edges: np.ndarray) -> np.ndarray:

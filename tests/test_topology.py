@@ -7,6 +7,7 @@ import pytest
 import trimesh
 
 from hybridedit.topology import (DEGENERATE_RATIO, check_closed, connected_parts, degenerate_faces, edge_balance,
+                                 edge_index,
                                  edge_face_counts, group_rows, is_closed_oriented, weld)
 
 
@@ -108,3 +109,35 @@ def test_the_parallel_and_serial_degenerate_tests_agree():
     serial = np.zeros(len(f), dtype=bool)
     _degenerate_serial(v, f, DEGENERATE_RATIO, serial)
     assert np.array_equal(degenerate_faces(v, f), serial) and serial.sum() >= 2 * (len(f) // 1000)
+
+
+def _unique_edges_by_sorting(f, n):
+    a, b = f.ravel(), f[:, [1, 2, 0]].ravel()
+    code, inverse = np.unique(np.minimum(a, b) * n + np.maximum(a, b), return_inverse=True)
+    return np.stack([code // n, code % n], axis=1), inverse.ravel()
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_edge_index_is_what_sorting_the_edge_keys_gives(seed):
+    # random faces: repeated indices (self-loops), duplicates, unused vertices, and
+    # every few seeds one vertex in every face (a bucket sorted the other way)
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 50))
+    f = rng.integers(0, n, size=(int(rng.integers(1, 150)), 3))
+    if seed % 4 == 0:
+        f[:, 1] = n - 1
+    edges, inverse = edge_index(f, n + 3)
+    want_e, want_i = _unique_edges_by_sorting(f, n + 3)
+    assert np.array_equal(edges, want_e)
+    assert np.array_equal(inverse, want_i)
+    assert np.array_equal(edges[inverse], np.sort(np.stack([f.ravel(), f[:, [1, 2, 0]].ravel()], 1), axis=1))
+
+
+def test_edge_index_of_a_fan_and_of_nothing():
+    k = 300  # the centre's bucket is longer than an insertion sort is for
+    fan = np.stack([np.zeros(k, dtype=np.int64), np.arange(k, 0, -1), np.arange(k + 1, 1, -1)], axis=1)
+    edges, inverse = edge_index(fan, k + 2)
+    want_e, want_i = _unique_edges_by_sorting(fan, k + 2)
+    assert np.array_equal(edges, want_e) and np.array_equal(inverse, want_i)
+    e0, i0 = edge_index(np.zeros((0, 3), dtype=np.int64), 5)
+    assert e0.shape == (0, 2) and i0.shape == (0,)
