@@ -99,6 +99,19 @@ def test_spot_deformed_keeps_quads_uvs_material_and_texture(spot: Path, tmp_path
     assert texture.read_bytes() == (SPOT / "spot_texture.png").read_bytes()
 
 
+def test_an_existing_different_material_or_texture_is_never_replaced(spot: Path, tmp_path: Path) -> None:
+    out_dir = tmp_path / "out"
+    (out_dir / "textures" / "spot_texture.png").mkdir(parents=True)  # a folder where the image would go
+    (out_dir / "spot.mtl").write_text("newmtl mine\n")  # the user's own, different material library
+    doc = read_document(spot)
+    notes = write_document(out_dir / "spot.obj", doc)
+    assert (out_dir / "spot.mtl").read_text() == "newmtl mine\n"
+    assert (out_dir / "textures" / "spot_texture.png").is_dir()
+    assert any("spot.mtl kept as it is: it differs from" in n for n in notes)
+    assert any("spot_texture.png not copied:" in n and "is a folder" in n for n in notes)
+    assert read_document(out_dir / "spot.obj").mesh.n_vertices == doc.mesh.n_vertices  # written all the same
+
+
 def test_conversion_names_what_the_target_cannot_hold(spot: Path, tmp_path: Path) -> None:
     doc = read_document(spot)
     notes = write_document(tmp_path / "spot.stl", doc)
@@ -312,7 +325,7 @@ def textured_glb(path: Path) -> Path:
     sphere.visual = trimesh.visual.TextureVisuals(uv=uv, material=material)
     scene = trimesh.Scene()
     scene.add_geometry(sphere, transform=trimesh.transformations.translation_matrix([0, 0, 2]))
-    path.write_bytes(scene.export(file_type="glb"))
+    path.write_bytes(scene.export(file_type="glb", include_normals=True))
     return path
 
 
@@ -344,8 +357,30 @@ def test_glb_keeps_uvs_material_and_texture(tmp_path: Path) -> None:
     back = read_document(tmp_path / "bent.glb")
     assert np.allclose(back.mesh.vertices, V, atol=1e-6)
     assert np.array_equal(back.mesh.faces, doc.mesh.faces)
-    if prim_b.attributes.NORMAL is not None:
-        n = _accessor(b, prim_b.attributes.NORMAL).astype(np.float64)
-        assert np.allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-5)
-        truth = vertex_normals(V, doc.mesh.faces)[back.native.file_vertex]
-        assert np.percentile(angle_degrees(n, truth), 99) < 3.0
+    assert prim_a.attributes.NORMAL is not None and prim_b.attributes.NORMAL is not None
+    n = _accessor(b, prim_b.attributes.NORMAL).astype(np.float64)
+    assert np.allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-5)
+    truth = vertex_normals(V, doc.mesh.faces)[back.native.file_vertex]
+    assert np.percentile(angle_degrees(n, truth), 99) < 3.0
+    assert not np.allclose(n, _accessor(a, prim_a.attributes.NORMAL), atol=1e-3)  # they were rewritten
+
+
+def test_any_document_converts_to_glb_with_normals_and_colours(tmp_path: Path) -> None:
+    s = trimesh.creation.icosphere(subdivisions=2)
+    rgb = (np.random.default_rng(3).random((len(s.vertices), 3)) * 255).astype(np.uint8)
+    lines = [f"v {x:.6f} {y:.6f} {z:.6f} {r / 255:.6f} {g / 255:.6f} {b / 255:.6f}"
+             for (x, y, z), (r, g, b) in zip(s.vertices, rgb)]
+    lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in s.faces]
+    src = tmp_path / "ball.obj"
+    src.write_text("\n".join(lines) + "\n")
+    doc = read_document(src)
+    V = bend(doc.mesh.vertices)
+    notes = write_document(tmp_path / "ball.glb", doc.with_vertices(V))
+    assert notes == []  # positions, triangles and colours: a .glb holds them all
+    back = read_document(tmp_path / "ball.glb")
+    assert np.allclose(back.mesh.vertices, V, atol=1e-6)
+    assert np.array_equal(back.mesh.faces, doc.mesh.faces)
+    assert np.allclose(back.colors[:, :3] * 255, rgb, atol=1.0)
+    gltf = pygltflib.GLTF2.load(str(tmp_path / "ball.glb"))
+    n = _accessor(gltf, gltf.meshes[0].primitives[0].attributes.NORMAL).astype(np.float64)
+    assert np.percentile(angle_degrees(n, vertex_normals(V, doc.mesh.faces)), 99) < 1e-3

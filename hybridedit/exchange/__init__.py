@@ -159,7 +159,8 @@ def write_document(path: str | os.PathLike[str], doc: Document) -> list[str]:
     the new positions (see each format module); in another format, what it can
     hold. An OBJ written into another folder than the one it was read from
     takes its material libraries and their images along (copied to the same
-    relative place, an identical existing copy left as it is).
+    relative place; an existing file there is never replaced: an identical one
+    is left as it is, a different one too, with a note).
 
     Parameters
     ----------
@@ -201,13 +202,19 @@ def write_document(path: str | os.PathLike[str], doc: Document) -> list[str]:
         raise MeshFileError(f"{name}: {exc}") from None
     copies: list[tuple[Path, Path]] = []
     if same and ext == ".obj":
-        copies, more = obj.companions(doc, doc.path, Path(p))
+        found, more = obj.companions(doc, doc.path, Path(p))
         notes += more
+        for src, dst in found:  # decided before anything is written
+            if dst.is_dir():
+                notes.append(f"{src.name} not copied: {dst} is a folder")
+            elif dst.exists() and not obj.same_content(src, dst):
+                notes.append(f"{dst} kept as it is: it differs from {src}, and an existing file is "
+                             "never replaced by a copy (the output refers to it; copy it by hand if needed)")
+            elif not dst.exists():
+                copies.append((src, dst))
     with atomic_write(p, "wb") as f:
         f.write(payload)
     for src, dst in copies:
-        if obj.same_content(src, dst):
-            continue
         dst.parent.mkdir(parents=True, exist_ok=True)
         with atomic_write(dst, "wb") as f:
             f.write(src.read_bytes())

@@ -9,6 +9,10 @@ materials, embedded textures, other primitives, extensions) is kept byte for
 byte. A normal is recomputed over all corners that share its position and its
 original direction, so normals stay smooth across UV seams and split at hard
 edges. A mesh placed by several nodes is edited through its first one.
+
+A document read from another format is written as a plain .glb (trimesh's
+exporter): one triangle mesh with its normals and, when it has them, its
+vertex colours.
 """
 
 from __future__ import annotations
@@ -19,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 import pygltflib
 
-from ..document import Document, grouped_normals, moved_vertices
+from ..document import Document, grouped_normals, moved_vertices, vertex_normals
 from .common import _Bad, _mesh
 
 __all__ = ["GlbNative", "read", "write"]
@@ -125,7 +129,7 @@ def read(path: str, data: bytes) -> Document:
     if gltf is None:
         raise _Bad("not a valid glTF binary file (no JSON chunk)")
     blob = gltf.binary_blob() or b""
-    slots, points, normals, tris = [], [], [], []
+    slots, points, normals, tris, colors = [], [], [], [], []
     first = 0
     skipped = 0
     for mesh_index, world in _placed_meshes(gltf):
@@ -149,6 +153,8 @@ def read(path: str, data: bytes) -> Document:
             else:
                 nrm = np.zeros_like(pts)
             slots.append(_Slot(prim.attributes.POSITION, nrm_index, world, first))
+            colors.append(None if prim.attributes.COLOR_0 is None
+                          else _rgba(_read_accessor(gltf, blob, prim.attributes.COLOR_0), len(local)))
             points.append(pts)
             normals.append(nrm)
             tris.append(idx.reshape(-1, 3) + first)
@@ -174,11 +180,27 @@ def read(path: str, data: bytes) -> Document:
         extras["embedded images"] = len(gltf.images)
     if skipped:
         extras["non-triangle primitives"] = skipped
+    rgba = None
+    if any(c is not None for c in colors):  # per engine vertex: its first file vertex's (white where none)
+        file_rgba = np.concatenate([np.ones((len(p), 4)) if c is None else c for c, p in zip(colors, points)])
+        first_of = np.full(len(welded), len(inverse), dtype=np.int64)
+        np.minimum.at(first_of, inverse, np.arange(len(inverse)))
+        rgba = file_rgba[first_of]
     native = GlbNative(gltf=gltf, slots=slots, file_vertex=inverse, rest=welded,
                        normal_group=group.reshape(-1), n_groups=int(group.max()) + 1,
                        file_triangles=file_tri)
-    return Document(mesh=_mesh(welded, faces), format="glb", native=native,
+    return Document(mesh=_mesh(welded, faces), format="glb", native=native, colors=rgba,
                     normals=any(s.normal is not None for s in slots), extras=extras)
+
+
+def _rgba(values: np.ndarray, count: int) -> np.ndarray:
+    """COLOR_0 values (float, or normalized unsigned byte / short; RGB or RGBA) as (count, 4) floats in [0, 1]."""
+    if len(values) != count or values.shape[1] not in (3, 4):
+        raise _Bad("COLOR_0 must be 3 or 4 values for each vertex")
+    scale = {np.dtype("u1"): 255.0, np.dtype("<u2"): 65535.0}.get(values.dtype, 1.0)
+    rgba = np.ones((count, 4))
+    rgba[:, :values.shape[1]] = values.astype(np.float64) / scale
+    return np.clip(rgba, 0.0, 1.0)
 
 
 def _weld_map(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -192,10 +214,11 @@ def _weld_map(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def write(doc: Document) -> bytes:
-    """The .glb bytes of ``doc``, which must have been read from a .glb."""
+    """The .glb bytes of ``doc``: the file it was read from with new positions and normals,
+    or a plain .glb when it was read from another format."""
     nat = doc.native
     if not isinstance(nat, GlbNative):
-        raise _Bad("a .glb can only be written from a .glb (write .obj, .ply, .off or .stl)")
+        return _plain(doc)
     gltf = copy.deepcopy(nat.gltf)
     blob = bytearray(nat.gltf.binary_blob() or b"")
     V = doc.mesh.vertices
@@ -228,3 +251,16 @@ def write(doc: Document) -> bytes:
                 _write_accessor(blob, gltf, s.normal, rows, n)
     gltf.set_binary_blob(bytes(blob))
     return b"".join(gltf.save_to_bytes())
+
+
+def _plain(doc: Document) -> bytes:
+    """A .glb of ``doc`` (from another format): its triangles, vertex normals and colours."""
+    import trimesh  # a dependency already; only needed for this conversion
+
+    mesh = doc.mesh
+    colors = None
+    if doc.colors is not None:
+        colors = np.clip(np.rint(doc.colors * 255), 0, 255).astype(np.uint8)
+    tm = trimesh.Trimesh(mesh.vertices, mesh.faces, vertex_normals=vertex_normals(mesh.vertices, mesh.faces),
+                         vertex_colors=colors, process=False)
+    return tm.export(file_type="glb", include_normals=True)

@@ -18,7 +18,8 @@ from ..mesh import MeshError
 if TYPE_CHECKING:
     from .window import MainWindow
 
-MESH_FILTER = "Meshes (*.obj *.ply *.stl *.off);;OBJ (*.obj);;PLY (*.ply);;STL (*.stl);;OFF (*.off);;All files (*)"
+MESH_FILTER = ("Meshes (*.obj *.ply *.stl *.off *.glb);;OBJ (*.obj);;PLY (*.ply);;STL (*.stl);;OFF (*.off);;"
+               "glTF binary (*.glb);;All files (*)")
 EDIT_FILTER = "Edit files (*.json);;All files (*)"
 
 SAVE, DISCARD, CANCEL = "save", "discard", "cancel"
@@ -141,7 +142,7 @@ class FileActions:
             return False
         p = Path(path)
         if p.suffix.lower() not in SUPPORTED_EXTENSIONS:
-            w.show_error("Cannot save", f"{p.name}: unsupported format; use .obj, .ply, .stl or .off")
+            w.show_error("Cannot save", f"{p.name}: unsupported format; use " + ", ".join(SUPPORTED_EXTENSIONS))
             return False
         if not asked:
             if s.path is not None and same_file(p, s.path):
@@ -156,13 +157,14 @@ class FileActions:
                     return False
         try:
             # what is shown (the polished pose when there is one), in the opened file's structure
-            write_mesh(p, s.mesh.copy(vertices=s.shown_positions.copy()), like=s.path)
+            notes = write_mesh(p, s.mesh.copy(vertices=s.shown_positions.copy()), like=s.path)
         except (MeshError, MeshFileError, WriteError, OSError) as e:
             w.show_error("Could not save the mesh", str(e))
             return False
         self.save_path = p
         w.set_modified(False)
-        w.message(f"Saved {p}")
+        # what a conversion could not carry, references not copied: said, as the CLI says them
+        w.message(" ".join([f"Saved {p}."] + [f"Note: {n}." for n in notes]))
         return True
 
     # ------------------------------------------------------------------ edit files

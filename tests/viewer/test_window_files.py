@@ -294,3 +294,27 @@ def test_mirror_x_moves_both_sides_or_says_why_not(qtbot, win, tmp_path):
     up_r = (V[right] - rest[right])[:, 1].mean()
     up_l = (V[left] - rest[left])[:, 1].mean()
     assert up_r > 0.1 and abs(up_r - up_l) < 1e-3 * s.mesh.bbox_diagonal()
+
+
+def test_save_writes_what_deform_writes_and_says_what_a_conversion_drops(qtbot, win, tmp_path):
+    from hybridedit.io import read_document, write_document
+
+    w = win
+    blob = read_mesh(w.session.path)
+    coloured = tmp_path / "coloured.obj"  # the blob with a colour on every vertex
+    coloured.write_text("".join(f"v {x:.17g} {y:.17g} {z:.17g} 0.2 0.5 0.8\n" for x, y, z in blob.vertices)
+                        + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in blob.faces))
+    assert w.open_path(coloured)
+    wait_loaded(qtbot, w)
+    assert w.session.path == coloured
+    drag_tip(qtbot, w)
+    shown = w.session.shown_positions.copy()
+    assert np.any(shown != blob.vertices)
+    assert w.files.save_to(tmp_path / "posed.obj")
+    write_document(tmp_path / "api.obj", read_document(coloured).with_vertices(shown))
+    assert (tmp_path / "posed.obj").read_bytes() == (tmp_path / "api.obj").read_bytes()
+    assert " 0.2 0.5 0.8" in (tmp_path / "posed.obj").read_text().splitlines()[0]
+    assert w.files.save_to(tmp_path / "posed.stl")
+    said = w.current_message()
+    assert said.startswith(f"Saved {tmp_path / 'posed.stl'}.") and "Note: STL cannot hold" in said
+    assert "colours" in said or "colors" in said
