@@ -112,6 +112,65 @@ def test_an_existing_different_material_or_texture_is_never_replaced(spot: Path,
     assert read_document(out_dir / "spot.obj").mesh.n_vertices == doc.mesh.n_vertices  # written all the same
 
 
+def _written_corner_normals(data: bytes) -> tuple[np.ndarray, np.ndarray]:
+    """(corner normals (3m, 3) of the triangle faces 'f a//k b//k c//k', their vertices (3m,))."""
+    lines = data.splitlines()
+    vn = np.array([[float(x) for x in line.split()[1:4]] for line in lines if line.startswith(b"vn ")])
+    corners = [tok.split(b"/") for line in lines if line.startswith(b"f ") for tok in line.split()[1:]]
+    return vn[[int(c[2]) - 1 for c in corners]], np.array([int(c[0]) - 1 for c in corners])
+
+
+@pytest.mark.parametrize("relative", [False, True])
+def test_a_normal_shared_between_vertices_is_split_where_the_edit_bends_it(tmp_path: Path, relative) -> None:
+    # a flat-shaded box as exporters write it: one vn for each side, shared by all its corners
+    box = trimesh.creation.box(extents=(2.0, 1.0, 1.0)).subdivide().subdivide()
+    box = trimesh.Trimesh(box.vertices, box.faces, process=False)
+    sides, side_of = np.unique(np.round(box.face_normals, 6), axis=0, return_inverse=True)
+    lines = [f"v {x:.17g} {y:.17g} {z:.17g}" for x, y, z in box.vertices]
+    lines += [f"vn {x:.6g} {y:.6g} {z:.6g}" for x, y, z in sides]
+    ref = (lambda k: k - len(sides)) if relative else (lambda k: k + 1)
+    lines += ["f " + " ".join(f"{v + 1}//{ref(k)}" for v in tri) for tri, k in zip(box.faces, side_of.ravel())]
+    src = tmp_path / "box.obj"
+    src.write_text("\n".join(lines) + "\n")
+    doc = read_document(src)
+    V = bend(doc.mesh.vertices)
+    write_document(tmp_path / "bent.obj", doc.with_vertices(V))
+    data = (tmp_path / "bent.obj").read_bytes()
+    normals, _ = _written_corner_normals(data.replace(b"//-", b"//") if not relative else
+                                         _absolute(data, len(sides)))
+    # each corner's normal: its vertex's angle-weighted normal over the faces of its side (smooth
+    # within a side, split at the box's edges); one normal shared by a whole side is 16 degrees off
+    bent = trimesh.Trimesh(V, doc.mesh.faces, process=False)
+    side = np.repeat(side_of.ravel(), 3)
+    key = side * len(V) + bent.faces.ravel()
+    weighted = np.repeat(bent.face_normals, 3, axis=0) * bent.face_angles.reshape(-1, 1)
+    _, group = np.unique(key, return_inverse=True)
+    expect = np.stack([np.bincount(group, weighted[:, a]) for a in range(3)], axis=1)[group]
+    assert angle_degrees(normals, expect).max() < 1e-3
+    # no normal is written twice, the unmoved half stays, the faces are the same
+    left = V[:, 0] < -0.05
+    assert len(set(line for line in data.splitlines() if line.startswith(b"vn "))) == \
+        sum(1 for line in data.splitlines() if line.startswith(b"vn "))
+    back = read_document(tmp_path / "bent.obj")
+    assert np.array_equal(back.mesh.vertices[left], doc.mesh.vertices[left])
+    assert np.array_equal(back.mesh.faces, doc.mesh.faces)
+
+
+def _absolute(data: bytes, n_file_normals: int) -> bytes:
+    """The relative normal references of the original faces made absolute (they count from the file's
+    normals, which come before the faces)."""
+    out = []
+    for line in data.splitlines():
+        if line.startswith(b"f "):
+            words = [w.split(b"/") for w in line.split()[1:]]
+            for w in words:
+                k = int(w[2])
+                w[2] = b"%d" % (k + n_file_normals + 1 if k < 0 else k)
+            line = b"f " + b" ".join(b"/".join(w) for w in words)
+        out.append(line)
+    return b"\n".join(out)
+
+
 def test_conversion_names_what_the_target_cannot_hold(spot: Path, tmp_path: Path) -> None:
     doc = read_document(spot)
     notes = write_document(tmp_path / "spot.stl", doc)

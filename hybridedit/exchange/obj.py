@@ -5,7 +5,9 @@ the file's lines; writing gives them back in order with each moved vertex's
 ``v`` line rewritten (its colour or ``w`` kept) and each ``vn`` that a moved
 vertex touches recomputed from the deformed surface, grouped as the faces
 reference it (a normal shared by all corners of a vertex stays smooth; corner
-normals split at hard edges stay split). Faces with their corner counts and
+normals split at hard edges stay split; a ``vn`` an exporter shared between
+vertices gets a new line where their normals now differ, and only then are
+those faces' normal indices changed). Faces with their corner counts and
 ``v/vt/vn`` indices, ``vt``, ``mtllib``, ``usemtl``, ``o``, ``g``, ``s``,
 comments and every other statement are kept byte for byte.
 """
@@ -175,6 +177,8 @@ class ObjNative:
     rest: np.ndarray  # (n, 3) positions as read
     corner_vn: np.ndarray | None  # (sum of counts,) 0-based normal of each face corner, -1 none
     counts: np.ndarray  # (p,) corners of each face
+    f_lines: np.ndarray  # (p,) line of each face
+    vn_relative: bool  # some face refers to its normals by negative (relative) indices
 
 
 def read(data: bytes) -> Document:
@@ -206,10 +210,13 @@ def read(data: bytes) -> Document:
 
     v_lines = np.fromiter((i for i, line in enumerate(lines) if line[:2] in _OBJ_V), np.int64)
     vn_lines = np.fromiter((i for i, line in enumerate(lines) if line[:3] in _OBJ_VN), np.int64)
+    f_lines = np.fromiter((i for i, line in enumerate(lines) if line[:2] in _OBJ_F), np.int64)
     corner_vn = None
+    vn_relative = False
     if len(vn_lines):
         refs = _corner_normal_refs(lines, len(flat))
-        if refs.min() < 0:
+        vn_relative = bool(refs.min() < 0)
+        if vn_relative:
             rel = refs < 0
             resolved = _resolve(np.where(rel, refs, 1), counts,
                                 _defined_before(lines, _OBJ_VN), lines, "normal")
@@ -229,7 +236,7 @@ def read(data: bytes) -> Document:
                                                         b"\n" not in data[:65536] else b"\n")
     native = ObjNative(lines=original, newline=newline, final_newline=data[-1:] in (b"\n", b"\r"),
                        v_lines=v_lines, vn_lines=vn_lines, rest=vertices, corner_vn=corner_vn,
-                       counts=counts)
+                       counts=counts, f_lines=f_lines, vn_relative=vn_relative)
     rgba = None
     if colors is not None:
         rgba = np.column_stack([colors, np.ones(nv)])
@@ -256,17 +263,93 @@ def write(doc: Document) -> bytes:
         tail = out[li].split()[4:]
         out[li] = b" ".join([b"v %r %r %r" % tuple(V[i].tolist()), *tail])
     if nat.corner_vn is not None and moved.any():
-        tri = doc.mesh.faces
-        tri_vn = _fan(nat.counts, nat.corner_vn)
-        touched = moved[tri].any(axis=1)
-        normals, valid = grouped_normals(V, tri, tri_vn, len(nat.vn_lines))
-        update = np.zeros(len(nat.vn_lines), dtype=bool)
-        groups = tri_vn[touched].ravel()
-        update[groups[groups >= 0]] = True
-        for k in np.flatnonzero(update & valid).tolist():
-            out[nat.vn_lines[k]] = _normal_line(normals[k])
+        _write_normals(doc, nat, V, moved, out)
     text = nat.newline.join(out)
     return text + nat.newline if nat.final_newline else text
+
+
+#: Two normals closer than this (radians) are the same normal.
+_SAME_NORMAL = 1e-6
+
+
+def _write_normals(doc: Document, nat: ObjNative, V: np.ndarray, moved: np.ndarray, out: list[bytes]) -> None:
+    """Recompute, in ``out``, the ``vn`` lines that moved vertices touch.
+
+    A normal is recomputed over the corners that share its ``vn`` index at one
+    vertex. Files that share one ``vn`` between vertices (exporters write each
+    distinct normal once: every corner of a flat side shares one) get, where
+    those vertices' normals no longer agree, a new ``vn`` line for each further
+    normal (after the last ``vn`` line, or at the end of a file that refers to
+    normals by relative indices) and those corners are pointed at it.
+    """
+    counts, flat = doc.polygon_lists()
+    n = max(len(V), 1)
+    has = nat.corner_vn >= 0
+    key = np.where(has, nat.corner_vn * n + flat, -1)  # (normal, vertex) of each polygon corner
+    pairs, corner_pair = np.unique(key[has], return_inverse=True)
+    group = np.full(len(key), -1, dtype=np.int64)
+    group[has] = corner_pair
+    tri = doc.mesh.faces
+    tri_group = _fan(counts, group)
+    normals, valid = grouped_normals(V, tri, tri_group, len(pairs))
+    touched_tri = moved[tri].any(axis=1)
+    touched = np.zeros(len(pairs), dtype=bool)
+    g = tri_group[touched_tri].ravel()
+    touched[g[g >= 0]] = True
+    vn_of = pairs // n
+    added: list[bytes] = []
+    repoint = np.full(len(pairs), -1, dtype=np.int64)  # new 0-based vn index of a pair, -1: its own
+    shared = np.bincount(vn_of, minlength=len(nat.vn_lines))[vn_of] > 1
+    for p in np.flatnonzero(~shared & touched & valid).tolist():  # the usual case: a vn at one vertex
+        out[nat.vn_lines[vn_of[p]]] = _normal_line(normals[p])
+    many = np.flatnonzero(shared)
+    many = many[np.argsort(vn_of[many], kind="stable")]
+    starts = np.flatnonzero(np.r_[True, vn_of[many][1:] != vn_of[many][:-1]]) if many.size else []
+    for members in (np.split(many, starts[1:]) if many.size else []):
+        if not touched[members].any():
+            continue
+        k = int(vn_of[members[0]])
+        moving = members[touched[members] & valid[members]]
+        if moving.size == 0:
+            continue
+        if moving.size == members.size:  # all recomputed: the line takes the first one's
+            line_normal = normals[moving[0]]
+            out[nat.vn_lines[k]] = _normal_line(line_normal)
+        else:  # corners elsewhere keep the line as it is
+            line_normal = _parse_normal(out[nat.vn_lines[k]])
+        made: list[tuple[np.ndarray, int]] = [(line_normal, -1)]  # this vn's normals so far, and their lines
+        for p in moving.tolist():
+            same = [j for m, j in made if float(np.dot(normals[p], m)) >= np.cos(_SAME_NORMAL)]
+            if same:
+                repoint[p] = same[0]
+                continue
+            repoint[p] = len(nat.vn_lines) + len(added)
+            made.append((normals[p], int(repoint[p])))
+            added.append(_normal_line(normals[p]))
+    if not added:
+        return
+    corners = np.flatnonzero(has)[repoint[corner_pair] >= 0]
+    new_index = repoint[group[corners]]
+    face_of = np.repeat(np.arange(len(counts)), counts)
+    first = np.cumsum(counts) - counts
+    for f in np.unique(face_of[corners]).tolist():
+        li = int(nat.f_lines[f])
+        line = out[li]
+        lead = line[: len(line) - len(line.lstrip())]
+        words = line.split()
+        for c, j in zip(corners[face_of[corners] == f].tolist(), new_index[face_of[corners] == f].tolist()):
+            parts = words[1 + c - first[f]].split(b"/")
+            parts[2] = b"%d" % (j + 1)
+            words[1 + c - first[f]] = b"/".join(parts)
+        out[li] = lead + b" ".join(words)
+    at = len(out) if nat.vn_relative else int(nat.vn_lines[-1]) + 1
+    out[at:at] = added
+
+
+def _parse_normal(line: bytes) -> np.ndarray:
+    n = np.array([float(x) for x in line.split()[1:4]])
+    length = np.linalg.norm(n)
+    return n / length if length > 0 else n
 
 
 def _plain(doc: Document) -> bytes:
