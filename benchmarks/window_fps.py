@@ -244,4 +244,6 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from hybridedit.viewer.shutdown import leave
+
+    leave(main())  # no interpreter teardown of Qt and VTK (it can abort after the work is done)

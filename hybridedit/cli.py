@@ -283,6 +283,17 @@ def build_open_parser() -> argparse.ArgumentParser:
     return p
 
 
+def console_main() -> None:
+    """The ``hybridedit`` command: :func:`main`, then the exit; after the window (or an off-screen
+    render) without the interpreter's teardown of Qt and VTK (see :mod:`hybridedit.viewer.shutdown`)."""
+    from .viewer.shutdown import leave, uses_window  # plain Python: no Qt or VTK imported
+
+    status = main()
+    if uses_window():
+        leave(status)
+    sys.exit(status)
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv and argv[0] in ("deform", "info"):

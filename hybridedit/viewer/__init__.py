@@ -11,6 +11,7 @@ session    : the editing state (selection masks, handle transform, undo) on top 
 scene      : the pyvista actors (shape, cage wireframe, cage points) and in-place updates
 interaction: mouse handling on the 3D view (rubber band, brush, gizmo, screen-plane drag)
 gizmo      : the translate/rotate gizmo actors and its drag math
+shutdown   : ending a process that ran Qt or VTK without the interpreter's teardown
 selection  : pure projection, hit tests and add/remove/replace logic
 history    : the undo/redo stack of snapshots
 files      : open, save, edit files, screenshots, dropped files, the unsaved-pose question

@@ -19,6 +19,23 @@ _XVFB_PROBLEM = _XVFB.problem if _XVFB is not None else ""
 os.environ["QT_QPA_PLATFORM"] = "xcb"
 
 
+_EXIT_STATUS = [0]
+
+
+def pytest_sessionfinish(session, exitstatus) -> None:
+    _EXIT_STATUS[0] = int(exitstatus)
+
+
+@pytest.hookimpl(trylast=True)
+def pytest_unconfigure(config) -> None:
+    """Once pytest has reported everything, end the process with its status without the
+    interpreter's teardown of Qt and VTK (see hybridedit.viewer.shutdown)."""
+    from hybridedit.viewer.shutdown import leave, uses_window
+
+    if uses_window():
+        leave(_EXIT_STATUS[0])
+
+
 @pytest.fixture(scope="session", autouse=True)
 def _display() -> None:
     if not os.environ.get("DISPLAY"):
