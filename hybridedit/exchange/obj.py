@@ -268,7 +268,7 @@ def write(doc: Document) -> bytes:
     return text + nat.newline if nat.final_newline else text
 
 
-#: Two normals closer than this (radians) are the same normal.
+#: A recomputed normal closer than this (radians) to its line's keeps the line.
 _SAME_NORMAL = 1e-6
 
 
@@ -317,30 +317,29 @@ def _write_normals(doc: Document, nat: ObjNative, V: np.ndarray, moved: np.ndarr
             out[nat.vn_lines[k]] = _normal_line(line_normal)
         else:  # corners elsewhere keep the line as it is
             line_normal = _parse_normal(out[nat.vn_lines[k]])
-        made: list[tuple[np.ndarray, int]] = [(line_normal, -1)]  # this vn's normals so far, and their lines
-        for p in moving.tolist():
-            same = [j for m, j in made if float(np.dot(normals[p], m)) >= np.cos(_SAME_NORMAL)]
-            if same:
-                repoint[p] = same[0]
-                continue
-            repoint[p] = len(nat.vn_lines) + len(added)
-            made.append((normals[p], int(repoint[p])))
-            added.append(_normal_line(normals[p]))
+        keep = normals[moving] @ line_normal >= np.cos(_SAME_NORMAL)  # the line's own normal
+        made: dict[tuple, int] = {}  # this vn's further normals (rounded far below the text's digits)
+        for p, key in zip(moving[~keep].tolist(), map(tuple, np.round(normals[moving[~keep]], 9).tolist())):
+            if key not in made:
+                made[key] = len(nat.vn_lines) + len(added)
+                added.append(_normal_line(normals[p]))
+            repoint[p] = made[key]
     if not added:
         return
     corners = np.flatnonzero(has)[repoint[corner_pair] >= 0]
     new_index = repoint[group[corners]]
-    face_of = np.repeat(np.arange(len(counts)), counts)
-    first = np.cumsum(counts) - counts
-    for f in np.unique(face_of[corners]).tolist():
+    face_of = np.repeat(np.arange(len(counts)), counts)[corners]  # corners are in face order
+    position = corners - (np.cumsum(counts) - counts)[face_of]  # of the corner in its face
+    cuts = np.flatnonzero(np.diff(face_of)) + 1
+    for f, at, j in zip(face_of[np.r_[0, cuts]].tolist(), np.split(position, cuts), np.split(new_index, cuts)):
         li = int(nat.f_lines[f])
         line = out[li]
         lead = line[: len(line) - len(line.lstrip())]
         words = line.split()
-        for c, j in zip(corners[face_of[corners] == f].tolist(), new_index[face_of[corners] == f].tolist()):
-            parts = words[1 + c - first[f]].split(b"/")
-            parts[2] = b"%d" % (j + 1)
-            words[1 + c - first[f]] = b"/".join(parts)
+        for c, k in zip(at.tolist(), j.tolist()):
+            parts = words[1 + c].split(b"/")
+            parts[2] = b"%d" % (k + 1)
+            words[1 + c] = b"/".join(parts)
         out[li] = lead + b" ".join(words)
     at = len(out) if nat.vn_relative else int(nat.vn_lines[-1]) + 1
     out[at:at] = added
