@@ -168,9 +168,7 @@ class RegionStep:
         from .arap import _rhs  # the ARAP right-hand side kernel
 
         self._rhs = _rhs
-        self.rest = rest
         self.free = np.asarray(free, dtype=np.int64)
-        self.idx, self.w = idx, w
         self._solver = None
         if self.free.size == 0:
             return
@@ -186,11 +184,18 @@ class RegionStep:
         self.boundary = around[~inside[around]].astype(np.int64)
         self._solver = SPDSolver(rows[:, self.free].tocsc(), simplicial=True)
         self._coupling = rows[:, self.boundary].tocsr()
-        W = (sp.diags(L.diagonal()) - L).tocsr()
+        # the vertices whose rotations the step uses (free and boundary), numbered on their own and
+        # copied out once: a frame reads their rows in order instead of scattered through the shape
+        turning = np.union1d(self.free, self.boundary).astype(np.int64)
+        Lt = L[turning][:, turning].tocsr()
+        W = (sp.diags(Lt.diagonal()) - Lt).tocsr()  # the edge weights among them
         W.sort_indices()
         self._W = (W.indptr.astype(np.int64), W.indices.astype(np.int64), W.data.astype(np.float64))
-        self._turning = np.union1d(self.free, self.boundary).astype(np.int64)
-        self._rots = np.zeros((n, 3, 3))
+        self._rest = np.ascontiguousarray(rest[turning])
+        self._idx, self._w = np.ascontiguousarray(idx[turning]), np.ascontiguousarray(w[turning])
+        self._all = np.arange(turning.size, dtype=np.int64)
+        self._free_local = np.searchsorted(turning, self.free).astype(np.int64)
+        self._rots = np.zeros((turning.size, 3, 3))
         self._b = np.empty((self.free.size, 3))
 
     def apply(self, out: np.ndarray, cage_rotations: np.ndarray) -> None:
@@ -198,7 +203,7 @@ class RegionStep:
         (constrained and still vertices) are its boundary values."""
         if self._solver is None:
             return
-        _blend_rotations(self._turning, self.idx, self.w, cage_rotations, self._rots)
+        _blend_rotations(self._all, self._idx, self._w, cage_rotations, self._rots)
         indptr, indices, data = self._W
-        self._rhs(self.rest, indptr, indices, data, self._rots, self.free, self._b)
+        self._rhs(self._rest, indptr, indices, data, self._rots, self._free_local, self._b)
         out[self.free] = self._solver.solve(self._b - self._coupling @ out[self.boundary])

@@ -17,7 +17,7 @@ from .constraints import FIXED, FREE, RegionStep, SeamSpread, place, region_to_s
 from .editfile import Edit, HandleEdit, check_mesh, mesh_fingerprint
 from .mesh import Mesh
 from .propagate import propagate
-from .residual import propagate_with_residual, residual_setup
+from .residual import SelectionRows, propagate_with_residual, residual_setup
 from .rig import Progress, Rig, build_rig
 from .selection import SelectionError, as_groups, as_indices
 from .symmetry import Mirror
@@ -60,7 +60,7 @@ class _Selection:
     seam: np.ndarray  # constrained shape vertices whose rows lean on moving cage vertices
     seam_role: np.ndarray  # their internal roles
     spread: RegionStep | SeamSpread | None  # solves ``rows`` from the exact constraints around them
-    compute: np.ndarray  # rows propagated through M every frame (those nothing else places)
+    compute: SelectionRows  # rows propagated through M every frame (those nothing else places)
 
 
 @dataclass(frozen=True)
@@ -409,6 +409,7 @@ class HybridEditor:
             compute = np.setdiff1d(rows, spread.free).astype(np.int64)
         else:
             compute = np.union1d(rows, seam).astype(np.int64)
+        compute = SelectionRows(self.M, compute, self._residual)
         base = self._out
         centers = tuple(base[user_roles == k + 1].mean(axis=0) if np.any(user_roles == k + 1)
                         else self.arap.positions[core == k + 1].mean(axis=0) for k in range(len(groups)))
@@ -602,7 +603,7 @@ class HybridEditor:
         for g, T in enumerate(internal):
             cg = sel.cage_groups[g]
             self._rots[cg] = np.einsum("ij,kjl->kil", T[:3, :3], rots0[cg])
-        self._propagate_rows(sel.compute)
+        sel.compute.run(self.arap.positions, self._rots, self._out)
         out = self._out
         if isinstance(sel.spread, SeamSpread):
             goal = shape0[sel.seam]
@@ -679,16 +680,13 @@ class HybridEditor:
         self._anchors = state.anchors
         return self._out
 
-    def _propagate_rows(self, rows: np.ndarray | None) -> None:
-        if self._residual is None:
-            propagate(self.M, self.arap.positions, self._out, rows=rows)
-        else:
-            d, idx, w = self._residual
-            propagate_with_residual(self.M, self.arap.positions, self._rots, d, idx, w, self._out, rows=rows)
-
     def _propagate_all(self) -> None:
         """Every shape vertex from the current cage pose and rotations."""
-        self._propagate_rows(None)
+        if self._residual is None:
+            propagate(self.M, self.arap.positions, self._out)
+        else:
+            d, idx, w = self._residual
+            propagate_with_residual(self.M, self.arap.positions, self._rots, d, idx, w, self._out)
 
     # ------------------------------------------------------------------ edits
     @property
