@@ -167,8 +167,11 @@ class SelectionRows:
         self._part = None
         if self.rows.size <= COMPACT_MAX_FRACTION * M.shape[0]:
             Mr = sp.csr_matrix(M[self.rows])
+            # the binding's own index type (scipy narrows a slice's): the kernels' compiled version
+            Mr.indptr, Mr.indices = Mr.indptr.astype(M.indptr.dtype), Mr.indices.astype(M.indices.dtype)
             part = None if residual is None else tuple(np.ascontiguousarray(a[self.rows]) for a in residual)
-            self._part = (Mr, part, np.empty((self.rows.size, 3)))
+            # its rows by number, a writable array as the in-place path passes (one compiled version)
+            self._part = (Mr, part, np.empty((self.rows.size, 3)), np.arange(self.rows.size, dtype=np.int64))
 
     def run(self, y: np.ndarray, rotations: np.ndarray, out: np.ndarray) -> None:
         """Write rows ``rows`` of ``out`` (n, 3) from cage positions ``y`` (c, 3) and per-cage-vertex
@@ -180,9 +183,9 @@ class SelectionRows:
             else:
                 propagate_with_residual(M, y, rotations, *residual, out, rows=self.rows)
             return
-        Mr, part, tmp = self._part
+        Mr, part, tmp, local = self._part
         if part is None:
-            propagate(Mr, y, tmp)
+            propagate(Mr, y, tmp, rows=local)
         else:
-            propagate_with_residual(Mr, y, rotations, *part, tmp)
+            propagate_with_residual(Mr, y, rotations, *part, tmp, rows=local)
         out[self.rows] = tmp
