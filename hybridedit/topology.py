@@ -154,7 +154,6 @@ def edge_face_counts(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np
     """
     f = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
     n = max(int(n_vertices), 1)
-    key, _, _ = half_edges(f, n)
     a = f.ravel()
     b = f[:, [1, 2, 0]].ravel()
     keep = a != b
@@ -164,8 +163,10 @@ def edge_face_counts(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np
     if twice.any():
         rows = np.flatnonzero(twice).reshape(-1, 2)
         keep[rows[:, 1]] = False
-    keys, counts = np.unique(key[keep], return_counts=True)
-    return np.stack([keys // n, keys % n], axis=1), counts.astype(np.int64)
+    edges, inverse = edge_index(f, n)
+    counts = np.bincount(inverse[keep], minlength=len(edges))
+    used = counts > 0  # self-loops and the second copy of a doubled edge are not counted
+    return edges[used], counts[used].astype(np.int64)
 
 
 def edge_balance(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
@@ -179,10 +180,12 @@ def edge_balance(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.nda
     keys : (e,) int64 sorted undirected edge keys (``min * n + max``)
     balance : (e,) int64
     """
-    key, forward, _ = half_edges(faces, n_vertices)
-    uniq, inv = np.unique(key, return_inverse=True)
-    bal = np.bincount(inv.reshape(-1), weights=np.where(forward, 1, -1), minlength=len(uniq))
-    return uniq, bal.astype(np.int64)
+    f = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    n = max(int(n_vertices), 1)
+    edges, inverse = edge_index(f, n)
+    forward = f.ravel() < f[:, [1, 2, 0]].ravel()
+    bal = np.bincount(inverse, weights=np.where(forward, 1, -1), minlength=len(edges))
+    return edges[:, 0] * n + edges[:, 1], bal.astype(np.int64)
 
 
 def check_closed(faces: np.ndarray) -> None:
