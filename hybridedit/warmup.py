@@ -183,7 +183,7 @@ def _edit_session(mesh, say: Progress, label: str) -> None:
     from . import HybridEditor, rigid_transform
     from .binding import bind
     from .polish import ShapeARAP, polish
-    from .viewer.regional import ShapeMetrics
+    from .viewer.regional import ShapeMetrics, copy_rows
 
     say(f"{label}: cage and binding", 0.0)
     ed = HybridEditor(mesh, 0.1, cache=False)
@@ -204,6 +204,7 @@ def _edit_session(mesh, say: Progress, label: str) -> None:
                                                  degrees=5.0 * k, center=center))
             metrics.write_points(V, points)
             metrics.write_normals(V, normals)
+            copy_rows(normals, metrics.normal_vertices, points, metrics.normal_vertices)  # (into the parts)
             metrics.update_error(V)
             metrics.write_stretch(stretch)
         metrics.update_error(V, everything=True)

@@ -6,7 +6,8 @@ shape; every frame only rewrites the moving part of their point arrays in
 place (:mod:`.regional`).
 
 What is drawn: the shape, tinted blue where it is held fixed and orange where
-it is a handle (exactly the engine's vertex roles); cage points only where
+it is a handle (exactly the engine's vertex roles; one plain-coloured actor per
+role, :mod:`.shapeparts`); cage points only where
 they help (the ROI and the handle, and all points near the cursor in Select
 mode); the cage wireframe on request (View > Show Cage Wireframe).
 
@@ -30,6 +31,7 @@ from ..mesh import unique_edges
 from .gizmo import Gizmo
 from .regional import ShapeMetrics, vertex_normals
 from .selection import FIXED as FIXED_STATE
+from .shapeparts import ShapeParts
 
 BACKGROUND = (0.78, 0.80, 0.84)
 """One colour: a gradient background is a full-window shading pass that cost about 20 ms a frame
@@ -61,8 +63,6 @@ HANDLE_TINT = 0.65
 groups' tint (in their point colour); free vertices keep the shape colour."""
 POINT_ALPHA = np.array([[170, 30], [255, 70], [255, 70]], dtype=np.uint8)
 """Cage point opacity (rows FIXED, FREE, any handle group), facing / facing away from the camera."""
-DISABLE_SHIFT_SCALE = 0
-"""vtkOpenGLVertexBufferObject::DISABLE_SHIFT_SCALE: no bounds rescan of the points at every upload."""
 STRETCH_MAX = 20.0
 """Top of the stretch map's colour scale, in percent of relative edge-length change (clipped above)."""
 
@@ -126,6 +126,7 @@ class Scene:
         self.renderer.AddObserver("StartEvent", self._before_render)
         self.gizmo = Gizmo(self.overlay)
         self.shape: pv.PolyData | None = None
+        self.parts: ShapeParts | None = None
         self.cage_poly: pv.PolyData | None = None
         self.points_poly: pv.PolyData | None = None
         self._cage_faces = np.zeros((0, 3), dtype=np.int64)
@@ -167,6 +168,9 @@ class Scene:
         for a in self._overlay_actors:
             self.overlay.RemoveActor(a)
         self._actors, self._overlay_actors = [], []
+        if self.parts is not None:
+            self.parts.remove()
+            self.parts = None
         self.gizmo.remove()
         self.shape = self.cage_poly = self.points_poly = None
         self.metrics = None
@@ -187,39 +191,21 @@ class Scene:
         self.metrics = metrics
         V = np.ascontiguousarray(shape_vertices, dtype=np.float64)
         faces = metrics.faces
-        shape = pv.PolyData(V.astype(np.float32), faces=np.hstack(
-            [np.full((len(faces), 1), 3, dtype=np.int64), faces]).ravel())
+        shape = pv.PolyData()
+        shape.points = V.astype(np.float32)
         normals = np.zeros((len(V), 3), dtype=np.float32)
         metrics.write_normals(V, normals, everything=True)
         shape.point_data["Normals"] = normals
-        shape.GetPointData().SetActiveNormals("Normals")
-        shape.point_data["tint"] = shape_tint(roles)
         shape.point_data["stretch"] = np.zeros(len(V), dtype=np.float32)
-        shape.point_data.active_scalars_name = "tint"
+        # the full-mesh buffers the window writes (float32, in place); the parts draw copies of them
         self.shape = shape
-        # the buffers VTK draws from, written in place (float32: no conversion at upload)
         self.points32 = shape.points
         self.normals32 = shape.point_data["Normals"]
         self.stretch32 = shape.point_data["stretch"]
         assert self.points32.dtype == np.float32 and self.normals32.dtype == np.float32
-        mapper = vtkPolyDataMapper()
-        mapper.SetInputData(shape)
-        mapper.SetVBOShiftScaleMethod(DISABLE_SHIFT_SCALE)
-        mapper.SetColorModeToDirectScalars()
-        mapper.SetScalarModeToUsePointData()
-        mapper.ScalarVisibilityOn()
-        mapper.SetInterpolateScalarsBeforeMapping(False)
-        self.shape_mapper = mapper
-        actor = pv.Actor(mapper=mapper)
-        actor.prop.interpolation = "gouraud"
-        actor.prop.ambient = 0.18
-        actor.prop.diffuse = 0.85
-        actor.prop.specular = 0.08
-        actor.prop.specular_power = 20.0
-        actor.SetPickable(False)
-        self.shape_actor = actor
-        self.renderer.AddActor(actor)
-        self._actors.append(actor)
+        self.parts = ShapeParts(self.renderer, faces, len(V), shape_tint, self.stretch_lut)
+        self.parts.stretch_visible = self.stretch_visible
+        self.parts.set_roles(roles, self.points32, self.normals32, self.stretch32)
 
         edges = unique_edges(cage_faces)
         P = np.asarray(cage_vertices, dtype=np.float64).astype(np.float32)
@@ -306,6 +292,7 @@ class Scene:
         """The shape vertices the next drags can move ((k,) int; None: all): only they are rewritten."""
         if self.metrics is not None:
             self.metrics.set_moving(moving)
+            self.parts.set_changed(None if moving is None else self.metrics.normal_vertices)
 
     def update_shape(self, V: np.ndarray, *, everything: bool = False) -> tuple[float, float]:
         """Write shape positions (n, 3) and their normals into the shape's buffers, in place.
@@ -320,8 +307,9 @@ class Scene:
         self.shape.GetPoints().Modified()
         t1 = time.perf_counter()
         self.metrics.write_normals(V, self.normals32, everything=everything)
-        _array_modified(self.shape, "Normals")
-        return time.perf_counter() - t1, t1 - t0
+        t2 = time.perf_counter()
+        self.parts.copy_rows(self.points32, self.normals32, everything=everything)
+        return t2 - t1, (t1 - t0) + (time.perf_counter() - t2)
 
     def update_cage(self, P: np.ndarray) -> None:
         """Write a new cage pose (c, 3) into the wireframe and the points, in place."""
@@ -342,13 +330,12 @@ class Scene:
         self.points_poly.point_data["state"][:, :3] = STATE_COLORS[state_rows(s)]
         _array_modified(self.points_poly, "state")
         self._update_point_cells()
-        self.shape.point_data["tint"][:] = shape_tint(roles)
-        _array_modified(self.shape, "tint")
+        self.parts.set_roles(roles, self.points32, self.normals32, self.stretch32)
 
     def stretch_modified(self) -> None:
         """The stretch buffer (:attr:`stretch32`) was written."""
-        if self.shape is not None:
-            _array_modified(self.shape, "stretch")
+        if self.parts is not None:
+            self.parts.copy_stretch(self.stretch32)
 
     def set_stretch_visible(self, visible: bool) -> None:
         """Colour the shape by the "stretch" array with a colour bar, or back to the selection tint."""
@@ -356,16 +343,7 @@ class Scene:
         self.stretch_bar.SetVisibility(self.stretch_visible and self.shape is not None)
         if self.shape is None:
             return
-        m = self.shape_mapper
-        if self.stretch_visible:
-            self.shape.point_data.active_scalars_name = "stretch"
-            m.SetLookupTable(self.stretch_lut)
-            m.SetUseLookupTableScalarRange(True)
-            m.SetColorModeToMapScalars()
-        else:
-            self.shape.point_data.active_scalars_name = "tint"
-            m.SetColorModeToDirectScalars()
-        m.Modified()
+        self.parts.set_stretch_visible(self.stretch_visible)
 
     def set_cage_visible(self, visible: bool) -> None:
         """Show or hide the cage wireframe (the ROI and handle points stay)."""

@@ -16,8 +16,7 @@ def test_cage_points_only_where_they_help(qtbot, win):
     s = w.session
     assert len(w.scene.shown_points) == 0  # nothing selected: no cage point hides the shape
     assert not w.scene.cage_front.GetVisibility()  # the wireframe is a toggle (W), off
-    tint = np.asarray(w.scene.shape.point_data["tint"])
-    assert np.all(tint == SHAPE_COLOR.astype(np.uint8))
+    assert np.all(w.scene.parts.face_colours() == SHAPE_COLOR.astype(np.uint8))
     P = s.cage_positions
     s.set_mask("roi", P[:, 0] > 0.0)
     s.set_mask("handle", P[:, 0] > 1.4)
@@ -26,12 +25,15 @@ def test_cage_points_only_where_they_help(qtbot, win):
     assert shown == set(np.flatnonzero(s.states() != 0).tolist())  # the ROI and the handle
     assert w.scene.points_poly.n_verts == len(shown)
     # the fixed region is a tint on the shape, the free region keeps the shape's colour, the handle orange
-    roles = s.shape_roles()
-    tint = np.asarray(w.scene.shape.point_data["tint"])
+    # (a face takes its vertices' common role; faces between roles keep the shape's colour)
+    fr = s.shape_roles()[s.mesh.faces]
+    tint = w.scene.parts.face_colours()
     base = SHAPE_COLOR.astype(np.uint8)
-    assert (roles < 0).any() and np.all(np.any(tint[roles < 0] != base, axis=1))
-    assert np.all(tint[roles == 0] == base)
-    assert np.all(tint[roles > 0, 0] > tint[roles > 0, 2])  # warm: orange over the handle
+    fixed, free, hand = (fr < 0).all(axis=1), (fr == 0).any(axis=1), (fr > 0).all(axis=1)
+    assert fixed.any() and np.all(np.any(tint[fixed] != base, axis=1))
+    assert np.all(tint[free] == base)
+    assert hand.any() and np.all(tint[hand, 0] > tint[hand, 2])  # warm: orange over the handle
+    assert np.all(w.scene.parts.drawn_faces() == 1)  # every face drawn, once
     # Select mode: the cage points near the cursor show too, wherever it is
     key(qtbot, w, Qt.Key.Key_S)
     far_end = P[P[:, 0] < -1.5].mean(axis=0)

@@ -163,14 +163,14 @@ def test_select_drag_undo_redo_save_and_replay(qtbot, win, blob_file, tmp_path):
     far = rest_shape[:, 0] < -1.0
     assert np.abs(V[far] - rest_shape[far]).max() < 1e-3 * np.linalg.norm(t)
     # what is drawn is what the engine computed
-    assert np.allclose(np.asarray(w.scene.shape.points), V, atol=1e-5)
+    assert np.allclose(w.scene.parts.drawn_points(), V, atol=1e-5)
     assert w.error_label.text().startswith("edge error")
 
     # undo (Ctrl+Z) restores the rest pose, redo (Ctrl+Shift+Z) the drag
     key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
     assert np.array_equal(s.cage_positions, rest_cage)
     assert np.allclose(s.shape_positions, rest_shape, atol=1e-12)
-    assert np.allclose(np.asarray(w.scene.shape.points), rest_shape, atol=1e-5)
+    assert np.allclose(w.scene.parts.drawn_points(), rest_shape, atol=1e-5)
     assert np.array_equal(s.handle, handle)  # the selection is still there
     key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier | Qt.KeyboardModifier.ShiftModifier)
     assert np.allclose(s.shape_positions, V, atol=1e-12)

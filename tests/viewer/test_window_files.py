@@ -165,7 +165,7 @@ def test_rebuild_asks_then_keeps_the_pose_and_the_undo_history(qtbot, win):
     far = rest[:, 0] < -1.7
     assert np.linalg.norm(new[tip] - posed[tip], axis=1).max() < 0.1 * moved[tip].min()
     assert np.abs(new[far] - rest[far]).max() < 1e-3
-    assert np.allclose(np.asarray(w.scene.shape.points), new, atol=1e-5)
+    assert np.allclose(w.scene.parts.drawn_points(), new, atol=1e-5)
     assert w.scene.points_poly.n_points == s.n_cage
     # the undo history stayed: undo the rebuild (back to the old cage and its exact pose), then the drag
     assert len(s.history) == steps + 1 and s.history.undo_label() == "rebuild cage"

@@ -44,8 +44,9 @@ def test_two_handle_groups_move_independently(qtbot, win, tmp_path):
     assert (V1[left] - rest[left])[:, 1].min() > 0.1
     assert np.abs(V1[right] - rest[right]).max() < 1e-9
     assert s.editor.n_groups == 2 and set(np.unique(s.editor.vertex_roles)) >= {1, 2}
-    tint = np.asarray(w.scene.shape.point_data["tint"])
-    assert not np.array_equal(tint[s.editor.vertex_roles == 1][0], tint[s.editor.vertex_roles == 2][0])
+    fr = s.editor.vertex_roles[s.mesh.faces]
+    tint = w.scene.parts.face_colours()
+    assert not np.array_equal(tint[(fr == 1).all(axis=1)][0], tint[(fr == 2).all(axis=1)][0])
     # G: group 1 (the right end); dragging it keeps group 2 where it was put
     key(qtbot, w, Qt.Key.Key_G)
     assert s.active == 0

@@ -54,7 +54,7 @@ def test_polish_on_release_lowers_the_energy_and_save_writes_it(qtbot, win, tmp_
     polished(qtbot, w)
     P = w.polished.copy()
     # the polish ran in the background and the window shows its result
-    assert np.allclose(np.asarray(w.scene.shape.points), P, atol=1e-5)
+    assert np.allclose(w.scene.parts.drawn_points(), P, atol=1e-5)
     assert not np.allclose(P, hybrid, atol=1e-6)
     msg = w.current_message()
     assert msg.startswith("polished: ") and "iterations, edge error" in msg and "→" in msg
@@ -79,7 +79,7 @@ def test_polish_on_release_lowers_the_energy_and_save_writes_it(qtbot, win, tmp_
     key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
     assert w.polished is None
     assert np.allclose(s.shape_positions, rest, atol=1e-12)
-    assert np.allclose(np.asarray(w.scene.shape.points), rest, atol=1e-5)
+    assert np.allclose(w.scene.parts.drawn_points(), rest, atol=1e-5)
     # redo brings the hybrid pose back (no polish: it only follows a release)
     key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier | Qt.KeyboardModifier.ShiftModifier)
     assert np.allclose(s.shape_positions, hybrid, atol=1e-12) and w.polished is None
@@ -90,7 +90,7 @@ def test_polish_on_release_lowers_the_energy_and_save_writes_it(qtbot, win, tmp_
     drag_up(qtbot, w, 30)
     qtbot.wait(200)
     assert w.polisher.worker is None and w.polished is None
-    assert np.allclose(np.asarray(w.scene.shape.points), s.shape_positions, atol=1e-5)
+    assert np.allclose(w.scene.parts.drawn_points(), s.shape_positions, atol=1e-5)
 
 
 def test_a_new_drag_or_undo_cancels_a_running_polish(qtbot, win):
@@ -126,7 +126,7 @@ def test_a_new_drag_or_undo_cancels_a_running_polish(qtbot, win):
     qtbot.waitUntil(lambda: w.polisher.worker is None, timeout=5000)
     qtbot.wait(50)
     assert w.polished is None and w.last_polish is None
-    assert np.allclose(np.asarray(w.scene.shape.points), s.shape_positions, atol=1e-5)
+    assert np.allclose(w.scene.parts.drawn_points(), s.shape_positions, atol=1e-5)
 
 
 def test_stretch_map(qtbot, win):
@@ -141,13 +141,14 @@ def test_stretch_map(qtbot, win):
     before = np.asarray(w.view.screenshot(None, return_img=True)).astype(np.int16)
     key(qtbot, w, Qt.Key.Key_T)  # on
     assert a.isChecked()
-    assert w.scene.shape.point_data.active_scalars_name == "stretch"
-    assert w.scene.shape_mapper.GetColorMode() == 1  # VTK_COLOR_MODE_MAP_SCALARS
+    assert all(p.mapper.GetScalarVisibility() for p in w.scene.parts.parts)
     assert w.scene.stretch_bar.GetVisibility()
     V = w.polished  # the shape on display
     expected = 100.0 * vertex_stretch(s.mesh.n_vertices, s.edges, edge_stretch(s.mesh.vertices, V, s.edges))
     shown = np.asarray(w.scene.shape.point_data["stretch"])
     assert np.allclose(shown, expected, rtol=1e-5, atol=1e-4)
+    for p in w.scene.parts.parts:  # what each part draws
+        assert np.allclose(p.stretch, expected[p.vertices], rtol=1e-5, atol=1e-4)
     far = s.mesh.vertices[:, 0] < -1.0  # the fixed end
     # the bent part shows, the fixed part does not
     assert expected.max() > 1.0 and expected[far].max() < 0.05 * expected.max()
@@ -161,8 +162,7 @@ def test_stretch_map(qtbot, win):
     # off: back to the selection tint
     key(qtbot, w, Qt.Key.Key_T)
     assert not a.isChecked()
-    assert w.scene.shape.point_data.active_scalars_name == "tint"
-    assert w.scene.shape_mapper.GetColorMode() == 2  # VTK_COLOR_MODE_DIRECT_SCALARS
+    assert not any(p.mapper.GetScalarVisibility() for p in w.scene.parts.parts)
     assert not w.scene.stretch_bar.GetVisibility()
     w.view.render()
     off = np.asarray(w.view.screenshot(None, return_img=True)).astype(np.int16)
