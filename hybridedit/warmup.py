@@ -205,6 +205,7 @@ def _edit_session(mesh, say: Progress, label: str) -> None:
             metrics.write_points(V, points)
             metrics.write_normals(V, normals)
             copy_rows(normals, metrics.normal_vertices, points, metrics.normal_vertices)  # (into the parts)
+            metrics.moving_box(points)
             metrics.update_error(V)
             metrics.write_stretch(stretch)
         metrics.update_error(V, everything=True)

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
-STAGES = ("engine", "normals", "vtk update", "render", "compose")
-"""engine: the engine's drag; normals: the moving region's normals; vtk update: writing the points
-into VTK's buffers; render: VTK's render and buffer swap; compose: Qt putting the rendered frame on
-screen afterwards (none with the native view, where VTK swaps the window's buffers itself)."""
+STAGES = ("engine", "points", "normals", "vtk update", "render", "compose")
+"""engine: the engine's drag; points: the moving rows into the full-mesh float32 buffer, and their
+bounds; normals: the moving region's normals (these three on the frame thread during drags, beside
+the render); vtk update: copying the changed rows into the buffers VTK draws; render: VTK's render
+and buffer swap; compose: Qt putting the rendered frame on screen afterwards (none with the native
+view, where VTK swaps the window's buffers itself)."""
 
 
 class FrameSplit:

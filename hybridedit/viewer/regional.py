@@ -49,6 +49,18 @@ def _write_rows_parallel(V, rows, out):
 
 
 @njit(cache=True)
+def _rows_box(P, rows, box):
+    for t in range(rows.shape[0]):
+        r = rows[t]
+        for d in range(3):
+            x = P[r, d]
+            if x < box[0, d]:
+                box[0, d] = x
+            if x > box[1, d]:
+                box[1, d] = x
+
+
+@njit(cache=True)
 def _copy_rows_serial(src, rows, dst, at):
     for t in range(rows.shape[0]):
         r, a = rows[t], at[t]
@@ -247,6 +259,13 @@ class ShapeMetrics:
         """Copy the moving rows of V (n, 3) into ``out`` (n, 3), e.g. a float32 VTK buffer."""
         rows = self.all_vertices if everything else self.moving
         _pick(_write_rows_serial, _write_rows_parallel, rows)(V, rows, out)
+
+    def moving_box(self, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(lo, hi) (3,) float64 corners of the box around the moving rows of P (n, 3) (float32)."""
+        box = np.empty((2, 3))
+        box[0], box[1] = np.inf, -np.inf
+        _rows_box(P, self.moving, box)
+        return box[0], box[1]
 
     def write_normals(self, V: np.ndarray, out: np.ndarray, *, everything: bool = False) -> None:
         """Vertex normals of V (area-weighted, unit) into ``out`` (n, 3) where the moving region changes them.

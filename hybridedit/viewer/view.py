@@ -155,12 +155,11 @@ class View(QVTKRenderWindowInteractor):
             return
         t0 = time.perf_counter()
         self._painting = True
-        iren = self._Iren
-        iren.EnableRenderOn()
         try:
-            iren.Render()
+            # the render window's Render lets go of Python's lock while it draws (the interactor's
+            # Render does not), so the window's frame thread computes the next frame meanwhile
+            self.ren_win.Render()
         finally:
-            iren.EnableRenderOff()
             self._painting = False
         t1 = time.perf_counter()
         self.render_seconds = t1 - t0

@@ -20,6 +20,7 @@ from qtpy import QtCore, QtGui, QtWidgets
 from ..editor import SelectionError
 from .cagesize import CageSizeControl
 from .files import FileActions, dropped_path
+from .framethread import DragFrame, FrameThread
 from .help import HOWTO, ShortcutsDialog
 from .interaction import BRUSH, CAMERA, DRAG, RECTANGLE, SELECT, ViewController
 from .polishing import PolishScheduler
@@ -28,7 +29,8 @@ from .session import HANDLE, ROI, Session
 from .view import View
 from .worker import BuildRequest, BuildResult, BuildWorker, PolishOutcome
 
-RRMS_INTERVAL = 0.3  # seconds between edge-error updates of the status bar while dragging
+ERROR_INTERVAL = 0.25
+"""Seconds between edge-error measurements during a drag (each walks the moving region's edges)."""
 
 
 def _fmt(n: int) -> str:
@@ -74,14 +76,15 @@ class MainWindow(QtWidgets.QMainWindow):
         self.last_polish: PolishOutcome | None = None
         self._error_box: QtWidgets.QMessageBox | None = None
         self._drag_T0 = np.eye(4)
-        self._pending_T: np.ndarray | None = None
+        self._drag_failed = False
+        self._drag_error: float | None = None  # the latest drag frame's edge error, not shown yet
+        self._error_time = 0.0  # when a drag frame last measured the edge error
         self._settle_chunk = 2
-        self._rrms_dirty = False
         self._rrms_full = True  # the next measure must walk every edge (the pose changed outside a drag)
-        self._rrms_time = 0.0
         self._engine_ms = 0.0
         self._generation = -1  # the session's engine generation the scene shows
         self.files = FileActions(self)
+        self.frames = FrameThread(self._show_drag_frame, self)
         self.polisher = PolishScheduler(self)
         self.polisher.succeeded.connect(self._polish_succeeded)
         self.polisher.failed.connect(lambda m: self.message(f"Polish failed: {m}"))
@@ -659,48 +662,70 @@ class MainWindow(QtWidgets.QMainWindow):
             self.show_error("Cannot drag", str(e))
             return False
         self.clear_message()
-        self._pending_T = None
+        self._drag_failed = False
         self.scene.set_moving(self.session.moving_vertices())
         self._measure()  # every edge once: then each frame only the moving region's
         return True
 
     def drag(self, D: np.ndarray) -> None:
-        """A new handle transform from the mouse: applied on the next event-loop pass, so the
-        mouse moves that arrive while a frame renders collapse into one engine frame."""
+        """A new handle transform from the mouse. The frame is computed on the frame thread (beside
+        the render of the previous one); mouse moves that arrive meanwhile collapse into one frame."""
         s = self.session
         if s is None or not s.applied:
             return
-        schedule = self._pending_T is None
-        self._pending_T = np.asarray(D) @ self._drag_T0
-        if schedule:
-            QtCore.QTimer.singleShot(0, self._apply_pending_drag)
+        self.frames.submit(self._drag_job(np.asarray(D) @ self._drag_T0))
 
-    def _apply_pending_drag(self) -> None:
-        s = self.session
-        T, self._pending_T = self._pending_T, None
-        if s is None or T is None or not s.applied:
-            return
-        t0 = time.perf_counter()
-        try:
+    def _drag_job(self, T: np.ndarray):
+        """The frame for handle transform T, as a job for the frame thread: the engine's solve, the
+        moving region's points, normals and edge error (and stretch map when shown). No Qt or VTK."""
+        s, scene = self.session, self.scene
+        stretch = scene.stretch_visible
+        # the edge error for the status bar a few times a second (every frame with the stretch map)
+        measure = stretch or time.perf_counter() - self._error_time >= ERROR_INTERVAL
+        if measure:
+            self._error_time = time.perf_counter()
+
+        def job() -> DragFrame:
+            t0 = time.perf_counter()
             V = s.drag_to(T)
-        except (ValueError, ArithmeticError) as e:  # e.g. a degenerate transform: stop this drag
+            t1 = time.perf_counter()
+            normals_s, points_s = scene.write_shape(V)
+            error = s.metrics.update_error(V) if measure else None
+            if stretch:
+                s.metrics.write_stretch(scene.stretch32)
+            return DragFrame(s, t1 - t0, normals_s, points_s, error, stretch, s.cage_positions, s.handle_centroid())
+
+        return job
+
+    def _show_drag_frame(self, ok: bool, frame) -> None:
+        """A finished drag frame (UI thread): into VTK's buffers, and render."""
+        s = self.session
+        if s is None or (ok and frame.session is not s):
+            return
+        if not ok:
+            self.frames.discard()  # no later frame of this drag
+            self._drag_failed = True
             self.controller.gesture = None
             s.cancel_drag()
             self.refresh_all()
-            self.show_error("Drag failed", f"{e}; the drag was undone.")
+            if isinstance(frame, (ValueError, ArithmeticError)):  # e.g. a degenerate transform
+                self.show_error("Drag failed", f"{frame}; the drag was undone.")
+            else:
+                self.show_error("Drag failed", f"{frame.__class__.__name__}: {frame}; the drag was undone.")
             return
-        t1 = time.perf_counter()
-        normals_s, upload_s = self.scene.update_shape(V)
-        self.scene.update_cage(s.cage_positions)
-        self.scene.gizmo.place(s.handle_centroid())
+        upload_s = self.scene.show_shape()
+        if frame.stretch:
+            self.scene.stretch_modified()
+        self.scene.update_cage(frame.cage)
+        self.scene.gizmo.place(frame.centroid)
         split = self.view.split
-        split.add("engine", t1 - t0)
-        split.add("normals", normals_s)
+        split.add("engine", frame.engine_s)
+        split.add("points", frame.points_s)
+        split.add("normals", frame.normals_s)
         split.add("vtk update", upload_s)
-        self._engine_ms = (t1 - t0) * 1e3
-        self._rrms_dirty = True
-        if self.scene.stretch_visible:
-            self._measure(everything=False)
+        self._engine_ms = frame.engine_s * 1e3
+        if frame.error is not None:
+            self._drag_error = frame.error  # shown by the status tick (a label repaint every frame costs)
         self.set_modified(True)
         self.view.request_render()
 
@@ -708,7 +733,9 @@ class MainWindow(QtWidgets.QMainWindow):
         s = self.session
         if s is None or not s.applied:
             return
-        self._apply_pending_drag()
+        self.frames.flush()  # the frame of the last mouse position
+        if self._drag_failed:
+            return
         if not np.all(np.isfinite(s.shape_positions)):
             s.cancel_drag()
             self.refresh_all()
@@ -737,7 +764,8 @@ class MainWindow(QtWidgets.QMainWindow):
             self._after_drag()
 
     def finish_settle(self) -> None:
-        """Complete a settle under way now (before anything reads or changes the pose)."""
+        """Complete a drag frame or a settle under way now (before anything reads or changes the pose)."""
+        self.frames.flush()
         s = self.session
         if s is not None and s.settling:
             s.finish_settle()
@@ -797,17 +825,20 @@ class MainWindow(QtWidgets.QMainWindow):
             return
         full = self._rrms_full if everything is None else everything
         self._rrms_full = False
-        self._rrms_time = time.perf_counter()
-        self._rrms_dirty = False
-        err = s.metrics.update_error(s.shown_positions, everything=full)
-        self.error_label.setText(f"edge error {err:.2f} %{' (polished)' if s.polished is not None else ''}")
+        self._show_error_value(s.metrics.update_error(s.shown_positions, everything=full))
         if self.scene.stretch_visible:
             s.metrics.write_stretch(self.scene.stretch32, everything=full)
             self.scene.stretch_modified()
             self.view.request_render()
 
+    def _show_error_value(self, err: float) -> None:
+        self._drag_error = None
+        polished = self.session is not None and self.session.polished is not None
+        self.error_label.setText(f"edge error {err:.2f} %{' (polished)' if polished else ''}")
+
     # ================================================================== refresh
     def _refresh_pose(self) -> None:
+        self.frames.flush()
         s = self.session
         if s is None:
             return
@@ -818,6 +849,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.view.request_render()
 
     def _refresh_selection(self) -> None:
+        self.frames.flush()
         s = self.session
         if s is None:
             return
@@ -828,6 +860,7 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def refresh_all(self) -> None:
         """Show the session's whole state again (after undo, redo, loading an edit, ...)."""
+        self.frames.flush()
         s = self.session
         if s is not None and s.generation != self._generation:
             self._show_engine()  # undo or redo went across a rebuild: the other cage
@@ -856,10 +889,11 @@ class MainWindow(QtWidgets.QMainWindow):
             a.setChecked(self.view.antialiasing)
 
     def _tick(self) -> None:
+        if self._drag_error is not None:
+            self._show_error_value(self._drag_error)
+            self._drag_error = None
         if self.session is None or self.session.settling:
             return
-        if self._rrms_dirty and time.perf_counter() - self._rrms_time >= RRMS_INTERVAL:
-            self._measure()
         if self.polisher.busy:
             self.time_label.setText("polishing…")
             return
@@ -1020,6 +1054,7 @@ class MainWindow(QtWidgets.QMainWindow):
             ev.ignore()
             return
         self.settle_timer.stop()
+        self.frames.stop()
         self.polisher.wait()
         if self.worker is not None:
             self.worker.cancel()
