@@ -22,11 +22,12 @@ from numba import njit, prange
 from ..mesh import unique_edges
 
 
-PARALLEL_MIN = 500_000
-"""Items (rows, faces, vertices, edges) from which a kernel runs its parallel variant. Below it the
-serial one is faster: a parallel region costs a thread hand-off, and far more when the cores are
-busy, as they are while VTK renders in software (measured on 2 loaded cores: 0.14 ms serial against
-11.8 ms parallel for 33K rows; the 173K armadillo's region normals 31 ms parallel, about 2 ms serial)."""
+PARALLEL_MIN = 50_000
+"""Items (rows, faces, vertices, edges) from which a kernel runs its parallel variant. During a drag
+these kernels run on the window's frame thread, which gives them every core only while the window
+waits for the frame and one thread while the frame runs beside the render (see
+:mod:`hybridedit.viewer.framethread`): a parallel region beside the software rasterizer waits for
+its slowest thread (the 173K armadillo's region normals: 31 ms in parallel there, about 2 ms serial)."""
 
 
 @njit(cache=True, inline="always")
