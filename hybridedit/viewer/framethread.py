@@ -18,6 +18,7 @@ the session.
 
 from __future__ import annotations
 
+import os
 import threading
 from dataclasses import dataclass
 from typing import Callable
@@ -34,6 +35,11 @@ for that one, so it gets every core. A pending job starts as the previous frame 
 and runs beside the render, whose software rasterizer keeps the cores busy; it runs serially, as a
 parallel region there waits for its slowest thread (the 173K armadillo's propagation: 70 ms in
 parallel beside the render, 5.5 ms serial)."""
+
+
+NICE = 10
+"""Scheduling niceness of the frame thread: a frame computed beside the render waits for spare
+cycles rather than slowing the render down."""
 
 
 @dataclass
@@ -127,6 +133,10 @@ class FrameThread(QtCore.QObject):
 
     # ------------------------------------------------------------------ internals
     def _loop(self) -> None:  # the worker thread
+        try:  # yield the cores to the render's threads when both want them (Linux: per thread)
+            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), NICE)
+        except (AttributeError, OSError):
+            pass
         while True:
             with self._cond:
                 while self._job is None and not self._stopped:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import threading
 import time
 
@@ -9,7 +10,7 @@ import numba
 import pytest
 from qtpy import QtWidgets
 
-from hybridedit.viewer.framethread import ALL_THREADS, FrameThread
+from hybridedit.viewer.framethread import ALL_THREADS, NICE, FrameThread
 from test_window import win  # noqa: F401 (fixture)
 
 
@@ -31,13 +32,14 @@ def test_results_reach_the_handler_on_the_ui_thread_latest_pending_wins(qtbot, a
     handled = []
     ft = _thread(handled)
     gate = threading.Event()
-    seen = []
+    seen, nice = [], []
 
     def job(k, wait=False):
         def run():
             if wait:
                 gate.wait(5.0)
             seen.append((k, threading.get_ident() != threading.main_thread().ident, numba.get_num_threads()))
+            nice.append(os.getpriority(os.PRIO_PROCESS, threading.get_native_id()))
             return k
         return run
 
@@ -52,6 +54,7 @@ def test_results_reach_the_handler_on_the_ui_thread_latest_pending_wins(qtbot, a
     assert [k for k, _, _ in seen] == [1, 3] and all(off_ui for _, off_ui, _ in seen)
     # the job submitted to an idle worker gets every core; the pending one runs beside the render
     assert seen[0][2] == ALL_THREADS and seen[1][2] == 1
+    assert min(nice) >= NICE  # the render's threads come first
     qtbot.waitUntil(lambda: not ft.busy, timeout=5000)
     ft.stop()
 
