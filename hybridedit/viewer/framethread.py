@@ -88,7 +88,11 @@ class FrameThread(QtCore.QObject):
     def busy(self) -> bool:
         """A job runs, waits, or its result has not been handed over yet."""
         with self._cond:
-            return self._running or self._job is not None or self._result is not None or self._pending is not None
+            return self._occupied() or self._pending is not None
+
+    def _occupied(self) -> bool:
+        """A job runs or waits to run, or its result is not handed over (call with the lock held)."""
+        return self._running or self._job is not None or self._result is not None
 
     def submit(self, job: Job) -> None:
         """Run ``job`` now if the worker is free, else make it the pending job (replacing any)."""
@@ -98,7 +102,7 @@ class FrameThread(QtCore.QObject):
         with self._cond:
             if self._stopped:
                 return
-            if self._running or self._job is not None or self._result is not None:
+            if self._occupied():
                 self._pending = job
                 return
             self._job, self._threads = job, threads

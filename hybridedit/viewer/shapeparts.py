@@ -62,7 +62,6 @@ class _Part:
         self.vertices = np.flatnonzero(used)  # (k,) global index of each local point
         self.local = np.full(n, -1, dtype=np.int64)  # (n,) local index of each global vertex, -1 if not here
         self.local[self.vertices] = np.arange(len(self.vertices))
-        self.faces = faces
         poly = pv.PolyData()
         poly.points = np.zeros((len(self.vertices), 3), dtype=np.float32)
         poly.faces = np.column_stack([np.full(len(faces), 3, dtype=np.int64), self.local[faces]]).ravel()
@@ -90,10 +89,10 @@ class _Part:
         actor.prop.specular_power = 20.0
         actor.SetPickable(False)
         self.mapper, self.actor = mapper, actor
-        self.changed_rows = self.vertices  # (j,) global rows that a frame rewrites, and their local index
-        self.changed_local = np.arange(len(self.vertices))
+        self.set_changed(None)
 
     def set_changed(self, rows: np.ndarray | None) -> None:
+        """The global rows a frame rewrites (None: all): ``changed_rows`` (j,) and their ``changed_local``."""
         if rows is None:
             self.changed_rows, self.changed_local = self.vertices, np.arange(len(self.vertices))
             return
@@ -102,15 +101,14 @@ class _Part:
         self.changed_rows, self.changed_local = rows[keep], loc[keep]
 
     def copy(self, points: np.ndarray, normals: np.ndarray, everything: bool) -> None:
-        rows, local = (self.vertices, slice(None)) if everything else (self.changed_rows, self.changed_local)
-        if len(rows) == 0:
-            return
         if everything:
-            self.points[:] = points[rows]
-            self.normals[:] = normals[rows]
+            self.points[:] = points[self.vertices]
+            self.normals[:] = normals[self.vertices]
+        elif len(self.changed_rows):
+            copy_rows(points, self.changed_rows, self.points, self.changed_local)
+            copy_rows(normals, self.changed_rows, self.normals, self.changed_local)
         else:
-            copy_rows(points, rows, self.points, local)
-            copy_rows(normals, rows, self.normals, local)
+            return
         self.poly.GetPoints().Modified()
         self.poly.GetPointData().GetArray("Normals").Modified()
 
