@@ -6,8 +6,8 @@ shape; every frame only rewrites the moving part of their point arrays in
 place (:mod:`.regional`).
 
 What is drawn: the shape, tinted blue where it is held fixed and orange where
-it is a handle (exactly the engine's vertex roles; one plain-coloured actor per
-role, :mod:`.shapeparts`); cage points only where
+it is a handle (the faces whose vertices share one of the engine's vertex roles;
+one plain-coloured actor per role, :mod:`.shapeparts`); cage points only where
 they help (the ROI and the handle, and all points near the cursor in Select
 mode); the cage wireframe on request (View > Show Cage Wireframe).
 
