@@ -173,21 +173,11 @@ def cage_parts(
                     f"the cage uses all of them instead of {target:,}")
         target = n
     count, labels = source.parts, source.part_labels
-    # the vertices and faces of each part, grouped
-    v_order = np.argsort(labels, kind="stable")
-    v_start = np.searchsorted(labels[v_order], np.arange(count + 1))
-    f_label = labels[src.faces[:, 0]]
-    f_order = np.argsort(f_label, kind="stable")
-    f_start = np.searchsorted(f_label[f_order], np.arange(count + 1))
     pieces: list[Mesh] = []
     kinds: list[str] = []
     done = 0
     holes = 0
-    local = np.empty(n, dtype=np.int64)  # each vertex's index within its part
-    local[v_order] = np.arange(n) - v_start[labels[v_order]]
-    for p in range(count):
-        verts = v_order[v_start[p]:v_start[p + 1]]
-        part = src if count == 1 else Mesh(src.vertices[verts], local[src.faces[f_order[f_start[p]:f_start[p + 1]]]])
+    for part in _split_parts(src, count, labels):
         want = max(int(round(target * part.n_vertices / n)), MIN_PART_CAGE)
         piece, kind, closed = _cage_piece(part, want, known_closed=source.closed)
         holes += closed
@@ -225,6 +215,25 @@ def cage_parts(
     return CageParts(cage, offsets, owner, tuple(kinds))
 
 
+def _split_parts(src: Mesh, count: int, labels: np.ndarray):
+    """Each connected part of ``src`` as a mesh of its own (vertices in order), one at
+    a time; a single part is ``src`` itself (no grouping, no copy)."""
+    if count == 1:
+        yield src
+        return
+    n = src.n_vertices
+    v_order = np.argsort(labels, kind="stable")
+    v_start = np.searchsorted(labels[v_order], np.arange(count + 1))
+    f_label = labels[src.faces[:, 0]]
+    f_order = np.argsort(f_label, kind="stable")
+    f_start = np.searchsorted(f_label[f_order], np.arange(count + 1))
+    local = np.empty(n, dtype=np.int64)  # each vertex's index within its part
+    local[v_order] = np.arange(n) - v_start[labels[v_order]]
+    for p in range(count):
+        verts = v_order[v_start[p]:v_start[p + 1]]
+        yield Mesh(src.vertices[verts], local[src.faces[f_order[f_start[p]:f_start[p + 1]]]])
+
+
 def _cage_piece(part: Mesh, want: int, *, known_closed: bool = False) -> tuple[Mesh, str, int]:
     """The closed cage piece of one connected part, how it was made, and how many holes it closed."""
     from .repair import box_cage, close_holes, hole_loops
@@ -241,7 +250,8 @@ def _cage_piece(part: Mesh, want: int, *, known_closed: bool = False) -> tuple[M
     closed_holes = 0
     if piece.n_faces:
         piece, closed_holes = close_holes(piece)
-        piece = clean_surface(piece.vertices, piece.faces)
+        if closed_holes:  # the fans can add slivers; otherwise the piece is clean already
+            piece = clean_surface(piece.vertices, piece.faces)
     if _usable(piece):
         return piece, "own" if own else ("holes closed" if closed_holes else "simplified"), closed_holes
     shell = thicken(part if own else _simplify(part, max(want // 2, 3)))
@@ -619,12 +629,13 @@ def _simplify(src: Mesh, target: int) -> Mesh:
     scale = float(np.linalg.norm(hi - lo)) or 1.0
     if 1e-2 <= scale <= 1e4 and float(np.abs(center).max()) <= 1e3 * scale:
         center, scale = np.zeros(3), 1.0
-    unit = (src.vertices - center) / scale
+        unit = src.vertices
+    else:
+        unit = (src.vertices - center) / scale
+    faces32 = src.faces.astype(np.int32)
     for _ in range(3):
         want_faces = min(want_faces, src.n_faces)
-        v, f = fast_simplification.simplify(
-            unit, src.faces.astype(np.int32), target_count=want_faces, agg=7.0
-        )
+        v, f = fast_simplification.simplify(unit, faces32, target_count=want_faces, agg=7.0)
         v = np.asarray(v, dtype=np.float64) * scale + center
         cage = clean_surface(v, np.asarray(f, dtype=np.int64))
         got = cage.n_vertices
@@ -668,7 +679,7 @@ def clean_surface(vertices: np.ndarray, faces: np.ndarray) -> Mesh:
     while True:
         m0 = len(f)
         f = f[~degenerate_faces(v, f)]
-        if len(f):
+        if len(f) and _repeats_a_face(f, len(v)):
             key = np.sort(f, axis=1)
             _, first, inverse, counts = np.unique(
                 key, axis=0, return_index=True, return_inverse=True, return_counts=True
@@ -692,6 +703,16 @@ def clean_surface(vertices: np.ndarray, faces: np.ndarray) -> Mesh:
     used[f.reshape(-1)] = True
     remap = np.cumsum(used) - 1
     return Mesh(v[used], remap[f])
+
+
+def _repeats_a_face(f: np.ndarray, n: int) -> bool:
+    """Whether two faces use the same three vertices (either orientation); a quick
+    one-key sort where the vertex count allows it (the usual case: no repeat)."""
+    if n >= 2_097_152:  # n**3 would overflow int64
+        return True
+    key = np.sort(f, axis=1)
+    key = np.sort((key[:, 0] * n + key[:, 1]) * n + key[:, 2])
+    return bool(np.any(key[1:] == key[:-1]))
 
 
 def _parity(tri: np.ndarray) -> int:

@@ -202,9 +202,13 @@ def repaired_source(mesh: Mesh) -> CageSource:
     if is_closed_oriented(f, len(v0)) and not np.any(degenerate_faces(v0, f)):
         # a closed, manifold, consistently oriented surface without degenerate faces:
         # only compaction and the outward orientation of each part are left to do
-        remap = np.cumsum(used) - 1
-        remap[~used] = -1
-        v, f = v0[used], remap[f]
+        # (no copy of a large mesh when every vertex is used, the usual case)
+        if unref:
+            remap = np.cumsum(used) - 1
+            remap[~used] = -1
+            v, f = v0[used], remap[f]
+        else:
+            remap, v = np.arange(len(v0), dtype=np.int64), v0
         parts, labels = connected_parts(f, len(v))
         f, flipped_mask = _outward(v, f, labels[f[:, 0]])
         flipped = int(np.count_nonzero(flipped_mask))
