@@ -15,6 +15,7 @@ import numpy as np
 import fast_simplification
 
 from .mesh import Mesh
+from .qem import presimplify
 from .topology import check_closed, connected_parts, degenerate_faces
 
 
@@ -632,10 +633,11 @@ def _simplify(src: Mesh, target: int) -> Mesh:
         unit = src.vertices
     else:
         unit = (src.vertices - center) / scale
-    faces32 = src.faces.astype(np.int32)
+    # a big surface is first brought near the target on two cores (see hybridedit.qem)
+    base_v, base_f = presimplify(unit, src.faces, want_faces)
     for _ in range(3):
-        want_faces = min(want_faces, src.n_faces)
-        v, f = fast_simplification.simplify(unit, faces32, target_count=want_faces, agg=7.0)
+        want_faces = min(want_faces, len(base_f))
+        v, f = fast_simplification.simplify(base_v, base_f, target_count=want_faces, agg=7.0)
         v = np.asarray(v, dtype=np.float64) * scale + center
         cage = clean_surface(v, np.asarray(f, dtype=np.int64))
         got = cage.n_vertices

@@ -1,0 +1,164 @@
+"""Quadric simplification of a big surface on two cores.
+
+fast-simplification runs on one core and holds Python's lock. On a surface of
+millions of faces it is most of the cage build (7-12 s at 2.7M vertices), and a
+good part of that is its first touch of the 2 GB it allocates. :func:`presimplify`
+cuts such a surface in two halves across its longest axis, simplifies one half in
+a process of its own (:mod:`hybridedit.qem_worker`) while this process simplifies
+the other, both with the cut's border kept exactly, and joins the halves along the
+cut. The caller then simplifies the joined surface, a little above its target, to
+the target as usual, and that last pass simplifies across the cut as well.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from .qem_worker import simplify_half
+from .topology import group_rows
+
+__all__ = ["SPLIT_MIN_FACES", "MARGIN", "presimplify"]
+
+#: surfaces of at least this many faces are simplified in two halves at once
+SPLIT_MIN_FACES = 1_000_000
+#: the halves together keep this many times the final face target (the last pass
+#: then has room to simplify across the cut)
+MARGIN = 1.25
+#: the command that runs a half in another process (the worker's path is appended)
+WORKER = [sys.executable]
+
+
+def _cores() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def presimplify(vertices: np.ndarray, faces: np.ndarray, target_faces: int, *,
+                min_faces: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """A surface close to ``MARGIN * target_faces`` faces made on two cores, or the input itself.
+
+    A surface below ``min_faces`` faces (:data:`SPLIT_MIN_FACES` by default),
+    one whose target is not well below its size, or a machine of one core gets
+    the input back unchanged. Otherwise the faces are cut in two at the median of
+    their centroids along the longest axis of the bounding box; each half is
+    simplified with its border kept (one in a worker process, one here, at the
+    same time), and the halves are joined by merging the cut's vertices, which
+    neither pass moved. If the worker fails, its half is simplified here.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float array
+    faces : (m, 3) int array
+    target_faces : int
+        The face count the caller will simplify to.
+    min_faces : int, optional
+        Split only from this many faces.
+
+    Returns
+    -------
+    vertices : (k, 3) float64
+    faces : (t, 3) int32, on ``vertices`` (some of which may be unused)
+
+    Examples
+    --------
+    >>> v, f = presimplify(mesh.vertices, mesh.faces, 50_000)  # doctest: +SKIP
+    """
+    v = np.ascontiguousarray(vertices, dtype=np.float64)
+    f = np.ascontiguousarray(faces).reshape(-1, 3)
+    m = len(f)
+    limit = SPLIT_MIN_FACES if min_faces is None else int(min_faces)
+    if m < max(limit, 8) or MARGIN * target_faces > 0.5 * m or _cores() < 2:
+        return v, f.astype(np.int32, copy=False)
+    axis = int(np.argmax(np.ptp(v, axis=0)))
+    key = v[f[:, 0], axis] + v[f[:, 1], axis] + v[f[:, 2], axis]
+    first = key <= np.partition(key, m // 2)[m // 2]
+    if first.all():  # every centroid on the median: no cut to make
+        return v, f.astype(np.int32, copy=False)
+    halves = [_half(v, f[first]), _half(v, f[~first])]
+    targets = [max(4, int(round(MARGIN * target_faces * len(h[1]) / m))) for h in halves]
+    with tempfile.TemporaryDirectory(prefix="hybridedit-qem-") as tmp:
+        proc = _start_worker(Path(tmp), halves[1], targets[1])
+        try:
+            done0 = simplify_half(halves[0][0], halves[0][1], targets[0])
+        except BaseException:
+            if proc is not None:
+                proc.kill()
+                proc.wait()
+            raise
+        done1 = _finish_worker(proc)
+    if done1 is None:
+        done1 = simplify_half(halves[1][0], halves[1][1], targets[1])
+    return _join(done0, done1)
+
+
+def _half(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The vertices a set of faces uses (in order) and the faces on them (int32)."""
+    used = np.zeros(len(v), dtype=bool)
+    used[f.ravel()] = True
+    remap = (np.cumsum(used) - 1).astype(np.int32)
+    return v[used], remap[f]
+
+
+def _start_worker(folder: Path, half: tuple[np.ndarray, np.ndarray], target: int):
+    """Start simplifying a half in another process; None when it cannot start."""
+    if not all(WORKER):  # no interpreter to start (an embedded Python)
+        return None
+    try:
+        np.save(folder / "v.npy", half[0])
+        np.save(folder / "f.npy", half[1])
+        worker = Path(__file__).with_name("qem_worker.py")
+        return subprocess.Popen([*WORKER, str(worker), str(folder / "v.npy"), str(folder / "f.npy"), str(target)],
+                                stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    except OSError:
+        return None
+
+
+def _finish_worker(proc) -> tuple[np.ndarray, np.ndarray] | None:
+    """The worker's result, or None when it failed."""
+    if proc is None:
+        return None
+    out, _ = proc.communicate()
+    if proc.returncode != 0 or len(out) < 16:
+        return None
+    nv, nf = (int(x) for x in np.frombuffer(out[:16], dtype=np.int64))
+    if nv < 0 or nf < 0 or len(out) != 16 + 24 * nv + 12 * nf:
+        return None
+    v = np.frombuffer(out, dtype=np.float64, count=3 * nv, offset=16).reshape(nv, 3).copy()
+    f = np.frombuffer(out, dtype=np.int32, count=3 * nf, offset=16 + 24 * nv).reshape(nf, 3).copy()
+    if nf and (f.min() < 0 or f.max() >= nv):
+        return None
+    return v, f
+
+
+def _join(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """The two simplified halves as one surface: a vertex of b's border that sits
+    exactly on one of a's border vertices becomes that vertex."""
+    (va, fa), (vb, fb) = a, b
+    border_a, border_b = _border(fa, len(va)), _border(fb, len(vb))
+    remap = np.arange(len(va), len(va) + len(vb), dtype=np.int64)
+    if border_a.size and border_b.size:
+        keys = np.vstack([va[border_a], vb[border_b]]) + 0.0  # -0.0 as 0.0
+        first, group = group_rows(keys.view(np.int64))
+        # a group's first row is an a vertex when any of its rows is one (a's rows come first)
+        head = first[group[len(border_a):]]
+        on_a = head < len(border_a)
+        remap[border_b[on_a]] = border_a[head[on_a]]
+    v = np.vstack([va, vb])
+    f = np.vstack([fa.astype(np.int64), remap[fb]])
+    return v, f.astype(np.int32)
+
+
+def _border(f: np.ndarray, n: int) -> np.ndarray:
+    """The vertices on an edge that only one face uses (sorted)."""
+    from .topology import edge_face_counts
+
+    edges, counts = edge_face_counts(f, n)
+    return np.unique(edges[counts == 1])

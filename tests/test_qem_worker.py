@@ -1,0 +1,53 @@
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from hybridedit import qem_worker
+from hybridedit.topology import edge_face_counts
+
+from shapes import bumpy_blob
+
+WORKER = Path(qem_worker.__file__)
+
+
+def _open_half():
+    s = bumpy_blob(4)
+    keep = s.vertices[s.faces].mean(axis=1)[:, 0] < 0.0
+    return s.vertices, s.faces[keep]
+
+
+def _border(f, n):
+    edges, counts = edge_face_counts(f, n)
+    return np.unique(edges[counts == 1])
+
+
+def test_the_script_gives_what_simplify_half_gives(tmp_path):
+    v, f = _open_half()
+    np.save(tmp_path / "v.npy", v)
+    np.save(tmp_path / "f.npy", f.astype(np.int32))
+    run = subprocess.run([sys.executable, str(WORKER), str(tmp_path / "v.npy"), str(tmp_path / "f.npy"), "600"],
+                         capture_output=True, check=True)
+    nv, nf = np.frombuffer(run.stdout[:16], dtype=np.int64)
+    assert len(run.stdout) == 16 + 24 * nv + 12 * nf
+    got_v = np.frombuffer(run.stdout, dtype=np.float64, count=3 * nv, offset=16).reshape(-1, 3)
+    got_f = np.frombuffer(run.stdout, dtype=np.int32, count=3 * nf, offset=16 + 24 * nv).reshape(-1, 3)
+    want_v, want_f = qem_worker.simplify_half(v, f, 600)
+    assert np.array_equal(got_v, want_v) and np.array_equal(got_f, want_f)
+
+
+def test_the_border_is_kept_exactly():
+    v, f = _open_half()
+    border = v[_border(f, len(v))]
+    out_v, out_f = qem_worker.simplify_half(v, f, 600)
+    assert len(out_f) < len(f)
+    kept = out_v[_border(out_f, len(out_v))]
+    # the same border vertices, at exactly the same places
+    assert len(kept) == len(border)
+    assert np.array_equal(np.unique(kept, axis=0), np.unique(border, axis=0))
+
+
+def test_bad_usage_exits_2():
+    run = subprocess.run([sys.executable, str(WORKER)], capture_output=True)
+    assert run.returncode == 2 and b"usage" in run.stderr
