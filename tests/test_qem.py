@@ -81,3 +81,15 @@ def test_a_cage_built_from_halves_is_closed_and_of_the_asked_size(big_blob, monk
     assert t.is_watertight and t.is_winding_consistent and t.volume > 0 and t.euler_number == 2
     d = cKDTree(big_blob.vertices).query(c.vertices)[0]
     assert d.max() < 0.05 * big_blob.bbox_diagonal()
+
+
+def test_the_cage_build_reports_its_progress_in_steps(big_blob, monkeypatch):
+    from hybridedit.cage import HALVES_SHARE, REPAIR_SHARE, cage_parts
+
+    monkeypatch.setattr(qem, "SPLIT_MIN_FACES", 0)
+    seen = []
+    cage_parts(big_blob, 0.05, progress=seen.append)
+    # the repair pass, the two halves, the whole: a time-left estimate has steps to go by
+    assert seen == sorted(seen) and seen[-1] == 1.0
+    assert REPAIR_SHARE in seen
+    assert REPAIR_SHARE + (1 - REPAIR_SHARE) * HALVES_SHARE in seen
