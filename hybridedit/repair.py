@@ -164,7 +164,8 @@ class CageSource:
     Attributes
     ----------
     mesh : Mesh
-        The cleaned copy (k vertices, all used by a face).
+        The cleaned copy (k vertices, all used by a face). When nothing needed
+        repair it shares its arrays with the input: read it, do not modify it.
     notes : list of str
         What was changed, in plain words.
     vertex_map : (n,) int64
