@@ -11,9 +11,16 @@ that it starts in a fraction of a second.
 
 from __future__ import annotations
 
+import os
 import sys
 
-import numpy as np
+if __name__ == "__main__":
+    # run as a script, Python puts this file's folder (the package's) first on the
+    # path, where io.py and the other modules would shadow those of the same name
+    _here = os.path.dirname(os.path.realpath(__file__))
+    sys.path[:] = [p for p in sys.path if os.path.realpath(p or ".") != _here]
+
+import numpy as np  # noqa: E402
 
 
 def simplify_half(vertices: np.ndarray, faces: np.ndarray, target: int) -> tuple[np.ndarray, np.ndarray]:

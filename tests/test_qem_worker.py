@@ -51,3 +51,13 @@ def test_the_border_is_kept_exactly():
 def test_bad_usage_exits_2():
     run = subprocess.run([sys.executable, str(WORKER)], capture_output=True)
     assert run.returncode == 2 and b"usage" in run.stderr
+
+
+
+def test_modules_beside_the_script_do_not_shadow_others(tmp_path):
+    # run as a script, Python puts the script's folder (the package's, with its io.py) first on
+    # the path; the worker takes it off: a numpy.py beside it must not be the numpy it imports
+    (tmp_path / "qem_worker.py").write_text(WORKER.read_text())
+    (tmp_path / "numpy.py").write_text("raise ImportError('the numpy beside the script was imported')\n")
+    run = subprocess.run([sys.executable, str(tmp_path / "qem_worker.py")], capture_output=True, text=True)
+    assert run.returncode == 2 and "usage" in run.stderr, run.stderr
