@@ -23,8 +23,8 @@ def all_rows(n: int) -> np.ndarray:
 
 
 @njit(cache=True, inline="always")
-def _row(i, indptr, indices, data, y, out):
-    """out[i] = sum_k data[k] * y[indices[k]] over row i."""
+def _row(i, o, indptr, indices, data, y, out):
+    """out[o] = sum_k data[k] * y[indices[k]] over row i."""
     a0 = 0.0
     a1 = 0.0
     a2 = 0.0
@@ -34,25 +34,26 @@ def _row(i, indptr, indices, data, y, out):
         a0 += w * y[j, 0]
         a1 += w * y[j, 1]
         a2 += w * y[j, 2]
-    out[i, 0] = a0
-    out[i, 1] = a1
-    out[i, 2] = a2
+    out[o, 0] = a0
+    out[o, 1] = a1
+    out[o, 2] = a2
 
 
 @njit(cache=True)
-def _csr_times_xyz_serial(indptr, indices, data, y, out, rows):
+def _csr_times_xyz_serial(indptr, indices, data, y, out, rows, dest):
     for r in range(rows.shape[0]):
-        _row(rows[r], indptr, indices, data, y, out)
+        _row(rows[r], dest[r], indptr, indices, data, y, out)
 
 
 @njit(cache=True, parallel=True)
-def _csr_times_xyz_parallel(indptr, indices, data, y, out, rows):
+def _csr_times_xyz_parallel(indptr, indices, data, y, out, rows, dest):
     for r in prange(rows.shape[0]):
-        _row(rows[r], indptr, indices, data, y, out)
+        _row(rows[r], dest[r], indptr, indices, data, y, out)
 
 
 def propagate(
-    M: sp.csr_matrix, y: np.ndarray, out: np.ndarray | None = None, rows: np.ndarray | None = None
+    M: sp.csr_matrix, y: np.ndarray, out: np.ndarray | None = None, rows: np.ndarray | None = None,
+    *, dest: np.ndarray | None = None,
 ) -> np.ndarray:
     """Shape positions M @ y.
 
@@ -63,6 +64,8 @@ def propagate(
     out : optional (n, 3) float64 array to write into.
     rows : optional (r,) int64 array: compute only these rows of ``out``
         (the others are left as they are).
+    dest : optional (r,) int64 array: write row ``rows[k]`` of the product to
+        ``out[dest[k]]`` (default ``dest = rows``; ``out`` then needs no more rows than ``dest`` names).
 
     Returns
     -------
@@ -74,8 +77,9 @@ def propagate(
     if out is None:
         out = np.empty((M.shape[0], 3))
     rows = all_rows(M.shape[0]) if rows is None else rows
+    dest = rows if dest is None else dest
     if rows.shape[0] >= PARALLEL_MIN_ROWS:
-        _csr_times_xyz_parallel(M.indptr, M.indices, M.data, y, out, rows)
+        _csr_times_xyz_parallel(M.indptr, M.indices, M.data, y, out, rows, dest)
     else:
-        _csr_times_xyz_serial(M.indptr, M.indices, M.data, y, out, rows)
+        _csr_times_xyz_serial(M.indptr, M.indices, M.data, y, out, rows, dest)
     return out

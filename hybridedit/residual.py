@@ -77,9 +77,9 @@ def residual_setup(
 
 
 @njit(cache=True, inline="always")
-def _row(i, indptr, indices, data, y, rots, idx, w, d, out):
-    """out[i] = (M y)_i + (sum_k w_ik R_idx_ik) d_i."""
-    _linear_row(i, indptr, indices, data, y, out)
+def _row(i, o, indptr, indices, data, y, rots, idx, w, d, out):
+    """out[o] = (M y)_i + (sum_k w_ik R_idx_ik) d_i."""
+    _linear_row(i, o, indptr, indices, data, y, out)
     d0 = d[i, 0]
     d1 = d[i, 1]
     d2 = d[i, 2]
@@ -92,21 +92,21 @@ def _row(i, indptr, indices, data, y, rots, idx, w, d, out):
         a0 += c * (r[0, 0] * d0 + r[0, 1] * d1 + r[0, 2] * d2)
         a1 += c * (r[1, 0] * d0 + r[1, 1] * d1 + r[1, 2] * d2)
         a2 += c * (r[2, 0] * d0 + r[2, 1] * d1 + r[2, 2] * d2)
-    out[i, 0] += a0
-    out[i, 1] += a1
-    out[i, 2] += a2
+    out[o, 0] += a0
+    out[o, 1] += a1
+    out[o, 2] += a2
 
 
 @njit(cache=True)
-def _serial(indptr, indices, data, y, rots, idx, w, d, out, rows):
+def _serial(indptr, indices, data, y, rots, idx, w, d, out, rows, dest):
     for r in range(rows.shape[0]):
-        _row(rows[r], indptr, indices, data, y, rots, idx, w, d, out)
+        _row(rows[r], dest[r], indptr, indices, data, y, rots, idx, w, d, out)
 
 
 @njit(cache=True, parallel=True)
-def _parallel(indptr, indices, data, y, rots, idx, w, d, out, rows):
+def _parallel(indptr, indices, data, y, rots, idx, w, d, out, rows, dest):
     for r in prange(rows.shape[0]):
-        _row(rows[r], indptr, indices, data, y, rots, idx, w, d, out)
+        _row(rows[r], dest[r], indptr, indices, data, y, rots, idx, w, d, out)
 
 
 def propagate_with_residual(
@@ -118,6 +118,8 @@ def propagate_with_residual(
     w: np.ndarray,
     out: np.ndarray | None = None,
     rows: np.ndarray | None = None,
+    *,
+    dest: np.ndarray | None = None,
 ) -> np.ndarray:
     """Shape positions (M y)_i + (sum_k w_ik R_idx_ik) d_i, (n, 3) float64.
 
@@ -126,13 +128,15 @@ def propagate_with_residual(
     M : (n, c) CSR binding; y : (c, 3) cage positions; rotations : (c, 3, 3)
     per-cage-vertex rotations; d, idx, w : from :func:`residual_setup`;
     out : optional (n, 3) output array; rows : optional (r,) int64, compute
-    only these rows.
+    only these rows; dest : optional (r,) int64, write row ``rows[k]`` to
+    ``out[dest[k]]`` (default ``dest = rows``).
     """
     y = np.ascontiguousarray(y, dtype=np.float64)
     if out is None:
         out = np.empty((M.shape[0], 3))
     rows = all_rows(M.shape[0]) if rows is None else rows
-    args = (M.indptr, M.indices, M.data, y, rotations, idx, w, d, out, rows)
+    dest = rows if dest is None else dest
+    args = (M.indptr, M.indices, M.data, y, rotations, idx, w, d, out, rows, dest)
     if rows.shape[0] >= PARALLEL_MIN_ROWS:
         _parallel(*args)
     else:
@@ -162,7 +166,7 @@ class SelectionRows:
     """
 
     def __init__(self, M: sp.csr_matrix, rows: np.ndarray, residual=None) -> None:
-        self.rows = np.asarray(rows, dtype=np.int64)
+        self.rows = np.array(rows, dtype=np.int64)  # writable, contiguous: one compiled version of the kernels
         self._whole = (M, residual)
         self._part = None
         if self.rows.size <= COMPACT_MAX_FRACTION * M.shape[0]:
@@ -171,7 +175,7 @@ class SelectionRows:
             Mr.indptr, Mr.indices = Mr.indptr.astype(M.indptr.dtype), Mr.indices.astype(M.indices.dtype)
             part = None if residual is None else tuple(np.ascontiguousarray(a[self.rows]) for a in residual)
             # its rows by number, a writable array as the in-place path passes (one compiled version)
-            self._part = (Mr, part, np.empty((self.rows.size, 3)), np.arange(self.rows.size, dtype=np.int64))
+            self._part = (Mr, part, np.arange(self.rows.size, dtype=np.int64))
 
     def run(self, y: np.ndarray, rotations: np.ndarray, out: np.ndarray) -> None:
         """Write rows ``rows`` of ``out`` (n, 3) from cage positions ``y`` (c, 3) and per-cage-vertex
@@ -183,9 +187,8 @@ class SelectionRows:
             else:
                 propagate_with_residual(M, y, rotations, *residual, out, rows=self.rows)
             return
-        Mr, part, tmp, local = self._part
+        Mr, part, local = self._part
         if part is None:
-            propagate(Mr, y, tmp, rows=local)
+            propagate(Mr, y, out, rows=local, dest=self.rows)
         else:
-            propagate_with_residual(Mr, y, rotations, *part, tmp, rows=local)
-        out[self.rows] = tmp
+            propagate_with_residual(Mr, y, rotations, *part, out, rows=local, dest=self.rows)
