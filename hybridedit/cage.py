@@ -15,7 +15,7 @@ import numpy as np
 import fast_simplification
 
 from .mesh import Mesh
-from .qem import presimplify
+from .qem import HalfWorker, presimplify, start_worker
 from .topology import check_closed, connected_parts, degenerate_faces
 
 
@@ -162,11 +162,23 @@ def cage_parts(
     MeshError
         A shape with no usable face (every face degenerate).
     """
-    from .repair import plural, repaired_source
-
     said: list[str] = [] if notes is None else notes
     say = progress or (lambda fraction: None)
     _check_size(size)
+    # a big shape is simplified in halves on two cores: the helper process starts now,
+    # to be ready when the repair pass is done (see hybridedit.qem)
+    worker = start_worker(mesh.n_faces)
+    try:
+        return _cage_parts(mesh, size, said, say, worker)
+    finally:
+        if worker is not None:
+            worker.close()
+
+
+def _cage_parts(mesh: Mesh, size: int | float, said: list[str], say: Callable[[float], None],
+                worker: HalfWorker | None) -> CageParts:
+    from .repair import plural, repaired_source
+
     source = repaired_source(mesh)
     say(REPAIR_SHARE)
     src, vmap = source.mesh, source.vertex_map
@@ -191,7 +203,8 @@ def cage_parts(
         def part_progress(fraction: float, base: int = done, size: int = part.n_vertices) -> None:
             say(min(1.0, REPAIR_SHARE + (1.0 - REPAIR_SHARE) * (base + fraction * size) / n))
 
-        piece, kind, closed = _cage_piece(part, want, known_closed=source.closed, progress=part_progress)
+        piece, kind, closed = _cage_piece(part, want, known_closed=source.closed, progress=part_progress,
+                                          worker=worker)
         holes += closed
         pieces.append(piece)
         kinds.append(kind)
@@ -246,9 +259,11 @@ def _split_parts(src: Mesh, count: int, labels: np.ndarray):
 
 
 def _cage_piece(part: Mesh, want: int, *, known_closed: bool = False,
-                progress: Callable[[float], None] | None = None) -> tuple[Mesh, str, int]:
+                progress: Callable[[float], None] | None = None,
+                worker: HalfWorker | None = None) -> tuple[Mesh, str, int]:
     """The closed cage piece of one connected part, how it was made, and how many holes it closed
-    (``progress(fraction)`` is told how far the simplification of a big part is)."""
+    (``progress(fraction)`` is told how far the simplification of a big part is; ``worker``, a
+    helper process started early, simplifies half of a big part)."""
     from .repair import box_cage, close_holes, hole_loops
 
     own = want * 1.0 >= OWN_CAGE_FRACTION * part.n_vertices
@@ -259,7 +274,7 @@ def _cage_piece(part: Mesh, want: int, *, known_closed: bool = False,
         if shell is not None:
             return shell, "shell", 0
         return box_cage(part.vertices), "box", 0
-    piece = clean_surface(part.vertices, part.faces) if own else _simplify(part, want, progress=progress)
+    piece = clean_surface(part.vertices, part.faces) if own else _simplify(part, want, progress=progress, worker=worker)
     closed_holes = 0
     if piece.n_faces:
         piece, closed_holes = close_holes(piece)
@@ -630,7 +645,8 @@ def _point_triangle_sq(x: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarra
     return best
 
 
-def _simplify(src: Mesh, target: int, *, progress: Callable[[float], None] | None = None) -> Mesh:
+def _simplify(src: Mesh, target: int, *, progress: Callable[[float], None] | None = None,
+              worker: HalfWorker | None = None) -> Mesh:
     ratio = src.n_faces / max(src.n_vertices, 1)
     cage = None
     want_faces = max(4, int(round(target * ratio)))
@@ -646,7 +662,7 @@ def _simplify(src: Mesh, target: int, *, progress: Callable[[float], None] | Non
     else:
         unit = (src.vertices - center) / scale
     # a big surface is first brought near the target on two cores (see hybridedit.qem)
-    base_v, base_f = presimplify(unit, src.faces, want_faces)
+    base_v, base_f = presimplify(unit, src.faces, want_faces, worker=worker)
     if progress is not None and len(base_f) < src.n_faces:
         progress(HALVES_SHARE)
     for _ in range(3):

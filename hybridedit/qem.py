@@ -4,10 +4,12 @@ fast-simplification runs on one core and holds Python's lock. On a surface of
 millions of faces it is most of the cage build (7-12 s at 2.7M vertices), and a
 good part of that is its first touch of the 2 GB it allocates. :func:`presimplify`
 cuts such a surface in two halves across its longest axis, simplifies one half in
-a process of its own (:mod:`hybridedit.qem_worker`) while this process simplifies
-the other, both with the cut's border kept exactly, and joins the halves along the
-cut. The caller then simplifies the joined surface, a little above its target, to
-the target as usual, and that last pass simplifies across the cut as well.
+a process of its own (:mod:`hybridedit.qem_worker`, which a caller can start early
+with :func:`start_worker`, so that it is ready when the half is) while this process
+simplifies the other, both with the cut's border kept exactly, and joins the
+halves along the cut. The caller then simplifies the joined surface, a little
+above its target, to the target as usual, and that last pass simplifies across
+the cut as well.
 """
 
 from __future__ import annotations
@@ -15,7 +17,6 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -23,10 +24,11 @@ import numpy as np
 from .qem_worker import simplify_half
 from .topology import group_rows
 
-__all__ = ["SPLIT_MIN_FACES", "MARGIN", "presimplify"]
+__all__ = ["SPLIT_MIN_FACES", "MARGIN", "HalfWorker", "presimplify", "start_worker", "splits"]
 
 #: surfaces of at least this many faces are simplified in two halves at once
-SPLIT_MIN_FACES = 1_000_000
+#: (the 173K armadillo's 346K faces: 0.6 s on one core)
+SPLIT_MIN_FACES = 300_000
 #: the halves together keep this many times the final face target (the last pass
 #: then has room to simplify across the cut)
 MARGIN = 1.25
@@ -41,8 +43,91 @@ def _cores() -> int:
         return os.cpu_count() or 1
 
 
+def splits(n_faces: int, *, min_faces: int | None = None) -> bool:
+    """Whether a surface of ``n_faces`` faces is big enough to simplify in halves on this machine."""
+    limit = SPLIT_MIN_FACES if min_faces is None else int(min_faces)
+    return n_faces >= max(limit, 8) and _cores() >= 2
+
+
+class HalfWorker:
+    """A :mod:`hybridedit.qem_worker` process, started before its half is known.
+
+    It imports numpy and fast-simplification while the caller prepares the
+    surface; :meth:`simplify` sends it a half and :meth:`result` collects it.
+    :meth:`close` ends it (a worker that got nothing exits quietly).
+    """
+
+    def __init__(self) -> None:
+        self.used = False
+        self._proc = None
+        if not all(WORKER):  # no interpreter to start (an embedded Python)
+            return
+        worker = Path(__file__).with_name("qem_worker.py")
+        try:
+            self._proc = subprocess.Popen([*WORKER, str(worker)], stdin=subprocess.PIPE,
+                                          stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
+        except OSError:
+            self._proc = None
+
+    def simplify(self, vertices: np.ndarray, faces: np.ndarray, target: int) -> bool:
+        """Send a surface ((k, 3) float64, (t, 3) int32) to simplify to ``target`` faces;
+        False when the worker is not there to take it."""
+        self.used = True
+        if self._proc is None:
+            return False
+        try:
+            pipe = self._proc.stdin
+            pipe.write(np.array([len(vertices), len(faces), int(target)], dtype=np.int64).tobytes())
+            pipe.write(np.ascontiguousarray(vertices, dtype=np.float64).tobytes())
+            pipe.write(np.ascontiguousarray(faces, dtype=np.int32).tobytes())
+            pipe.close()
+            return True
+        except OSError:  # it died (a broken pipe)
+            self.close()
+            return False
+
+    def result(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The simplified surface, or None when the worker failed."""
+        if self._proc is None:
+            return None
+        out = self._proc.stdout.read()
+        self._proc.wait()
+        ok = self._proc.returncode == 0 and len(out) >= 16
+        self._proc = None
+        if not ok:
+            return None
+        nv, nf = (int(x) for x in np.frombuffer(out[:16], dtype=np.int64))
+        if nv < 0 or nf < 0 or len(out) != 16 + 24 * nv + 12 * nf:
+            return None
+        v = np.frombuffer(out, dtype=np.float64, count=3 * nv, offset=16).reshape(nv, 3).copy()
+        f = np.frombuffer(out, dtype=np.int32, count=3 * nf, offset=16 + 24 * nv).reshape(nf, 3).copy()
+        if nf and (f.min() < 0 or f.max() >= nv):
+            return None
+        return v, f
+
+    def close(self) -> None:
+        """End the worker (at once if it is still working)."""
+        proc, self._proc = self._proc, None
+        if proc is None:
+            return
+        if proc.poll() is None:
+            proc.kill()
+        for pipe in (proc.stdin, proc.stdout):
+            try:
+                pipe.close()
+            except OSError:
+                pass
+        proc.wait()
+
+
+def start_worker(n_faces: int) -> HalfWorker | None:
+    """A worker started now for a surface of ``n_faces`` faces that :func:`presimplify` will
+    split, else None. Give it to :func:`presimplify`; :meth:`HalfWorker.close` it afterwards."""
+    return HalfWorker() if splits(n_faces) else None
+
+
 def presimplify(vertices: np.ndarray, faces: np.ndarray, target_faces: int, *,
-                min_faces: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+                min_faces: int | None = None, worker: HalfWorker | None = None) -> tuple[np.ndarray, np.ndarray]:
     """A surface close to ``MARGIN * target_faces`` faces made on two cores, or the input itself.
 
     A surface below ``min_faces`` faces (:data:`SPLIT_MIN_FACES` by default),
@@ -61,6 +146,9 @@ def presimplify(vertices: np.ndarray, faces: np.ndarray, target_faces: int, *,
         The face count the caller will simplify to.
     min_faces : int, optional
         Split only from this many faces.
+    worker : HalfWorker, optional
+        A worker started earlier (:func:`start_worker`), used if it has not been
+        yet; else one is started here. The caller closes it.
 
     Returns
     -------
@@ -74,8 +162,7 @@ def presimplify(vertices: np.ndarray, faces: np.ndarray, target_faces: int, *,
     v = np.ascontiguousarray(vertices, dtype=np.float64)
     f = np.ascontiguousarray(faces).reshape(-1, 3)
     m = len(f)
-    limit = SPLIT_MIN_FACES if min_faces is None else int(min_faces)
-    if m < max(limit, 8) or MARGIN * target_faces > 0.5 * m or _cores() < 2:
+    if not splits(m, min_faces=min_faces) or MARGIN * target_faces > 0.5 * m:
         return v, f.astype(np.int32, copy=False)
     axis = int(np.argmax(np.ptp(v, axis=0)))
     key = v[f[:, 0], axis] + v[f[:, 1], axis] + v[f[:, 2], axis]
@@ -84,16 +171,16 @@ def presimplify(vertices: np.ndarray, faces: np.ndarray, target_faces: int, *,
         return v, f.astype(np.int32, copy=False)
     halves = [_half(v, f[first]), _half(v, f[~first])]
     targets = [max(4, int(round(MARGIN * target_faces * len(h[1]) / m))) for h in halves]
-    with tempfile.TemporaryDirectory(prefix="hybridedit-qem-") as tmp:
-        proc = _start_worker(Path(tmp), halves[1], targets[1])
-        try:
-            done0 = simplify_half(halves[0][0], halves[0][1], targets[0])
-        except BaseException:
-            if proc is not None:
-                proc.kill()
-                proc.wait()
-            raise
-        done1 = _finish_worker(proc)
+    own = worker is None or worker.used
+    if own:
+        worker = HalfWorker()
+    try:
+        sent = worker.simplify(halves[1][0], halves[1][1], targets[1])
+        done0 = simplify_half(halves[0][0], halves[0][1], targets[0])
+        done1 = worker.result() if sent else None
+    finally:
+        if own:
+            worker.close()
     if done1 is None:
         done1 = simplify_half(halves[1][0], halves[1][1], targets[1])
     return _join(done0, done1)
@@ -105,37 +192,6 @@ def _half(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     used[f.ravel()] = True
     remap = (np.cumsum(used) - 1).astype(np.int32)
     return v[used], remap[f]
-
-
-def _start_worker(folder: Path, half: tuple[np.ndarray, np.ndarray], target: int):
-    """Start simplifying a half in another process; None when it cannot start."""
-    if not all(WORKER):  # no interpreter to start (an embedded Python)
-        return None
-    try:
-        np.save(folder / "v.npy", half[0])
-        np.save(folder / "f.npy", half[1])
-        worker = Path(__file__).with_name("qem_worker.py")
-        return subprocess.Popen([*WORKER, str(worker), str(folder / "v.npy"), str(folder / "f.npy"), str(target)],
-                                stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-    except OSError:
-        return None
-
-
-def _finish_worker(proc) -> tuple[np.ndarray, np.ndarray] | None:
-    """The worker's result, or None when it failed."""
-    if proc is None:
-        return None
-    out, _ = proc.communicate()
-    if proc.returncode != 0 or len(out) < 16:
-        return None
-    nv, nf = (int(x) for x in np.frombuffer(out[:16], dtype=np.int64))
-    if nv < 0 or nf < 0 or len(out) != 16 + 24 * nv + 12 * nf:
-        return None
-    v = np.frombuffer(out, dtype=np.float64, count=3 * nv, offset=16).reshape(nv, 3).copy()
-    f = np.frombuffer(out, dtype=np.int32, count=3 * nf, offset=16 + 24 * nv).reshape(nf, 3).copy()
-    if nf and (f.min() < 0 or f.max() >= nv):
-        return None
-    return v, f
 
 
 def _join(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:

@@ -1,12 +1,16 @@
 """One quadric simplification in a process of its own (run as a script by :mod:`hybridedit.qem`).
 
-Usage: ``python qem_worker.py VERTICES.npy FACES.npy TARGET``. It simplifies the
-surface to ``TARGET`` faces, keeping its open border (the seam with the other
-half) untouched, and writes the vertex count, the face count (two int64), the
-vertices (float64) and the faces (int32) to standard output as raw bytes.
+Usage: ``python qem_worker.py``, then on standard input the vertex count, the
+face count and the target face count (three int64), the vertices (float64) and
+the faces (int32) as raw bytes. It simplifies the surface to the target, keeping
+its open border (the cut with the other half) untouched, and writes the vertex
+count, the face count (two int64), the vertices (float64) and the faces (int32)
+to standard output. Standard input closed before anything arrives (the caller
+did not need it after all) ends it quietly.
 
 It imports only numpy and fast-simplification, not the hybridedit package, so
-that it starts in a fraction of a second.
+that it is ready in a fraction of a second; the caller starts it early and sends
+the half when it has one.
 """
 
 from __future__ import annotations
@@ -33,11 +37,39 @@ def simplify_half(vertices: np.ndarray, faces: np.ndarray, target: int) -> tuple
     return np.ascontiguousarray(v, dtype=np.float64), np.ascontiguousarray(f, dtype=np.int32)
 
 
+def _read(stream, nbytes: int) -> bytearray | None:
+    """Exactly ``nbytes`` from ``stream`` (a writable buffer), or None at an early end."""
+    buf = bytearray(nbytes)
+    view, got = memoryview(buf), 0
+    while got < nbytes:
+        k = stream.readinto(view[got:])
+        if not k:
+            return None
+        got += k
+    return buf
+
+
 def main(argv: list[str]) -> int:
-    if len(argv) != 3:
-        print("usage: qem_worker.py VERTICES.npy FACES.npy TARGET", file=sys.stderr)
+    if argv:
+        print("usage: qem_worker.py  (the surface on standard input, see the module's docstring)",
+              file=sys.stderr)
         return 2
-    v, f = simplify_half(np.load(argv[0]), np.load(argv[1]), int(argv[2]))
+    import fast_simplification  # noqa: F401  -- loaded while the caller is still busy
+
+    stdin = sys.stdin.buffer
+    head = _read(stdin, 24)
+    if head is None:
+        return 0  # not needed after all
+    nv, nf, target = (int(x) for x in np.frombuffer(head, dtype=np.int64))
+    if nv < 0 or nf < 0:
+        print("qem_worker: bad header", file=sys.stderr)
+        return 2
+    vb, fb = _read(stdin, 24 * nv), _read(stdin, 12 * nf)
+    if vb is None or fb is None:
+        print("qem_worker: the surface ended early", file=sys.stderr)
+        return 2
+    v, f = simplify_half(np.frombuffer(vb, dtype=np.float64).reshape(nv, 3),
+                         np.frombuffer(fb, dtype=np.int32).reshape(nf, 3), target)
     out = sys.stdout.buffer
     out.write(np.array([len(v), len(f)], dtype=np.int64).tobytes())
     out.write(v.tobytes())

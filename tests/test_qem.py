@@ -72,6 +72,28 @@ def test_a_failing_worker_leaves_its_half_to_this_process(big_blob, monkeypatch,
     assert np.array_equal(v, good[0]) and np.array_equal(f, good[1])
 
 
+def test_a_worker_started_early_is_used_once_and_closed(big_blob):
+    target = 1000
+    plain = qem.presimplify(big_blob.vertices, big_blob.faces, target, min_faces=0)
+    w = qem.HalfWorker()
+    try:
+        got = qem.presimplify(big_blob.vertices, big_blob.faces, target, min_faces=0, worker=w)
+        assert w.used
+        # used already: a second call starts its own
+        again = qem.presimplify(big_blob.vertices, big_blob.faces, target, min_faces=0, worker=w)
+    finally:
+        w.close()
+    for v, f in (got, again):
+        assert np.array_equal(v, plain[0]) and np.array_equal(f, plain[1])
+
+
+def test_an_unused_worker_closes_at_once():
+    w = qem.HalfWorker()
+    w.close()
+    assert w.result() is None
+    assert qem.start_worker(10) is None  # too small to split: no worker
+
+
 def test_a_cage_built_from_halves_is_closed_and_of_the_asked_size(big_blob, monkeypatch):
     monkeypatch.setattr(qem, "SPLIT_MIN_FACES", 0)
     c = build_cage(big_blob, 0.05)
