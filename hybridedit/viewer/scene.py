@@ -144,6 +144,7 @@ class Scene:
         self.points_poly: pv.PolyData | None = None
         self._cage_faces = np.zeros((0, 3), dtype=np.int64)
         self._cage_pos = np.zeros((0, 3))
+        self._cage_bounds: tuple[np.ndarray, np.ndarray] | None = None
         self._cage_normals: np.ndarray | None = None
         self._states = np.zeros(0, dtype=np.int64)
         self._actors: list = []
@@ -244,7 +245,10 @@ class Scene:
         self._cage_faces = np.ascontiguousarray(cage_faces, dtype=np.int64)
         self._cage_pos = np.asarray(cage_vertices, dtype=np.float64).copy()
         self._cage_metrics = ShapeMetrics(self._cage_pos, self._cage_faces)  # (its vertex-face incidence)
+        # the frame thread's own copy: its normals buffer is not shared with the UI thread's
+        self._cage_metrics_frames = ShapeMetrics(self._cage_pos, self._cage_faces)
         self._cage_normals = None
+        self._cage_bounds = _bounds(self._cage_pos)
         self._states = np.asarray(states, dtype=np.int64).copy()
         self._near = np.zeros(len(P), dtype=bool)
         self._shown_points = np.zeros(0, dtype=np.int64)
@@ -347,15 +351,23 @@ class Scene:
         self.parts.copy_rows(self.points32, self.normals32, everything=everything)
         return time.perf_counter() - t0
 
-    def update_cage(self, P: np.ndarray) -> None:
-        """Write a new cage pose (c, 3) into the wireframe and the points, in place."""
+    def cage_geometry(self, P: np.ndarray) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
+        """The vertex normals ((c, 3) float32) and bounds of a cage pose P (c, 3), for
+        :meth:`update_cage`: the part of it that may run on the frame thread (no VTK calls)."""
+        normals = np.zeros((len(P), 3), dtype=np.float32)
+        self._cage_metrics_frames.write_normals(P, normals, everything=True)
+        return normals, _bounds(P)
+
+    def update_cage(self, P: np.ndarray, geometry=None) -> None:
+        """Write a new cage pose (c, 3) into the wireframe and the points, in place; ``geometry``
+        is its :meth:`cage_geometry` when the frame thread made it (else it is made when needed)."""
         if self.cage_poly is None:
             return
         for poly in (self.cage_poly, self.points_poly):
             poly.points[:] = P
             poly.GetPoints().Modified()
         self._cage_pos[:] = P
-        self._cage_normals = None
+        self._cage_normals, self._cage_bounds = (None, None) if geometry is None else geometry
 
     def update_states(self, states: np.ndarray, roles: np.ndarray) -> None:
         """New selection: recolour the cage points ((c,) states) and the shape tint ((n,) roles)."""
@@ -432,7 +444,9 @@ class Scene:
         props' points at every frame (VTK's ComputeVisiblePropBounds: about 3.5 ms a frame at 173K)."""
         if self.shape is None:
             return
-        b = _union(self._shape_bounds, _bounds(self._cage_pos))
+        if self._cage_bounds is None:
+            self._cage_bounds = _bounds(self._cage_pos)
+        b = _union(self._shape_bounds, self._cage_bounds)
         g = self.gizmo
         if g.visible:
             r = 1.1 * g.length * max(1.0, RING_RATIO)

@@ -693,7 +693,9 @@ class MainWindow(QtWidgets.QMainWindow):
             error = s.metrics.update_error(V) if measure else None
             if stretch:
                 s.metrics.write_stretch(scene.stretch32)
-            return DragFrame(s, t1 - t0, normals_s, points_s, error, stretch, s.cage_positions, s.handle_centroid())
+            cage = s.cage_positions
+            return DragFrame(s, t1 - t0, normals_s, points_s, error, stretch, cage, scene.cage_geometry(cage),
+                             s.handle_centroid())
 
         return job
 
@@ -716,7 +718,7 @@ class MainWindow(QtWidgets.QMainWindow):
         upload_s = self.scene.show_shape()
         if frame.stretch:
             self.scene.stretch_modified()
-        self.scene.update_cage(frame.cage)
+        self.scene.update_cage(frame.cage, frame.cage_geometry)
         self.scene.gizmo.place(frame.centroid)
         split = self.view.split
         split.add("engine", frame.engine_s)

@@ -116,6 +116,14 @@ def test_window_drag_frames_show_the_engine_pose_mid_drag_and_failures_undo(qtbo
         qtbot.wait(5)
         w.frames.flush()  # the frame of this mouse position is on its way to the screen
         assert np.allclose(w.scene.parts.drawn_points(), s.shape_positions, atol=1e-5)
+        # the cage's normals and bounds came with the frame, for this pose
+        cage = np.asarray(w.scene.points_poly.points)
+        assert np.allclose(cage, s.cage_positions)
+        lo, hi = w.scene._cage_bounds
+        assert np.allclose(lo, cage.min(axis=0)) and np.allclose(hi, cage.max(axis=0))
+        fresh = np.zeros((len(cage), 3), dtype=np.float32)
+        w.scene._cage_metrics.write_normals(cage, fresh, everything=True)
+        assert np.allclose(w.scene._cage_normals, fresh, atol=1e-6)
     assert np.abs(s.shape_positions - rest).max() > 0.05  # it moved, mid-drag
     qtbot.mouseRelease(w.view, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier, a + QtCore.QPoint(0, -60))
     qtbot.waitUntil(lambda: not w.settle_timer.isActive(), timeout=20000)
