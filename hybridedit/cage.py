@@ -201,7 +201,8 @@ def _cage_parts(mesh: Mesh, size: int | float, said: list[str], say: Callable[[f
         want = max(int(round(target * part.n_vertices / n)), MIN_PART_CAGE)
 
         def part_progress(fraction: float, base: int = done, size: int = part.n_vertices) -> None:
-            say(min(1.0, REPAIR_SHARE + (1.0 - REPAIR_SHARE) * (base + fraction * size) / n))
+            finished = base + fraction * size
+            say(1.0 if finished >= n else REPAIR_SHARE + (1.0 - REPAIR_SHARE) * finished / n)
 
         piece, kind, closed = _cage_piece(part, want, known_closed=source.closed, progress=part_progress,
                                           worker=worker)

@@ -92,8 +92,10 @@ class StepTimer:
     """Turns ``update(step, fraction)`` calls into :class:`StepReport` values.
 
     A new step name starts a new step (its clock starts at its first report); the
-    estimate of the time left is the step's average rate since that report, which
-    is steady for the engine's steps (chunks of equal work).
+    estimate of the time left is the step's average rate since its last report
+    without progress (a step's set-up before its first chunk, such as the
+    binding's plan of the points, reports 0 and does not count in the rate),
+    which is steady for the engine's steps (chunks of equal work).
 
     Parameters
     ----------
@@ -105,6 +107,7 @@ class StepTimer:
         self._clock = clock
         self._step: str | None = None
         self._t0 = 0.0
+        self._t_rate = 0.0
         self._f0 = 0.0
 
     def update(self, step: str, fraction: float) -> StepReport:
@@ -119,12 +122,16 @@ class StepTimer:
         f = min(max(f, 0.0), 1.0) if f == f else 0.0
         if step != self._step:
             self._step, self._t0, self._f0 = step, now, f
+            self._t_rate = now
+        elif f <= self._f0:  # no progress yet: the rate is measured from here
+            self._t_rate, self._f0 = now, f
         elapsed = now - self._t0
         done = f >= 1.0
         remaining = None
         advanced = f - self._f0
-        if not done and elapsed >= MIN_ELAPSED and advanced >= MIN_ADVANCE:
-            remaining = elapsed * (1.0 - f) / advanced
+        rate_elapsed = now - self._t_rate
+        if not done and rate_elapsed >= MIN_ELAPSED and advanced >= MIN_ADVANCE:
+            remaining = rate_elapsed * (1.0 - f) / advanced
         report = StepReport(step, f, elapsed, remaining, done)
         if done:
             self._step = None  # the same name again is a new step

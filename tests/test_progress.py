@@ -56,6 +56,19 @@ def test_a_step_that_starts_part_done_counts_from_its_first_report():
     assert timer.update("polish", 0.6).remaining == pytest.approx(4.0)
 
 
+def test_set_up_before_the_first_progress_does_not_count_in_the_rate():
+    # the binding's plan takes 10 s and reports 0 again when it is done; then 1 s per 10%
+    clock = Clock()
+    timer = StepTimer(clock)
+    timer.update("binding", 0.0)
+    clock.t += 10.0
+    timer.update("binding", 0.0)
+    clock.t += 1.0
+    r = timer.update("binding", 0.1)
+    assert r.remaining == pytest.approx(9.0)  # not 99 s
+    assert r.elapsed == pytest.approx(11.0)  # the step's own time still counts from its start
+
+
 def test_a_new_step_restarts_the_clock_and_bad_fractions_are_clamped():
     clock = Clock()
     timer = StepTimer(clock)
