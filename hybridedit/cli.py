@@ -18,7 +18,7 @@ from .selection import SelectionError
 from .io import SUPPORTED_EXTENSIONS, MeshFileError, read_document, read_mesh, write_document, write_mesh
 from .mesh import MeshError, edge_stretch, rrms_edge_error
 from .outpaths import OutputPathError, check_outputs
-from .progress import TextProgress
+from .progress import SHOW_AFTER_SECONDS, TextProgress
 
 if TYPE_CHECKING:
     from .editor import HybridEditor
@@ -55,6 +55,24 @@ def _progress(quiet: bool, stream=None):
     return TextProgress(quiet, stream)
 
 
+class _SlowSteps:
+    """Pass a step's progress on only once it has run :data:`SHOW_AFTER_SECONDS`: reading and
+    writing a file end with a summary line of their own, and most files take a fraction of a
+    second (a refused file says only its error)."""
+
+    def __init__(self, say, clock=time.perf_counter) -> None:
+        self.say, self._clock = say, clock
+        self._started: dict[str, float] = {}
+        self._shown: set[str] = set()
+
+    def __call__(self, step: str, fraction: float) -> None:
+        now = self._clock()
+        t0 = self._started.setdefault(step, now)
+        if step in self._shown or now - t0 >= SHOW_AFTER_SECONDS:
+            self._shown.add(step)
+            self.say(step, fraction)
+
+
 def run_deform(args: argparse.Namespace) -> int:
     say = _progress(args.quiet)
     src, dst = Path(args.input), Path(args.output)
@@ -72,7 +90,7 @@ def run_deform(args: argparse.Namespace) -> int:
 
     edit = load_edit(args.edit)
     t_read = time.perf_counter()
-    doc = read_document(src)
+    doc = read_document(src, progress=_SlowSteps(say))
     mesh = doc.mesh
     say(f"read {src.name}: {mesh.n_vertices} vertices, {mesh.n_faces} faces ({time.perf_counter() - t_read:.2f} s)")
     ed = HybridEditor(
@@ -106,7 +124,7 @@ def run_deform(args: argparse.Namespace) -> int:
         polished = _polish(ed, V, args.polish, say)
         V = polished.vertices
     t_write = time.perf_counter()
-    for note in write_document(dst, doc.with_vertices(V)):
+    for note in write_document(dst, doc.with_vertices(V), progress=_SlowSteps(say)):
         print(f"hybridedit: note: {dst.name}: {note}", file=sys.stderr, flush=True)
     say(f"wrote {dst} ({time.perf_counter() - t_write:.2f} s)")
     frame_ms = np.asarray(ed.frame_seconds) * 1e3

@@ -18,7 +18,7 @@ __all__ = ["Document", "MeshFileError", "SUPPORTED_EXTENSIONS", "read_document",
            "write_document", "write_mesh"]
 
 
-def read_mesh(path: str | os.PathLike[str]) -> Mesh:
+def read_mesh(path: str | os.PathLike[str], *, progress=None) -> Mesh:
     """Read a mesh file's positions and triangles (see :func:`read_document`).
 
     Parameters
@@ -26,6 +26,8 @@ def read_mesh(path: str | os.PathLike[str]) -> Mesh:
     path : str or path-like
         ``.obj``, ``.ply`` (ascii and binary), ``.stl`` (ascii and binary),
         ``.off`` or ``.glb``, in any letter case.
+    progress : callable(step, fraction), optional
+        Told how far the reading is (see :func:`read_document`).
 
     Returns
     -------
@@ -40,11 +42,11 @@ def read_mesh(path: str | os.PathLike[str]) -> Mesh:
     MeshFileError
         For any problem with the file; the message starts with the file name.
     """
-    return read_document(path).mesh
+    return read_document(path, progress=progress).mesh
 
 
 def write_mesh(path: str | os.PathLike[str], mesh: Mesh, *,
-               like: str | os.PathLike[str] | None = None) -> list[str]:
+               like: str | os.PathLike[str] | None = None, progress=None) -> list[str]:
     """Write a mesh atomically, choosing the format by extension.
 
     Without ``like``: ``.obj`` and ``.off`` are ASCII with repr-exact ``%.17g``
@@ -62,6 +64,8 @@ def write_mesh(path: str | os.PathLike[str], mesh: Mesh, *,
         ``vertices`` (n, 3) float64 and ``faces`` (m, 3) int64.
     like : str or path-like, optional
         The file ``mesh`` was read from; its triangulation must still be ``mesh``'s.
+    progress : callable(step, fraction), optional
+        Told how far the writing is (see :func:`write_document`).
 
     Returns
     -------
@@ -77,4 +81,4 @@ def write_mesh(path: str | os.PathLike[str], mesh: Mesh, *,
     """
     if not isinstance(mesh, Mesh):
         raise TypeError(f"write_mesh expects a Mesh, got {type(mesh).__name__}")
-    return write_mesh_like(path, mesh, like)
+    return write_mesh_like(path, mesh, like, progress=progress)

@@ -191,3 +191,22 @@ def test_deform_holds_constraints_exactly_with_several_groups(tmp_path, mesh_fil
     assert np.abs(d[a] - (x[a] + [0, 0.3, 0])).max() <= 1e-9 * diag
     Tb = rigid_transform(axis=(0, 0, 1), degrees=25, center=x[b].mean(0))
     assert np.abs(d[b] - apply_transform(Tb, x[b])).max() <= 1e-9 * diag
+
+
+def test_file_progress_is_shown_only_for_steps_over_a_second():
+    from hybridedit.cli import _SlowSteps
+
+    t = [0.0]
+    said = []
+    slow = _SlowSteps(lambda step, f: said.append((step, f)), clock=lambda: t[0])
+    slow("reading a.obj", 0.0)
+    t[0] = 0.5
+    slow("reading a.obj", 1.0)  # done in half a second: its summary line is enough
+    slow("writing b.obj", 0.0)
+    t[0] = 1.2
+    slow("writing b.obj", 0.3)  # 0.7 s in: not yet
+    t[0] = 1.6
+    slow("writing b.obj", 0.6)  # 1.1 s in: shown from now on, to the end
+    t[0] = 1.7
+    slow("writing b.obj", 1.0)
+    assert said == [("writing b.obj", 0.6), ("writing b.obj", 1.0)]

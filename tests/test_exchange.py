@@ -443,3 +443,67 @@ def test_any_document_converts_to_glb_with_normals_and_colours(tmp_path: Path) -
     gltf = pygltflib.GLTF2.load(str(tmp_path / "ball.glb"))
     n = _accessor(gltf, gltf.meshes[0].primitives[0].attributes.NORMAL).astype(np.float64)
     assert np.percentile(angle_degrees(n, vertex_normals(V, doc.mesh.faces)), 99) < 1e-3
+
+
+# --------------------------------------------------------------------------- progress
+
+
+def _progress_log():
+    seen = []
+    return seen, lambda step, fraction: seen.append((step, fraction))
+
+
+def test_reading_and_writing_an_obj_report_their_progress(tmp_path: Path, monkeypatch) -> None:
+    from hybridedit.exchange import common
+
+    monkeypatch.setattr(common, "_ROWS_PER_CHUNK", 500)  # several chunks for a small mesh
+    mesh = bumpy_blob(4)
+    path = tmp_path / "blob.obj"
+    seen, progress = _progress_log()
+    write_document(path, read_document(_write_plain(tmp_path, mesh)), progress=progress)
+    steps = {s for s, _ in seen}
+    assert steps == {"writing blob.obj"}
+    fractions = [f for _, f in seen]
+    assert fractions[0] == 0.0 and fractions[-1] == 1.0 and fractions == sorted(fractions)
+    assert len([f for f in fractions if 0.0 < f < 1.0]) >= 5  # chunk by chunk
+    seen.clear()
+    doc = read_document(path, progress=progress)
+    assert np.allclose(doc.mesh.vertices, mesh.vertices)
+    fractions = [f for s, f in seen if s == "reading blob.obj"]
+    assert fractions[0] == 0.0 and fractions[-1] == 1.0 and fractions == sorted(fractions)
+    assert any(0.0 < f < 1.0 for f in fractions)
+    # an OBJ written in its own structure (its moved vertices' lines rewritten) reports too
+    from hybridedit.exchange import obj
+
+    monkeypatch.setattr(obj, "_ROWS_PER_REPORT", 300)
+    seen.clear()
+    write_document(tmp_path / "moved.obj", doc.with_vertices(doc.mesh.vertices * 1.5), progress=progress)
+    fractions = [f for _, f in seen]
+    assert fractions[0] == 0.0 and fractions[-1] == 1.0 and fractions == sorted(fractions)
+    assert len([f for f in fractions if 0.0 < f < 0.6]) >= 5
+
+
+def _write_plain(folder: Path, mesh) -> Path:
+    from hybridedit.io import write_mesh
+
+    p = folder / "plain.ply"
+    write_mesh(p, mesh)
+    return p
+
+
+def test_a_cancelled_write_leaves_the_target_as_it_was(tmp_path: Path) -> None:
+    mesh = bumpy_blob(3)
+    path = tmp_path / "kept.obj"
+    path.write_bytes(b"# the old file\n")
+
+    class Cancelled(Exception):
+        pass
+
+    def cancel(step, fraction):
+        if fraction > 0.0:
+            raise Cancelled
+
+    with pytest.raises(Cancelled):
+        write_document(path, read_document(_write_plain(tmp_path, mesh)), progress=cancel)
+    assert path.read_bytes() == b"# the old file\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["kept.obj", "plain.ply"]  # no stray temporary

@@ -23,6 +23,7 @@ from ..document import Document
 from ..mesh import Mesh, MeshError
 from . import glb, obj, off, ply, stl
 from .common import MeshFileError, _Bad, _validate
+from .reporting import reporting, span
 
 __all__ = ["FORMATS", "Format", "MeshFileError", "SUPPORTED_EXTENSIONS", "conversion_note",
            "read_document", "write_document"]
@@ -78,12 +79,16 @@ def unsupported(name: str, ext: str, action: str) -> MeshFileError:
     return MeshFileError(f"{name}: unsupported file extension '{ext}' (use one of {supported})")
 
 
-def read_document(path: str | os.PathLike[str]) -> Document:
+def read_document(path: str | os.PathLike[str], *,
+                  progress: Callable[[str, float], None] | None = None) -> Document:
     """Read a mesh file, choosing the format by extension (any letter case).
 
     Parameters
     ----------
     path : str or path-like
+    progress : callable(step, fraction), optional
+        Told how far the reading is (step ``"reading NAME"``, fraction 0 to 1);
+        an exception it raises (a cancel) goes to the caller.
 
     Returns
     -------
@@ -116,9 +121,13 @@ def read_document(path: str | os.PathLike[str]) -> Document:
         raise MeshFileError(f"{name}: cannot read file ({exc.strerror or exc})") from None
     if not data.strip():
         raise MeshFileError(f"{name}: file is empty")
+    step = f"reading {name}"
+    tell = None if progress is None else (lambda fraction: progress(step, fraction))
+    if tell is not None:
+        tell(0.0)
     try:
         # NaN/inf (even signalling NaN in binary files) are reported by _validate
-        with np.errstate(all="ignore"):
+        with np.errstate(all="ignore"), reporting(tell):
             doc = fmt.read(p, data)
             _validate(doc.mesh.vertices, doc.mesh.faces)
     except (_Bad, MeshError) as exc:
@@ -129,6 +138,8 @@ def read_document(path: str | os.PathLike[str]) -> Document:
             from exc
     doc.mesh.name = name
     doc.path = Path(p)
+    if tell is not None:
+        tell(1.0)
     return doc
 
 
@@ -152,7 +163,8 @@ def conversion_note(doc: Document, ext: str) -> str | None:
     return f"{fmt.name} cannot hold everything from the {src} file; not written: " + ", ".join(lost)
 
 
-def write_document(path: str | os.PathLike[str], doc: Document) -> list[str]:
+def write_document(path: str | os.PathLike[str], doc: Document, *,
+                   progress: Callable[[str, float], None] | None = None) -> list[str]:
     """Write ``doc`` atomically, choosing the format by extension.
 
     In the format it was read from, the file's own structure comes back with
@@ -168,6 +180,10 @@ def write_document(path: str | os.PathLike[str], doc: Document) -> list[str]:
         Target file; an existing file is replaced only once the new one is
         completely written.
     doc : Document
+    progress : callable(step, fraction), optional
+        Told how far the writing is (step ``"writing NAME"``, fraction 0 to 1);
+        an exception it raises (a cancel) goes to the caller, and the target is
+        left as it was.
 
     Returns
     -------
@@ -196,8 +212,13 @@ def write_document(path: str | os.PathLike[str], doc: Document) -> list[str]:
     note = conversion_note(doc, ext)
     if note:
         notes.append(note)
+    step = f"writing {name}"
+    tell = None if progress is None else (lambda fraction: progress(step, fraction))
+    if tell is not None:
+        tell(0.0)
     try:
-        payload = fmt.write(doc if same else replace(doc, native=None))
+        with reporting(tell), span(0.0, 0.9):  # making the file's bytes; then writing them
+            payload = fmt.write(doc if same else replace(doc, native=None))
     except (_Bad, MeshError) as exc:
         raise MeshFileError(f"{name}: {exc}") from None
     copies: list[tuple[Path, Path]] = []
@@ -218,17 +239,20 @@ def write_document(path: str | os.PathLike[str], doc: Document) -> list[str]:
         dst.parent.mkdir(parents=True, exist_ok=True)
         with atomic_write(dst, "wb") as f:
             f.write(src.read_bytes())
+    if tell is not None:
+        tell(1.0)
     return notes
 
 
 def write_mesh_like(path: str | os.PathLike[str], mesh: Mesh,
-                    like: str | os.PathLike[str] | None) -> list[str]:
+                    like: str | os.PathLike[str] | None, *, progress=None) -> list[str]:
     """Write ``mesh``; with ``like``, as the document read from that file with ``mesh``'s
-    positions (its triangulation must be the file's)."""
+    positions (its triangulation must be the file's). ``progress(step, fraction)`` is told
+    how far the reading of ``like`` and the writing are."""
     if like is None:
-        return write_document(path, Document.from_mesh(mesh))
-    doc = read_document(like)
+        return write_document(path, Document.from_mesh(mesh), progress=progress)
+    doc = read_document(like, progress=progress)
     if doc.mesh.n_vertices != mesh.n_vertices or not np.array_equal(doc.mesh.faces, mesh.faces):
         raise MeshFileError(f"{doc.mesh.name}: the file changed since the mesh was read from it; "
                             "cannot write the mesh in its structure")
-    return write_document(path, doc.with_vertices(mesh.vertices))
+    return write_document(path, doc.with_vertices(mesh.vertices), progress=progress)

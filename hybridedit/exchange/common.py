@@ -8,6 +8,7 @@ import warnings
 import numpy as np
 
 from ..mesh import Mesh, MeshError
+from .reporting import report
 
 
 class MeshFileError(MeshError):
@@ -167,11 +168,13 @@ _ROWS_PER_CHUNK = 1 << 16
 
 
 def _format_rows(fmt: str, values: np.ndarray) -> str:
-    """Apply a %-format for one row to every row of a 2-d array, in chunks."""
+    """Apply a %-format for one row to every row of a 2-d array, in chunks (each one reported
+    to :func:`hybridedit.exchange.reporting.report`)."""
     out = []
     for start in range(0, len(values), _ROWS_PER_CHUNK):
         chunk = values[start: start + _ROWS_PER_CHUNK]
         out.append((fmt * len(chunk)) % tuple(chunk.ravel().tolist()))
+        report((start + len(chunk)) / len(values))
     return "".join(out)
 
 

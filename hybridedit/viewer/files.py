@@ -24,6 +24,45 @@ EDIT_FILTER = "Edit files (*.json);;All files (*)"
 
 SAVE, DISCARD, CANCEL = "save", "discard", "cancel"
 
+#: a save that takes longer than this shows its progress in a dialog
+PROGRESS_AFTER_MS = 1000
+
+
+class SaveProgress:
+    """Progress of a save that runs on the UI thread (a big OBJ takes seconds): a dialog that
+    appears once it has run :data:`PROGRESS_AFTER_MS`, repainted from the writer's reports
+    without taking user input meanwhile. Call it as ``progress(step, fraction)``."""
+
+    def __init__(self, parent: QtWidgets.QWidget) -> None:
+        self._timer = QtCore.QElapsedTimer()
+        self._timer.start()
+        self.dialog = QtWidgets.QProgressDialog("", "", 0, 100, parent)
+        self.dialog.setWindowTitle("Saving")
+        self.dialog.setCancelButton(None)  # half a file is never written: nothing to cancel
+        self.dialog.setMinimumDuration(0)
+        self.dialog.setAutoClose(False)
+        self.dialog.setAutoReset(False)
+        self.dialog.reset()  # (stops the dialog's own show timer: it is shown from __call__ only)
+        self.dialog.hide()
+        self.steps: list[str] = []
+
+    def __call__(self, step: str, fraction: float) -> None:
+        if not self.steps or self.steps[-1] != step:
+            self.steps.append(step)
+        if self._timer.elapsed() < PROGRESS_AFTER_MS:
+            return
+        self.dialog.setLabelText(step[:1].upper() + step[1:] + "…")
+        self.dialog.setValue(int(round(100 * min(max(fraction, 0.0), 1.0))))
+        if not self.dialog.isVisible():
+            self.dialog.show()
+        # paint, but take no clicks or keys: the save is still running on this thread
+        QtWidgets.QApplication.processEvents(QtCore.QEventLoop.ProcessEventsFlag.ExcludeUserInputEvents)
+
+    def close(self) -> None:
+        self.dialog.reset()
+        self.dialog.hide()
+        self.dialog.deleteLater()
+
 
 def same_file(a: Path, b: Path) -> bool:
     try:
@@ -155,12 +194,16 @@ class FileActions:
                 if not w.confirm("Replace file?", f"{p} already exists. Replace it?"):
                     w.message("Not saved")
                     return False
+        progress = SaveProgress(w)
         try:
             # what is shown (the polished pose when there is one), in the opened file's structure
-            notes = write_mesh(p, s.mesh.copy(vertices=s.shown_positions.copy()), like=s.path)
+            notes = write_mesh(p, s.mesh.copy(vertices=s.shown_positions.copy()), like=s.path,
+                               progress=progress)
         except (MeshError, MeshFileError, WriteError, OSError) as e:
             w.show_error("Could not save the mesh", str(e))
             return False
+        finally:
+            progress.close()
         self.save_path = p
         w.set_modified(False)
         # what a conversion could not carry, references not copied: said, as the CLI says them

@@ -105,7 +105,7 @@ class BuildWorker(QtCore.QThread):
             mesh = req.mesh
             if mesh is None:
                 self._report(f"reading {req.path.name}", 0.0)
-                mesh = read_mesh(req.path)
+                mesh = read_mesh(req.path, progress=self._report)
                 self._report(f"reading {req.path.name}", 1.0)
             # the on-disk cache makes reopening a shape (or going back to a cage size) instant
             rig = build_rig(mesh, cage_size=req.cage_size, cache=req.use_cache, progress=self._report)

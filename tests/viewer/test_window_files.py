@@ -78,6 +78,31 @@ def test_title_marks_an_unsaved_pose(qtbot, win, tmp_path):
     assert not w.isWindowModified()
 
 
+def test_a_long_save_shows_its_progress(qtbot, win, tmp_path, monkeypatch):
+    from hybridedit.viewer import files
+
+    monkeypatch.setattr(files, "PROGRESS_AFTER_MS", 0)  # a small mesh saves at once: show it anyway
+    shown = []
+    original = files.SaveProgress.__call__
+
+    def spy(self, step, fraction):
+        original(self, step, fraction)
+        shown.append((step, self.dialog.isVisible(), self.dialog.value(), self.dialog.labelText()))
+
+    monkeypatch.setattr(files.SaveProgress, "__call__", spy)
+    w = win
+    drag_tip(qtbot, w)
+    assert w.files.save_to(tmp_path / "posed.obj")
+    # the opened file's structure is read again, then the new one written, each shown with its progress
+    steps = [st for st, _, _, _ in shown]
+    assert steps[0] == "reading blob.obj" and steps[-1] == "writing posed.obj"
+    assert all(visible for _, visible, _, _ in shown)
+    assert shown[-1][2] == 100 and shown[-1][3] == "Writing posed.obj…"
+    qtbot.wait(20)
+    assert not any(d.isVisible() for d in w.findChildren(QtWidgets.QProgressDialog))
+    assert np.allclose(read_mesh(tmp_path / "posed.obj").vertices, w.session.shown_positions)
+
+
 @pytest.mark.parametrize("how", ["open", "drop"])
 def test_open_or_drop_asks_before_dropping_the_pose(qtbot, win, other_mesh, tmp_path, monkeypatch, how):
     w = win
