@@ -110,23 +110,37 @@ def rrms_edge_error(rest: np.ndarray, deformed: np.ndarray, edges: np.ndarray) -
 
     sqrt(mean(((l' - l) / l)^2)) * 100 over edges of positive rest length.
     """
-    l0 = edge_lengths(rest, edges)
-    l1 = edge_lengths(deformed, edges)
-    ok = l0 > 0
-    if not np.any(ok):
-        return 0.0
-    r = (l1[ok] - l0[ok]) / l0[ok]
-    return float(np.sqrt(np.mean(r * r)) * 100.0)
+    return edge_error_stats(rest, deformed, edges)[0]
 
 
 def edge_stretch(rest: np.ndarray, deformed: np.ndarray, edges: np.ndarray) -> np.ndarray:
     """Relative length change (l' - l) / l of each edge, (e,) float64 (0 for zero-length edges)."""
-    l0 = edge_lengths(rest, edges)
-    l1 = edge_lengths(deformed, edges)
-    out = np.zeros(len(edges))
+    return _stretch(edge_lengths(rest, edges), edge_lengths(deformed, edges))[0]
+
+
+def edge_error_stats(rest: np.ndarray, deformed: np.ndarray, edges: np.ndarray) -> tuple[float, float]:
+    """(:func:`rrms_edge_error`, the largest |:func:`edge_stretch`| in percent), from one
+    computation of the edge lengths.
+
+    Parameters
+    ----------
+    rest, deformed : (n, 3) float arrays
+    edges : (e, 2) int array
+    """
+    stretch, ok = _stretch(edge_lengths(rest, edges), edge_lengths(deformed, edges))
+    n_ok = int(np.count_nonzero(ok))
+    if n_ok == 0:
+        return 0.0, 0.0
+    return (float(np.sqrt(np.dot(stretch, stretch) / n_ok) * 100.0),
+            float(np.abs(stretch).max() * 100.0))
+
+
+def _stretch(l0: np.ndarray, l1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(l1 - l0) / l0 per edge, 0 where l0 is not positive, and that mask of positive l0."""
+    out = np.zeros(len(l0))
     ok = l0 > 0
     out[ok] = (l1[ok] - l0[ok]) / l0[ok]
-    return out
+    return out, ok
 
 
 def vertex_stretch(n_vertices: int, edges: np.ndarray, stretch: np.ndarray) -> np.ndarray:

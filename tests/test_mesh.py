@@ -32,3 +32,19 @@ def test_mesh_validation():
         Mesh(np.zeros((3, 3)), [[0, 1, 1.5]])
     m = Mesh(np.zeros((3, 3)), np.zeros((0, 3)))
     assert m.n_faces == 0 and m.faces.dtype == np.int64
+
+
+def test_edge_error_stats_is_the_rrms_error_and_the_largest_stretch_at_once():
+    import numpy as np
+
+    from hybridedit.mesh import edge_error_stats, edge_stretch, rrms_edge_error
+
+    rng = np.random.default_rng(3)
+    v = rng.random((40, 3))
+    v[7] = v[8]  # a zero-length edge: left out of both
+    e = np.array([[i, (i + 1) % 40] for i in range(40)])
+    d = v + 0.05 * rng.standard_normal((40, 3))
+    rrms, worst = edge_error_stats(v, d, e)
+    assert rrms == rrms_edge_error(v, d, e)
+    assert worst == np.abs(edge_stretch(v, d, e)).max() * 100.0
+    assert edge_error_stats(np.zeros((2, 3)), np.ones((2, 3)), np.array([[0, 1]])) == (0.0, 0.0)
