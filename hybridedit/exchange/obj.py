@@ -27,8 +27,6 @@ from ..document import Document, grouped_normals, moved_vertices, vertex_normals
 from .common import _Bad, _indented, _mesh, _fan, _format_rows, _numbers, _snippet, _token_count, _widths, _words
 from .reporting import report, span
 
-_OBJ_V = (b"v ", b"v\t")
-_OBJ_F = (b"f ", b"f\t")
 _MARK = int(np.iinfo(np.int64).max)  # stands in for each line's "f" while parsing indices
 
 
@@ -62,25 +60,14 @@ def _pick(lines: list[bytes], rows: np.ndarray) -> list[bytes]:
     return list(itemgetter(*rows.tolist())(lines))
 
 
-def _obj_line_number(lines: list[bytes], heads: tuple[bytes, ...], k: int) -> int:
-    """1-based line number of the k-th (0-based) line starting with one of ``heads``."""
-    seen = -1
-    for i, line in enumerate(lines):
-        if line[:2] in heads:
-            seen += 1
-            if seen == k:
-                return i + 1
-    return len(lines)
-
-
-def _obj_vertices(lines: list[bytes], vlines: list[bytes]) -> tuple[np.ndarray, np.ndarray | None]:
-    """x y z of every "v" line (``vlines``, the "v" lines of ``lines``), (n, 3) float64, and the
-    colours when every line has ``v x y z r g b`` ((n, 3) float64, else None); a ``w`` column is
-    ignored."""
+def _obj_vertices(vlines: list[bytes], line_at: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    """x y z of every "v" line (``vlines``, at 0-based line numbers ``line_at``), (n, 3) float64, and
+    the colours when every line has ``v x y z r g b`` ((n, 3) float64, else None); a ``w`` column
+    is ignored."""
     widths = _widths(vlines) - 1
     if widths.size and widths.min() < 3:
         k = int(np.argmax(widths < 3))
-        raise _Bad(f"line {_obj_line_number(lines, _OBJ_V, k)}: vertex has "
+        raise _Bad(f"line {line_at[k] + 1}: vertex has "
                    f"{int(widths[k])} coordinates, expected 3 ('{_snippet(vlines[k])}')")
     if not vlines:
         return np.zeros((0, 3)), None
@@ -99,15 +86,15 @@ def _obj_vertices(lines: list[bytes], vlines: list[bytes]) -> tuple[np.ndarray, 
             try:
                 [float(t) for t in row]
             except ValueError:
-                raise _Bad(f"line {_obj_line_number(lines, _OBJ_V, k)}: cannot read "
+                raise _Bad(f"line {line_at[k] + 1}: cannot read "
                            f"vertex coordinates '{_snippet(vlines[k])}'") from None
         raise
 
 
-def _obj_corners(lines: list[bytes], flines: list[bytes]) -> tuple[np.ndarray, np.ndarray]:
-    """Corner count of each "f" line (``flines``, the "f" lines of ``lines``), (p,) int64, and its
-    vertex indices as written (1-based or negative), (sum of counts,) int64; "/t/n" parts are
-    dropped."""
+def _obj_corners(flines: list[bytes], line_at: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Corner count of each "f" line (``flines``, at 0-based line numbers ``line_at``), (p,) int64,
+    and its vertex indices as written (1-based or negative), (sum of counts,) int64; "/t/n" parts
+    are dropped."""
     joined = b"\n".join(flines)
     if b"/" in joined:
         joined = re.sub(rb"/\S*", b"", joined)
@@ -130,22 +117,23 @@ def _obj_corners(lines: list[bytes], flines: list[bytes]) -> tuple[np.ndarray, n
             try:
                 [int(t) for t in row]
             except ValueError:
-                raise _Bad(f"line {_obj_line_number(lines, _OBJ_F, k)}: cannot read "
+                raise _Bad(f"line {line_at[k] + 1}: cannot read "
                            f"face indices '{_snippet(flines[k])}'") from None
         raise
 
 
 
-def _resolve(idx: np.ndarray, counts: np.ndarray, before: list[int], lines: list[bytes],
+def _resolve(idx: np.ndarray, counts: np.ndarray, before: np.ndarray, f_rows: np.ndarray,
              what: str) -> np.ndarray:
     """1-based absolute indices from OBJ's 1-based or negative (relative) ones.
 
-    ``before`` is, for each face line, how many ``what`` records precede it.
+    ``before`` is, for each face line (at 0-based line numbers ``f_rows``), how many ``what``
+    records precede it.
     """
     face_of = np.repeat(np.arange(len(counts)), counts)
     if (idx == 0).any():
         k = int(face_of[int(np.argmax(idx == 0))])
-        raise _Bad(f"line {_obj_line_number(lines, _OBJ_F, k)}: face index 0 is "
+        raise _Bad(f"line {f_rows[k] + 1}: face index 0 is "
                    "invalid (OBJ indices start at 1)")
     base = np.repeat(np.asarray(before, dtype=np.int64), counts)
     neg = idx < 0
@@ -154,35 +142,25 @@ def _resolve(idx: np.ndarray, counts: np.ndarray, before: list[int], lines: list
     if wrong.any():
         at = int(np.argmax(wrong))
         k = int(face_of[at])
-        raise _Bad(f"line {_obj_line_number(lines, _OBJ_F, k)}: face index "
+        raise _Bad(f"line {f_rows[k] + 1}: face index "
                    f"{int(idx[at])} out of range (only {_words(int(base[at]), what)} "
                    "defined before this line)")
     return resolved
 
 
-def _defined_before(lines: list[bytes], heads: tuple[bytes, ...]) -> list[int]:
-    """For each face line, how many lines starting with ``heads`` come before it."""
-    defined, before = 0, []
-    for line in lines:
-        head = line[:3] if heads[0][:2] == b"vn" else line[:2]
-        if head in heads:
-            defined += 1
-        elif line[:2] in _OBJ_F:
-            before.append(defined)
-    return before
+def _defined_before(kinds: np.ndarray, kind: int, f_rows: np.ndarray) -> np.ndarray:
+    """For each face line (at ``f_rows``), how many lines of ``kind`` come before it, (p,) int64."""
+    return np.cumsum(kinds == kind)[f_rows]
 
 
-_OBJ_VN = (b"vn ", b"vn\t")
-
-
-def _corner_normal_refs(lines: list[bytes], n_corners: int) -> np.ndarray:
-    """The ``vn`` index as written (1-based or negative; 0 for none) of every face corner."""
+def _corner_normal_refs(flines: list[bytes], n_corners: int) -> np.ndarray:
+    """The ``vn`` index as written (1-based or negative; 0 for none) of every corner of the
+    face lines ``flines``."""
     refs: list[int] = []
-    for line in lines:
-        if line[:2] in _OBJ_F:
-            for tok in line.split()[1:]:
-                parts = tok.split(b"/")
-                refs.append(int(parts[2]) if len(parts) > 2 and parts[2] else 0)
+    for line in flines:
+        for tok in line.split()[1:]:
+            parts = tok.split(b"/")
+            refs.append(int(parts[2]) if len(parts) > 2 and parts[2] else 0)
     out = np.asarray(refs, dtype=np.int64)
     if len(out) != n_corners:  # cannot happen after _obj_corners succeeded
         raise _Bad("cannot read the face normal indices")
@@ -228,33 +206,34 @@ def read(data: bytes) -> Document:
     f_lines = np.flatnonzero(kinds == _F)
     # progress between the passes, by their shares of the time (a 2.7M-vertex file)
     report(0.2)
-    vertices, colors = _obj_vertices(lines, _pick(lines, v_lines))
+    vertices, colors = _obj_vertices(_pick(lines, v_lines), v_lines)
     report(0.5)
     nv = len(vertices)
-    counts, idx = _obj_corners(lines, _pick(lines, f_lines))
+    flines = _pick(lines, f_lines)
+    counts, idx = _obj_corners(flines, f_lines)
     report(0.85)
     if counts.size and counts.min() < 3:
         k = int(np.argmax(counts < 3))
-        raise _Bad(f"line {_obj_line_number(lines, _OBJ_F, k)}: face has "
+        raise _Bad(f"line {f_lines[k] + 1}: face has "
                    f"{_words(int(counts[k]), 'vertex')}, need at least 3")
     if idx.size and idx.min() <= 0:
-        idx = _resolve(idx, counts, _defined_before(lines, _OBJ_V), lines, "vertex")
+        idx = _resolve(idx, counts, _defined_before(kinds, _V, f_lines), f_lines, "vertex")
     if idx.size and idx.max() > nv:
         at = int(np.argmax(idx > nv))
         k = int(np.repeat(np.arange(len(counts)), counts)[at])
-        raise _Bad(f"line {_obj_line_number(lines, _OBJ_F, k)}: face index {int(idx[at])} "
+        raise _Bad(f"line {f_lines[k] + 1}: face index {int(idx[at])} "
                    f"out of range (file has {_words(nv, 'vertex')})")
     flat = idx - 1
 
     corner_vn = None
     vn_relative = False
     if len(vn_lines):
-        refs = _corner_normal_refs(lines, len(flat))
+        refs = _corner_normal_refs(flines, len(flat))
         vn_relative = bool(refs.min() < 0)
         if vn_relative:
             rel = refs < 0
             resolved = _resolve(np.where(rel, refs, 1), counts,
-                                _defined_before(lines, _OBJ_VN), lines, "normal")
+                                _defined_before(kinds, _VN, f_lines), f_lines, "normal")
             refs = np.where(rel, resolved, refs)
         if refs.max() > len(vn_lines):
             raise _Bad(f"a face refers to normal {int(refs.max())} but the file has "
