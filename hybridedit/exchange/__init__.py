@@ -108,6 +108,10 @@ def read_document(path: str | os.PathLike[str], *,
     if ext not in FORMATS:
         raise unsupported(name, ext, "read")
     fmt = FORMATS[ext]
+    step = f"reading {name}"
+    tell = None if progress is None else (lambda fraction: progress(step, fraction))
+    if tell is not None:
+        tell(0.0)  # (before the bytes are read: a big file takes a while on a slow disk)
     try:
         with open(p, "rb") as f:
             data = f.read()
@@ -121,10 +125,6 @@ def read_document(path: str | os.PathLike[str], *,
         raise MeshFileError(f"{name}: cannot read file ({exc.strerror or exc})") from None
     if not data.strip():
         raise MeshFileError(f"{name}: file is empty")
-    step = f"reading {name}"
-    tell = None if progress is None else (lambda fraction: progress(step, fraction))
-    if tell is not None:
-        tell(0.0)
     try:
         # NaN/inf (even signalling NaN in binary files) are reported by _validate
         with np.errstate(all="ignore"), reporting(tell):

@@ -44,11 +44,8 @@ class SaveProgress:
         self.dialog.setAutoReset(False)
         self.dialog.reset()  # (stops the dialog's own show timer: it is shown from __call__ only)
         self.dialog.hide()
-        self.steps: list[str] = []
 
     def __call__(self, step: str, fraction: float) -> None:
-        if not self.steps or self.steps[-1] != step:
-            self.steps.append(step)
         if self._timer.elapsed() < PROGRESS_AFTER_MS:
             return
         self.dialog.setLabelText(step[:1].upper() + step[1:] + "…")

@@ -892,8 +892,7 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def _tick(self) -> None:
         if self._drag_error is not None:
-            self._show_error_value(self._drag_error)
-            self._drag_error = None
+            self._show_error_value(self._drag_error)  # (which clears it)
         if self.session is None or self.session.settling:
             return
         if self.polisher.busy:

@@ -104,9 +104,7 @@ class BuildWorker(QtCore.QThread):
             self._compile_kernels_once()
             mesh = req.mesh
             if mesh is None:
-                self._report(f"reading {req.path.name}", 0.0)
-                mesh = read_mesh(req.path, progress=self._report)
-                self._report(f"reading {req.path.name}", 1.0)
+                mesh = read_mesh(req.path, progress=self._report)  # ("reading NAME", from 0 to 1)
             # the on-disk cache makes reopening a shape (or going back to a cage size) instant
             rig = build_rig(mesh, cage_size=req.cage_size, cache=req.use_cache, progress=self._report)
             editor = HybridEditor(rig)
