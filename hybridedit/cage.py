@@ -16,6 +16,7 @@ import fast_simplification
 
 from .mesh import Mesh
 from .qem import HalfWorker, presimplify, start_worker
+from .qem_worker import AGGRESSIVENESS
 from .topology import check_closed, connected_parts, degenerate_faces
 
 
@@ -668,7 +669,7 @@ def _simplify(src: Mesh, target: int, *, progress: Callable[[float], None] | Non
         progress(HALVES_SHARE)
     for _ in range(3):
         want_faces = min(want_faces, len(base_f))
-        v, f = fast_simplification.simplify(base_v, base_f, target_count=want_faces, agg=7.0)
+        v, f = fast_simplification.simplify(base_v, base_f, target_count=want_faces, agg=AGGRESSIVENESS)
         v = np.asarray(v, dtype=np.float64) * scale + center
         cage = clean_surface(v, np.asarray(f, dtype=np.int64))
         got = cage.n_vertices

@@ -26,6 +26,9 @@ if __name__ == "__main__":
 
 import numpy as np  # noqa: E402
 
+#: fast-simplification's aggressiveness for every cage simplification (its default: 7)
+AGGRESSIVENESS = 7.0
+
 
 def simplify_half(vertices: np.ndarray, faces: np.ndarray, target: int) -> tuple[np.ndarray, np.ndarray]:
     """Simplify to ``target`` faces with the border kept: ((k, 3) float64, (t, 3) int32)."""
@@ -33,7 +36,8 @@ def simplify_half(vertices: np.ndarray, faces: np.ndarray, target: int) -> tuple
 
     v, f = fast_simplification.simplify(np.ascontiguousarray(vertices, dtype=np.float64),
                                         np.ascontiguousarray(faces, dtype=np.int32),
-                                        target_count=int(min(target, len(faces))), agg=7.0, preserve_border=True)
+                                        target_count=int(min(target, len(faces))), agg=AGGRESSIVENESS,
+                                        preserve_border=True)
     return np.ascontiguousarray(v, dtype=np.float64), np.ascontiguousarray(f, dtype=np.int32)
 
 
