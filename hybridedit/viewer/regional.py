@@ -11,6 +11,12 @@ kernels update, in place (in parallel from :data:`PARALLEL_MIN` items):
   vertex; the others are summed once per selection),
 - the stretch map (endpoints of those edges).
 
+The normals and the edge error of a frame read the region's positions through a
+compact copy: its vertices gathered once into a small array, and its faces and
+edges numbered within it (made once per selection). Reading them scattered
+through the whole shape missed the cache at every step: at 173K vertices with a
+30% region, 11 ms a frame for the normals serially, 4.6 ms from the copy.
+
 No Qt or VTK here, so :mod:`hybridedit.warmup` compiles these kernels too.
 """
 
@@ -133,11 +139,54 @@ def _vertex_normals_parallel(fn, vf_ptr, vf_idx, verts, out):
         _vertex_normal(fn, vf_ptr, vf_idx, verts[t], out)
 
 
+@njit(cache=True)
+def _gather(V, rows, P):
+    """P[t] = V[rows[t]]: the region's positions, compact and in order."""
+    for t in range(rows.shape[0]):
+        r = rows[t]
+        P[t, 0] = V[r, 0]
+        P[t, 1] = V[r, 1]
+        P[t, 2] = V[r, 2]
+
+
+@njit(cache=True)
+def _region_normals(P, faces, targets, rows, acc, out):
+    """Unit vertex normals of the compact region: the area-weighted normal of every face of ``faces``
+    ((f, 3) indices into P) added to its three corners in ``acc``, then ``out[rows[t]]`` = the
+    normalised ``acc[targets[t]]`` (vertices all of whose faces are in ``faces``)."""
+    acc[:, :] = 0.0
+    for f in range(faces.shape[0]):
+        i, j, k = faces[f, 0], faces[f, 1], faces[f, 2]
+        ax, ay, az = P[j, 0] - P[i, 0], P[j, 1] - P[i, 1], P[j, 2] - P[i, 2]
+        bx, by, bz = P[k, 0] - P[i, 0], P[k, 1] - P[i, 1], P[k, 2] - P[i, 2]
+        nx = ay * bz - az * by
+        ny = az * bx - ax * bz
+        nz = ax * by - ay * bx
+        acc[i, 0] += nx
+        acc[i, 1] += ny
+        acc[i, 2] += nz
+        acc[j, 0] += nx
+        acc[j, 1] += ny
+        acc[j, 2] += nz
+        acc[k, 0] += nx
+        acc[k, 1] += ny
+        acc[k, 2] += nz
+    for t in range(targets.shape[0]):
+        a, v = targets[t], rows[t]
+        nx, ny, nz = acc[a, 0], acc[a, 1], acc[a, 2]
+        L = np.sqrt(nx * nx + ny * ny + nz * nz)
+        if L > 0.0:
+            s = 1.0 / L
+            out[v, 0], out[v, 1], out[v, 2] = nx * s, ny * s, nz * s
+        else:
+            out[v, 0], out[v, 1], out[v, 2] = 0.0, 0.0, 0.0
+
+
 @njit(cache=True, inline="always")
-def _edge_term(V, edges, rest_len, e, terms):
-    a, b = edges[e, 0], edges[e, 1]
-    dx, dy, dz = V[b, 0] - V[a, 0], V[b, 1] - V[a, 1], V[b, 2] - V[a, 2]
-    l0 = rest_len[e]
+def _edge_term(P, ends, rest_len, t, e, terms):
+    a, b = ends[t, 0], ends[t, 1]
+    dx, dy, dz = P[b, 0] - P[a, 0], P[b, 1] - P[a, 1], P[b, 2] - P[a, 2]
+    l0 = rest_len[t]
     new = 0.0
     if l0 > 0.0:
         r = (np.sqrt(dx * dx + dy * dy + dz * dz) - l0) / l0
@@ -148,18 +197,20 @@ def _edge_term(V, edges, rest_len, e, terms):
 
 
 @njit(cache=True)
-def _edge_terms_serial(V, edges, rest_len, eidx, terms):
+def _edge_terms_serial(P, ends, rest_len, eidx, terms):
+    """Squared relative length changes of the edges ``eidx`` into ``terms[eidx]``; returns the change of
+    their sum. Edge ``eidx[t]`` joins rows ``ends[t]`` of P and had length ``rest_len[t]``."""
     delta = 0.0
     for t in range(eidx.shape[0]):
-        delta += _edge_term(V, edges, rest_len, eidx[t], terms)
+        delta += _edge_term(P, ends, rest_len, t, eidx[t], terms)
     return delta
 
 
 @njit(cache=True, parallel=True)
-def _edge_terms_parallel(V, edges, rest_len, eidx, terms):
+def _edge_terms_parallel(P, ends, rest_len, eidx, terms):
     delta = 0.0
     for t in prange(eidx.shape[0]):
-        delta += _edge_term(V, edges, rest_len, eidx[t], terms)
+        delta += _edge_term(P, ends, rest_len, t, eidx[t], terms)
     return delta
 
 
@@ -208,6 +259,22 @@ def _touching(ptr: np.ndarray, idx: np.ndarray, verts: np.ndarray) -> np.ndarray
     return np.unique(idx[offs])
 
 
+class _Compact:
+    """A moving region's own numbering, made once per selection: its vertices (those of the faces
+    around the vertices whose normals change: (k,) sorted shape indices), those faces and the moving
+    edges as rows of the compact positions P (k, 3), and the rows of P whose normals are written."""
+
+    def __init__(self, metrics: "ShapeMetrics", normal_vertices: np.ndarray, moving_edges: np.ndarray) -> None:
+        faces = metrics.faces[_touching(metrics.vf_ptr, metrics.vf_idx, normal_vertices)]
+        self.vertices = np.union1d(faces, normal_vertices)  # (a vertex on no face keeps a zero normal)
+        self.faces = np.searchsorted(self.vertices, faces).astype(np.int32)
+        self.targets = np.searchsorted(self.vertices, normal_vertices).astype(np.int64)
+        self.edges = np.searchsorted(self.vertices, metrics.edges[moving_edges]).astype(np.int32)
+        self.rest_len = np.ascontiguousarray(metrics.rest_len[moving_edges])
+        self.P = np.empty((len(self.vertices), 3))
+        self.acc = np.empty((len(self.vertices), 3))
+
+
 class ShapeMetrics:
     """The per-frame quantities of one shape, updated for the moving region only.
 
@@ -235,11 +302,12 @@ class ShapeMetrics:
         self.all_faces = np.arange(len(self.faces), dtype=np.int64)
         self.terms = np.zeros(len(self.edges))
         self.total = 0.0
-        self.face_normals = np.zeros((len(self.faces), 3))  # area-weighted, kept current for every face
+        self.face_normals = np.zeros((len(self.faces), 3))  # area-weighted (the whole-shape normals' buffer)
         self.set_moving(None)
 
     def set_moving(self, moving: np.ndarray | None) -> None:
         """Restrict the updates to the shape vertices ``moving`` (k,) int (None: all of them)."""
+        self._compact = None
         if moving is None:
             self.moving = self.all_vertices
             self.moving_faces = self.all_faces
@@ -254,6 +322,7 @@ class ShapeMetrics:
         self.moving_edges = _touching(self.ve_ptr, self.ve_idx, self.moving)
         self.stretch_vertices = np.unique(self.edges[self.moving_edges].ravel()) if len(self.moving_edges) \
             else self.moving
+        self._compact = _Compact(self, self.normal_vertices, self.moving_edges)
 
     # ------------------------------------------------------------------ updates (in place)
     def write_points(self, V: np.ndarray, out: np.ndarray, *, everything: bool = False) -> None:
@@ -269,27 +338,36 @@ class ShapeMetrics:
         return box[0], box[1]
 
     def write_normals(self, V: np.ndarray, out: np.ndarray, *, everything: bool = False) -> None:
-        """Vertex normals of V (area-weighted, unit) into ``out`` (n, 3) where the moving region changes them.
-
-        The pose outside the moving region must be the one of the last call with ``everything``.
-        """
-        faces = self.all_faces if everything else self.moving_faces
-        _pick(_face_normals_serial, _face_normals_parallel, faces)(V, self.faces, faces, self.face_normals)
-        verts = self.all_vertices if everything else self.normal_vertices
-        _pick(_vertex_normals_serial, _vertex_normals_parallel, verts)(
-            self.face_normals, self.vf_ptr, self.vf_idx, verts, out)
+        """Vertex normals of V (area-weighted, unit) into ``out`` (n, 3) where the moving region changes them
+        (every vertex with ``everything`` or when nothing restricts the updates)."""
+        c = self._compact
+        if everything or c is None:
+            faces, verts = self.all_faces, self.all_vertices
+            _pick(_face_normals_serial, _face_normals_parallel, faces)(V, self.faces, faces, self.face_normals)
+            _pick(_vertex_normals_serial, _vertex_normals_parallel, verts)(
+                self.face_normals, self.vf_ptr, self.vf_idx, verts, out)
+            return
+        _gather(V, c.vertices, c.P)
+        _region_normals(c.P, c.faces, c.targets, self.normal_vertices, c.acc, out)
 
     def update_error(self, V: np.ndarray, *, everything: bool = False) -> float:
         """The relative RMS edge-length error of V in percent (as :func:`hybridedit.mesh.rrms_edge_error`).
 
         The pose outside the moving region must be the one of the last call with ``everything``.
         """
+        c = self._compact
         if everything:
             self.terms[:] = 0.0
             self.total = 0.0
-        eidx = self.all_edges if everything else self.moving_edges
-        self.total += _pick(_edge_terms_serial, _edge_terms_parallel, eidx)(V, self.edges, self.rest_len, eidx,
-                                                                            self.terms)
+        if everything or c is None:
+            eidx = self.all_edges
+            self.total += _pick(_edge_terms_serial, _edge_terms_parallel, eidx)(V, self.edges, self.rest_len,
+                                                                                eidx, self.terms)
+        else:
+            eidx = self.moving_edges
+            _gather(V, c.vertices, c.P)
+            self.total += _pick(_edge_terms_serial, _edge_terms_parallel, eidx)(c.P, c.edges, c.rest_len, eidx,
+                                                                                self.terms)
         if self.n_ok == 0:
             return 0.0
         return float(np.sqrt(max(self.total, 0.0) / self.n_ok) * 100.0)

@@ -50,3 +50,24 @@ def test_region_updates_equal_whole_mesh_results(make_blob, monkeypatch, paralle
     # the region is what a change of the moving vertices can reach, and no more
     assert set(sm.normal_vertices) == set(F[np.isin(F, moving).any(axis=1)].ravel())
     assert set(sm.moving_edges) == set(np.flatnonzero(np.isin(sm.edges, moving).any(axis=1)))
+
+
+def test_region_with_a_vertex_on_no_face_and_a_pose_changed_outside(make_blob):
+    """The region's normals read the pose around it afresh each frame; a moving vertex that no face
+    uses gets a zero normal (as over the whole shape) instead of reading past the region."""
+    m = make_blob(2)
+    rest = np.vstack([m.vertices, [[9.0, 9.0, 9.0]]])  # one more vertex, on no face
+    F = m.faces
+    sm = ShapeMetrics(rest, F)
+    nrm = np.zeros((len(rest), 3), dtype=np.float32)
+    sm.write_normals(rest, nrm, everything=True)
+    lone = len(rest) - 1
+    moving = np.append(np.flatnonzero(rest[:-1, 1] > 0.5), lone)
+    sm.set_moving(moving)
+    V = rest.copy()
+    V[rest[:, 1] <= 0.5] *= 1.1  # the vertices around the region moved too (e.g. a polish shown meanwhile)
+    V[moving] += [0.1, -0.2, 0.05]
+    sm.write_normals(V, nrm)
+    ref = vertex_normals(V, F[:, :])[sm.normal_vertices[sm.normal_vertices != lone]]
+    np.testing.assert_allclose(nrm[sm.normal_vertices[sm.normal_vertices != lone]], ref, atol=1e-6)
+    assert np.all(nrm[lone] == 0.0)
