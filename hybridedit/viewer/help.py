@@ -1,4 +1,4 @@
-"""Help texts and the Help > Shortcuts dialog."""
+"""Help texts (how to edit, about, mouse bindings) and the Help > Shortcuts dialog."""
 
 from __future__ import annotations
 
@@ -40,6 +40,12 @@ zooms, Alt + left drag rotates in any mode; F frames the shape, W shows/hides th
 T (View > Stretch Map) colours the shape by how much its edges stretched or shrank
 against the rest shape (blue 0 % to red 20 % or more). File > Mesh Info lists the
 counts and any repairs made to the input when it was loaded."""
+
+ABOUT = """\
+hybridedit: interactive as-rigid-as-possible editing of large meshes through a QEM cage
+(the hybrid method of Borosán, Howard, Zhang and Nealen, Eurographics 2010).
+
+Pick an ROI (green) and a handle (orange) on the cage, then drag the handle."""
 
 
 

@@ -1,9 +1,10 @@
 """The main window: menus, toolbar, status bar; it wires Qt to the session.
 
 The editing state (selection, pose, polished pose, undo) lives in
-:class:`~.session.Session`; file actions in :mod:`.files`; polish scheduling
-in :mod:`.polishing`; the drawing in :mod:`.scene`; mouse gestures in
-:mod:`.interaction`.
+:class:`~.session.Session`; file actions in :mod:`.files`; cage and binding
+builds in :mod:`.building`; polish scheduling in :mod:`.polishing`; the
+information dialogs in :mod:`.dialogs`; the drawing in :mod:`.scene`; mouse
+gestures in :mod:`.interaction`.
 """
 
 from __future__ import annotations
@@ -12,22 +13,26 @@ import functools
 import os
 import time
 from pathlib import Path
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 from qtpy import QtCore, QtGui, QtWidgets
 
 from ..editor import SelectionError
+from .building import BuildJobs
 from .cagesize import CageSizeControl
+from .dialogs import InfoDialogs
 from .files import FileActions, dropped_path
 from .framethread import DragFrame, FrameThread
-from .help import HOWTO, ShortcutsDialog
 from .interaction import BRUSH, CAMERA, DRAG, RECTANGLE, SELECT, ViewController
 from .polishing import PolishScheduler
 from .scene import STATE_COLORS, Scene, state_rows
 from .session import HANDLE, ROI, Session
 from .view import View
-from .worker import BuildRequest, BuildResult, BuildWorker, PolishOutcome
+from .worker import BuildResult, BuildWorker, PolishOutcome
+
+if TYPE_CHECKING:
+    from ..mesh import Mesh
 
 ERROR_INTERVAL = 0.25
 """Seconds between edge-error measurements during a drag (each walks the moving region's edges)."""
@@ -62,6 +67,8 @@ class MainWindow(QtWidgets.QMainWindow):
     ----------
     session : the shape being edited, or None.
     files : the file actions (:class:`~.files.FileActions`).
+    jobs : the cage and binding builds (:class:`~.building.BuildJobs`).
+    dialogs : the information dialogs (:class:`~.dialogs.InfoDialogs`).
     polisher : polish on release (:class:`~.polishing.PolishScheduler`).
     modified : the pose on display is not saved (shown as ``*`` in the title).
     """
@@ -69,7 +76,6 @@ class MainWindow(QtWidgets.QMainWindow):
     def __init__(self, cage_size: int | float = 0.05) -> None:
         super().__init__()
         self.session: Session | None = None
-        self.worker: BuildWorker | None = None
         self.last_error: str | None = None
         self.modified = False
         self.settle_on_release = True
@@ -84,6 +90,9 @@ class MainWindow(QtWidgets.QMainWindow):
         self._engine_ms = 0.0
         self._generation = -1  # the session's engine generation the scene shows
         self.files = FileActions(self)
+        self.jobs = BuildJobs(self)
+        self.jobs.busy_changed.connect(lambda _busy: self._update_actions())
+        self.dialogs = InfoDialogs(self)
         self.frames = FrameThread(self._show_drag_frame, self)
         self.polisher = PolishScheduler(self)
         self.polisher.succeeded.connect(self._polish_succeeded)
@@ -195,7 +204,7 @@ class MainWindow(QtWidgets.QMainWindow):
           short="Stretch")
         A("messages", "&Messages", self._toggle_messages, checkable=True,
           tip="Show every message of this session, with its time")
-        A("mesh_info", "Mesh &Info…", self.show_mesh_info,
+        A("mesh_info", "Mesh &Info…", self.dialogs.mesh_info,
           tip="Vertex, face and cage counts; repairs made to the input")
         A("reset_camera", "&Frame Shape", self.reset_camera, "F", tip="Reset the camera to show the whole shape")
         A("antialias", "&Anti-aliasing", self._toggle_antialias, checkable=True,
@@ -203,9 +212,10 @@ class MainWindow(QtWidgets.QMainWindow):
         A("rebuild", "Re&build Cage", self.rebuild, "Ctrl+B", tip="Build the cage and binding again at the chosen size",
           short="Rebuild")
         A("cancel_job", "Cancel", self.cancel_job, "Esc", tip="Cancel the cage build")
-        A("shortcuts", "&Shortcuts…", self.show_shortcuts, Seq.StandardKey.HelpContents, tip="List the shortcuts")
-        A("howto", "&How to Edit…", self.show_howto, tip="The editing workflow in a few steps")
-        A("about", "&About", self.show_about)
+        A("shortcuts", "&Shortcuts…", self.dialogs.shortcuts, Seq.StandardKey.HelpContents,
+          tip="List the shortcuts")
+        A("howto", "&How to Edit…", self.dialogs.howto, tip="The editing workflow in a few steps")
+        A("about", "&About", self.dialogs.about)
         for group_names in (("mode_camera", "mode_select", "mode_drag"), ("target_roi", "target_handle"),
                             ("tool_rect", "tool_brush")):
             g = QtGui.QActionGroup(self)
@@ -296,16 +306,7 @@ class MainWindow(QtWidgets.QMainWindow):
         for w in (self.time_label, self.size_label, self.sel_label, self.error_label):
             w.setTextFormat(QtCore.Qt.TextFormat.PlainText)
             sb.addPermanentWidget(w)
-        self.progress = QtWidgets.QProgressBar()
-        self.progress.setRange(0, 1000)
-        self.progress.setFixedWidth(420)
-        self.progress.setTextVisible(True)
-        self.cancel_button = QtWidgets.QPushButton("Cancel")
-        self.cancel_button.clicked.connect(self.cancel_job)
-        sb.addPermanentWidget(self.progress)
-        sb.addPermanentWidget(self.cancel_button)
-        self.progress.hide()
-        self.cancel_button.hide()
+        self.jobs.place_in(sb)  # the build's progress bar and Cancel button
         self.log = QtWidgets.QPlainTextEdit()
         self.log.setReadOnly(True)
         self.log.setMaximumBlockCount(2000)
@@ -482,94 +483,38 @@ class MainWindow(QtWidgets.QMainWindow):
         self.scene.reset_camera()
         self.view.request_render()
 
-    # ================================================================== loading (worker thread)
+    # ================================================================== loading (the build jobs of .building)
+    @property
+    def worker(self) -> BuildWorker | None:
+        """The cage and binding build running now, or None."""
+        return self.jobs.worker
+
     @guarded
     def open_path(self, path: str | os.PathLike) -> bool:
         """Read a mesh and build its cage and binding in the worker thread (asks first if the pose is unsaved)."""
-        p = Path(path)
-        if not self.files.keep_work(f"opening {p.name}"):
-            return False
-        return self._start_job(BuildRequest(cage_size=self.cage_size(), path=p), f"Opening {p.name}")
+        return self.jobs.open_file(path)
 
-    def open_mesh(self, mesh, path: Path | None = None) -> bool:
+    def open_mesh(self, mesh: Mesh, path: Path | None = None) -> bool:
         """Build an already loaded shape (used by tests and scripts)."""
-        if not self.files.keep_work("opening another shape"):
-            return False
-        return self._start_job(BuildRequest(cage_size=self.cage_size(), path=path, mesh=mesh), "Building")
+        return self.jobs.open_mesh(mesh, path)
 
     @guarded
     def rebuild(self) -> bool:
         """Build the cage and binding again at the toolbar's size; selection, pose and undo history carry over."""
-        self.finish_settle()
-        s = self.session
-        if s is None:
-            self.show_error("Rebuild cage", "Open a mesh first.")
-            return False
-        if not self.files.keep_work("rebuilding the cage (the pose is solved again on the new cage)"):
-            return False
-        return self._start_job(BuildRequest(cage_size=self.cage_size(), path=s.path, mesh=s.mesh, rebuild=True),
-                               "Rebuilding the cage")
-
-    def _start_job(self, request: BuildRequest, label: str) -> bool:
-        if self.worker is not None:
-            self.show_error("Busy", "A cage is being built; wait for it or cancel it first.")
-            return False
-        self.controller.cancel()
-        self.polisher.cancel()
-        w = BuildWorker(request, self)
-        w.progress.connect(self._job_progress)
-        w.succeeded.connect(self._job_succeeded)
-        w.failed.connect(self._job_failed)
-        w.cancelled.connect(self._job_cancelled)
-        w.finished.connect(self._job_finished)
-        self.worker = w
-        self.progress.setValue(0)
-        self.progress.setFormat(f"{label}…")
-        self.progress.show()
-        self.cancel_button.show()
-        self.cancel_button.setEnabled(True)
-        self._update_actions()
-        w.start()
-        return True
+        return self.jobs.rebuild()
 
     def cancel_job(self) -> None:
-        if self.worker is not None:
-            self.worker.cancel()
-            self.cancel_button.setEnabled(False)
-            self.progress.setFormat("Cancelling…")
+        """Cancel the cage and binding build under way; the shape on display stays."""
+        self.jobs.cancel()
 
-    def _job_progress(self, stage: str, fraction: float) -> None:
-        if self.worker is not None and self.worker.cancel_requested:
-            return
-        self.progress.setValue(int(round(1000 * min(max(fraction, 0.0), 1.0))))
-        self.progress.setFormat(f"{stage} %p%")
+    def install_build(self, result: BuildResult) -> tuple[bool, str | None]:
+        """Show a finished build: a new session for a new shape, or the edit carried over to the new cage.
 
-    def _job_succeeded(self, result: BuildResult) -> None:
-        try:
-            self._install(result)
-        except Exception as e:  # noqa: BLE001
-            self.show_error("Could not show the shape", f"{e.__class__.__name__}: {e}")
-
-    def _job_failed(self, message: str) -> None:
-        req = self.worker.request if self.worker is not None else None
-        rebuilding = req is not None and req.rebuild
-        what = "Could not rebuild the cage" if rebuilding else "Could not open the mesh"
-        self.show_error(what, message)
-
-    def _job_cancelled(self) -> None:
-        self.message("Cancelled; the current shape and edit are unchanged.")
-
-    def _job_finished(self) -> None:
-        w = self.worker
-        self.worker = None
-        if w is not None:
-            w.wait()
-            w.deleteLater()
-        self.progress.hide()
-        self.cancel_button.hide()
-        self._update_actions()
-
-    def _install(self, result: BuildResult) -> None:
+        Returns
+        -------
+        rebuilt : the build was a new cage for the shape being edited.
+        note : what carrying the edit over said (rebuilds only), or None.
+        """
         req = result.request
         ed = result.editor
         self.controller.cancel()
@@ -587,25 +532,14 @@ class MainWindow(QtWidgets.QMainWindow):
             self.files.forget_paths()
             self.set_modified(False)
             rebuilt = False
-        s = self.session
-        s.settle_on_release = self.settle_on_release
+        self.session.settle_on_release = self.settle_on_release
         self.last_polish = None
         self._show_engine()
         if not rebuilt:
             self.scene.reset_camera()
         self._set_title()
-        name = req.path.name if req.path is not None else (s.mesh.name or "shape")
-        t = ed.timings
-        how = "from the cache" if getattr(ed, "cache_hit", False) else (
-            f"cage {t.get('cage_seconds', 0):.1f} s, binding {t.get('bind_seconds', 0):.1f} s")
-        notes = [str(n) for n in (getattr(ed, "notes", None) or [])]
-        msg = f"{'Rebuilt the cage of' if rebuilt else 'Loaded'} {name}: cage {s.n_cage:,} vertices ({how})"
-        if note:
-            msg += f"; {note}"
-        if notes and not rebuilt:
-            msg += f" · input repaired: {'; '.join(notes)} (File ▸ Mesh Info…)"
-        self.message(msg)
         self._update_actions()
+        return rebuilt, note
 
     def _show_engine(self) -> None:
         """(Re)build the scene for the session's engine (a new shape, a rebuild, or undo across one)."""
@@ -918,7 +852,7 @@ class MainWindow(QtWidgets.QMainWindow):
         a["redo"].setEnabled(bool(h and h.can_redo()))
         a["undo"].setText(f"&Undo {h.undo_label()}" if h and h.can_undo() else "&Undo")
         a["redo"].setText(f"&Redo {h.redo_label()}" if h and h.can_redo() else "&Redo")
-        busy = self.worker is not None
+        busy = self.jobs.busy
         for n in ("open", "rebuild", "load_edit"):
             a[n].setEnabled(not busy)
         for n in ("save", "save_as", "save_edit", "reset_pose", "select_all", "clear_sel", "invert_sel", "screenshot",
@@ -997,58 +931,6 @@ class MainWindow(QtWidgets.QMainWindow):
         else:
             QtCore.QTimer.singleShot(0, lambda: self.open_path(p))
 
-    # ================================================================== help
-    def show_shortcuts(self) -> None:
-        dlg = ShortcutsDialog(list(self.actions_.values()), self)
-        dlg.setAttribute(QtCore.Qt.WidgetAttribute.WA_DeleteOnClose)
-        self._shortcuts_dialog = dlg
-        dlg.open()
-
-    def show_howto(self) -> None:
-        QtWidgets.QMessageBox.information(self, "How to edit", HOWTO)
-
-    def mesh_info_text(self) -> str:
-        s = self.session
-        if s is None:
-            return "No shape loaded."
-        m, c = s.mesh, s.editor.cage
-        lines = [
-            f"Shape: {s.path if s.path is not None else (m.name or 'shape')}",
-            f"Vertices: {_fmt(m.n_vertices)}",
-            f"Faces: {_fmt(m.n_faces)}",
-            f"Edges: {_fmt(len(s.edges))}",
-            f"Cage: {_fmt(c.n_vertices)} vertices, {_fmt(c.n_faces)} faces",
-        ]
-        notes = [str(n) for n in (getattr(s.editor, "notes", None) or [])]
-        lines.append("")
-        if notes:
-            lines.append("Repairs made to the input:")
-            lines += [f"  • {n}" for n in notes]
-        else:
-            lines.append("Repairs made to the input: none")
-        if self.last_polish is not None:
-            p = self.last_polish
-            lines += ["", f"Last polish: {p.result.iterations} iterations in {p.seconds:.2f} s "
-                          f"(set-up {p.setup_seconds:.2f} s), "
-                          f"edge error {p.error_before:.2f}% → {p.error_after:.2f}%"]
-        return "\n".join(lines)
-
-    def show_mesh_info(self) -> None:
-        """File > Mesh Info: counts and repairs, in a non-modal box."""
-        box = QtWidgets.QMessageBox(QtWidgets.QMessageBox.Icon.Information, "Mesh info", self.mesh_info_text(),
-                                    QtWidgets.QMessageBox.StandardButton.Ok, self)
-        box.setAttribute(QtCore.Qt.WidgetAttribute.WA_DeleteOnClose)
-        box.setModal(False)
-        self._info_box = box
-        box.show()
-
-    def show_about(self) -> None:
-        QtWidgets.QMessageBox.about(
-            self, "About hybridedit",
-            "hybridedit: interactive as-rigid-as-possible editing of large meshes through a QEM cage\n"
-            "(the hybrid method of Borosán, Howard, Zhang and Nealen, Eurographics 2010).\n\n"
-            "Pick an ROI (green) and a handle (orange) on the cage, then drag the handle.")
-
     # ================================================================== closing
     def closeEvent(self, ev: QtGui.QCloseEvent) -> None:  # noqa: N802
         if not self.files.keep_work("quitting"):
@@ -1057,9 +939,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.settle_timer.stop()
         self.frames.stop()
         self.polisher.wait()
-        if self.worker is not None:
-            self.worker.cancel()
-            self.worker.wait(30000)
+        self.jobs.wait()
         self.status_timer.stop()
         self.view.close()
         super().closeEvent(ev)

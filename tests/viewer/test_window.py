@@ -357,7 +357,7 @@ def test_drop_shortcuts_cage_toggle_and_rebuild(qtbot, win, blob_file, tmp_path,
     s = w.session
     # Help > Shortcuts lists the actions with their keys
     w.actions_["shortcuts"].trigger()
-    dlg = w._shortcuts_dialog
+    dlg = w.dialogs.shortcuts_dialog
     qtbot.waitExposed(dlg)
     texts = {dlg.table.item(r, 1).text() for r in range(dlg.table.rowCount())}
     assert {"Undo", "Redo", "Drag Mode", "Reset Pose", "Save Edit…"} <= texts
@@ -411,18 +411,18 @@ def test_worker_cancel_keeps_the_previous_state(qtbot, win, tmp_path, make_blob)
     def on_progress(stage, fraction):
         stages.append(stage)
         if stage == "binding" and fraction > 0:
-            w.cancel_button.click()
+            w.jobs.cancel_button.click()
 
     assert w.open_path(big)
     w.worker.progress.connect(on_progress)
-    assert w.progress.isVisible() and w.cancel_button.isVisible()
+    assert w.jobs.progress.isVisible() and w.jobs.cancel_button.isVisible()
     assert not w.actions_["open"].isEnabled()
     wait_loaded(qtbot, w)
     timer.stop()
     assert "binding" in stages
     assert w.session is s and s.mesh.n_vertices == 2562
     assert "Cancelled" in w.current_message()
-    assert not w.progress.isVisible() and w.actions_["open"].isEnabled()
+    assert not w.jobs.progress.isVisible() and w.actions_["open"].isEnabled()
     # the event loop kept running while the worker built the cage
     gaps = np.diff(ticks)
     assert len(ticks) > 3 and gaps.max() < 1.0
@@ -497,7 +497,7 @@ def test_first_run_compiles_the_kernels_in_words(qtbot, blob_file, tmp_path, mon
     w.show()
     stages = []
     assert w.open_path(blob_file)
-    w.worker.progress.connect(lambda stage, f: stages.append(w.progress.text()))
+    w.worker.progress.connect(lambda stage, f: stages.append(w.jobs.progress.text()))
     wait_loaded(qtbot, w)
     assert any(s.startswith("compiling the kernels for this computer (first run only") for s in stages)
     assert warmup.is_warm()

@@ -11,6 +11,7 @@ from hybridedit.arap import ARAPSolver
 from hybridedit.io import read_mesh
 from hybridedit.mesh import edge_stretch, vertex_stretch
 from hybridedit.viewer import worker as worker_module
+from hybridedit.viewer.dialogs import mesh_info_text
 from hybridedit.viewer.window import MainWindow
 from test_window import key, mouse_drag, projected, settled, to_widget, wait_loaded, win  # noqa: F401 (fixture)
 
@@ -74,7 +75,7 @@ def test_polish_on_release_lowers_the_energy_and_save_writes_it(qtbot, win, tmp_
     out = tmp_path / "polished.obj"
     assert w.files.save_to(out)
     assert np.array_equal(read_mesh(out).vertices, P)
-    assert "polish" in w.mesh_info_text().lower()
+    assert "polish" in mesh_info_text(w.session, w.last_polish).lower()
     # undo restores what it always did (the pose before the drag) and shows it
     key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
     assert w.polished is None
@@ -189,7 +190,7 @@ def test_repair_notes_are_shown_after_loading(qtbot, blob_file, monkeypatch):
     assert "repaired" in msg and notes[0] in msg and notes[1] in msg
     assert w.actions_["mesh_info"].isEnabled()
     w.actions_["mesh_info"].trigger()
-    box = w._info_box
+    box = w.dialogs.mesh_info_box
     qtbot.waitExposed(box)
     assert not box.isModal()
     text = box.text()
@@ -197,4 +198,4 @@ def test_repair_notes_are_shown_after_loading(qtbot, blob_file, monkeypatch):
     box.close()
     # without notes: "none"
     w.session.editor.notes = []
-    assert "none" in w.mesh_info_text()
+    assert "none" in mesh_info_text(w.session, w.last_polish)

@@ -1,0 +1,97 @@
+"""The window's information dialogs: Help ▸ Shortcuts, How to Edit and About, and File ▸ Mesh Info."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from qtpy import QtCore, QtWidgets
+
+from .help import ABOUT, HOWTO, ShortcutsDialog
+
+if TYPE_CHECKING:
+    from .session import Session
+    from .window import MainWindow
+    from .worker import PolishOutcome
+
+
+def mesh_info_text(session: "Session | None", last_polish: "PolishOutcome | None" = None) -> str:
+    """File ▸ Mesh Info's text.
+
+    Parameters
+    ----------
+    session : the shape being edited, or None.
+    last_polish : the latest polish on release of this shape, or None.
+
+    Returns
+    -------
+    The shape's name and its vertex, face, edge and cage counts, the repairs made to the input
+    (or "none") and, after a polish, its iterations, times and edge errors.
+    """
+    s = session
+    if s is None:
+        return "No shape loaded."
+    m, c = s.mesh, s.editor.cage
+    lines = [
+        f"Shape: {s.path if s.path is not None else (m.name or 'shape')}",
+        f"Vertices: {m.n_vertices:,}",
+        f"Faces: {m.n_faces:,}",
+        f"Edges: {len(s.edges):,}",
+        f"Cage: {c.n_vertices:,} vertices, {c.n_faces:,} faces",
+    ]
+    notes = [str(n) for n in (getattr(s.editor, "notes", None) or [])]
+    lines.append("")
+    if notes:
+        lines.append("Repairs made to the input:")
+        lines += [f"  • {n}" for n in notes]
+    else:
+        lines.append("Repairs made to the input: none")
+    if last_polish is not None:
+        p = last_polish
+        lines += ["", f"Last polish: {p.result.iterations} iterations in {p.seconds:.2f} s "
+                      f"(set-up {p.setup_seconds:.2f} s), "
+                      f"edge error {p.error_before:.2f}% → {p.error_after:.2f}%"]
+    return "\n".join(lines)
+
+
+class InfoDialogs:
+    """The information dialogs of a :class:`~.window.MainWindow` (parented to it).
+
+    The window is read through ``actions_`` (the shortcuts listed), ``session`` and ``last_polish``.
+
+    Attributes
+    ----------
+    shortcuts_dialog : the last Shortcuts dialog opened, or None.
+    mesh_info_box : the last Mesh Info box opened, or None.
+    """
+
+    def __init__(self, window: "MainWindow") -> None:
+        self.w = window
+        self.shortcuts_dialog: ShortcutsDialog | None = None
+        self.mesh_info_box: QtWidgets.QMessageBox | None = None
+
+    def shortcuts(self) -> ShortcutsDialog:
+        """Help ▸ Shortcuts: every action with a key, and the mouse bindings (window-modal, not blocking)."""
+        dlg = ShortcutsDialog(list(self.w.actions_.values()), self.w)
+        dlg.setAttribute(QtCore.Qt.WidgetAttribute.WA_DeleteOnClose)
+        self.shortcuts_dialog = dlg
+        dlg.open()
+        return dlg
+
+    def howto(self) -> None:
+        """Help ▸ How to Edit: the editing workflow in a few steps."""
+        QtWidgets.QMessageBox.information(self.w, "How to edit", HOWTO)
+
+    def mesh_info(self) -> QtWidgets.QMessageBox:
+        """File ▸ Mesh Info: counts and repairs (:func:`mesh_info_text`), in a non-modal box."""
+        box = QtWidgets.QMessageBox(QtWidgets.QMessageBox.Icon.Information, "Mesh info",
+                                    mesh_info_text(self.w.session, self.w.last_polish),
+                                    QtWidgets.QMessageBox.StandardButton.Ok, self.w)
+        box.setAttribute(QtCore.Qt.WidgetAttribute.WA_DeleteOnClose)
+        box.setModal(False)
+        self.mesh_info_box = box
+        box.show()
+        return box
+
+    def about(self) -> None:
+        """Help ▸ About."""
+        QtWidgets.QMessageBox.about(self.w, "About hybridedit", ABOUT)

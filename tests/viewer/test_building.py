@@ -1,0 +1,201 @@
+"""Build jobs (hybridedit.viewer.building): progress, cancel, refusals, failures and the message after a build.
+
+The window tests run the real build thread and its queued signals; the build itself is held at a
+gate where a test needs it to last (a fake ``build_rig`` that reports progress until let through).
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from qtpy import QtCore, QtWidgets
+
+from hybridedit.viewer import worker as worker_module
+from hybridedit.viewer.building import built_message
+from hybridedit.viewer.window import MainWindow
+from hybridedit.viewer.worker import BuildRequest
+from test_window import wait_loaded, win  # noqa: F401 (fixture)
+
+Qt = QtCore.Qt
+JOB_ACTIONS = ("open", "rebuild", "load_edit")
+
+
+# ---------------------------------------------------------------------------- helpers
+
+
+@pytest.fixture
+def gate(monkeypatch) -> threading.Event:
+    """Builds report "building the cage" then "binding" and wait there (still reporting) until the
+    gate is set, then build for real; a cancel stops them at their next report."""
+    real = worker_module.build_rig
+    gate = threading.Event()
+
+    def build_rig(mesh, *, cage_size, cache, progress):
+        progress("building the cage", 0.5)
+        time.sleep(0.06)  # (reports of one stage closer than 50 ms apart are merged)
+        progress("binding", 0.25)
+        while not gate.wait(0.02):
+            progress("binding", 0.25)  # raises Cancelled once cancelled
+        return real(mesh, cage_size=cage_size, cache=cache, progress=progress)
+
+    monkeypatch.setattr(worker_module, "build_rig", build_rig)
+    yield gate
+    gate.set()  # never leave a thread waiting
+
+
+def record_errors(w: MainWindow, monkeypatch) -> list[tuple[str, str]]:
+    """Every error the window shows, as (title, text), still shown as usual."""
+    shown = []
+    show = w.show_error
+    monkeypatch.setattr(w, "show_error", lambda title, text: shown.append((title, text)) or show(title, text))
+    return shown
+
+
+def close_boxes(w: MainWindow) -> None:
+    for box in w.findChildren(QtWidgets.QMessageBox):
+        if box.isVisible():
+            box.close()
+
+
+def assert_idle(w: MainWindow) -> None:
+    assert w.worker is None and not w.jobs.busy
+    assert not w.jobs.progress.isVisible() and not w.jobs.cancel_button.isVisible()
+    assert all(w.actions_[n].isEnabled() for n in JOB_ACTIONS) and not w.actions_["cancel_job"].isEnabled()
+
+
+# ---------------------------------------------------------------------------- the message after a build
+
+
+def build_of(path=None, rebuild=False, cache_hit=False, notes=(), timings=None, name="blob", n_cage=1234):
+    editor = SimpleNamespace(timings=timings or {}, cache_hit=cache_hit, notes=list(notes))
+    result = SimpleNamespace(request=BuildRequest(cage_size=0.05, path=path, rebuild=rebuild), editor=editor)
+    session = SimpleNamespace(mesh=SimpleNamespace(name=name), n_cage=n_cage)
+    return result, session
+
+
+def test_built_message_says_what_was_built_and_how():
+    r, s = build_of(Path("/data/creature.ply"), cache_hit=True)
+    assert built_message(r, s, rebuilt=False) == "Loaded creature.ply: cage 1,234 vertices (from the cache)"
+    r, s = build_of(timings={"cage_seconds": 1.26, "bind_seconds": 4.04})
+    assert built_message(r, s, rebuilt=False) == "Loaded blob: cage 1,234 vertices (cage 1.3 s, binding 4.0 s)"
+    r, s = build_of(name="", timings={})
+    assert built_message(r, s, rebuilt=False) == "Loaded shape: cage 1,234 vertices (cage 0.0 s, binding 0.0 s)"
+    # repairs are told when a shape is loaded, not again when its cage is rebuilt
+    r, s = build_of(Path("a.obj"), cache_hit=True, notes=["merged 3 duplicate vertices", "dropped 1 face"])
+    assert built_message(r, s, rebuilt=False) == (
+        "Loaded a.obj: cage 1,234 vertices (from the cache) · input repaired: merged 3 duplicate vertices; "
+        "dropped 1 face (File ▸ Mesh Info…)")
+    r, s = build_of(Path("a.obj"), rebuild=True, cache_hit=True, notes=["dropped 1 face"])
+    assert built_message(r, s, rebuilt=True, note="the pose was solved again") == (
+        "Rebuilt the cage of a.obj: cage 1,234 vertices (from the cache); the pose was solved again")
+
+
+# ---------------------------------------------------------------------------- in the window
+
+
+def test_progress_fills_the_bar_and_esc_cancels_keeping_the_shape(qtbot, win, make_blob, gate, monkeypatch):
+    w = win
+    s = w.session
+    before = s.shape_positions.copy()
+    errors = record_errors(w, monkeypatch)
+    assert_idle(w)
+    assert w.open_mesh(make_blob(3))
+    # at once: the bar with the job's label, Cancel, and no other job can start
+    assert w.worker is not None and w.jobs.busy
+    assert w.jobs.progress.isVisible() and w.jobs.progress.text() == "Building…"
+    assert w.jobs.cancel_button.isVisible() and w.jobs.cancel_button.isEnabled()
+    assert not any(w.actions_[n].isEnabled() for n in JOB_ACTIONS) and w.actions_["cancel_job"].isEnabled()
+    # the thread's reports reach the bar: stage and percentage
+    qtbot.waitUntil(lambda: w.jobs.progress.format() == "binding %p%", timeout=20000)
+    assert w.jobs.progress.value() == 250 and w.jobs.progress.text() == "binding 25%"
+    # Esc (Cage > Cancel): the bar says so at once, and a report still on its way does not overwrite it
+    job = w.worker
+    qtbot.keyClick(w.view, Qt.Key.Key_Escape)  # (no event loop turn: the job has not ended yet)
+    assert job.cancel_requested and w.worker is job
+    assert w.jobs.progress.text() == "Cancelling…" and not w.jobs.cancel_button.isEnabled()
+    job.progress.emit("binding", 0.9)
+    assert w.jobs.progress.text() == "Cancelling…"
+    qtbot.waitUntil(lambda: w.worker is None, timeout=20000)
+    assert not gate.is_set()  # it never got past the gate: cancelled, not built
+    assert w.session is s and np.array_equal(s.shape_positions, before) and s.mesh.n_vertices == 2562
+    assert w.current_message() == "Cancelled; the current shape and edit are unchanged."
+    assert errors == []
+    assert_idle(w)
+
+
+def test_a_second_job_is_refused_and_the_first_one_shows_its_shape(qtbot, win, make_blob, blob_file, gate,
+                                                                   monkeypatch):
+    w = win
+    errors = record_errors(w, monkeypatch)
+    other = make_blob(3)
+    assert w.open_mesh(other)
+    job = w.worker
+    assert not w.open_path(blob_file) and not w.rebuild()
+    assert errors == [("Busy", "A cage is being built; wait for it or cancel it first.")] * 2
+    assert w.worker is job
+    close_boxes(w)
+    gate.set()
+    wait_loaded(qtbot, w)
+    assert w.session.mesh is other and w.session.path is None and not w.modified
+    assert w.current_message().startswith(f"Loaded blob: cage {w.session.n_cage:,} vertices (")
+    assert len(errors) == 2
+    assert_idle(w)
+
+
+def test_failures_show_one_error_and_keep_the_shape(qtbot, win, tmp_path, monkeypatch):
+    w = win
+    s = w.session
+    n_cage = s.n_cage
+    errors = record_errors(w, monkeypatch)
+    # an unreadable file
+    bad = tmp_path / "bad.obj"
+    bad.write_text("v 0 0 0\nf 1 2 3\n")
+    assert w.open_path(bad)
+    wait_loaded(qtbot, w)
+    qtbot.wait(50)  # (nothing else arrives)
+    assert len(errors) == 1 and errors[0][0] == "Could not open the mesh" and "bad.obj" in errors[0][1]
+    assert w.session is s and w.last_error == errors[0][1]
+    assert_idle(w)
+    close_boxes(w)
+
+    # a rebuild that fails says so in its own words
+    def no_cage(mesh, **kwargs):
+        raise ValueError("no cage for you")
+
+    monkeypatch.setattr(worker_module, "build_rig", no_cage)
+    assert w.rebuild()
+    wait_loaded(qtbot, w)
+    qtbot.wait(50)
+    assert errors[1:] == [("Could not rebuild the cage", "no cage for you")]
+    assert w.session is s and s.n_cage == n_cage
+    assert_idle(w)
+    close_boxes(w)
+    monkeypatch.undo()  # the real build again (and the real show_error)
+    errors = record_errors(w, monkeypatch)
+
+    # a build that cannot be shown
+    def broken(result):
+        raise RuntimeError("no room on screen")
+
+    monkeypatch.setattr(w, "install_build", broken)
+    assert w.open_path(w.session.path)
+    wait_loaded(qtbot, w)
+    assert errors == [("Could not show the shape", "RuntimeError: no room on screen")]
+    assert w.session is s
+    assert_idle(w)
+    close_boxes(w)
+
+
+def test_rebuild_without_a_shape_says_so(qtbot, monkeypatch):
+    w = MainWindow(cage_size=150)
+    qtbot.addWidget(w)
+    errors = record_errors(w, monkeypatch)
+    assert not w.rebuild()
+    assert errors == [("Rebuild cage", "Open a mesh first.")]
+    assert_idle(w)
+    close_boxes(w)
