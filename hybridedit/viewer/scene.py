@@ -237,11 +237,14 @@ class Scene:
         self.cage_front, self.cage_ghost = front, ghost
         self._actors.append(front)
 
-        pts = pv.PolyData(P.copy())
+        pts = pv.PolyData()
+        pts.SetPoints(cage.GetPoints())  # one cage pose buffer for the wireframe and the points
+        self._cage_points32 = cage.points  # (a view of it, written in place)
         rgba = np.full((len(P), 4), 255, dtype=np.uint8)
         rgba[:, :3] = STATE_COLORS[state_rows(states)]
         pts.point_data["state"] = rgba
         pts.point_data.active_scalars_name = "state"
+        self._rgba = pts.point_data["state"]  # (a view of the drawn colours, written in place)
         self._cage_faces = np.ascontiguousarray(cage_faces, dtype=np.int64)
         self._cage_pos = np.asarray(cage_vertices, dtype=np.float64).copy()
         self._cage_metrics = ShapeMetrics(self._cage_pos, self._cage_faces)  # (its vertex-face incidence)
@@ -363,9 +366,8 @@ class Scene:
         is its :meth:`cage_geometry` when the frame thread made it (else it is made when needed)."""
         if self.cage_poly is None:
             return
-        for poly in (self.cage_poly, self.points_poly):
-            poly.points[:] = P
-            poly.GetPoints().Modified()
+        self._cage_points32[:] = P
+        self.cage_poly.GetPoints().Modified()  # (the points' too: they share it)
         self._cage_pos[:] = P
         self._cage_normals, self._cage_bounds = (None, None) if geometry is None else geometry
 
@@ -375,7 +377,7 @@ class Scene:
             return
         s = np.asarray(states)
         self._states = s.astype(np.int64)
-        self.points_poly.point_data["state"][:, :3] = STATE_COLORS[state_rows(s)]
+        self._rgba[:, :3] = STATE_COLORS[state_rows(s)]
         _array_modified(self.points_poly, "state")
         self._update_point_cells()
         self.parts.set_roles(roles, self.points32, self.normals32, self.stretch32)
@@ -421,21 +423,21 @@ class Scene:
 
     def _fade_back_points(self) -> None:
         """Cage points facing away from the camera are drawn faintly (all stay selectable)."""
-        if self.points_poly is None or len(self._shown_points) == 0:
+        shown = self._shown_points
+        if self.points_poly is None or len(shown) == 0:
             return
         if self._cage_normals is None:
             self._cage_normals = np.zeros((len(self._cage_pos), 3), dtype=np.float32)
             self._cage_metrics.write_normals(self._cage_pos, self._cage_normals, everything=True)
         cam = self.renderer.GetActiveCamera()
+        normals = self._cage_normals[shown]
         if cam.GetParallelProjection():
-            facing = self._cage_normals @ -np.asarray(cam.GetDirectionOfProjection()) > 0
+            facing = normals @ -np.asarray(cam.GetDirectionOfProjection()) > 0
         else:
-            to_cam = np.asarray(cam.GetPosition()) - self._cage_pos
-            facing = np.einsum("ij,ij->i", self._cage_normals, to_cam) > 0
-        alpha = POINT_ALPHA[np.minimum(self._states, 2), np.where(facing, 0, 1)]
-        rgba = self.points_poly.point_data["state"]
-        if not np.array_equal(rgba[:, 3], alpha):
-            rgba[:, 3] = alpha
+            facing = np.einsum("ij,ij->i", normals, np.asarray(cam.GetPosition()) - self._cage_pos[shown]) > 0
+        alpha = POINT_ALPHA[np.minimum(self._states[shown], 2), np.where(facing, 0, 1)]
+        if not np.array_equal(self._rgba[shown, 3], alpha):  # (only the drawn points' opacity matters)
+            self._rgba[shown, 3] = alpha
             _array_modified(self.points_poly, "state")
 
     def _fit_clipping(self) -> None:

@@ -28,6 +28,7 @@ from .interaction import BRUSH, CAMERA, DRAG, RECTANGLE, SELECT, ViewController
 from .polishing import PolishScheduler
 from .scene import STATE_COLORS, Scene, state_rows
 from .session import HANDLE, ROI, Session
+from .statusfield import StatusField
 from .view import View
 from .worker import BuildResult, BuildWorker, PolishOutcome
 
@@ -299,12 +300,12 @@ class MainWindow(QtWidgets.QMainWindow):
         # room for two lines whatever the message, so the view never changes size under the mouse
         self.message_label.setFixedHeight(2 * self.message_label.fontMetrics().lineSpacing() + 4)
         sb.addWidget(self.message_label, 1)
-        self.time_label = QtWidgets.QLabel("")
-        self.size_label = QtWidgets.QLabel("no shape")
-        self.sel_label = QtWidgets.QLabel("")
-        self.error_label = QtWidgets.QLabel("")
+        # fields of fixed size: a new frame rate or edge error while dragging re-lays nothing out
+        self.time_label = StatusField(template="00 fps · engine 00.0 ms · render 000 ms")
+        self.size_label = StatusField("no shape")
+        self.sel_label = StatusField()
+        self.error_label = StatusField(template="edge error 00.00 %")
         for w in (self.time_label, self.size_label, self.sel_label, self.error_label):
-            w.setTextFormat(QtCore.Qt.TextFormat.PlainText)
             sb.addPermanentWidget(w)
         self.jobs.place_in(sb)  # the build's progress bar and Cancel button
         self.log = QtWidgets.QPlainTextEdit()
@@ -352,6 +353,8 @@ class MainWindow(QtWidgets.QMainWindow):
 
     # ================================================================== unsaved changes
     def set_modified(self, modified: bool) -> None:
+        if bool(modified) == self.modified:
+            return  # (every drag frame says so: no window-title event each time)
         self.modified = bool(modified)
         self.setWindowModified(self.modified)
 

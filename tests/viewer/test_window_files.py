@@ -239,6 +239,43 @@ def test_status_bar_shows_displayed_fps_first(qtbot, win):
     assert int(m.group(1)) == round(w.view.display_fps()) or int(m.group(1)) > 0
 
 
+def test_a_drag_re_lays_nothing_out(qtbot, win):
+    """While dragging, the status bar's frame rate and edge error change several times a second:
+    each change repaints its field only (a re-layout of the window, with its geometry animations,
+    cost about a millisecond a frame)."""
+    w = win
+    s = select_tip(w)
+    key(qtbot, w, Qt.Key.Key_D)
+    dc, _ = projected(w, s.handle_centroid()[None])
+    a = to_widget(w, dc[0])
+    qtbot.mousePress(w.view, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier, a)
+    for k in range(1, 6):  # the fields take their first texts (they may widen once)
+        qtbot.mouseMove(w.view, a + QtCore.QPoint(0, -2 * k))
+        qtbot.wait(60)
+    requests = []
+
+    class Watch(QtCore.QObject):
+        def eventFilter(self, obj, ev):  # noqa: N802
+            if ev.type() == QtCore.QEvent.Type.LayoutRequest:
+                requests.append(type(obj).__name__)
+            return False
+
+    watch = Watch()
+    for widget in (w, w.statusBar()):
+        widget.installEventFilter(watch)
+    texts = set()
+    for k in range(6, 30):
+        qtbot.mouseMove(w.view, a + QtCore.QPoint(0, -2 * k))
+        qtbot.wait(40)
+        texts.add((w.time_label.text(), w.error_label.text()))
+    for widget in (w, w.statusBar()):
+        widget.removeEventFilter(watch)
+    qtbot.mouseRelease(w.view, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier, a + QtCore.QPoint(0, -60))
+    settled(qtbot, w)
+    assert len(texts) >= 2  # the fields did change meanwhile
+    assert requests == []
+
+
 def test_an_edit_saved_at_one_cage_size_replays_at_another(qtbot, win, tmp_path, make_blob):
     w = win
     s = w.session
