@@ -9,7 +9,9 @@ top 30% as the region of interest, and drags the handle in circles with real
 Qt mouse events for a few seconds; in turns with the window (four slices
 each, so both see the same machine load), a bare pyvista plotter renders the
 same mesh (same normals, same size, same camera, anti-aliasing off) as fast
-as it can, its points rewritten every frame as a drag would.
+as it can, its points rewritten every frame as a drag would. Both rates are
+cadences: frame intervals over the time from a slice's first frame on screen to
+its last.
 Prints the frame split (per displayed frame, in ms) and last the line
 
     window_fps: <file> <n_vertices> displayed_fps=<x> bare_fps=<y> overhead=<bare_fps/displayed_fps>
@@ -125,24 +127,30 @@ def run(mesh_path: Path, cage, size: tuple[int, int], seconds: float):
     bare = BarePlotter(np.asarray(s.shape_positions), np.asarray(w.scene.normals32), s.mesh.faces,
                        (view.width(), view.height()), w.scene.renderer.GetActiveCamera())
     bare.run(0.5)  # warm-up
-    # window and bare plotter in alternating slices, so that both see the same machine load
+    # window and bare plotter in alternating slices, so that both see the same machine load; each
+    # slice's rate is its frames' steady cadence (intervals between the first and the last frame it
+    # put on screen), so that neither the window's first frame of a slice (the drag picking up again)
+    # nor its last one cut off by the slice's end counts against either side
     view.split.reset()
-    window_seconds = bare_frames = bare_seconds = 0.0
+    window_frames = window_seconds = bare_frames = bare_seconds = 0.0
     slice_len = seconds / ROUNDS
+    n = 0
     for _ in range(ROUNDS):
+        shown.clear()
         counting[0] = True
-        t = time.perf_counter()
         window_slice(slice_len)
-        window_seconds += time.perf_counter() - t
         counting[0] = False
-        n, dt = bare.run(slice_len, np.asarray(s.shape_positions))
-        bare_frames += n
+        n += len(shown)
+        if len(shown) >= 2:
+            window_frames += len(shown) - 1
+            window_seconds += shown[-1] - shown[0]
+        k, dt = bare.run(slice_len, np.asarray(s.shape_positions))
+        bare_frames += k
         bare_seconds += dt
     send(QtCore.QEvent.Type.MouseButtonRelease, c, Qt.MouseButton.NoButton)
-    n = len(shown)
-    fps = n / window_seconds
+    fps = window_frames / window_seconds if window_seconds > 0 else 0.0
     split = {k: view.split.seconds[k] * 1e3 / max(n, 1) for k in view.split.seconds}
-    frame_ms = window_seconds * 1e3 / max(n, 1)
+    frame_ms = 1e3 / fps if fps > 0 else float("inf")
     # engine, points and normals run on the frame thread, beside the render: not part of the UI thread's frame
     ui = sum(v for k, v in split.items() if k not in FRAME_THREAD)
     split["other"] = max(frame_ms - ui, 0.0)
@@ -183,18 +191,19 @@ class BarePlotter:
         self.n = 0
 
     def run(self, seconds: float, shape=None) -> tuple[int, float]:
-        """Render for ``seconds``; returns (frames, seconds)."""
+        """Render for ``seconds``; returns (frame intervals, their seconds): the cadence from the
+        first frame's end to the last one's, as the window's is measured."""
         pts = self.poly.points
         base = pts.copy() if shape is None else np.asarray(shape, dtype=np.float32)
-        frames = 0
+        ends = []
         t0 = time.perf_counter()
-        while time.perf_counter() - t0 < seconds:
+        while time.perf_counter() - t0 < seconds or len(ends) < 2:
             self.n += 1
             pts[:] = base + np.float32(1e-4 * (self.n % 2))
             self.poly.GetPoints().Modified()
             self.pl.render()
-            frames += 1
-        return frames, time.perf_counter() - t0
+            ends.append(time.perf_counter())
+        return len(ends) - 1, ends[-1] - ends[0]
 
     def close(self) -> None:
         self.pl.close()
