@@ -15,6 +15,7 @@ shutdown   : ending a process that ran Qt or VTK without the interpreter's teard
 selection  : pure projection, hit tests and add/remove/replace logic
 history    : the undo/redo stack of snapshots
 files      : open, save, edit files, screenshots, dropped files, the unsaved-pose question
+dragging   : a drag's frames (frame thread to screen) and the settle after a release
 building   : building the cage and binding in the background: progress, cancel, the result's message
 polishing  : scheduling the polish on release in background threads
 regional   : compiled per-frame kernels (points, normals, edge error, stretch) for the moving region

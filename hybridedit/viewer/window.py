@@ -2,9 +2,10 @@
 
 The editing state (selection, pose, polished pose, undo) lives in
 :class:`~.session.Session`; file actions in :mod:`.files`; cage and binding
-builds in :mod:`.building`; polish scheduling in :mod:`.polishing`; the
-information dialogs in :mod:`.dialogs`; the drawing in :mod:`.scene`; mouse
-gestures in :mod:`.interaction`.
+builds in :mod:`.building`; a drag's frames and settle in :mod:`.dragging`;
+polish scheduling in :mod:`.polishing`; the information dialogs in
+:mod:`.dialogs`; the drawing in :mod:`.scene`; mouse gestures in
+:mod:`.interaction`.
 """
 
 from __future__ import annotations
@@ -23,7 +24,8 @@ from .building import BuildJobs
 from .cagesize import CageSizeControl
 from .dialogs import InfoDialogs
 from .files import FileActions, dropped_path
-from .framethread import DragFrame, FrameThread
+from .dragging import DragFrames
+from .framethread import FrameThread
 from .interaction import BRUSH, CAMERA, DRAG, RECTANGLE, SELECT, ViewController
 from .polishing import PolishScheduler
 from .scene import STATE_COLORS, Scene, state_rows
@@ -34,9 +36,6 @@ from .worker import BuildResult, BuildWorker, PolishOutcome
 
 if TYPE_CHECKING:
     from ..mesh import Mesh
-
-ERROR_INTERVAL = 0.25
-"""Seconds between edge-error measurements during a drag (each walks the moving region's edges)."""
 
 
 def _fmt(n: int) -> str:
@@ -70,6 +69,7 @@ class MainWindow(QtWidgets.QMainWindow):
     files : the file actions (:class:`~.files.FileActions`).
     jobs : the cage and binding builds (:class:`~.building.BuildJobs`).
     dialogs : the information dialogs (:class:`~.dialogs.InfoDialogs`).
+    dragging : the drags' frames and settle (:class:`~.dragging.DragFrames`).
     polisher : polish on release (:class:`~.polishing.PolishScheduler`).
     modified : the pose on display is not saved (shown as ``*`` in the title).
     """
@@ -82,19 +82,13 @@ class MainWindow(QtWidgets.QMainWindow):
         self.settle_on_release = True
         self.last_polish: PolishOutcome | None = None
         self._error_box: QtWidgets.QMessageBox | None = None
-        self._drag_T0 = np.eye(4)
-        self._drag_failed = False
-        self._drag_error: float | None = None  # the latest drag frame's edge error, not shown yet
-        self._error_time = 0.0  # when a drag frame last measured the edge error
-        self._settle_chunk = 2
         self._rrms_full = True  # the next measure must walk every edge (the pose changed outside a drag)
-        self._engine_ms = 0.0
         self._generation = -1  # the session's engine generation the scene shows
         self.files = FileActions(self)
         self.jobs = BuildJobs(self)
         self.jobs.busy_changed.connect(lambda _busy: self._update_actions())
         self.dialogs = InfoDialogs(self)
-        self.frames = FrameThread(self._show_drag_frame, self)
+        self.dragging = DragFrames(self)
         self.polisher = PolishScheduler(self)
         self.polisher.succeeded.connect(self._polish_succeeded)
         self.polisher.failed.connect(lambda m: self.message(f"Polish failed: {m}"))
@@ -116,9 +110,6 @@ class MainWindow(QtWidgets.QMainWindow):
         self.status_timer.setInterval(250)
         self.status_timer.timeout.connect(self._tick)
         self.status_timer.start()
-        self.settle_timer = QtCore.QTimer(self)
-        self.settle_timer.setInterval(0)
-        self.settle_timer.timeout.connect(self._settle_tick)
         self.target = ROI
         self._set_target(ROI)
         self._update_actions()
@@ -479,7 +470,7 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def _toggle_stretch(self) -> None:
         self.scene.set_stretch_visible(self.actions_["stretch"].isChecked())
-        self._measure(everything=True)
+        self.measure(everything=True)
         self.view.request_render()
 
     def reset_camera(self) -> None:
@@ -553,7 +544,7 @@ class MainWindow(QtWidgets.QMainWindow):
                         s.shape_roles())
         self.scene.gizmo.place(s.handle_centroid())
         self._rrms_full = True
-        self._measure()
+        self.measure()
         self._update_labels()
         self.view.request_render()
 
@@ -588,130 +579,30 @@ class MainWindow(QtWidgets.QMainWindow):
         self._update_actions()
 
     def begin_drag(self) -> bool:
-        self.finish_settle()
-        self.polisher.cancel()
-        if self.session is None:
-            return False
-        self._drop_polished()  # the drag starts from the engine's pose
-        try:
-            self._drag_T0 = self.session.begin_drag()
-        except SelectionError as e:
-            self.show_error("Cannot drag", str(e))
-            return False
-        self.clear_message()
-        self._drag_failed = False
-        self.scene.set_moving(self.session.moving_vertices())
-        self._measure()  # every edge once: then each frame only the moving region's
-        return True
+        return self.dragging.begin()
 
     def drag(self, D: np.ndarray) -> None:
-        """A new handle transform from the mouse. The frame is computed on the frame thread (beside
-        the render of the previous one); mouse moves that arrive meanwhile collapse into one frame."""
-        s = self.session
-        if s is None or not s.applied:
-            return
-        self.frames.submit(self._drag_job(np.asarray(D) @ self._drag_T0))
-
-    def _drag_job(self, T: np.ndarray):
-        """The frame for handle transform T, as a job for the frame thread: the engine's solve, the
-        moving region's points, normals and edge error (and stretch map when shown). No Qt or VTK."""
-        s, scene = self.session, self.scene
-        stretch = scene.stretch_visible
-        # the edge error for the status bar a few times a second (every frame with the stretch map)
-        measure = stretch or time.perf_counter() - self._error_time >= ERROR_INTERVAL
-        if measure:
-            self._error_time = time.perf_counter()
-
-        def job() -> DragFrame:
-            t0 = time.perf_counter()
-            V = s.drag_to(T)
-            t1 = time.perf_counter()
-            normals_s, points_s = scene.write_shape(V)
-            error = s.metrics.update_error(V) if measure else None
-            if stretch:
-                s.metrics.write_stretch(scene.stretch32)
-            cage = s.cage_positions
-            return DragFrame(s, t1 - t0, normals_s, points_s, error, stretch, cage, scene.cage_geometry(cage),
-                             s.handle_centroid())
-
-        return job
-
-    def _show_drag_frame(self, ok: bool, frame) -> None:
-        """A finished drag frame (UI thread): into VTK's buffers, and render."""
-        s = self.session
-        if s is None or (ok and frame.session is not s):
-            return
-        if not ok:
-            self.frames.discard()  # no later frame of this drag
-            self._drag_failed = True
-            self.controller.gesture = None
-            s.cancel_drag()
-            self.refresh_all()
-            if isinstance(frame, (ValueError, ArithmeticError)):  # e.g. a degenerate transform
-                self.show_error("Drag failed", f"{frame}; the drag was undone.")
-            else:
-                self.show_error("Drag failed", f"{frame.__class__.__name__}: {frame}; the drag was undone.")
-            return
-        upload_s = self.scene.show_shape()
-        if frame.stretch:
-            self.scene.stretch_modified()
-        self.scene.update_cage(frame.cage, frame.cage_geometry)
-        self.scene.gizmo.place(frame.centroid)
-        split = self.view.split
-        split.add("engine", frame.engine_s)
-        split.add("points", frame.points_s)
-        split.add("normals", frame.normals_s)
-        split.add("vtk update", upload_s)
-        self._engine_ms = frame.engine_s * 1e3
-        if frame.error is not None:
-            self._drag_error = frame.error  # shown by the status tick (a label repaint every frame costs)
-        self.set_modified(True)
-        self.view.request_render()
+        self.dragging.move(D)
 
     def end_drag(self) -> None:
-        s = self.session
-        if s is None or not s.applied:
-            return
-        self.frames.flush()  # the frame of the last mouse position
-        if self._drag_failed:
-            return
-        if not np.all(np.isfinite(s.shape_positions)):
-            s.cancel_drag()
-            self.refresh_all()
-            self.show_error("Drag failed", "The deformation became non-finite; the drag was undone.")
-            return
-        if s.end_drag():
-            self._settle_chunk = 2
-            self.settle_timer.start()  # settle in slices; the last interactive frame stays on screen
-        else:
-            self._after_drag()
+        self.dragging.end()
 
-    def _settle_tick(self) -> None:
-        s = self.session
-        if s is None:
-            self.settle_timer.stop()
-            return
-        done = True
-        if s.settling:  # (something may have read the pose, which completes the settle)
-            t0 = time.perf_counter()
-            done = s.settle_step(self._settle_chunk)
-            per = (time.perf_counter() - t0) / max(self._settle_chunk, 1)
-            # aim at slices of ~15 ms so the window stays responsive
-            self._settle_chunk = int(min(max(0.015 / max(per, 1e-6), 1), 30))
-        if done:
-            self.settle_timer.stop()
-            self._after_drag()
+    @property
+    def frames(self) -> FrameThread:
+        """The drag frames' thread."""
+        return self.dragging.frames
+
+    @property
+    def settle_timer(self) -> QtCore.QTimer:
+        """The timer that settles the pose in slices after a drag."""
+        return self.dragging.settle_timer
 
     def finish_settle(self) -> None:
         """Complete a drag frame or a settle under way now (before anything reads or changes the pose)."""
-        self.frames.flush()
-        s = self.session
-        if s is not None and s.settling:
-            s.finish_settle()
-            self.settle_timer.stop()
-            self._after_drag()
+        self.dragging.finish()
 
-    def _after_drag(self) -> None:
+    def after_drag(self) -> None:
+        """A drag ended and settled: show the final pose, and polish it when that is on."""
         self._refresh_pose()
         self._update_actions()
         if self.session is not None and self.polisher.start(self.session):
@@ -723,7 +614,7 @@ class MainWindow(QtWidgets.QMainWindow):
         """The polished pose on display, or None."""
         return None if self.session is None else self.session.polished
 
-    def _drop_polished(self) -> None:
+    def drop_polished(self) -> None:
         """Show the engine's pose again instead of a polished one."""
         s = self.session
         if s is None or s.polished is None:
@@ -750,9 +641,9 @@ class MainWindow(QtWidgets.QMainWindow):
     def _pose_shown_changed(self) -> None:
         """The shape on display changed outside a drag: edge error and stretch map are measured again."""
         self._rrms_full = True
-        self._measure()
+        self.measure()
 
-    def _measure(self, everything: bool | None = None) -> None:
+    def measure(self, everything: bool | None = None) -> None:
         """Edge error (status bar) and, when shown, the stretch map of the shape on display.
 
         During a drag only the edges of the moving region are measured again
@@ -771,7 +662,7 @@ class MainWindow(QtWidgets.QMainWindow):
             self.view.request_render()
 
     def _show_error_value(self, err: float) -> None:
-        self._drag_error = None
+        self.dragging.error = None
         polished = self.session is not None and self.session.polished is not None
         self.error_label.setText(f"edge error {err:.2f} %{' (polished)' if polished else ''}")
 
@@ -828,8 +719,8 @@ class MainWindow(QtWidgets.QMainWindow):
             a.setChecked(self.view.antialiasing)
 
     def _tick(self) -> None:
-        if self._drag_error is not None:
-            self._show_error_value(self._drag_error)  # (which clears it)
+        if self.dragging.error is not None:
+            self._show_error_value(self.dragging.error)  # (which clears it)
         if self.session is None or self.session.settling:
             return
         if self.polisher.busy:
@@ -841,8 +732,8 @@ class MainWindow(QtWidgets.QMainWindow):
         """Frames shown per second first (what the eye gets), then the engine's and the render's share."""
         fps = self.view.display_fps()
         parts = [f"{fps:.0f} fps" if fps > 0 else "idle"]
-        if self._engine_ms > 0:
-            parts.append(f"engine {self._engine_ms:.1f} ms")
+        if self.dragging.engine_ms > 0:
+            parts.append(f"engine {self.dragging.engine_ms:.1f} ms")
         if self.view.render_seconds > 0:
             parts.append(f"render {self.view.render_seconds * 1e3:.0f} ms")
         return " · ".join(parts)
@@ -939,8 +830,7 @@ class MainWindow(QtWidgets.QMainWindow):
         if not self.files.keep_work("quitting"):
             ev.ignore()
             return
-        self.settle_timer.stop()
-        self.frames.stop()
+        self.dragging.stop()
         self.polisher.wait()
         self.jobs.wait()
         self.status_timer.stop()

@@ -11,7 +11,6 @@ import pytest
 from qtpy import QtWidgets
 
 from hybridedit.viewer.framethread import ALL_THREADS, NICE, FrameThread
-from test_window import win  # noqa: F401 (fixture)
 
 
 @pytest.fixture
@@ -94,49 +93,3 @@ def test_errors_come_back_as_values_and_discard_drops_the_rest(app):
     ft.stop()
     ft.submit(lambda: "after stop")  # ignored
     assert not ft.busy
-
-
-# ------------------------------------------------------------------ in the window
-
-def test_window_drag_frames_show_the_engine_pose_mid_drag_and_failures_undo(qtbot, win, monkeypatch):
-    import numpy as np
-    from qtpy import QtCore
-
-    from test_window_polish import handle_point, select_tip  # noqa: I001
-
-    Qt = QtCore.Qt
-    w = win
-    s = w.session
-    rest = s.shape_positions.copy()
-    select_tip(qtbot, w)
-    a = handle_point(w)
-    qtbot.mousePress(w.view, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier, a)
-    for k in range(1, 5):
-        qtbot.mouseMove(w.view, a + QtCore.QPoint(0, -15 * k))
-        qtbot.wait(5)
-        w.frames.flush()  # the frame of this mouse position is on its way to the screen
-        assert np.allclose(w.scene.parts.drawn_points(), s.shape_positions, atol=1e-5)
-        # the cage's normals and bounds came with the frame, for this pose
-        cage = np.asarray(w.scene.points_poly.points)
-        assert np.allclose(cage, s.cage_positions)
-        lo, hi = w.scene._cage_bounds
-        assert np.allclose(lo, cage.min(axis=0)) and np.allclose(hi, cage.max(axis=0))
-        fresh = np.zeros((len(cage), 3), dtype=np.float32)
-        w.scene._cage_metrics.write_normals(cage, fresh, everything=True)
-        assert np.allclose(w.scene._cage_normals, fresh, atol=1e-6)
-    assert np.abs(s.shape_positions - rest).max() > 0.05  # it moved, mid-drag
-    qtbot.mouseRelease(w.view, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier, a + QtCore.QPoint(0, -60))
-    qtbot.waitUntil(lambda: not w.settle_timer.isActive(), timeout=20000)
-    posed = s.shape_positions.copy()
-    assert np.allclose(w.scene.parts.drawn_points(), posed, atol=1e-5)
-    # a frame that fails on the frame thread: the drag is undone and said so, nothing half-shown
-    monkeypatch.setattr(type(s), "drag_to", lambda self, T, iterations=None: (_ for _ in ()).throw(
-        ValueError("the drag moves the handle to non-finite positions")))
-    a = handle_point(w)
-    qtbot.mousePress(w.view, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier, a)
-    qtbot.mouseMove(w.view, a + QtCore.QPoint(0, -20))
-    qtbot.waitUntil(lambda: w.last_error is not None, timeout=5000)
-    qtbot.mouseRelease(w.view, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier, a + QtCore.QPoint(0, -20))
-    assert "non-finite" in w.last_error and "undone" in w.last_error
-    assert w.controller.gesture is None and not w.frames.busy
-    assert np.allclose(s.shape_positions, posed) and np.allclose(w.scene.parts.drawn_points(), posed, atol=1e-5)
