@@ -2,8 +2,9 @@
 
 During a drag only the shape vertices the engine can move change
 (``moving``); everything the window derives from the pose changes only near
-them. :class:`Region` holds the index sets for one selection and the compiled
-kernels update, in place (in parallel from :data:`PARALLEL_MIN` items):
+them. :class:`ShapeMetrics` holds the index sets for one selection and the compiled
+kernels update, in place (in parallel from :data:`PARALLEL_MIN` items, except the
+region's normals, which add each face to its corners in one serial pass):
 
 - the points written into the float32 VTK buffer (the moving rows only),
 - the vertex normals (vertices of the faces that touch a moving vertex),
