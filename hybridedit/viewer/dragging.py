@@ -88,7 +88,8 @@ class DragFrames(QtCore.QObject):
         s = self.w.session
         if s is None or not s.applied:
             return
-        self.frames.submit(self._job(np.asarray(D) @ self._T0))
+        # a move that arrives while the previous frame waits to be drawn is computed beside that render
+        self.frames.submit(self._job(np.asarray(D) @ self._T0), beside_render=self.w.view.render_pending)
 
     def _job(self, T: np.ndarray) -> Job:
         """The frame for handle transform T, as a job for the frame thread: the engine's solve, the

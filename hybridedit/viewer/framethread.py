@@ -30,11 +30,12 @@ from qtpy import QtCore
 Job = Callable[[], object]
 """A job: runs on the worker thread, returns its result (or raises)."""
 ALL_THREADS = numba.config.NUMBA_NUM_THREADS
-"""Threads of the compiled kernels for a job submitted while the worker is idle: the window waits
-for that one, so it gets every core. A pending job starts as the previous frame goes to the screen
-and runs beside the render, whose software rasterizer keeps the cores busy; it runs serially, as a
-parallel region there waits for its slowest thread (the 173K armadillo's propagation: 70 ms in
-parallel beside the render, 5.5 ms serial)."""
+"""Threads of the compiled kernels for a job submitted while the worker is idle and no render is
+due: the window waits for that one, so it gets every core. A pending job starts as the previous
+frame goes to the screen, and a job submitted while a frame waits to be drawn starts just before
+its render: both run beside the render, whose software rasterizer keeps the cores busy, so they
+run serially, as a parallel region there waits for its slowest thread (the 173K armadillo's
+propagation: 70 ms in parallel beside the render, 5.5 ms serial)."""
 
 
 NICE = 10
@@ -96,9 +97,14 @@ class FrameThread(QtCore.QObject):
         """A job runs or waits to run, or its result is not handed over (call with the lock held)."""
         return self._running or self._job is not None or self._result is not None
 
-    def submit(self, job: Job) -> None:
-        """Run ``job`` now if the worker is free, else make it the pending job (replacing any)."""
-        self._start(job, ALL_THREADS)
+    def submit(self, job: Job, *, beside_render: bool = False) -> None:
+        """Run ``job`` now if the worker is free, else make it the pending job (replacing any).
+
+        ``beside_render``: a render is due before the window needs this job's result (a frame
+        was just handed over and is about to be drawn), so the job runs on one thread, as a
+        pending job does; otherwise the window waits for it and it gets every core.
+        """
+        self._start(job, 1 if beside_render else ALL_THREADS)
 
     def _start(self, job: Job, threads: int) -> None:
         with self._cond:

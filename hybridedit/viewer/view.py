@@ -127,6 +127,7 @@ class View(QVTKRenderWindowInteractor):
         self.gl_renderer = ""
         self.antialiasing: bool | None = None  # None: decide after the first frame
         self.render_seconds = 0.0
+        self.render_pending = False  # a render was requested and has not run yet
         self._paint_times: deque[float] = deque(maxlen=120)
         self._painting = False
         self.split = FrameSplit()
@@ -144,6 +145,7 @@ class View(QVTKRenderWindowInteractor):
 
     def request_render(self) -> None:
         """Schedule one render (coalesced with any other pending request)."""
+        self.render_pending = True
         self.update()
 
     def render(self) -> None:
@@ -154,6 +156,7 @@ class View(QVTKRenderWindowInteractor):
         if not self.isVisible():
             return
         t0 = time.perf_counter()
+        self.render_pending = False
         self._painting = True
         try:
             # the render window's Render lets go of Python's lock while it draws (the interactor's

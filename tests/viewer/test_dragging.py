@@ -106,3 +106,26 @@ def test_a_release_settles_in_slices_and_finish_completes_it_at_once(qtbot, win)
     assert not s.settling and not w.settle_timer.isActive()
     assert w.actions_["undo"].isEnabled() and s.history.can_undo()  # the drag is one undo step, recorded now
     assert np.allclose(w.scene.parts.drawn_points(), s.shape_positions, atol=1e-5)
+
+
+def test_a_move_while_a_frame_waits_to_be_drawn_is_computed_beside_that_render(qtbot, win, monkeypatch):
+    """A move handed over before the previous frame is drawn runs on one thread beside that render
+    (a parallel region beside the software rasterizer waits for its slowest thread); a move the
+    window has to wait for gets every core."""
+    w = win
+    w.polisher.enabled = False
+    select_tip(qtbot, w)
+    asked = []
+    submit = w.frames.submit
+    monkeypatch.setattr(w.frames, "submit", lambda job, *, beside_render=False: (
+        asked.append(beside_render), submit(job, beside_render=beside_render)))
+    a = handle_point(w)
+    qtbot.mousePress(w.view, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier, a)
+    qtbot.waitUntil(lambda: not w.view.render_pending, timeout=5000)  # nothing left to draw
+    qtbot.mouseMove(w.view, a + QtCore.QPoint(0, -10))
+    w.frames.flush()  # its frame is handed over: a render is due now
+    assert w.view.render_pending
+    qtbot.mouseMove(w.view, a + QtCore.QPoint(0, -20))
+    assert asked == [False, True]
+    qtbot.mouseRelease(w.view, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier, a + QtCore.QPoint(0, -20))
+    qtbot.waitUntil(lambda: not w.settle_timer.isActive(), timeout=20000)

@@ -55,6 +55,9 @@ def test_results_reach_the_handler_on_the_ui_thread_latest_pending_wins(qtbot, a
     assert seen[0][2] == ALL_THREADS and seen[1][2] == 1
     assert min(nice) >= NICE  # the render's threads come first
     qtbot.waitUntil(lambda: not ft.busy, timeout=5000)
+    ft.submit(job(4), beside_render=True)  # an idle worker, but a render comes first: one thread
+    qtbot.waitUntil(lambda: len(handled) == 3, timeout=5000)
+    assert seen[2][0] == 4 and seen[2][2] == 1
     ft.stop()
 
 
