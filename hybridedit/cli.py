@@ -49,10 +49,23 @@ def parse_cage_size(text: str) -> int | float:
     return v
 
 
+_PROGRESS: list[TextProgress] = []
+"""The progress printers of the command running (their open lines end before an error is printed)."""
+
+
 def _progress(quiet: bool, stream=None):
     """A progress callback for HybridEditor and the CLI's own steps, on stderr
     (:class:`hybridedit.progress.TextProgress`: the time left on a terminal)."""
-    return TextProgress(quiet, stream)
+    say = TextProgress(quiet, stream)
+    _PROGRESS.append(say)
+    return say
+
+
+def _end_progress_lines() -> None:
+    """A step stopped by an error leaves its line open on the terminal: end it, so that the error
+    is printed on a line of its own."""
+    for say in _PROGRESS:
+        say.end_line()
 
 
 class _SlowSteps:
@@ -320,26 +333,32 @@ def main(argv: list[str] | None = None) -> int:
     else:
         args = build_open_parser().parse_args(argv)
         args.func = run_open
+    _PROGRESS.clear()
     try:
         return args.func(args)
     except (CLIError, MeshError, MeshFileError, EditFileError, SelectionError, WriteError,
             OutputPathError) as e:
+        _end_progress_lines()
         print(f"hybridedit: error: {_one_line(e)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
+        _end_progress_lines()
         print("hybridedit: interrupted", file=sys.stderr)
         return 130
     except MemoryError:
+        _end_progress_lines()
         if os.environ.get("HYBRIDEDIT_DEBUG") == "1":
             raise
         print(f"hybridedit: error: {_input_name(args)}out of memory (try a smaller --cage)", file=sys.stderr)
         return 1
     except ValueError as e:  # a bad value that slipped past the checks above: still the user's input
+        _end_progress_lines()
         if os.environ.get("HYBRIDEDIT_DEBUG") == "1":
             raise
         print(f"hybridedit: error: {_input_name(args)}{_one_line(e)}", file=sys.stderr)
         return 2
     except Exception as e:  # noqa: BLE001 -- one line, never a traceback (HYBRIDEDIT_DEBUG=1 shows it)
+        _end_progress_lines()
         if os.environ.get("HYBRIDEDIT_DEBUG") == "1":
             raise
         print(f"hybridedit: internal error: {_input_name(args)}{type(e).__name__}: {_one_line(e)} "

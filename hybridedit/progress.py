@@ -168,11 +168,20 @@ class TextProgress:
         self._finished: str | None = None  # the step that just ended (a repeated end is not a new step)
         self._shown = -1.0
         self._width = 0
+        self._open = False  # a step's line is on the terminal, not ended by a newline yet
+
+    def end_line(self) -> None:
+        """End a step's line left open on the terminal (a step that stopped before its end, e.g.
+        on an error), so that whatever is printed next starts on a line of its own."""
+        if self._open:
+            print(file=self.out, flush=True)
+            self._open = False
 
     def __call__(self, message: str, fraction: float | None = None) -> None:
         if self.quiet:
             return
         if fraction is None:
+            self.end_line()
             print(f"{self.prefix}{message}", file=self.out, flush=True)
             return
         if message == self._finished and fraction >= 1.0:
@@ -194,8 +203,10 @@ class TextProgress:
             if r.done:  # wipe what a longer line before left, then the final line
                 print("\r" + " " * self._width, end="", file=self.out)
                 print(f"\r{line}", file=self.out, flush=True)
+                self._open = False
             else:
                 print(f"\r{line}", end="", file=self.out, flush=True)
+                self._open = True
             self._width = len(line)
             self._shown = now
         elif r.done and not self.tty:

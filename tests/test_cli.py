@@ -210,3 +210,30 @@ def test_file_progress_is_shown_only_for_steps_over_a_second():
     t[0] = 1.7
     slow("writing b.obj", 1.0)
     assert said == [("writing b.obj", 0.6), ("writing b.obj", 1.0)]
+
+
+def test_an_error_in_the_middle_of_a_step_is_printed_on_a_line_of_its_own(tmp_path, mesh_file, monkeypatch):
+    """On a terminal a step's progress line is rewritten in place; an error that stops the step
+    ends that line first, so the error is a line of its own."""
+    import io
+    import sys
+
+    from hybridedit import cli
+
+    class Tty(io.StringIO):
+        def isatty(self):
+            return True
+
+    def broken_read(path, progress=None):
+        progress(f"reading {path.name}", 0.0)
+        raise cli.CLIError(f"{path}: line 7: not a number")
+
+    err = Tty()
+    monkeypatch.setattr(sys, "stderr", err)
+    monkeypatch.setattr(cli, "SHOW_AFTER_SECONDS", 0.0)
+    monkeypatch.setattr(cli, "read_document", broken_read)
+    e = write_edit(tmp_path / "e.json", handle=[0], translate=[0, 0.1, 0])
+    assert main(["deform", str(mesh_file), "-o", str(tmp_path / "o.obj"), "--edit", str(e)]) == 2
+    text = err.getvalue()
+    assert text.endswith(f"\rhybridedit: reading blob.obj   0%\nhybridedit: error: {mesh_file}: line 7: not a number\n"), \
+        repr(text)

@@ -157,3 +157,23 @@ def test_an_end_reported_twice_is_said_once():
         "hybridedit: building the cage ...", "hybridedit: building the cage done (1.25 s)",
         "hybridedit: binding ...", "hybridedit: binding done (0.00 s)",
         "hybridedit: binding ...", "hybridedit: binding done (0.00 s)"]
+
+
+def test_a_step_stopped_midway_has_its_line_ended_before_anything_else():
+    clock = Clock()
+    out = Tty()
+    say = TextProgress(stream=out, clock=clock)
+    say.end_line()  # nothing open: nothing printed
+    assert out.getvalue() == ""
+    say("reading a.obj", 0.0)
+    clock.t += 1.0
+    say("reading a.obj", 0.4)
+    assert not out.getvalue().endswith("\n")  # the line updates in place
+    say("a note")  # a message during the step starts a line of its own
+    assert out.getvalue().endswith("40% (about 1 s left)\nhybridedit: a note\n")
+    say("binding", 0.2)
+    say.end_line()  # e.g. an error stopped the step: what follows starts on its own line
+    say.end_line()  # (once)
+    assert out.getvalue().endswith("binding  20%\n")
+    say("binding", 1.0)
+    assert out.getvalue().endswith("\rhybridedit: binding 100%\n")
