@@ -25,6 +25,17 @@ def _error(msg: str) -> int:
     return 2
 
 
+def _headless_render_window() -> None:
+    """With no X display (Linux), name EGL as VTK's render window when the library is there: VTK's
+    default X window would first fail with a "bad X server connection" warning on the terminal, and
+    only then fall back to EGL. A choice made by the user (VTK_DEFAULT_OPENGL_WINDOW) stays."""
+    import ctypes.util
+
+    if (sys.platform.startswith("linux") and not os.environ.get("DISPLAY")
+            and "VTK_DEFAULT_OPENGL_WINDOW" not in os.environ and ctypes.util.find_library("EGL")):
+        os.environ["VTK_DEFAULT_OPENGL_WINDOW"] = "vtkEGLRenderWindow"
+
+
 def render_screenshot(path: str | os.PathLike, out: str | os.PathLike, cage: int | float = 0.05,
                       size: tuple[int, int] = SCREENSHOT_SIZE, show_cage: bool = False) -> int:
     """Render a mesh as the window first shows it, off-screen, to a PNG; returns the exit status.
@@ -51,6 +62,7 @@ def render_screenshot(path: str | os.PathLike, out: str | os.PathLike, cage: int
     except (MeshError, ValueError, OSError) as e:
         return _error(str(e))
     session = Session(editor, path=Path(path), cage_size=cage)
+    _headless_render_window()
     pl = pv.Plotter(off_screen=True, window_size=list(size))
     try:
         scene = Scene(pl)

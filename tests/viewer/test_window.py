@@ -464,6 +464,21 @@ def test_screenshot_mode(tmp_path, blob_file):
     assert r.returncode == 2 and "nope.obj" in r.stderr and "Traceback" not in r.stderr
 
 
+def test_screenshot_without_a_display_says_nothing_but_its_result(tmp_path, blob_file):
+    """No X display (a server, CI): the render is off-screen through EGL, with no warning from VTK's
+    X window on the terminal."""
+    from PIL import Image
+
+    out = tmp_path / "headless.png"
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "VTK_DEFAULT_OPENGL_WINDOW")}
+    r = subprocess.run([sys.executable, "-m", "hybridedit", "--screenshot", str(out), "--cage", str(CAGE),
+                        str(blob_file)], env=env, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert r.stderr == "" and r.stdout == ""
+    img = np.asarray(Image.open(out).convert("RGB")).astype(np.float64)
+    assert (img[..., 0] - img[..., 2] > 15).mean() > 0.05  # the shape is there
+
+
 def test_launcher_opens_the_default_mesh_and_exits_zero(qapp, blob_file, monkeypatch):
     """`hybridedit` with no argument opens cli.DEFAULT_MESH in the window; closing it returns 0."""
     monkeypatch.setattr(cli, "DEFAULT_MESH", blob_file)
