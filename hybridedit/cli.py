@@ -335,35 +335,40 @@ def main(argv: list[str] | None = None) -> int:
         args.func = run_open
     _PROGRESS.clear()
     try:
-        return args.func(args)
+        return _run(args)
     except (CLIError, MeshError, MeshFileError, EditFileError, SelectionError, WriteError,
             OutputPathError) as e:
-        _end_progress_lines()
         print(f"hybridedit: error: {_one_line(e)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        _end_progress_lines()
         print("hybridedit: interrupted", file=sys.stderr)
         return 130
     except MemoryError:
-        _end_progress_lines()
         if os.environ.get("HYBRIDEDIT_DEBUG") == "1":
             raise
         print(f"hybridedit: error: {_input_name(args)}out of memory (try a smaller --cage)", file=sys.stderr)
         return 1
     except ValueError as e:  # a bad value that slipped past the checks above: still the user's input
-        _end_progress_lines()
         if os.environ.get("HYBRIDEDIT_DEBUG") == "1":
             raise
         print(f"hybridedit: error: {_input_name(args)}{_one_line(e)}", file=sys.stderr)
         return 2
     except Exception as e:  # noqa: BLE001 -- one line, never a traceback (HYBRIDEDIT_DEBUG=1 shows it)
-        _end_progress_lines()
         if os.environ.get("HYBRIDEDIT_DEBUG") == "1":
             raise
         print(f"hybridedit: internal error: {_input_name(args)}{type(e).__name__}: {_one_line(e)} "
               "(set HYBRIDEDIT_DEBUG=1 for the traceback)", file=sys.stderr)
         return 1
+
+
+def _run(args: argparse.Namespace) -> int:
+    """The subcommand; whatever it raises leaves no progress line open on the terminal (the error
+    or traceback printed next starts on a line of its own)."""
+    try:
+        return args.func(args)
+    except BaseException:
+        _end_progress_lines()
+        raise
 
 
 def _input_name(args: argparse.Namespace) -> str:
