@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 
 from qtpy import QtCore, QtWidgets
 
-from .worker import BuildRequest, BuildResult, BuildWorker
+from .worker import BuildRequest, BuildResult, BuildWorker, release
 
 if TYPE_CHECKING:
     from ..mesh import Mesh
@@ -195,11 +195,8 @@ class BuildJobs(QtCore.QObject):
         self.w.message("Cancelled; the current shape and edit are unchanged.")
 
     def _finished(self) -> None:
-        job = self.worker
-        self.worker = None
-        if job is not None:
-            job.wait()
-            job.deleteLater()
+        job, self.worker = self.worker, None
+        release(job)
         self.progress.hide()
         self.cancel_button.hide()
         self.busy_changed.emit(False)

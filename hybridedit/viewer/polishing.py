@@ -12,7 +12,7 @@ from __future__ import annotations
 from qtpy import QtCore
 
 from .session import Session
-from .worker import PolishOutcome, PolishRequest, PolishWorker, ShapeARAPHolder
+from .worker import PolishOutcome, PolishRequest, PolishWorker, ShapeARAPHolder, release
 
 POLISH_SECONDS = 1.0
 """Time budget of the polish on release (iterations; the one-off set-up comes on top)."""
@@ -104,11 +104,8 @@ class PolishScheduler(QtCore.QObject):
             self.succeeded.emit(out)
 
     def _finished(self) -> None:
-        w = self.worker
-        self.worker = None
-        if w is not None:
-            w.wait()
-            w.deleteLater()
+        w, self.worker = self.worker, None
+        release(w)
         req, self._next = self._next, None
         if req is not None and req.token == self._token:
             self._launch(req)

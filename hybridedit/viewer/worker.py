@@ -20,6 +20,14 @@ from ..io import read_mesh
 from ..mesh import Mesh
 
 
+def release(thread: QtCore.QThread | None) -> None:
+    """Let a worker thread that has finished go: wait for its run to return, then delete it from
+    the event loop (the build and the polish workers alike)."""
+    if thread is not None:
+        thread.wait()
+        thread.deleteLater()
+
+
 class Cancelled(Exception):
     """Raised from the progress callback when the user cancels."""
 
