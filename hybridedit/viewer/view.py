@@ -141,7 +141,7 @@ class View(QVTKRenderWindowInteractor):
     # ------------------------------------------------------------------ rendering
     def _on_interactor_render(self, *_args) -> None:
         if not self._painting:
-            self.update()
+            self.request_render()
 
     def request_render(self) -> None:
         """Schedule one render (coalesced with any other pending request)."""
