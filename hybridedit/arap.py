@@ -207,6 +207,11 @@ class ARAPSolver:
     Use :meth:`set_constrained` once per selection (it factors the Laplacian of
     the free vertices), then :meth:`solve` as often as wanted: each call runs
     local/global iterations warm-started from the current positions.
+
+    The energy measures each edge against the :attr:`reference` pose, the rest pose
+    until :meth:`set_reference` makes another (a posed cage, so that the next edit
+    starts where the last one ended); the edge weights and the factorization always
+    come from the rest pose, so a new reference costs nothing.
     """
 
     def __init__(self, vertices: np.ndarray, faces: np.ndarray, weights: str = "uniform", backend: str = "auto",
@@ -235,6 +240,8 @@ class ARAPSolver:
         self._indptr = W.indptr.astype(np.int64)
         self._indices = W.indices.astype(np.int64)
         self._wts = W.data.astype(np.float64)
+        #: the pose the energy's edge vectors are measured in (see :meth:`set_reference`)
+        self.reference = self.rest.copy()
         self.positions = self.rest.copy()
         self.rotations = np.tile(np.eye(3), (n, 1, 1))
         self.constrained = np.zeros(0, dtype=np.int64)
@@ -332,10 +339,10 @@ class ARAPSolver:
         t_local = 0.0
         for _ in range(int(iterations)):
             t1 = time.perf_counter()
-            _local_step(self.rest, self.positions, self._indptr, self._indices, self._wts, self.rotations,
+            _local_step(self.reference, self.positions, self._indptr, self._indices, self._wts, self.rotations,
                         self.active)
             t_local += time.perf_counter() - t1
-            _rhs(self.rest, self._indptr, self._indices, self._wts, self.rotations, self.free, b)
+            _rhs(self.reference, self._indptr, self._indices, self._wts, self.rotations, self.free, b)
             self.positions[self.free] = self._solver.solve(b - rhs_c)
         total = time.perf_counter() - t0
         self.last_timings = {"local_seconds": t_local, "global_seconds": total - t_local}
@@ -343,7 +350,7 @@ class ARAPSolver:
 
     def local_step(self) -> np.ndarray:
         """Update and return the rotations of all vertices, (n, 3, 3) float64."""
-        _local_step(self.rest, self.positions, self._indptr, self._indices, self._wts, self.rotations,
+        _local_step(self.reference, self.positions, self._indptr, self._indices, self._wts, self.rotations,
                     self._all)
         return self.rotations
 
@@ -351,12 +358,24 @@ class ARAPSolver:
         """ARAP energy of ``positions`` (default: current) with optimal rotations."""
         p = self.positions if positions is None else np.ascontiguousarray(positions, dtype=np.float64)
         rots = np.empty((self.n_vertices, 3, 3))
-        _local_step(self.rest, p, self._indptr, self._indices, self._wts, rots, self._all)
+        _local_step(self.reference, p, self._indptr, self._indices, self._wts, rots, self._all)
         out = np.empty(self.n_vertices)
-        _energy_terms(self.rest, p, self._indptr, self._indices, self._wts, rots, out)
+        _energy_terms(self.reference, p, self._indptr, self._indices, self._wts, rots, out)
         return float(out.sum())
 
+    def set_reference(self, positions: np.ndarray) -> None:
+        """Measure the energy against ``positions`` (c, 3) from now on, and start there:
+        the positions become these and every rotation the identity. The weights and
+        the factorization (from the rest pose) are kept."""
+        p = np.asarray(positions, dtype=np.float64)
+        if p.shape != self.rest.shape or not np.all(np.isfinite(p)):
+            raise ValueError(f"a reference pose must be finite and {self.rest.shape}")
+        self.reference = np.ascontiguousarray(p).copy()
+        self.positions[:] = p
+        self.rotations[:] = np.eye(3)
+
     def reset(self) -> None:
-        """Back to the rest pose."""
+        """Back to the rest pose (also as the reference)."""
+        self.reference = self.rest.copy()
         self.positions[:] = self.rest
         self.rotations[:] = np.eye(3)

@@ -16,6 +16,8 @@ Roles are small integers, the same for shape and cage vertices:
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 import scipy.sparse as sp
 from numba import njit
@@ -191,12 +193,23 @@ class RegionStep:
         W = (sp.diags(Lt.diagonal()) - Lt).tocsr()  # the edge weights among them
         W.sort_indices()
         self._W = (W.indptr.astype(np.int64), W.indices.astype(np.int64), W.data.astype(np.float64))
+        self._turning = turning
         self._rest = np.ascontiguousarray(rest[turning])
         self._idx, self._w = np.ascontiguousarray(idx[turning]), np.ascontiguousarray(w[turning])
         self._all = np.arange(turning.size, dtype=np.int64)
         self._free_local = np.searchsorted(turning, self.free).astype(np.int64)
         self._rots = np.zeros((turning.size, 3, 3))
         self._b = np.empty((self.free.size, 3))
+
+    def with_reference(self, positions: np.ndarray) -> "RegionStep":
+        """The same step measuring its edge vectors in ``positions`` (n, 3) (the pose an
+        edit starts from) instead of the rest positions; the factorization is shared."""
+        other = copy.copy(self)
+        if self._solver is not None:
+            other._rest = np.ascontiguousarray(positions[self._turning], dtype=np.float64)
+            other._rots = np.zeros_like(self._rots)
+            other._b = np.empty_like(self._b)
+        return other
 
     def apply(self, out: np.ndarray, cage_rotations: np.ndarray) -> None:
         """Replace ``out[free]`` by the step's solution; the other rows of ``out``

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -61,6 +62,25 @@ class _Selection:
     seam_role: np.ndarray  # their internal roles
     spread: RegionStep | SeamSpread | None  # solves ``rows`` from the exact constraints around them
     compute: SelectionRows  # rows propagated through M every frame (those nothing else places)
+    core: np.ndarray  # (c,) the user's cage roles before the handles' own vertices were added
+    base: "_Base | None" = None  # the pose the spread and compute objects measure against
+
+
+@dataclass(frozen=True)
+class _Base:
+    """The pose an edit starts from (its arrays are never modified in place).
+
+    The next edit's ARAP energy is measured against this pose, as sculpting tools
+    and CGAL's ``overwrite_initial_geometry`` do: the cage's edge vectors are those
+    of ``cage`` and the region step's those of ``shape``, so that an identity drag
+    leaves every vertex where it is and successive edits compose. The rest pose is
+    the first base; :meth:`HybridEditor.reset` goes back to it.
+    """
+
+    cage: np.ndarray  # (c, 3) cage positions
+    shape: np.ndarray  # (n, 3) shape positions
+    residual: np.ndarray  # (n, 3) shape - M @ cage: what the cage misses of this pose, turned with it
+    at_rest: bool
 
 
 @dataclass(frozen=True)
@@ -73,7 +93,8 @@ class EditorState:
     arap_rotations: np.ndarray
     rotations: np.ndarray
     shape: np.ndarray
-    anchors: tuple[np.ndarray, np.ndarray, np.ndarray] | None
+    base: "_Base"
+    moved: bool
 
 
 class HybridEditor:
@@ -161,7 +182,9 @@ class HybridEditor:
         #: (the shape itself is never changed), e.g. "merged 12 duplicate vertices"
         self.notes: list[str] = list(rig.notes)
         self.propagation = propagation
-        self._residual = residual_setup(M, mesh.vertices, cage.vertices) if propagation == "residual" else None
+        d_rest, idx, w = residual_setup(M, mesh.vertices, cage.vertices)
+        #: the cage vertices and weights of each shape vertex's rotation blend, (n, k) each
+        self._blend = (idx, w)
         self.arap = ARAPSolver(cage.vertices, cage.faces, weights=weights, links=rig.links)
         self._scale = max(mesh.bbox_diagonal(), float(np.linalg.norm(np.ptp(cage.vertices, axis=0))))
         self._cage_to_shape = cKDTree(mesh.vertices).query(cage.vertices)[1].astype(np.int64)
@@ -177,12 +200,15 @@ class HybridEditor:
         #: rotations the residual turns with, per cage vertex (ARAP's for free
         #: vertices, the constraint's for held ones)
         self._rots = np.tile(np.eye(3), (cage.n_vertices, 1, 1))
+        self._eye = np.tile(np.eye(3), (cage.n_vertices, 1, 1))  # the linear propagation's "rotations"
         self._out = np.empty((mesh.n_vertices, 3))
         self._sel: _Selection | None = None
         self._transforms: list[np.ndarray] = []
-        # pose when the selection was set: cage positions, residual rotations, shape
-        self._anchors: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._base = _Base(cage.vertices, mesh.vertices,  # shape: set below, from the propagation
+                           d_rest if propagation == "residual" else np.zeros_like(d_rest), at_rest=True)
         self._propagate_all()
+        self._base = self._rest_base = _Base(self._base.cage, self._out.copy(), self._base.residual, at_rest=True)
+        self._moved = False  # the pose changed since the base was taken
         #: wall time of recent :meth:`drag` calls, oldest first (bounded, see FRAME_HISTORY)
         self.frame_seconds: list[float] = []
         #: where the last frame's time went: local_seconds, global_seconds,
@@ -339,9 +365,12 @@ class HybridEditor:
             mirrored transform and the result is symmetric. A shape that is not
             symmetric across the plane is refused with its measured asymmetry.
 
-        The current pose becomes the reference of the next drags: fixed vertices
-        keep their current positions and :meth:`drag` transforms are relative to
-        the handles' current positions.
+        The current pose becomes the reference of the next drags (successive edits
+        compose): fixed vertices keep their current positions, :meth:`drag`
+        transforms are relative to the handles' current positions, and the ARAP
+        energy of the next drags is measured against the current pose, so that an
+        identity drag leaves every vertex where it is and nothing outside the new
+        region moves. :meth:`reset` goes back to the rest pose.
 
         Raises
         ------
@@ -390,9 +419,14 @@ class HybridEditor:
                 cage_roles[dom] = k + 1
         constrained = np.flatnonzero(cage_roles != FREE).astype(np.int64)
         moving = np.flatnonzero(cage_roles > 0).astype(np.int64)
+        base = self._current_base()
+        before = (self.arap.reference, self.arap.rotations.copy())
+        self.arap.set_reference(base.cage)  # before the factorization: it takes the rotations there
         try:
             self.arap.set_constrained(constrained, moving=moving)
         except ValueError as e:
+            self.arap.reference = before[0]
+            self.arap.rotations[:] = before[1]
             raise SelectionError(str(e)) from None
         rows = self._rows_that_can_move(roles, cage_roles, constrained_too=True)
         seam = rows[roles[rows] != FREE]
@@ -404,24 +438,70 @@ class HybridEditor:
             partners = mirror.map[rows]
             rows = np.union1d(rows, partners[roles[partners] == FREE]).astype(np.int64)
             sym_rows = rows[roles[mirror.map[rows]] == FREE]
-        spread = self._region_solver(rows, seam)
+        spread = self._region_solver(rows, seam, base)
         if isinstance(spread, RegionStep):  # it places its rows itself: propagate only the others
             compute = np.setdiff1d(rows, spread.free).astype(np.int64)
         else:
             compute = np.union1d(rows, seam).astype(np.int64)
-        compute = SelectionRows(self.M, compute, self._residual)
-        base = self._out
-        centers = tuple(base[user_roles == k + 1].mean(axis=0) if np.any(user_roles == k + 1)
-                        else self.arap.positions[core == k + 1].mean(axis=0) for k in range(len(groups)))
+        compute = SelectionRows(self.M, compute, self._propagated_residual(base))
+        centers = self._centers(user_roles, core, len(groups), base)
         self._sel = _Selection(
             user_roles=user_roles.astype(np.int8), roles=roles, cage_roles=cage_roles, source=tuple(source),
             kind=tuple(kind), shape_groups=tuple(np.flatnonzero(roles == k + 1) for k in range(n_int)),
             cage_groups=tuple(np.flatnonzero(cage_roles == k + 1) for k in range(n_int)), constrained=constrained,
             slots=slots, free_cage=free_cage, rows=rows, mirror=mirror, sym_rows=sym_rows, n_groups=len(groups),
-            centers=centers, seam=seam, seam_role=roles[seam], spread=spread, compute=compute,
+            centers=centers, seam=seam, seam_role=roles[seam], spread=spread, compute=compute, core=core,
+            base=base,
         )
         self._transforms = [np.eye(4) for _ in range(len(groups))]
-        self._anchor_here()
+        self._start_from(base)
+
+    @staticmethod
+    def _centers(user_roles: np.ndarray, core: np.ndarray, n_groups: int, base: _Base) -> tuple[np.ndarray, ...]:
+        """The default rotation centre of each user group: its shape vertices' centroid in the base pose."""
+        return tuple(base.shape[user_roles == k + 1].mean(axis=0) if np.any(user_roles == k + 1)
+                     else base.cage[core == k + 1].mean(axis=0) for k in range(n_groups))
+
+    # ------------------------------------------------------------------ the pose an edit starts from
+    def _current_base(self) -> _Base:
+        """The current pose as the base of the next edit (the base itself when nothing moved)."""
+        if not self._moved:
+            return self._base
+        cage = self.arap.positions.copy()
+        shape = self._out.copy()
+        return _Base(cage, shape, shape - self.M @ cage, at_rest=False)
+
+    def _propagated_residual(self, base: _Base):
+        """What the selection's rows add to M y' (turned with the cage's rotations, or
+        as it is for the linear propagation); None for the paper's plain x' = M y'."""
+        if self.propagation == "linear" and base.at_rest:
+            return None
+        return (base.residual, *self._blend)
+
+    @property
+    def _residual(self):
+        """(d, idx, w) of the residual propagation from the current base, or None (linear)."""
+        return (self._base.residual, *self._blend) if self.propagation == "residual" else None
+
+    def _prop_rotations(self) -> np.ndarray:
+        """The rotations the residual turns with: the cage's, or none for the linear propagation."""
+        return self._rots if self.propagation == "residual" else self._eye
+
+    def _start_from(self, base: _Base) -> None:
+        """Make ``base`` the pose the current selection's drags start from (the shape and
+        cage must be in that pose): the energy is measured against it, every rotation
+        restarts at the identity, the transforms at the identity."""
+        self._base = base
+        self._moved = False
+        self.arap.set_reference(base.cage)
+        self._rots[:] = np.eye(3)
+        self._transforms = [np.eye(4) for _ in self._transforms]
+        sel = self._sel
+        if sel is not None and sel.base is not base:  # the same selection, measured from the new base
+            spread = sel.spread.with_reference(base.shape) if isinstance(sel.spread, RegionStep) else sel.spread
+            self._sel = dataclasses.replace(
+                sel, spread=spread, compute=sel.compute.with_residual(self._propagated_residual(base)),
+                centers=self._centers(sel.user_roles, sel.core, sel.n_groups, base), base=base)
 
     def _mirrored_roles(self, user_roles: np.ndarray, n_groups: int, mirror: Mirror | None, *,
                         roi_mode: bool = False):
@@ -455,17 +535,17 @@ class HybridEditor:
                 roles[pulled] = len(source)
         return roles, source, kind
 
-    def _region_solver(self, rows: np.ndarray, seam: np.ndarray) -> RegionStep | SeamSpread | None:
+    def _region_solver(self, rows: np.ndarray, seam: np.ndarray, base: _Base) -> RegionStep | SeamSpread | None:
         """What places the free moving rows once the constrained ones are exact: with
         the residual propagation a full-resolution ARAP step using the cage's
         rotations (over the whole region when it is small, else over a band around
         the seam, see :func:`hybridedit.constraints.region_to_solve`); with the
         paper's linear propagation the harmonic spread of the seam's correction
         (the propagation itself stays the paper's)."""
-        if self._residual is not None:
-            _, idx, w = self._residual
+        if self.propagation == "residual":
+            idx, w = self._blend
             solve = region_to_solve(self.mesh.vertices, rows, seam, self._cage_edge)
-            return RegionStep(self.mesh.vertices, self._shape_laplacian(), solve, idx, w)
+            return RegionStep(base.shape, self._shape_laplacian(), solve, idx, w)
         return SeamSpread(self._shape_laplacian(), rows, seam) if seam.size else None
 
     def _shape_laplacian(self) -> sp.csr_matrix:
@@ -482,15 +562,11 @@ class HybridEditor:
         row_of_nz = np.repeat(np.arange(M.shape[0]), np.diff(M.indptr))
         mask = np.zeros(M.shape[0], dtype=bool)
         mask[row_of_nz[changing[M.indices]]] = True
-        if self._residual is not None:
-            mask |= changing[self._residual[1]].any(axis=1)
+        if self.propagation == "residual":
+            mask |= changing[self._blend[0]].any(axis=1)
         if not constrained_too:
             mask &= roles == FREE
         return np.flatnonzero(mask).astype(np.int64)
-
-    def _anchor_here(self) -> None:
-        """Make the current pose the reference of the selection's constraints."""
-        self._anchors = (self.arap.positions.copy(), self._rots.copy(), self._out.copy())
 
     # ------------------------------------------------------------------ deformation
     def _group_transform(self, k: int, T: np.ndarray) -> np.ndarray:
@@ -574,7 +650,7 @@ class HybridEditor:
         if k < 0:
             raise ValueError(f"iterations must be >= 0, got {k}")
         t0 = time.perf_counter()
-        cage0, rots0, shape0 = self._anchors
+        cage0, shape0 = self._base.cage, self._base.shape
         target = cage0[sel.constrained]
         internal = [self._group_transform(g, new[sel.source[g]]) for g in range(len(sel.source))]
         with np.errstate(all="ignore"):
@@ -597,13 +673,13 @@ class HybridEditor:
             self.arap.rotations[:] = saved[1]
             raise ValueError("the drag produced non-finite cage positions; refused, nothing changed")
         self._transforms = new
+        self._moved = True
         t1 = time.perf_counter()
         free = sel.free_cage
         self._rots[free] = self.arap.rotations[free]
         for g, T in enumerate(internal):
-            cg = sel.cage_groups[g]
-            self._rots[cg] = np.einsum("ij,kjl->kil", T[:3, :3], rots0[cg])
-        sel.compute.run(self.arap.positions, self._rots, self._out)
+            self._rots[sel.cage_groups[g]] = T[:3, :3]  # the base's rotations are the identity
+        sel.compute.run(self.arap.positions, self._prop_rotations(), self._out)
         out = self._out
         if isinstance(sel.spread, SeamSpread):
             goal = shape0[sel.seam]
@@ -630,43 +706,88 @@ class HybridEditor:
         return self._out
 
     def reset(self) -> None:
-        """Back to the rest pose (the selection is kept, its reference is the rest pose)."""
+        """Back to the rest pose (the selection is kept; its drags start from the rest pose)."""
         self.arap.reset()
         self._rots[:] = np.eye(3)
+        self._base = self._rest_base
         self._propagate_all()
-        self._transforms = [np.eye(4) for _ in self._transforms]
-        if self._sel is not None:
-            self._anchor_here()
+        self._start_from(self._rest_base)
 
     @property
     def cage_positions(self) -> np.ndarray:
         """Current cage vertex positions, (c, 3) float64 (a copy)."""
         return self.arap.positions.copy()
 
+    @property
+    def starts_at_rest(self) -> bool:
+        """The current selection's drags start from the rest pose (then :attr:`edit`,
+        replayed on a fresh editor, gives the current pose)."""
+        return self._base.at_rest
+
     def set_cage_positions(self, positions: np.ndarray) -> np.ndarray:
-        """Put the cage in a given pose and update the shape (every vertex follows
-        the cage; that pose becomes the reference of the selection).
+        """Put the cage in a given pose, measured from the rest pose, and update the
+        shape (every vertex follows the cage); the next drags start from that pose.
 
         Returns the (n, 3) deformed shape.
         """
         p = np.asarray(positions, dtype=np.float64)
         if p.shape != self.arap.positions.shape or not np.all(np.isfinite(p)):
             raise ValueError(f"cage positions must be finite and {self.arap.positions.shape}")
+        self.arap.reset()
         self.arap.positions[:] = p
         self._rots[:] = self.arap.local_step()
+        self._base = self._rest_base
         self._propagate_all()
-        self._transforms = [np.eye(4) for _ in self._transforms]
-        if self._sel is not None:
-            self._anchor_here()
+        self._moved = True
+        self._start_from(self._current_base())
+        return self._out
+
+    def set_pose(self, vertices: np.ndarray, *, cage_positions: np.ndarray | None = None) -> np.ndarray:
+        """Make ``vertices`` the current shape (a polished pose, a pose carried over from
+        another cage of the same shape, ...): the next drags start from it exactly.
+
+        Parameters
+        ----------
+        vertices : (n, 3) float64 shape positions.
+        cage_positions : (c, 3) float64, optional
+            The cage pose that goes with them (e.g. the current one, for a polish of
+            the current pose). By default every cage vertex moves as the shape vertex
+            nearest to it did from the rest pose.
+
+        Returns
+        -------
+        (n, 3) float64 array, the shape (a view that later calls update).
+
+        Examples
+        --------
+        >>> ed.set_pose(polished, cage_positions=ed.cage_positions)  # doctest: +SKIP
+        """
+        V = np.asarray(vertices, dtype=np.float64)
+        if V.shape != self._out.shape or not np.all(np.isfinite(V)):
+            raise ValueError(f"a pose must be finite and {self._out.shape}, got {V.shape}")
+        if cage_positions is None:
+            near = self._cage_to_shape
+            Y = self.cage.vertices + (V[near] - self.mesh.vertices[near])
+        else:
+            Y = np.asarray(cage_positions, dtype=np.float64)
+            if Y.shape != self.arap.positions.shape or not np.all(np.isfinite(Y)):
+                raise ValueError(f"cage positions must be finite and {self.arap.positions.shape}")
+        self.arap.positions[:] = Y
+        self._out[:] = V
+        self._moved = True
+        self._start_from(self._current_base())
         return self._out
 
     def save_state(self) -> EditorState:
         """A snapshot of the selection and pose, for :meth:`restore_state` (undo)."""
         return EditorState(self._sel, tuple(T.copy() for T in self._transforms), self.arap.positions.copy(),
-                           self.arap.rotations.copy(), self._rots.copy(), self._out.copy(), self._anchors)
+                           self.arap.rotations.copy(), self._rots.copy(), self._out.copy(), self._base,
+                           self._moved)
 
     def restore_state(self, state: EditorState) -> np.ndarray:
-        """Go back to a snapshot taken by :meth:`save_state`; returns the (n, 3) shape."""
+        """Go back to a snapshot taken by :meth:`save_state` (the selection, the pose it
+        starts from and the current pose, exactly); returns the (n, 3) shape."""
+        self.arap.reference = state.base.cage
         if state.selection is not self._sel:
             sel = state.selection
             if sel is not None:
@@ -677,16 +798,17 @@ class HybridEditor:
         self._rots[:] = state.rotations
         self._out[:] = state.shape
         self._transforms = [T.copy() for T in state.transforms]
-        self._anchors = state.anchors
+        self._base = state.base
+        self._moved = state.moved
         return self._out
 
     def _propagate_all(self) -> None:
-        """Every shape vertex from the current cage pose and rotations."""
-        if self._residual is None:
+        """Every shape vertex from the current cage pose and rotations, from the base pose."""
+        residual = self._propagated_residual(self._base)
+        if residual is None:
             propagate(self.M, self.arap.positions, self._out)
         else:
-            d, idx, w = self._residual
-            propagate_with_residual(self.M, self.arap.positions, self._rots, d, idx, w, self._out)
+            propagate_with_residual(self.M, self.arap.positions, self._prop_rotations(), *residual, self._out)
 
     # ------------------------------------------------------------------ edits
     @property
@@ -754,9 +876,9 @@ class HybridEditor:
         """The (4, 4) transform of each of an edit's handle groups, {group: T}; a
         rotation without a centre turns about the group's centroid (in the edit's
         space, in the pose the current selection was set at)."""
-        if self._anchors is None:
+        if self._sel is None:
             raise SelectionError("set the edit's selection first")
-        pts = self._anchors[2] if edit.space == "shape" else self._anchors[0]
+        pts = self._base.shape if edit.space == "shape" else self._base.cage
         return {g: h.transform(default_center=pts[h.indices].mean(axis=0)) for g, h in enumerate(edit.handles)}
 
     # ------------------------------------------------------------------ results

@@ -17,6 +17,8 @@ the linear blend keeps the result smooth across the shape.
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 import scipy.sparse as sp
 from numba import njit, prange
@@ -176,6 +178,18 @@ class SelectionRows:
             part = None if residual is None else tuple(np.ascontiguousarray(a[self.rows]) for a in residual)
             # its rows by number, a writable array as the in-place path passes (one compiled version)
             self._part = (Mr, part, np.arange(self.rows.size, dtype=np.int64))
+
+    def with_residual(self, residual) -> "SelectionRows":
+        """The same rows with another residual ``(d, idx, w)`` (e.g. of a new reference pose);
+        the sliced binding is shared, nothing is recomputed but the residual's rows."""
+        other = copy.copy(self)
+        M = self._whole[0]
+        other._whole = (M, residual)
+        if self._part is not None:
+            Mr, _, local = self._part
+            part = None if residual is None else tuple(np.ascontiguousarray(a[self.rows]) for a in residual)
+            other._part = (Mr, part, local)
+        return other
 
     def run(self, y: np.ndarray, rotations: np.ndarray, out: np.ndarray) -> None:
         """Write rows ``rows`` of ``out`` (n, 3) from cage positions ``y`` (c, 3) and per-cage-vertex

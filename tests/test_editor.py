@@ -559,3 +559,101 @@ def test_symmetric_edit_of_a_nearly_symmetric_shape_covers_the_other_side():
     S = ed.symmetry.S[:3, :3]
     # displacements mirror each other up to a fraction of the motion
     assert np.abs(u[ed.symmetry.map] @ S.T - u).max() < 0.05 * np.abs(u).max()
+
+
+# ------------------------------------------------------------------ successive edits compose
+
+
+def _ellipsoid():
+    m = icosphere(3)
+    return type(m)(m.vertices * np.array([2.0, 0.7, 0.5]), m.faces, name="ellipsoid")  # symmetric across x
+
+
+@pytest.fixture(scope="module")
+def ellipsoid():
+    return _ellipsoid()
+
+
+def _first_edit(ed, mesh, symmetry=None):
+    """Pose the +x end (bend it up) and return the posed shape (a copy)."""
+    x = mesh.vertices[:, 0]
+    hand = np.flatnonzero(x > 0.8 * x.max())
+    roi = np.flatnonzero(x > 0.3 * x.max())
+    ed.set_selection(hand, roi=roi, symmetry=symmetry)
+    T = rigid_transform(translate=(0.0, 0.4, 0.1), axis=(0, 0, 1), degrees=25, center=mesh.vertices[hand].mean(0))
+    for _ in range(10):
+        V = ed.drag(transform=T)
+    return V.copy()
+
+
+def _second_selections(mesh):
+    """Selections that overlap the posed part: the other end with a region over both, the
+    middle as two handle groups, and the same end again."""
+    x = mesh.vertices[:, 0]
+    lo, hi = np.flatnonzero(x < 0.8 * x.min()), np.flatnonzero(x > 0.8 * x.max())
+    mid = np.flatnonzero(np.abs(x) < 0.1 * x.max())
+    everything_but_mid = np.setdiff1d(np.arange(mesh.n_vertices), mid)
+    return [dict(handle=lo, roi=everything_but_mid),
+            dict(handle=[lo, hi], roi=np.arange(mesh.n_vertices)),
+            dict(handle=hi, roi=np.flatnonzero(x > 0.2 * x.max()))]
+
+
+@pytest.mark.parametrize("propagation", ["residual", "linear"])
+@pytest.mark.parametrize("cage_size", [120, 400])
+@pytest.mark.parametrize("symmetry", [None, "x"])
+def test_identity_drag_after_a_new_selection_on_a_posed_shape_moves_nothing(ellipsoid, propagation, cage_size,
+                                                                            symmetry):
+    ed = HybridEditor(ellipsoid, cage_size=cage_size, propagation=propagation)
+    posed = _first_edit(ed, ellipsoid, symmetry)
+    assert np.abs(posed - ellipsoid.vertices).max() > 0.1  # really posed
+    tol = 1e-9 * ellipsoid.bbox_diagonal()
+    state = ed.save_state()
+    for sel in _second_selections(ellipsoid):
+        ed.restore_state(state)
+        ed.set_selection(sel["handle"], roi=sel["roi"], symmetry=None if len(sel["handle"]) == 2 else symmetry)
+        assert ed.moving_vertices.size > 0
+        for _ in range(3):  # identity drags: nothing moves, and iterating does not creep
+            V = ed.drag(transforms={g: np.eye(4) for g in range(ed.n_groups)})
+            assert np.abs(V - posed).max() < tol
+        # a real drag moves the new region only
+        ed.drag(translate=(0.0, 0.05, 0.0))
+        still = np.setdiff1d(np.arange(ellipsoid.n_vertices), ed.moving_vertices)
+        assert np.abs(ed.deformed_vertices[still] - posed[still]).max(initial=0.0) < tol
+
+
+def test_the_next_edit_starts_from_a_polished_or_carried_over_pose(ellipsoid):
+    from hybridedit.polish import ShapeARAP, polish
+
+    ed = HybridEditor(ellipsoid, cage_size=200)
+    posed = _first_edit(ed, ellipsoid)
+    # a polish on release: the engine is told the polished pose, with its cage pose
+    res = polish(ShapeARAP(ellipsoid), posed, ed.free_mask, seconds=5.0, max_iterations=20)
+    assert np.abs(res.vertices - posed).max() > 1e-6  # the polish changed something
+    ed.set_pose(res.vertices, cage_positions=ed.cage_positions)
+    tol = 1e-9 * ellipsoid.bbox_diagonal()
+    sel = _second_selections(ellipsoid)[0]
+    ed.set_selection(sel["handle"], roi=sel["roi"])
+    assert np.abs(ed.drag(translate=(0, 0, 0)) - res.vertices).max() < tol
+    # undo (back to the polished pose, the old selection) and redo keep every vertex exactly
+    after, kept = ed.save_state(), ed.deformed_vertices.copy()
+    ed.drag(translate=(0, 0.2, 0))
+    moved = ed.deformed_vertices.copy()
+    ed.restore_state(after)
+    assert np.array_equal(ed.deformed_vertices, kept)
+    assert np.abs(ed.drag(translate=(0, 0.2, 0)) - moved).max() < tol  # redoing the drag gives it again
+    # a rebuild: another cage of the same shape takes the pose, and its next edit starts there
+    ed2 = HybridEditor(ellipsoid, cage_size=90)
+    ed2.set_pose(moved)
+    assert not ed2.starts_at_rest
+    ed2.set_selection(sel["handle"], roi=sel["roi"])
+    assert np.abs(ed2.drag(translate=(0, 0, 0)) - moved).max() < tol
+    ed2.reset()
+    assert ed2.starts_at_rest and np.allclose(ed2.deformed_vertices, ellipsoid.vertices, atol=1e-12)
+
+
+def test_set_pose_refuses_a_pose_of_another_shape(ellipsoid):
+    ed = HybridEditor(ellipsoid, cage_size=120)
+    with pytest.raises(ValueError, match="pose"):
+        ed.set_pose(ellipsoid.vertices[:-1])
+    with pytest.raises(ValueError, match="pose"):
+        ed.set_pose(np.full_like(ellipsoid.vertices, np.nan))
