@@ -329,6 +329,18 @@ class HybridEditor:
             cage_idx = np.unique(self._dominant[idx])
         return cage_idx.astype(np.int64)
 
+    def mirror(self, symmetry) -> Mirror:
+        """The shape's mirror across a plane ("x", "y", "z" or (point, normal)), as
+        :meth:`set_selection` would use it: check a shape before offering to mirror it.
+
+        Raises
+        ------
+        SelectionError
+            The shape is not symmetric enough across that plane (the message gives its
+            measured asymmetry), or the plane is malformed.
+        """
+        return self._mirror(symmetry)
+
     def _mirror(self, symmetry) -> Mirror:
         key = repr(symmetry)
         m = self._mirrors.get(key)
@@ -404,7 +416,11 @@ class HybridEditor:
         # cage vertices held: the user's own cage picks, or those whose nearest
         # shape vertex is constrained (the seam's correction smooths what that leaves)
         near = roles[self._cage_to_shape]
-        core = near if space == "shape" else np.where(given != FREE, given, near)
+        if space == "shape":
+            core = near
+        else:  # the user's own picks, but a role the mirror gave a vertex's side wins over a pick there
+            mirrored = (roles != user_roles)[self._cage_to_shape]
+            core = np.where((given != FREE) & ~mirrored, given, near)
         cage_roles = core.astype(np.int32)
         n_int = len(source)
         for k in range(n_int):
