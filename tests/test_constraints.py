@@ -1,4 +1,5 @@
 import numpy as np
+import pytest
 import scipy.sparse as sp
 
 from hybridedit.arap import edge_weights, laplacian
@@ -77,3 +78,124 @@ def test_a_large_region_is_solved_in_a_band_around_the_seam(monkeypatch):
 
     full = propagate_with_residual(ed.M, ed.arap.positions, ed._rots, d, idx, w)
     assert np.abs(V[inside] - full[inside]).max() < 1e-12
+
+
+# ---------------------------------------------------------------------------- the region step's kernels
+
+
+def _region_problem(seed=0, subdivisions=3):
+    """A sphere, its cotangent Laplacian, a free cap, per-vertex rotation blends of random cage rotations."""
+    from scipy.spatial.transform import Rotation
+
+    m = icosphere(subdivisions)
+    v = m.vertices
+    e, w = edge_weights(v, m.faces, "cotangent")
+    L = laplacian(m.n_vertices, e, w).tocsr()
+    rng = np.random.default_rng(seed)
+    c, k = 40, 4
+    idx = rng.integers(0, c, (m.n_vertices, k))
+    wt = rng.random((m.n_vertices, k))
+    wt /= wt.sum(axis=1, keepdims=True)
+    cage_rots = Rotation.random(c, random_state=seed).as_matrix()
+    x = v + 0.02 * rng.standard_normal(v.shape)  # the current shape: its boundary rows are known
+    free = np.flatnonzero(v[:, 2] > 0.3)
+    return v, L, free, idx, wt, cage_rots, x
+
+
+def _region_reference(ref, L, free, idx, w, cage_rots, x):
+    """The region step by plain numpy/scipy: blended rotations R_i = sum_k w_ik C_idx_ik, then
+    L_ff x_f = sum_j w_ij/2 (R_i + R_j)(p_i - p_j) - L_fb x_b, solved by SuperLU."""
+    from scipy.sparse.linalg import spsolve
+
+    R = np.einsum("nk,nkpq->npq", w, cage_rots[idx])
+    W = (-L).tocoo()
+    keep = W.row != W.col
+    i, j, wij = W.row[keep], W.col[keep], W.data[keep]
+    b = np.zeros((L.shape[0], 3))
+    np.add.at(b, i, 0.5 * wij[:, None] * np.einsum("npq,nq->np", R[i] + R[j], ref[i] - ref[j]))
+    inside = np.zeros(L.shape[0], dtype=bool)
+    inside[free] = True
+    xb = np.where(inside[:, None], 0.0, x)
+    rhs = b[free] - (L @ xb)[free]
+    out = x.copy()
+    out[free] = spsolve(L[free][:, free].tocsc(), rhs)
+    return out
+
+
+@pytest.mark.parametrize("parallel", [False, True])
+def test_the_region_step_is_the_arap_global_step_with_blended_rotations(monkeypatch, parallel):
+    import hybridedit.constraints as C
+
+    if parallel:
+        monkeypatch.setattr(C, "PARALLEL_MIN", 0)
+    v, L, free, idx, w, cage_rots, x = _region_problem()
+    step = C.RegionStep(v, L, free, idx, w)
+    assert step.free.tolist() == free.tolist()  # one part, bounded by the rest of the sphere
+    out = x.copy()
+    step.apply(out, cage_rots)
+    want = _region_reference(v, L, free, idx, w, cage_rots, x)
+    assert np.abs(out - want).max() < 1e-12 * np.abs(want).max()
+    assert np.array_equal(out[~np.isin(np.arange(len(x)), free)], x[~np.isin(np.arange(len(x)), free)])
+    assert np.abs(out[free] - x[free]).max() > 0.1  # (it did move them)
+
+
+def test_the_region_right_hand_side_kernel_matches_numpy(monkeypatch):
+    import hybridedit.constraints as C
+
+    v, L, free, idx, w, cage_rots, x = _region_problem(seed=3)
+    step = C.RegionStep(v, L, free, idx, w)
+    for threshold in (10**9, 0):  # the serial kernel, then the parallel one
+        monkeypatch.setattr(C, "PARALLEL_MIN", threshold)
+        b = np.full((step.free.size, 3), np.nan, order="F")
+        C.region_rhs(step._idx, step._w, cage_rots, step._rots, step._free_local, *step._E, step._he,
+                     step._s, *step._C, x, b)
+        R = np.einsum("nk,nkpq->npq", w, cage_rots[idx])
+        assert np.abs(step._rots - R[step._turning]).max() < 1e-15  # the blends, every turning vertex
+        W = (-L).tocsr()
+        want = np.zeros((free.size, 3))
+        for r, i in enumerate(free):
+            for j, wij in zip(W.indices[W.indptr[i]:W.indptr[i + 1]], W.data[W.indptr[i]:W.indptr[i + 1]]):
+                if j == i:
+                    continue
+                want[r] += 0.5 * wij * (R[i] + R[j]) @ (v[i] - v[j])
+                if j not in set(free.tolist()):
+                    want[r] += wij * x[j]
+        assert np.abs(b - want).max() < 1e-13
+
+
+def test_a_step_with_another_reference_measures_edges_there_and_keeps_its_own_buffers():
+    import hybridedit.constraints as C
+
+    v, L, free, idx, w, cage_rots, x = _region_problem(seed=5)
+    step = C.RegionStep(v, L, free, idx, w)
+    posed = v @ np.array([[0.0, -1, 0], [1, 0, 0], [0, 0, 1]]).T + [0.3, 0, 0]  # turned and moved
+    other = step.with_reference(posed)
+    assert other._solver is step._solver  # the factorization is shared
+    assert other._rots is not step._rots and other._b is not step._b and other._he is not step._he
+    a, b = x.copy(), x.copy()
+    other.apply(a, cage_rots)
+    step.apply(b, cage_rots)  # the original still measures in the rest pose
+    assert np.abs(a - _region_reference(posed, L, free, idx, w, cage_rots, x)).max() < 1e-12
+    assert np.abs(b - _region_reference(v, L, free, idx, w, cage_rots, x)).max() < 1e-12
+    again = x.copy()
+    other.apply(again, cage_rots)
+    assert np.array_equal(again, a)
+
+
+@pytest.mark.parametrize("threshold", [10**9, 0])
+def test_place_is_the_affine_map_of_its_rows(monkeypatch, threshold):
+    import hybridedit.constraints as C
+    from hybridedit.transforms import rigid_transform
+
+    monkeypatch.setattr(C, "PARALLEL_PLACE_MIN", threshold)
+    rng = np.random.default_rng(2)
+    source = rng.standard_normal((500, 3))
+    out = rng.standard_normal((500, 3))
+    before = out.copy()
+    rows = np.sort(rng.choice(500, 120, replace=False)).astype(np.int64)
+    T = rigid_transform(translate=(1.0, -2.0, 0.5), axis=(1, 1, 0), degrees=33.0)
+    T[:3, :3] *= 1.5  # any affine map, not only rigid
+    C.place(rows, source, T, out)
+    assert np.abs(out[rows] - (source[rows] @ T[:3, :3].T + T[:3, 3])).max() < 1e-14
+    others = np.setdiff1d(np.arange(500), rows)
+    assert np.array_equal(out[others], before[others])
