@@ -97,6 +97,19 @@ class EditorState:
     moved: bool
 
 
+class _Default:
+    """A build option's default (shown as its value in the signature), told apart from the same value
+    given explicitly: :class:`HybridEditor` refuses build options given with a ready :class:`Rig`."""
+
+    __slots__ = ("value",)
+
+    def __init__(self, value) -> None:
+        self.value = value
+
+    def __repr__(self) -> str:
+        return repr(self.value)
+
+
 class HybridEditor:
     """Interactive hybrid mesh editing of one shape.
 
@@ -117,8 +130,9 @@ class HybridEditor:
     Parameters
     ----------
     mesh : Mesh or Rig
-        The shape (n vertices), or a rig built for it (the next five options are
-        then ignored).
+        The shape (n vertices), or a rig built for it (then giving any of
+        ``cage_size``, ``cage``, ``binding``, ``truncation``, ``cache`` or
+        ``progress`` is a ValueError: they are :func:`hybridedit.build_rig`'s).
     cage_size : int or float
         Cage vertex count (int) or fraction of the shape's vertices (float).
     cage : Mesh, optional
@@ -151,22 +165,27 @@ class HybridEditor:
     def __init__(
         self,
         mesh: Mesh | Rig,
-        cage_size: int | float = 0.05,
+        cage_size: int | float = _Default(0.05),
         *,
-        cage: Mesh | None = None,
-        binding: sp.spmatrix | None = None,
-        truncation: float = 0.03,
+        cage: Mesh | None = _Default(None),
+        binding: sp.spmatrix | None = _Default(None),
+        truncation: float = _Default(0.03),
         weights: str = "cotangent",
         iterations: int = 2,
-        progress: Progress | None = None,
-        cache: bool | str | Path = False,
+        progress: Progress | None = _Default(None),
+        cache: bool | str | Path = _Default(False),
         propagation: str = "residual",
     ) -> None:
+        build = dict(cage_size=cage_size, cage=cage, binding=binding, truncation=truncation, cache=cache,
+                     progress=progress)
         if isinstance(mesh, Rig):
+            given = [k for k, v in build.items() if not isinstance(v, _Default)]
+            if given:
+                raise ValueError(f"{', '.join(given)} cannot be given with a Rig (it is built already); "
+                                 "pass them to build_rig, or pass the Mesh")
             rig = mesh
         else:
-            rig = build_rig(mesh, cage_size=cage_size, cage=cage, binding=binding, truncation=truncation,
-                            cache=cache, progress=progress)
+            rig = build_rig(mesh, **{k: v.value if isinstance(v, _Default) else v for k, v in build.items()})
         if propagation not in PROPAGATIONS:
             raise ValueError(f"propagation must be one of {PROPAGATIONS}, got {propagation!r}")
         #: the cage and binding this editor works on (see :func:`hybridedit.build_rig`)
@@ -328,6 +347,30 @@ class HybridEditor:
         if cage_idx.size == 0:
             cage_idx = np.unique(self._dominant[idx])
         return cage_idx.astype(np.int64)
+
+    def shape_roles(self, cage_roles) -> np.ndarray:
+        """Shape vertex roles that select exactly the given cage vertex roles.
+
+        A selection made on the cage (as in the window) given in shape vertices, so
+        that the edit it makes is a shape-space edit that replays the same on this
+        cage: each shape vertex takes the role of the cage vertex it depends on most,
+        and the shape vertex nearest each cage vertex (whose role the cage vertex
+        takes, see :meth:`set_selection`) takes that cage vertex's own role.
+
+        Parameters
+        ----------
+        cage_roles : (c,) int array, -1 fixed, 0 free, g + 1 handle group g.
+
+        Returns
+        -------
+        (n,) int8 shape vertex roles, the same code.
+        """
+        r = np.asarray(cage_roles)
+        if r.shape != (self.cage.n_vertices,) or not np.issubdtype(r.dtype, np.integer):
+            raise SelectionError(f"cage roles must be {self.cage.n_vertices:,} integers")
+        roles = r[self._dominant].astype(np.int8)
+        roles[self._cage_to_shape] = r
+        return roles
 
     def mirror(self, symmetry) -> Mirror:
         """The shape's mirror across a plane ("x", "y", "z" or (point, normal)), as
@@ -628,7 +671,12 @@ class HybridEditor:
         transforms: dict | None = None,
         iterations: int | None = None,
     ) -> np.ndarray:
-        """Move handle groups and deform.
+        """One interactive frame: move handle groups and deform (``iterations`` ARAP iterations).
+
+        This is the step a window runs once per mouse event: each call continues the
+        solve from the previous one, so calling it again with the same transform
+        moves the shape closer to the converged pose (tens to hundreds of calls).
+        A script that wants the finished pose calls :meth:`pose` instead.
 
         Parameters
         ----------
@@ -645,7 +693,9 @@ class HybridEditor:
 
         Returns
         -------
-        (n, 3) float64 array, the deformed shape (a view that later calls update).
+        (n, 3) float64 array, the deformed shape: a read-only view of the engine's own
+        array, which the next ``drag`` (and any other call that changes the pose)
+        overwrites; ``.copy()`` it to keep this frame.
         """
         sel = self._sel
         if sel is None:
@@ -719,7 +769,7 @@ class HybridEditor:
         if len(self.frame_seconds) > FRAME_HISTORY:
             del self.frame_seconds[: -FRAME_HISTORY // 2]
         self.frame_breakdown = {**self.arap.last_timings, "propagate_seconds": t2 - t1, "total_seconds": t2 - t0}
-        return self._out
+        return self.deformed_vertices
 
     def reset(self) -> None:
         """Back to the rest pose (the selection is kept; its drags start from the rest pose)."""
@@ -900,8 +950,11 @@ class HybridEditor:
     # ------------------------------------------------------------------ results
     @property
     def deformed_vertices(self) -> np.ndarray:
-        """The current deformed shape, (n, 3) float64 (a view)."""
-        return self._out
+        """The current deformed shape, (n, 3) float64: a read-only view of the engine's
+        array, which later calls update (``.copy()`` it to keep a pose)."""
+        view = self._out.view()
+        view.flags.writeable = False
+        return view
 
     @property
     def deformed(self) -> Mesh:
@@ -912,3 +965,79 @@ class HybridEditor:
     def deformed_cage(self) -> Mesh:
         """The current cage pose as a Mesh (a copy)."""
         return Mesh(self.arap.positions.copy(), self.cage.faces, name="cage")
+
+    # ------------------------------------------------------------------ scripts: a solved pose, files
+    #: the file this editor was opened from (:meth:`from_file`), which :meth:`save` writes
+    #: back with the current positions; None for an editor built from a bare Mesh
+    document = None
+
+    def pose(self, translate=None, *, rotate=None, transform: np.ndarray | None = None, group: int = 0,
+             transforms: dict | None = None, tolerance: float = 1e-6, max_frames: int = 1000) -> np.ndarray:
+        """Solve an edit to convergence: :meth:`drag` frames at the given transform until a
+        frame moves no vertex by more than ``tolerance`` times the bounding-box diagonal,
+        or ``max_frames`` frames (then a RuntimeWarning says how far the last one moved).
+
+        Takes :meth:`drag`'s transform arguments (absolute, relative to the pose when the
+        selection was set). Calling it again with the same transform returns the same
+        pose (within ``tolerance``).
+
+        Returns
+        -------
+        (n, 3) float64 array, the converged shape (a copy of its own).
+        """
+        if not (tolerance > 0) or int(max_frames) < 1:
+            raise ValueError(f"tolerance must be > 0 and max_frames >= 1, got {tolerance!r}, {max_frames!r}")
+        diagonal = max(self.mesh.bbox_diagonal(), np.finfo(float).tiny)
+        previous = self._out.copy()
+        moved = np.inf
+        for _ in range(int(max_frames)):
+            V = self.drag(translate, rotate=rotate, transform=transform, group=group, transforms=transforms)
+            moved = float(np.abs(V - previous).max(initial=0.0))
+            if moved <= tolerance * diagonal:
+                return V.copy()
+            previous[:] = V
+        import warnings
+
+        warnings.warn(f"pose: not converged after {int(max_frames)} frames (the last moved "
+                      f"{moved / diagonal:.2g} of the diagonal, tolerance {tolerance:g})",
+                      RuntimeWarning, stacklevel=2)
+        return self._out.copy()
+
+    @classmethod
+    def from_file(cls, path, cage_size: int | float = 0.05, *, cache: bool | str | Path = False,
+                  truncation: float = 0.03, progress: Progress | None = None, **options) -> "HybridEditor":
+        """Open a mesh file for editing, keeping everything it holds for :meth:`save`.
+
+        Reads ``path`` with :func:`hybridedit.read_document` (texture coordinates,
+        polygons, materials, colours, ... stay in :attr:`document`), builds the cage
+        and binding as :func:`hybridedit.build_rig` (``cage_size``, ``cache``,
+        ``truncation``) and takes the editor's own ``options`` (``weights``,
+        ``iterations``, ``propagation``). ``progress(stage, fraction)`` hears both.
+        """
+        from .io import read_document
+
+        doc = read_document(path, progress=progress)
+        rig = build_rig(doc.mesh, cage_size=cage_size, cache=cache, truncation=truncation, progress=progress)
+        editor = cls(rig, **options)
+        editor.document = doc
+        return editor
+
+    def save(self, path, *, progress: Progress | None = None) -> list[str]:
+        """Write the current pose to ``path`` atomically (format by extension); returns notes.
+
+        An editor opened with :meth:`from_file` writes everything the file had (texture
+        coordinates, polygons, materials and their images, colours, recomputed normals)
+        with the new positions, through :func:`hybridedit.write_document`. One built
+        from a bare Mesh has only positions and triangles to write; the first note says so.
+        """
+        from .document import Document
+        from .io import write_document
+
+        if self.document is None:
+            doc = Document.from_mesh(self.deformed)
+            note = ["no source document (the editor was built from a Mesh): wrote positions and triangles only; "
+                    "open the file with HybridEditor.from_file to keep the rest"]
+        else:
+            doc = self.document.with_vertices(self._out)
+            note = []
+        return note + write_document(path, doc, progress=progress)

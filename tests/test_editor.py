@@ -679,3 +679,109 @@ def test_a_mirrored_selection_of_cage_vertices_bends_both_sides_alike(ellipsoid)
     image = V[mirror.map] @ mirror.S[:3, :3].T + mirror.S[:3, 3]
     assert np.abs(image - V).max() < 0.01 * ellipsoid.bbox_diagonal()  # the pose is its own mirror image
     assert errors["x"] < 1.5 * errors[None]  # no tear: each side bends as the unmirrored edit does
+
+
+# --------------------------------------------------------------------------- scripts: pose, read-only frames, options
+
+
+@pytest.fixture(scope="module")
+def blob_rig(blob):
+    from hybridedit import build_rig
+
+    return build_rig(blob, cage_size=300)
+
+
+def arm_edit(ed, blob):
+    """The +x end swung up about where the arm starts; returns drag's keyword arguments."""
+    x = blob.vertices[:, 0]
+    hand, arm = np.flatnonzero(x > 1.6), np.flatnonzero(x > 0.3)
+    ed.set_selection(hand, roi=arm)
+    return {"rotate": {"axis": (0, 0, 1), "degrees": 35, "center": blob.vertices[arm].mean(axis=0)},
+            "translate": (0.0, 0.2, 0.0)}
+
+
+def test_pose_is_the_converged_drag_loop(blob_rig, blob):
+    diag = blob.bbox_diagonal()
+    looped, posed = HybridEditor(blob_rig), HybridEditor(blob_rig)
+    move = arm_edit(looped, blob)
+    arm_edit(posed, blob)
+    for _ in range(400):
+        V = looped.drag(**move)
+    assert np.abs(looped.drag(**move) - V).max() < 1e-14 * diag  # the loop has converged
+    P = posed.pose(**move, tolerance=1e-12)
+    frames = len(posed.frame_seconds)
+    assert 30 < frames < 400
+    assert np.abs(P - V).max() < 1e-9 * diag
+    # the handle is where the transform puts it
+    T = rigid_transform(translate=move["translate"], **move["rotate"])
+    hand = posed.vertex_roles == 1
+    assert np.abs(P[hand] - apply_transform(T, blob.vertices[hand])).max() < 1e-9 * diag
+    # a copy of its own: writable, and the next frames leave it alone
+    assert P.flags.writeable and not np.shares_memory(P, posed.deformed_vertices)
+    again = posed.pose(**move, tolerance=1e-12)  # the same transform again: stable, at once
+    assert len(posed.frame_seconds) - frames <= 2
+    assert np.abs(again - P).max() < 1e-9 * diag
+    kept = again.copy()
+    posed.drag(translate=(0.0, -0.5, 0.0))
+    assert np.abs(posed.deformed_vertices - P).max() > 0.05 * diag
+    assert np.array_equal(again, kept)
+
+
+def test_pose_default_tolerance_and_the_frame_cap(blob_rig, blob):
+    ed = HybridEditor(blob_rig)
+    move = arm_edit(ed, blob)
+    with pytest.warns(RuntimeWarning, match="not converged after 3 frames"):
+        early = ed.pose(**move, max_frames=3)
+    assert early.shape == blob.vertices.shape and np.all(np.isfinite(early))
+    P = ed.pose(**move)  # default tolerance: a frame moves under 1e-6 of the diagonal
+    assert np.abs(ed.drag(**move) - P).max() <= 1e-6 * blob.bbox_diagonal()
+    for bad in ({"tolerance": 0.0}, {"max_frames": 0}):
+        with pytest.raises(ValueError, match="tolerance"):
+            ed.pose(**move, **bad)
+
+
+def test_drag_returns_a_read_only_view_that_later_calls_update(blob_rig, blob):
+    ed = HybridEditor(blob_rig)
+    move = arm_edit(ed, blob)
+    V = ed.drag(**move)
+    assert not V.flags.writeable
+    with pytest.raises(ValueError, match="read-only"):
+        V[0, 0] = 1.0
+    first = V.copy()
+    W = ed.drag(translate=(0.0, -0.4, 0.0))
+    assert np.shares_memory(V, W) and np.array_equal(V, W)  # updated in place by the later call
+    assert np.abs(V - first).max() > 0.05 * blob.bbox_diagonal()
+    D = ed.deformed_vertices
+    assert not D.flags.writeable and np.array_equal(D, W)
+    ed.reset()  # the engine keeps writing its own array
+    assert np.allclose(V, blob.vertices, atol=1e-9)
+
+
+def test_build_options_given_with_a_rig_are_refused(blob_rig):
+    for options, named in [({"cage_size": 0.05}, "cage_size"), ({"cache": False}, "cache"),
+                           ({"progress": None, "truncation": 0.03}, "truncation, progress"),
+                           ({"cage": blob_rig.cage, "binding": blob_rig.M}, "cage, binding")]:
+        with pytest.raises(ValueError, match=named) as info:
+            HybridEditor(blob_rig, **options)
+        assert "\n" not in str(info.value) and "Rig" in str(info.value)
+    with pytest.raises(ValueError, match="cage_size"):
+        HybridEditor(blob_rig, 300)
+    ed = HybridEditor(blob_rig, weights="uniform", iterations=3, propagation="linear")  # the editor's own
+    assert ed.rig is blob_rig and ed.iterations == 3
+
+
+def test_a_mesh_editor_honours_its_build_options(blob):
+    ed = HybridEditor(blob, 120, truncation=0.05)
+    assert abs(ed.cage.n_vertices - 120) <= 6 and ed.truncation == 0.05
+
+
+def test_save_without_a_document_writes_positions_and_faces_with_a_note(blob_rig, blob, tmp_path):
+    from hybridedit.io import read_mesh
+
+    ed = HybridEditor(blob_rig)
+    assert ed.document is None
+    P = ed.pose(**arm_edit(ed, blob))
+    notes = ed.save(tmp_path / "posed.ply")
+    assert len(notes) == 1 and "no source document" in notes[0]
+    back = read_mesh(tmp_path / "posed.ply")
+    assert np.array_equal(back.vertices, P) and np.array_equal(back.faces, blob.faces)
