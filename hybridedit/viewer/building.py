@@ -31,7 +31,7 @@ def built_message(result: BuildResult, session: "Session", rebuilt: bool, note: 
     result : the finished build.
     session : the session that shows it.
     rebuilt : the build was a new cage for the shape being edited (not a new shape).
-    note : what the rebuild said about carrying the edit over, or None.
+    note : what the rebuild said about carrying the edit over, or why Mirror is off for a new shape, or None.
 
     Returns
     -------

@@ -26,6 +26,9 @@ class Snapshot:
     symmetry : the mirror axis of the selection, or None.
     engine, engine_masks, anchor_state : the engine's own state (exact shape-space
         constraints included) and what it was set from.
+    bases, anchor_bases : (G, 4, 4) each group's transform (since the selection was applied)
+        at the pose the engine's drags start from now, and at ``anchor_state``; identities
+        until a polish makes its pose the engine's own.
     """
 
     roi: np.ndarray
@@ -43,6 +46,8 @@ class Snapshot:
     engine: object = None
     engine_masks: tuple | None = None
     anchor_state: object = None
+    bases: np.ndarray | None = None
+    anchor_bases: np.ndarray | None = None
 
 
 class History:

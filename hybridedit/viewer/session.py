@@ -13,13 +13,21 @@ applying a selection
     applies a changed selection lazily, when the next drag starts.
 handle transform
     ``transform`` is the 4x4 transform of the handle since the selection was
-    applied (what the edit file stores). The engine's own transform is relative
-    to the pose it was last re-anchored at (undo re-anchors it), ``_base``.
+    applied (what the edit file stores). The engine's own transform of group g is
+    relative to the pose its drags start from: ``transforms[g] @ inv(_bases[g])``,
+    where ``_bases[g]`` is the group's transform at that pose (the identity, until
+    a polish makes its pose the engine's own).
 settling
     At the end of a drag the final transform is solved again from the anchor
     with the batch settings (``settle_frames`` x ``settle_iterations`` ARAP
     iterations, the defaults of ``hybridedit deform``), so what the window shows
     is what ``hybridedit deform`` computes from a saved edit.
+the pose is the engine's
+    What is shown and saved is the engine's pose; a polish on release is given to
+    the engine (:meth:`Session.adopt_polish`, one undo step), so that the next drag
+    or selection starts from it and undo and redo return to exact poses. A new
+    selection starts from the current pose (the engine measures the next edit's
+    ARAP energy against it): nothing outside the new region moves.
 """
 
 from __future__ import annotations
@@ -49,10 +57,18 @@ class Session:
     path : the file the shape was read from (None for generated shapes).
     cage_size : the cage size the editor was built with (int count or float fraction).
     roi, handle : initial selection masks over the cage vertices (default: empty).
+    symmetry : mirror the selection across this axis's mid-plane ("x", "y", "z"), or None.
+
+    Raises
+    ------
+    SelectionError
+        ``symmetry`` given for a shape that is not symmetric enough across it (the
+        message gives the measured asymmetry).
     """
 
     def __init__(self, editor: HybridEditor, path: Path | None = None, cage_size: int | float = 0.05,
-                 roi: np.ndarray | None = None, handle: np.ndarray | None = None) -> None:
+                 roi: np.ndarray | None = None, handle: np.ndarray | None = None,
+                 symmetry: str | None = None) -> None:
         self.editor = editor
         self.mesh: Mesh = editor.mesh
         self.path = Path(path) if path is not None else None
@@ -74,16 +90,19 @@ class Session:
         self._stroke: tuple[str, np.ndarray] | None = None
         self._settle_left = 0
         self._settle_label: str | None = None
-        self._base = np.eye(4)
+        self._bases: list[np.ndarray] = [np.eye(4)]
         self._anchor: np.ndarray | None = None
-        self._anchor_state = None  # the engine's state when the selection was applied
+        self._anchor_state = None  # the engine's state a settle starts from (the selection applied, or polished)
+        self._anchor_bases: list[np.ndarray] = [np.eye(4)]
         self._engine_masks: tuple | None = None
-        self.symmetry: str | None = None  # mirror the selection across this axis's mid-plane
+        if symmetry is not None:
+            editor.mirror(symmetry)  # a shape too asymmetric is refused now, not at the first drag
+        self.symmetry: str | None = symmetry  # mirror the selection across this axis's mid-plane
         self.settle_on_release = True
         self.settle_frames = 30
         self.settle_iterations = 2
         self.last_frame_seconds = 0.0
-        #: a polished pose on display ((n, 3), full-resolution ARAP of the engine's pose), or None
+        #: the polished pose on display ((n, 3), given to the engine), or None since the last change
         self.polished: np.ndarray | None = None
         #: bumps when the engine (cage and binding) changes: a rebuild, or undo across one
         self.generation = 0
@@ -146,6 +165,14 @@ class Session:
 
     def _identity_transforms(self) -> None:
         self.transforms = [np.eye(4) for _ in range(self.n_groups)]
+        self._bases = [np.eye(4) for _ in range(self.n_groups)]
+
+    def _engine_transforms(self, active: np.ndarray | None = None) -> dict[int, np.ndarray]:
+        """{group: transform} relative to the pose the engine's drags start from (see ``_bases``)."""
+        Ts = self._all_transforms(active)
+        bases = self._bases
+        return {g: T if g >= len(bases) or np.array_equal(bases[g], np.eye(4)) else T @ np.linalg.inv(bases[g])
+                for g, T in Ts.items()}
 
     def new_group(self) -> bool:
         """Start a new, empty handle group and make it the active one (False: the active one is empty)."""
@@ -155,6 +182,7 @@ class Session:
         self.n_groups += 1
         self.active = self.n_groups - 1
         self.transforms = list(self.transforms) + [np.eye(4)]
+        self._bases = list(self._bases) + [np.eye(4)]
         self._push("new handle group")
         return True
 
@@ -166,8 +194,8 @@ class Session:
 
     @property
     def shown_positions(self) -> np.ndarray:
-        """The pose on display and saved: the polished one when there is one, else the engine's, (n, 3)."""
-        return self.polished if self.polished is not None else self.shape_positions
+        """The pose on display and saved, (n, 3): the engine's (a polish is given to it)."""
+        return self.shape_positions
 
     @property
     def applied(self) -> bool:
@@ -176,8 +204,8 @@ class Session:
 
     @property
     def anchor_at_rest(self) -> bool:
-        """The applied selection was made on the rest pose (then a saved edit replays exactly)."""
-        return self._anchor is not None and bool(np.array_equal(self._anchor, self.editor.cage.vertices))
+        """The applied selection's drags start from the rest pose (then a saved edit replays exactly)."""
+        return self._anchor is not None and self.editor.starts_at_rest
 
     def states(self) -> np.ndarray:
         """Per cage vertex FIXED / FREE / HANDLE (see :mod:`.selection`): the engine's cage roles
@@ -235,6 +263,7 @@ class Session:
             anchor=None if self._anchor is None else self._anchor.copy(), label=label,
             editor=self.editor, cage_size=self.cage_size, symmetry=self.symmetry,
             engine=self.editor.save_state(), engine_masks=self._engine_masks, anchor_state=self._anchor_state,
+            bases=np.stack(self._bases), anchor_bases=np.stack(self._anchor_bases),
         )
 
     def _push(self, label: str) -> None:
@@ -258,10 +287,16 @@ class Session:
         if snap.anchor is not None:
             self._anchor = snap.anchor.copy()
             self.transforms = [T.copy() for T in Ts] + [np.eye(4)] * (self.n_groups - len(Ts))
+            self._bases = self._padded(snap.bases)
+            self._anchor_bases = self._padded(snap.anchor_bases)
         else:
             self._anchor = None
             self._identity_transforms()
-        self._base = np.eye(4)  # the engine state carries its own transform
+
+    def _padded(self, stack: np.ndarray | None) -> list[np.ndarray]:
+        """One transform per handle group from a snapshot's stack (identities where it has none)."""
+        got = [] if stack is None else [T.copy() for T in np.asarray(stack).reshape(-1, 4, 4)]
+        return got[: self.n_groups] + [np.eye(4)] * max(self.n_groups - len(got), 0)
 
     def undo(self) -> bool:
         self.finish_settle()
@@ -294,40 +329,32 @@ class Session:
     def adopt(self, editor: HybridEditor, cage_size: int | float) -> str | None:
         """Go on with a new cage and binding of the same shape (a rebuild).
 
-        The selection carries over through the shape and the last drag is solved again
-        on the new cage from the rest pose (as ``hybridedit deform`` replays an edit);
-        the undo history stays, and undoing the rebuild goes back to the old cage and
-        its exact pose. Returns a sentence when the pose could only partly be carried
-        over (it was built by several selections, of which only the last is replayed).
+        The pose carries over exactly (the new engine takes the shape as it is shown,
+        :meth:`~hybridedit.HybridEditor.set_pose`, and the next drag starts from it);
+        the selection carries over through the shape; the undo history stays, and
+        undoing the rebuild goes back to the old cage and its exact pose. Returns a
+        sentence for the status bar, or None.
         """
         self.finish_settle()
-        applied = self._anchor is not None and self._engine_masks == self._mask_key()
-        edit = self.editor.edit if applied else None  # shape space: it fits any cage of this shape
-        from_rest = self.anchor_at_rest
+        shape = self.shape_positions.copy()
+        posed = self.is_posed()
         roi_s = np.flatnonzero(self.roi[self.dominant])
         groups_s = self.handle_group[self.dominant]
-        posed = self.is_posed()
         self._use_editor(editor, cage_size)
-        note = None
-        if edit is not None:
-            self._replay(edit)
-            if not from_rest:
-                note = ("only the last drag was carried over to the new cage (the pose before it came from "
-                        "earlier selections); Ctrl+Z goes back to the old cage and its pose")
+        c = editor.cage.n_vertices
+        self.roi = np.zeros(c, dtype=bool)
+        self.roi[editor.to_cage(roi_s, "shape")] = True
+        self.handle_group = np.zeros(c, dtype=np.int8)
+        for g in range(self.n_groups):
+            self.handle_group[editor.to_cage(np.flatnonzero(groups_s == g + 1), "shape")] = g + 1
+        self._anchor = None
+        self._identity_transforms()
+        if posed:
+            self.editor.set_pose(shape)
         else:
-            c = editor.cage.n_vertices
-            self.roi = np.zeros(c, dtype=bool)
-            self.roi[editor.to_cage(roi_s, "shape")] = True
-            self.handle_group = np.zeros(c, dtype=np.int8)
-            for g in range(self.n_groups):
-                self.handle_group[editor.to_cage(np.flatnonzero(groups_s == g + 1), "shape")] = g + 1
-            self._anchor, self._base = None, np.eye(4)
-            self._identity_transforms()
             self.editor.reset()
-            if posed:
-                note = "the pose was not carried over to the new cage; Ctrl+Z goes back to the old cage and its pose"
         self._push("rebuild cage")
-        return note
+        return "the pose was carried over to the new cage as it is; the next drag starts from it" if posed else None
 
     # ------------------------------------------------------------------ selection
     def _mask_key(self) -> tuple:
@@ -336,10 +363,12 @@ class Session:
     def set_symmetry(self, axis: str | None) -> None:
         """Mirror the selection across the shape's mid-plane normal to ``axis`` ("x", "y", "z"), or not (None).
 
-        Applied with the next drag; the engine refuses a shape that is not symmetric
-        enough (a SelectionError with its measured asymmetry)."""
+        Applied with the next drag. A shape that is not symmetric enough is refused now
+        (a SelectionError with its measured asymmetry), and nothing changes."""
         if axis not in (None, "x", "y", "z"):
             raise ValueError(f"symmetry must be None, 'x', 'y' or 'z', got {axis!r}")
+        if axis is not None:
+            self.editor.mirror(axis)  # raises SelectionError for a shape too asymmetric
         if axis != self.symmetry:
             self.symmetry = axis
             self._selection_changed(f"mirror {axis.upper()}" if axis else "no mirror")
@@ -348,7 +377,6 @@ class Session:
         if self._anchor is not None and self._engine_masks != self._mask_key():
             self._anchor = None
             self._identity_transforms()
-            self._base = np.eye(4)
         self._push(label)
 
     def mask(self, target: str) -> np.ndarray:
@@ -420,12 +448,17 @@ class Session:
         self.handle_group = lut[self.handle_group]
         self.active = used.index(self.active) if self.active in used else 0
         self.transforms = [self.transforms[g] for g in used] or [np.eye(4)]
+        self._bases = [self._bases[g] if g < len(self._bases) else np.eye(4) for g in used] or [np.eye(4)]
         self.n_groups = max(len(used), 1)
 
     def _give_engine_selection(self) -> None:
         self._compact_groups()
-        handles = [np.flatnonzero(self.handle_group == g + 1) for g in range(self.n_groups)]
-        self.editor.set_selection(handles, roi=np.flatnonzero(self.roi), space="cage", symmetry=self.symmetry)
+        # given in shape vertices (the cage picks exactly, see HybridEditor.shape_roles), so that the edit
+        # file it saves replays with ``hybridedit deform`` to the same vertices
+        cage_roles = np.where(self.handle_group > 0, self.handle_group, np.where(self.roi, 0, -1))
+        roles = self.editor.shape_roles(cage_roles)
+        handles = [np.flatnonzero(roles == g + 1) for g in range(self.n_groups)]
+        self.editor.set_selection(handles, roi=np.flatnonzero(roles >= 0), symmetry=self.symmetry)
         self._engine_masks = self._mask_key()
 
     def apply_selection(self) -> None:
@@ -444,9 +477,24 @@ class Session:
             )
         self._give_engine_selection()
         self._anchor = self.cage_positions
-        self._anchor_state = self.editor.save_state()
         self._identity_transforms()
-        self._base = np.eye(4)
+        self._mark_anchor()
+
+    def _mark_anchor(self) -> None:
+        """The engine's state now is where a settle starts from (with the groups' transforms there)."""
+        self._anchor_state = self.editor.save_state()
+        self._anchor_bases = [B.copy() for B in self._bases]
+
+    def adopt_polish(self, vertices: np.ndarray) -> None:
+        """Make a polished pose (of the engine's current pose) the engine's own, as one undo step:
+        it is what is shown and saved, and the next drag or selection starts from it exactly."""
+        self.finish_settle()
+        self.editor.set_pose(vertices, cage_positions=self.editor.cage_positions)
+        self.polished = self.editor.deformed_vertices.copy()
+        if self._anchor is not None:
+            self._bases = [T.copy() for T in self.transforms]  # the engine's drags now start here
+            self._mark_anchor()
+        self._push("polish")
 
     # ------------------------------------------------------------------ dragging
     def begin_drag(self) -> np.ndarray:
@@ -463,7 +511,7 @@ class Session:
         if self._anchor is None:
             raise SelectionError("no selection applied; start a drag first")
         T = np.asarray(T, dtype=np.float64)
-        V = self.editor.drag(transforms=self._all_transforms(T @ np.linalg.inv(self._base)), iterations=iterations)
+        V = self.editor.drag(transforms=self._engine_transforms(T), iterations=iterations)
         self.transform = T.copy()
         fs = self.editor.frame_seconds
         self.last_frame_seconds = fs[-1]
@@ -481,7 +529,7 @@ class Session:
         if self._anchor is None:
             return
         self.editor.restore_state(self._anchor_state)
-        self._base = np.eye(4)
+        self._bases = [B.copy() for B in self._anchor_bases]
         self._settle_left = self.settle_frames
 
     def settle_step(self, frames: int = 1) -> bool:
@@ -493,7 +541,7 @@ class Session:
         """
         k = min(int(frames), self._settle_left)
         if k > 0:
-            self.editor.drag(transforms=self._all_transforms(), iterations=k * self.settle_iterations)
+            self.editor.drag(transforms=self._engine_transforms(), iterations=k * self.settle_iterations)
             self._settle_left -= k
         if self._settle_left == 0 and self._settle_label is not None:
             label, self._settle_label = self._settle_label, None
@@ -538,11 +586,10 @@ class Session:
         self.finish_settle()
         self.polished = None
         self.editor.reset()
+        self._identity_transforms()
         if self._anchor is not None:
             self._anchor = self.cage_positions
-            self._anchor_state = self.editor.save_state()
-        self._identity_transforms()
-        self._base = np.eye(4)
+            self._mark_anchor()
         self._push("reset pose")
 
     # ------------------------------------------------------------------ edit files
@@ -573,8 +620,8 @@ class Session:
         self.transforms = [np.asarray(Ts[g], dtype=np.float64) for g in range(len(Ts))] or [np.eye(4)]
         self._engine_masks = self._mask_key()
         self._anchor = self.editor.cage_positions
-        self._anchor_state = self.editor.save_state()
-        self._base = np.eye(4)
+        self._bases = [np.eye(4) for _ in range(self.n_groups)]
+        self._mark_anchor()
         self.settle()
 
     def load_edit(self, edit: Edit, path: str | None = None) -> None:

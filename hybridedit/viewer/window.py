@@ -418,15 +418,16 @@ class MainWindow(QtWidgets.QMainWindow):
         self.finish_settle()
         self.polisher.cancel()
         before = s.symmetry
-        s.set_symmetry(axis if on else None)
-        if s.handle.any():
-            try:
-                s.apply_selection()  # the engine measures the asymmetry now, not at the next drag
-            except SelectionError as e:
+        try:
+            s.set_symmetry(axis if on else None)  # a shape too asymmetric is refused here, nothing changed
+            if s.handle.any():
+                s.apply_selection()  # the mirrored selection is drawn on both sides at once
+        except SelectionError as e:
+            if s.symmetry != before:
                 s.undo()  # back to the selection before the toggle
-                self.actions_[f"mirror_{axis}"].setChecked(before == axis)
-                self.show_error(f"Cannot mirror across {axis.upper()}", str(e))
-                return
+            self.actions_[f"mirror_{axis}"].setChecked(before == axis)
+            self.show_error(f"Cannot mirror across {axis.upper()}", str(e))
+            return
         self._refresh_selection()
         self._update_actions()
         self.message(f"Mirror {axis.upper()}: the selection and the drag are mirrored across the shape's middle plane"
@@ -507,7 +508,7 @@ class MainWindow(QtWidgets.QMainWindow):
         Returns
         -------
         rebuilt : the build was a new cage for the shape being edited.
-        note : what carrying the edit over said (rebuilds only), or None.
+        note : what carrying the edit over said (rebuilds), or why Mirror is off for a new shape, or None.
         """
         req = result.request
         ed = result.editor
@@ -520,7 +521,7 @@ class MainWindow(QtWidgets.QMainWindow):
             note = self.session.adopt(ed, req.cage_size)
             rebuilt = True
         else:
-            session = Session(ed, path=req.path, cage_size=req.cage_size)
+            session, note = self._new_session(ed, req)
             self.session = session
             self.polisher.forget_shape()
             self.files.forget_paths()
@@ -534,6 +535,18 @@ class MainWindow(QtWidgets.QMainWindow):
         self._set_title()
         self._update_actions()
         return rebuilt, note
+
+    def _new_session(self, ed, req) -> tuple[Session, str | None]:
+        """A session for a newly opened shape, mirrored as the Mode menu says when the shape allows it;
+        and a sentence when it does not."""
+        axis = next((a for a in "xyz" if self.actions_[f"mirror_{a}"].isChecked()), None)
+        if axis is not None:
+            try:
+                return Session(ed, path=req.path, cage_size=req.cage_size, symmetry=axis), None
+            except SelectionError as e:
+                self.actions_[f"mirror_{axis}"].setChecked(False)
+                return Session(ed, path=req.path, cage_size=req.cage_size), f"Mirror {axis.upper()} is off: {e}"
+        return Session(ed, path=req.path, cage_size=req.cage_size), None
 
     def _show_engine(self) -> None:
         """(Re)build the scene for the session's engine (a new shape, a rebuild, or undo across one)."""
@@ -615,27 +628,24 @@ class MainWindow(QtWidgets.QMainWindow):
         return None if self.session is None else self.session.polished
 
     def drop_polished(self) -> None:
-        """Show the engine's pose again instead of a polished one."""
+        """A drag starts: the pose on display (polished or not, the engine's own) is no longer called polished."""
         s = self.session
-        if s is None or s.polished is None:
-            return
-        s.polished = None
-        self.scene.update_shape(s.shape_positions, everything=True)
-        self._pose_shown_changed()
-        self.view.request_render()
+        if s is not None:
+            s.polished = None
 
     def _polish_succeeded(self, out: PolishOutcome) -> None:
         s = self.session
         if s is None:
             return
         self.last_polish = out
-        s.polished = out.result.vertices
-        self.scene.update_shape(s.polished, everything=True)
+        s.adopt_polish(out.result.vertices)  # the engine's pose from now on: the next edit starts from it
+        self.scene.update_shape(s.shown_positions, everything=True)
         self._pose_shown_changed()
         self.view.request_render()
         r = out.result
+        self._update_actions()
         self.message(f"polished: {r.iterations} iterations, edge error {out.error_before:.2f}% → "
-                     f"{out.error_after:.2f}% ({out.seconds:.2f} s)")
+                     f"{out.error_after:.2f}% ({out.seconds:.2f} s); Ctrl+Z undoes the polish")
 
     # ================================================================== edge error and stretch map
     def _pose_shown_changed(self) -> None:

@@ -194,7 +194,8 @@ def test_select_drag_undo_redo_save_and_replay(qtbot, win, blob_file, tmp_path):
     data = json.loads(edit_path.read_text())
     # in shape space, with the mesh's fingerprint: it fits any cage of this shape
     assert data["space"] == "shape" and data["mesh"]["vertices"] == 2562
-    assert data["handles"][0]["indices"] == np.flatnonzero(handle[s.dominant]).tolist()
+    assert data["handles"][0]["indices"] == np.flatnonzero(s.editor.vertex_roles == 1).tolist()
+    assert np.array_equal(s.editor.cage_roles == 1, handle)  # the cage picks, exactly
     roles = s.shape_roles()
     assert np.array_equal(roles, s.editor.vertex_roles)
     assert np.allclose(data["handles"][0]["translate"], t, atol=1e-12)

@@ -69,21 +69,28 @@ def test_polish_on_release_lowers_the_energy_and_save_writes_it(qtbot, win, tmp_
     free = ed.free_mask
     assert free.any() and (~free).any()
     assert np.array_equal(P[~free], hybrid[~free])
-    # the polish is a view state: the engine's pose and the undo history are untouched
-    assert np.array_equal(s.shape_positions, hybrid)
+    # the polish is the engine's pose now (the next edit starts from it), one undo step
+    assert np.array_equal(s.shape_positions, P)
+    assert s.history.undo_label() == "polish"
     # save writes what is shown (the polished pose)
     out = tmp_path / "polished.obj"
     assert w.files.save_to(out)
     assert np.array_equal(read_mesh(out).vertices, P)
     assert "polish" in mesh_info_text(w.session, w.last_polish).lower()
-    # undo restores what it always did (the pose before the drag) and shows it
+    # undo takes back the polish (the settled pose, exactly), then the drag
     key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
     assert w.polished is None
+    assert np.array_equal(s.shape_positions, hybrid)
+    assert np.allclose(w.scene.parts.drawn_points(), hybrid, atol=1e-5)
+    key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
     assert np.allclose(s.shape_positions, rest, atol=1e-12)
     assert np.allclose(w.scene.parts.drawn_points(), rest, atol=1e-5)
-    # redo brings the hybrid pose back (no polish: it only follows a release)
+    # redo brings the settled pose back, then the polished one, exactly (no new polish runs)
     key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier | Qt.KeyboardModifier.ShiftModifier)
-    assert np.allclose(s.shape_positions, hybrid, atol=1e-12) and w.polished is None
+    assert np.array_equal(s.shape_positions, hybrid) and w.polished is None
+    key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier | Qt.KeyboardModifier.ShiftModifier)
+    assert np.array_equal(s.shape_positions, P)
+    assert np.allclose(w.scene.parts.drawn_points(), P, atol=1e-5)
     assert w.polisher.worker is None
     # off: a release shows the engine's pose only
     w.actions_["polish"].trigger()
@@ -157,7 +164,8 @@ def test_stretch_map(qtbot, win):
     after = np.asarray(w.view.screenshot(None, return_img=True)).astype(np.int16)
     assert before.shape == after.shape
     assert (np.abs(after - before).max(axis=2) > 30).mean() > 0.01  # the colours changed
-    # it follows the shape: undo back to rest, no stretch anywhere
+    # it follows the shape: undo the polish and the drag, back to rest, no stretch anywhere
+    key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
     key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
     assert np.abs(np.asarray(w.scene.shape.point_data["stretch"])).max() < 1e-3
     # off: back to the selection tint
