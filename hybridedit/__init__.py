@@ -10,6 +10,7 @@ at once; the compiled engine loads when it is first needed.
 from __future__ import annotations
 
 import importlib
+import importlib.util
 import os as _os
 import sys as _sys
 
@@ -41,6 +42,7 @@ _WHERE = {
     "Document": "document",
     "Edit": "editfile",
     "EditFileError": "editfile",
+    "HandleEdit": "editfile",
     "HybridEditor": "editor",
     "Mesh": "mesh",
     "MeshError": "mesh",
@@ -53,7 +55,7 @@ _WHERE = {
     "build_rig": "rig",
     "load_edit": "editfile",
     "mean_value_coordinates": "mvc",
-    "propagate": "propagate",
+    "propagate_positions": "propagate",
     "read_document": "io",
     "read_mesh": "io",
     "rigid_transform": "transforms",
@@ -63,14 +65,34 @@ _WHERE = {
     "write_mesh": "io",
 }
 
-__all__ = sorted(_WHERE)
+#: exported under another name than in their module: a package attribute named like a
+#: submodule would be that function in a fresh interpreter but the submodule once anything
+#: imported it (the import system binds ``hybridedit.propagate`` to the module)
+_RENAMED = {"propagate_positions": "propagate"}
+
+__all__ = sorted(_WHERE)  # (not ``open``: ``from hybridedit import *`` must not hide the builtin)
+
+
+def open(path, cage_size: int | float = 0.05, **options):  # noqa: A001  (he.open, as io.open)
+    """Open a mesh file for editing: ``HybridEditor.from_file(path, cage_size, **options)``.
+
+    The editor keeps everything the file holds (texture coordinates, polygons,
+    materials, colours), and ``editor.save(path)`` writes it all back with the
+    edited positions. Options: ``cache``, ``truncation``, ``progress`` (building),
+    ``weights``, ``iterations``, ``propagation`` (the editor).
+    """
+    from .editor import HybridEditor
+
+    return HybridEditor.from_file(path, cage_size, **options)
 
 
 def __getattr__(name: str):
     module = _WHERE.get(name)
     if module is None:
+        if not name.startswith("_") and importlib.util.find_spec(f"{__name__}.{name}") is not None:
+            return importlib.import_module(f".{name}", __name__)  # a submodule (the import binds it here)
         raise AttributeError(f"module 'hybridedit' has no attribute {name!r}")
-    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    value = getattr(importlib.import_module(f".{module}", __name__), _RENAMED.get(name, name))
     globals()[name] = value
     return value
 

@@ -1,0 +1,118 @@
+"""The package's front door: names, import orders, and the lossless open / pose / save path."""
+
+from __future__ import annotations
+
+import json
+import pkgutil
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import hybridedit as he
+
+from shapes import SHARED_MESHES
+
+SPOT = SHARED_MESHES / "spot"
+
+
+def run_python(code: str) -> dict:
+    """Run ``code`` in a fresh interpreter; it prints one JSON object, returned here."""
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+CHECK_NAMES = """
+import json, types, hybridedit.propagate
+print(json.dumps({
+    "same": he_propagate is he.propagate and he_propagate is sys.modules["hybridedit.propagate"],
+    "module": isinstance(he.propagate, types.ModuleType),
+    "function": he.propagate_positions is hybridedit.propagate.propagate,
+    "handle_edit": he.HandleEdit is __import__("hybridedit.editfile").editfile.HandleEdit,
+}))
+"""
+
+
+@pytest.mark.parametrize("first", ["package", "engine"])
+def test_every_name_is_the_same_object_in_every_import_order(first: str) -> None:
+    """``he.propagate`` used to be the function in a fresh interpreter and the submodule once the
+    editor was imported; now it is the submodule always, the function is ``propagate_positions``."""
+    if first == "package":  # the package's names first, the engine imported afterwards
+        head = ("import sys, hybridedit as he\nhe_propagate = he.propagate\nfrom hybridedit import HandleEdit\n"
+                "import hybridedit.editor\n")
+    else:  # the engine first (as any script that built an editor)
+        head = ("import sys, hybridedit.editor\nimport hybridedit as he\nfrom hybridedit import propagate as "
+                "he_propagate\n")
+    assert run_python(head + CHECK_NAMES) == {"same": True, "module": True, "function": True,
+                                              "handle_edit": True}
+
+
+def test_the_exported_names() -> None:
+    from hybridedit import editfile
+
+    assert "HandleEdit" in he.__all__ and he.HandleEdit is editfile.HandleEdit
+    for name in he.__all__:
+        assert getattr(he, name) is not None, name
+    submodules = {m.name for m in pkgutil.iter_modules(he.__path__)}
+    assert not submodules & set(he.__all__), "a package name that is also a submodule changes with imports"
+    assert "open" not in he.__all__ and callable(he.open)  # star imports keep the builtin open
+    with pytest.raises(AttributeError, match="no attribute 'nothing_here'"):
+        he.nothing_here  # noqa: B018
+
+
+@pytest.fixture
+def spot(tmp_path: Path) -> Path:
+    """spot's quad mesh with a material library and its texture, in a folder of their own."""
+    if not (SPOT / "spot_quadrangulated.obj").exists():
+        pytest.skip(f"{SPOT} not available")
+    src = tmp_path / "in"
+    src.mkdir()
+    lines = (SPOT / "spot_quadrangulated.obj").read_bytes().splitlines(keepends=True)
+    first_f = next(i for i, line in enumerate(lines) if line.startswith(b"f "))
+    lines[first_f:first_f] = [b"o spot\n", b"usemtl spot_material\n", b"s 1\n"]
+    (src / "spot.obj").write_bytes(b"mtllib spot.mtl\n" + b"".join(lines))
+    (src / "spot.mtl").write_text("newmtl spot_material\nKd 1 1 1\nmap_Kd textures/spot_texture.png\n")
+    (src / "textures").mkdir()
+    shutil.copy(SPOT / "spot_texture.png", src / "textures" / "spot_texture.png")
+    return src / "spot.obj"
+
+
+def test_open_pose_save_keeps_everything_spot_has(spot: Path, tmp_path: Path) -> None:
+    ed = he.open(spot, 150, cache=False)
+    assert ed.document is not None and ed.document.extras["texture coordinates"] == 3225
+    v = ed.mesh.vertices
+    z = v[:, 2]
+    ed.set_selection(np.flatnonzero(z > z.max() - 0.15), roi=np.flatnonzero(z > z.max() - 0.5))
+    P = ed.pose(translate=(0.0, 0.2, 0.05))
+    moved = np.any(P != v, axis=1)
+    assert 0 < moved.sum() < len(v)
+
+    out = tmp_path / "out" / "spot_posed.obj"
+    out.parent.mkdir()
+    assert ed.save(out) == []
+    before, after = spot.read_bytes().splitlines(), out.read_bytes().splitlines()
+    assert [s for s in after if not s.startswith(b"v ")] == [s for s in before if not s.startswith(b"v ")]
+    assert sum(s.startswith(b"vt ") for s in after) == 3225 and b"mtllib spot.mtl" in after
+    assert all(len(s.split()) == 5 for s in after if s.startswith(b"f "))  # quads stay quads
+    back = he.read_document(out)
+    assert np.array_equal(back.mesh.vertices, P)  # the pose, bit-exact
+    v_before = [s for s in before if s.startswith(b"v ")]
+    v_after = [s for s in after if s.startswith(b"v ")]
+    assert all(a == b for a, b, m in zip(v_after, v_before, moved) if not m)  # unmoved lines as written
+    assert (out.parent / "spot.mtl").read_bytes() == (spot.parent / "spot.mtl").read_bytes()
+    assert (out.parent / "textures" / "spot_texture.png").read_bytes() == (SPOT / "spot_texture.png").read_bytes()
+
+
+def test_open_passes_build_and_editor_options(spot: Path) -> None:
+    said = []
+    ed = he.HybridEditor.from_file(spot, 80, truncation=0.05, iterations=3, propagation="linear",
+                                   progress=lambda stage, fraction: said.append(stage))
+    assert abs(ed.cage.n_vertices - 80) <= 6 and ed.truncation == 0.05
+    assert ed.iterations == 3 and ed.propagation == "linear"
+    assert any(s.startswith("reading spot.obj") for s in said) and len(set(said)) > 1
+    with pytest.raises(he.MeshFileError, match="missing.obj"):
+        he.open(spot.parent / "missing.obj")
