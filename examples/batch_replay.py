@@ -10,10 +10,15 @@ Run from the repository root:
     .venv/bin/python examples/batch_replay.py                     # data/creature.ply
     .venv/bin/python examples/batch_replay.py my.obj --out /tmp --cage 1000
 
-Writes ``arm_edit.json``, ``<mesh name>_replayed.ply`` and ``stats.json`` to
-``--out`` (default: the current folder). The same replay by hand:
+Writes ``arm_edit.json``, ``<mesh name>_replayed.<same extension>`` (the input file
+with the new positions: texture coordinates, polygons, materials and colours kept)
+and ``stats.json`` to ``--out`` (default: the current folder). The same replay by hand:
 
-    .venv/bin/hybridedit deform MESH -o OUT.ply --edit arm_edit.json --stats stats.json
+    .venv/bin/hybridedit deform MESH -o OUT.obj --edit arm_edit.json --stats stats.json
+
+In a script, the same replay without the command: ``ed = he.open(MESH)``,
+``ed.apply_edit(he.load_edit("arm_edit.json"), frames=0)``, ``ed.pose(transforms=
+ed.edit_transforms(edit))``, ``ed.save(OUT)``.
 """
 
 import argparse
@@ -57,7 +62,7 @@ assert np.allclose(he.load_edit(edit_path).transform(), edit.transform())  # rou
 print(f"wrote {edit_path}: handle {hand.size}, ROI {arm.size} shape vertices, "
       f"{args.degrees:g} degrees about {np.round(shoulder, 3).tolist()}")
 
-result = out / f"{Path(args.mesh).stem}_replayed.ply"
+result = out / f"{Path(args.mesh).stem}_replayed{Path(args.mesh).suffix}"  # same format: nothing dropped
 stats_path = out / "stats.json"
 cmd = [sys.executable, "-m", "hybridedit", "deform", str(args.mesh), "-o", str(result),
        "--edit", str(edit_path), "--cage", args.cage, "--frames", str(args.frames),

@@ -59,20 +59,22 @@ ap.add_argument("--out", default=".", help="output folder (default: the current 
 ap.add_argument("--cage", type=parse_cage_size, default=0.05, help="cage vertices (2000) or fraction (0.05)")
 ap.add_argument("--degrees", type=float, default=40.0, help="how far to raise the arm")
 ap.add_argument("--size", type=int, nargs=2, default=(1600, 800), metavar=("W", "H"), help="image size")
+ap.add_argument("--save", help="also save the edited mesh here (the input's format keeps everything it had)")
 args = ap.parse_args()
 
-mesh = he.read_mesh(args.mesh)
+editor = he.open(args.mesh, args.cage, cache=True)
+mesh = editor.mesh
 v = mesh.vertices
 lo, hi = mesh.bbox()
 rel = (v - lo) / (hi - lo)
 hand = np.flatnonzero(rel[:, 0] > 0.92)
 arm = np.flatnonzero(rel[:, 0] > 0.65)
 shoulder = v[arm[rel[arm, 0] < 0.68]].mean(axis=0)
-editor = he.HybridEditor(mesh, args.cage, cache=True)
 editor.set_selection(hand, roi=arm)
-for k in range(1, 21):
-    angle = args.degrees * min(k, 8) / 8  # over 8 frames, then 12 more to settle
-    deformed = editor.drag(transform=he.rigid_transform(axis=(0, 0, 1), degrees=angle, center=shoulder))
+deformed = editor.pose(rotate={"axis": (0, 0, 1), "degrees": args.degrees, "center": shoulder})  # solved
+if args.save:
+    for note in editor.save(args.save):  # the input file with the new positions, nothing dropped
+        print(f"note: {note}")
 
 edges = mesh.edges()
 stretch = 100 * vertex_stretch(mesh.n_vertices, edges, edge_stretch(v, deformed, edges))
@@ -85,7 +87,7 @@ try:
 
     rest = pv.PolyData.from_regular_faces(v, mesh.faces)
     rest["role"] = role
-    posed = pv.PolyData.from_regular_faces(deformed.copy(), mesh.faces)
+    posed = pv.PolyData.from_regular_faces(deformed, mesh.faces)
     posed["stretch %"] = stretch
     p = pv.Plotter(off_screen=True, shape=(1, 2), window_size=tuple(args.size), border=False)
     p.set_background("white")
