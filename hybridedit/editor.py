@@ -806,7 +806,7 @@ class HybridEditor:
         self._propagate_all()
         self._moved = True
         self._start_from(self._current_base())
-        return self._out
+        return self.deformed_vertices
 
     def set_pose(self, vertices: np.ndarray, *, cage_positions: np.ndarray | None = None) -> np.ndarray:
         """Make ``vertices`` the current shape (a polished pose, a pose carried over from
@@ -822,7 +822,7 @@ class HybridEditor:
 
         Returns
         -------
-        (n, 3) float64 array, the shape (a view that later calls update).
+        (n, 3) float64 array, the shape (a read-only view that later calls update).
 
         Examples
         --------
@@ -842,7 +842,7 @@ class HybridEditor:
         self._out[:] = V
         self._moved = True
         self._start_from(self._current_base())
-        return self._out
+        return self.deformed_vertices
 
     def save_state(self) -> EditorState:
         """A snapshot of the selection and pose, for :meth:`restore_state` (undo)."""
@@ -866,7 +866,7 @@ class HybridEditor:
         self._transforms = [T.copy() for T in state.transforms]
         self._base = state.base
         self._moved = state.moved
-        return self._out
+        return self.deformed_vertices
 
     def _propagate_all(self) -> None:
         """Every shape vertex from the current cage pose and rotations, from the base pose."""
@@ -931,7 +931,7 @@ class HybridEditor:
         self.set_selection([h.indices for h in edit.handles], fixed=edit.fixed, roi=edit.roi, space=edit.space,
                            symmetry=edit.symmetry)
         Ts = self.edit_transforms(edit)
-        V = self._out
+        V = self.deformed_vertices
         for f in range(frames):
             say("deforming", f / frames)
             V = self.drag(transforms=Ts, iterations=iterations)

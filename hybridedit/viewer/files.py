@@ -234,7 +234,8 @@ class FileActions:
             return False
         self.edit_path = Path(path)
         note = "" if s.anchor_at_rest or not s.applied else (
-            " Note: this selection was made on a deformed pose; 'hybridedit deform' replays it from the rest pose.")
+            " Note: its drags started from a pose made by earlier edits or a polish; 'hybridedit deform' replays "
+            "them from the rest pose.")
         w.message(f"Saved the edit to {path} (the last selection and its drag, in shape vertices: it replays "
                   f"on any cage of this mesh, e.g. hybridedit deform --edit).{note}")
         return True
