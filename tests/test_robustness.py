@@ -34,7 +34,17 @@ REFUSED = {
     "nan_inf.obj": "nan_inf.obj: 2 vertices have NaN or infinite coordinates (first is vertex 3, counting from 0)",
     "index_past_end.obj": "index_past_end.obj: line 168: face index 173 out of range (file has 162 vertices)",
     "negative_index.off": "negative_index.off: face index -5 out of range (file has 162 vertices)",
+    # headers promising more than the file can hold: refused before anything is allocated for them
+    "promises_1e12_faces.ply": "promises_1e12_faces.ply: header says 1000000000000 faces but the file has room "
+                               "for at most 260 (260 bytes left, at least 1 byte each; the header's element "
+                               "counts are wrong)",
+    "promises_1e12_vertices_ascii.ply": "promises_1e12_vertices_ascii.ply: header says 1000000000000 vertices "
+                                        "but file ends after 4",
+    "promises_1e12_faces.off": "promises_1e12_faces.off: header says 1000000000000 faces but file ends after 1",
+    "promises_max_triangles.stl": "promises_max_triangles.stl: binary STL header says 4294967295 triangles but "
+                                  "file ends after 1",
 }
+PROMISING = sorted(name for name in REFUSED if name.startswith("promises_"))
 
 # file -> the exact repair notes (info lists them; deform prints them on stderr), with --cage 40
 REPAIRED = {
@@ -110,6 +120,23 @@ def test_refused_files(name, catalog, tmp_path, capsys):
     assert main(["deform", str(path), "-o", str(out), "--edit", str(edit), "--cage", "40", "--frames", "2"]) == 2
     assert error_line(capsys.readouterr().err) == REFUSED[name]
     assert not out.exists()
+
+
+@pytest.mark.parametrize("name", PROMISING)
+def test_a_header_promising_more_than_the_file_holds_is_refused_at_once(name, catalog):
+    """10^12 elements (2^32-1 for STL, its largest count) in a file of a few hundred bytes: one
+    MeshFileError naming the file and the counts, before any allocation (the CLI test above
+    checks exit 2 and the one line for info and deform)."""
+    from hybridedit.io import MeshFileError
+
+    t0 = time.perf_counter()
+    with pytest.raises(MeshFileError) as err:
+        read_mesh(catalog[name])
+    took = time.perf_counter() - t0
+    print(f"{name}: refused in {took * 1000:.1f} ms")
+    assert str(err.value) == REFUSED[name]
+    assert catalog[name].stat().st_size < 1000
+    assert took < 5.0  # generous: it is milliseconds; allocating for the promise would fail or swap
 
 
 @pytest.mark.parametrize("name", sorted(REPAIRED))

@@ -23,7 +23,7 @@ import numpy as np
 import plyfile
 
 from ..document import Document, grouped_normals, moved_vertices, vertex_normals
-from .common import _Bad, _mesh, _fan, _words
+from .common import _Bad, _mesh, _fan, _truncated, _words
 
 __all__ = ["PlyNative", "read", "write"]
 
@@ -146,9 +146,50 @@ def _check_start(data: bytes) -> None:
         raise _Bad("not a valid PLY header (no 'end_header' line)")
 
 
+def _check_counts(data: bytes) -> None:
+    """Refuse a header whose element counts need more than the file has after it.
+
+    An ASCII record is one line; a binary record needs at least its scalar
+    properties' bytes and each list's count. A header promising 10^12 faces in a
+    small file is refused here, before plyfile allocates anything for them, with
+    the message a truncated file gets ("header says N faces but file ends after K")
+    where K is known.
+    """
+    try:
+        header = plyfile.PlyData._parse_header(io.BytesIO(data))
+    except plyfile.PlyParseError as exc:
+        raise _Bad(_plain_message(exc)) from None
+    end = data.index(b"end_header")
+    newline = data.find(b"\n", end)
+    body = memoryview(data)[newline + 1:] if newline >= 0 else memoryview(b"")
+    if header.text:
+        if sum(el.count for el in header.elements) <= bytes(body).count(b"\n") + 1:
+            return
+        lines = sum(1 for line in bytes(body).splitlines() if line.strip())
+        for el in header.elements:
+            if el.count > lines:
+                raise _truncated(el.count, el.name, lines)
+            lines -= el.count
+        return
+    left, exact = len(body), True  # bytes left for this element; whether earlier records had fixed sizes
+    for el in header.elements:
+        lists = [p for p in el.properties if isinstance(p, plyfile.PlyListProperty)]
+        size = sum(np.dtype(p.list_dtype()[0] if p in lists else p.dtype()).itemsize
+                   for p in el.properties)
+        if el.count * size > left:
+            if exact and not lists:
+                raise _truncated(el.count, el.name, left // size if size else 0)
+            raise _Bad(f"header says {_words(el.count, el.name)} but the file has room for at most "
+                       f"{left // size if size else 0:,} ({left:,} bytes left, at least {size} byte{'' if size == 1 else 's'} each; "
+                       "the header's element counts are wrong)")
+        left -= el.count * size
+        exact = exact and not lists
+
+
 def read(path: str, data: bytes) -> Document:
     """Read a PLY file into a :class:`Document` (raises _Bad for a bad file)."""
     _check_start(data)
+    _check_counts(data)
     try:
         ply = _read_plydata(path)
     except plyfile.PlyParseError as exc:

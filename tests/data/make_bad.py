@@ -115,6 +115,35 @@ def _negative(folder):
     return _w(folder, "negative_index.off", "\n".join(lines) + "\n")
 
 
+PROMISE = 10 ** 12  # elements a lying header promises: far more than any file or memory holds
+
+
+@_entry("promises_1e12_faces.ply", "a tiny binary PLY whose header promises 10^12 faces")
+def _promise_ply(folder):
+    v, f = sphere(0)
+    return _w(folder, "promises_1e12_faces.ply", ply_binary(v, f, n_faces=PROMISE))
+
+
+@_entry("promises_1e12_vertices_ascii.ply", "a tiny ASCII PLY whose header promises 10^12 vertices")
+def _promise_ply_ascii(folder):
+    head = ("ply\nformat ascii 1.0\nelement vertex %d\nproperty float x\nproperty float y\n"
+            "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n" % PROMISE)
+    return _w(folder, "promises_1e12_vertices_ascii.ply", head + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")
+
+
+@_entry("promises_1e12_faces.off", "a tiny OFF whose counts line promises 10^12 faces")
+def _promise_off(folder):
+    return _w(folder, "promises_1e12_faces.off", "OFF\n3 %d 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n" % PROMISE)
+
+
+@_entry("promises_max_triangles.stl", "a binary STL whose count promises 2^32-1 triangles (its largest)")
+def _promise_stl(folder):
+    rec = np.zeros(1, dtype=[("n", "<f4", 3), ("c", "<f4", (3, 3)), ("a", "<u2")])
+    rec["c"] = [[0, 0, 0], [1, 0, 0], [0, 1, 0]]
+    return _w(folder, "promises_max_triangles.stl",
+              b"binary".ljust(80, b" ") + np.uint32(2 ** 32 - 1).tobytes() + rec.tobytes())
+
+
 @_entry("quads_ngons.obj", "a box of quads with pentagon and hexagon caps")
 def _quads(folder):
     # a hexagonal prism: two hexagons and six quads, then a pentagon-capped block
