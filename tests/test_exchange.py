@@ -85,7 +85,8 @@ def test_spot_deformed_keeps_quads_uvs_material_and_texture(spot: Path, tmp_path
     before, after = spot.read_bytes(), out.read_bytes()
     assert non_vertex_lines(after) == non_vertex_lines(before)  # quads, vt indices, usemtl, ...
     back = read_document(out)
-    assert np.array_equal(back.mesh.vertices, V)  # moved where edited, bit-exact
+    # moved where edited, to spot's own 6 significant digits (what %g writes): see test_moved_...
+    assert np.all(np.abs(back.mesh.vertices - V) <= 0.5e-5 * np.abs(V) + 1e-300)
     assert np.array_equal(back.mesh.faces, mesh.faces)
     v_before = [line for line in before.splitlines() if line.startswith(b"v ")]
     v_after = [line for line in after.splitlines() if line.startswith(b"v ")]
@@ -97,6 +98,80 @@ def test_spot_deformed_keeps_quads_uvs_material_and_texture(spot: Path, tmp_path
     # an edit of the copy writes it back without touching the existing texture
     write_document(out, read_document(out).with_vertices(bend(V)))
     assert texture.read_bytes() == (SPOT / "spot_texture.png").read_bytes()
+
+
+def _bumpy_obj(path: Path, fmt: str) -> Path:
+    m = bumpy_blob(3)
+    text = "".join(("v " + " ".join([fmt] * 3) + "\n") % tuple(r) for r in m.vertices.tolist())
+    path.write_text(text + "".join("f %d %d %d\n" % tuple(f) for f in (m.faces + 1).tolist()))
+    return path
+
+
+def _written(data: bytes, head: bytes, columns: slice) -> list[list[bytes]]:
+    return [line.split()[columns] for line in data.splitlines() if line.startswith(head)]
+
+
+@pytest.mark.parametrize("case", ["spot %g", "%.6f", "%.9g", "repr"])
+def test_moved_coordinates_are_written_with_the_files_own_precision(spot: Path, tmp_path: Path, case: str) -> None:
+    """An edit does not inflate a file: a moved coordinate has at most the digits the input's have, and
+    is within half a unit of its last digit of the engine's value (exact for a repr-written file)."""
+    path = spot if case == "spot %g" else _bumpy_obj(tmp_path / "blob.obj", {"repr": "%r"}.get(case, case))
+    doc = read_document(path)
+    V = bend(doc.mesh.vertices)
+    moved = np.any(V != doc.mesh.vertices, axis=1)
+    assert moved.sum() > 0.3 * len(V)
+    out = tmp_path / "bent.obj"
+    write_document(out, doc.with_vertices(V))
+    before, after = path.read_bytes(), out.read_bytes()
+    growth = len(after) / len(before) - 1
+    print(f"{case}: {moved.sum()} of {len(V)} vertices moved, file {len(before):,} -> {len(after):,} bytes "
+          f"({100 * growth:+.3f}%)")
+    assert abs(growth) < 0.01
+    tokens = np.array(_written(after, b"v ", slice(1, 4)))[moved]
+    written = tokens.astype(np.float64)
+    err = np.abs(written - V[moved])
+    if case == "repr":
+        assert np.array_equal(written, V[moved])  # the shortest exact form: exact
+        return
+    digits = {"%.6f": None, "%.9g": 9}.get(case, 6)
+    if digits is None:  # 6 decimals: within 0.5e-6, and never more decimals than the input's
+        assert err.max() <= 0.5e-6 * (1 + 1e-9)
+        assert max(len(t.partition(b".")[2]) for t in tokens.ravel()) <= 6
+    else:  # s significant digits: within half a unit of the s-th digit, never more digits
+        unit = 10.0 ** (np.floor(np.log10(np.abs(V[moved]))) - digits + 1)
+        assert np.all(err <= 0.5 * unit * (1 + 1e-9))
+        significant = [len(t.lstrip(b"-").partition(b"e")[0].replace(b".", b"").lstrip(b"0")) for t in tokens.ravel()]
+        assert max(significant) <= digits
+    # a second edit of the written file starts from what it holds
+    again = read_document(out)
+    assert np.array_equal(again.mesh.vertices[moved], written)
+
+
+def test_moved_off_and_ascii_ply_coordinates_keep_the_files_precision(tmp_path: Path) -> None:
+    m = bumpy_blob(3)
+    off = tmp_path / "blob.off"
+    off.write_text(f"OFF\n{len(m.vertices)} {len(m.faces)} 0\n"
+                   + "".join("%.6f %.6f %.6f\n" % tuple(r) for r in m.vertices.tolist())
+                   + "".join("3 %d %d %d\n" % tuple(f) for f in m.faces.tolist()))
+    ply = coloured_ply(tmp_path / "blob.ply", "ascii")  # float32 x y z, written by plyfile with 18 digits
+    for path in (off, ply):
+        doc = read_document(path)
+        V = bend(doc.mesh.vertices)
+        out = tmp_path / ("bent" + path.suffix)
+        write_document(out, doc.with_vertices(V))
+        before, after = path.read_bytes(), out.read_bytes()
+        moved = np.any(V != doc.mesh.vertices, axis=1)
+        print(f"{path.name}: file {len(before):,} -> {len(after):,} bytes")
+        back = read_document(out).mesh.vertices
+        if path is off:
+            assert abs(len(after) / len(before) - 1) < 0.01
+            assert np.abs(back - V).max() <= 0.5e-6 * (1 + 1e-9)
+        else:  # float32 properties: the shortest text of the float32 value, exactly that value
+            assert np.array_equal(back[moved], V[moved].astype(np.float32).astype(np.float64))
+            assert len(after) < len(before)  # 9 digits at most where plyfile had written 18
+            rows = after.split(b"end_header\n", 1)[1].splitlines()[:len(V)]
+            assert max(len(t.lstrip(b"-").partition(b"e")[0].replace(b".", b"").lstrip(b"0"))
+                       for line, m in zip(rows, moved) if m for t in line.split()[:3]) <= 9
 
 
 def test_an_existing_different_material_or_texture_is_never_replaced(spot: Path, tmp_path: Path) -> None:
@@ -284,8 +359,7 @@ def test_ply_keeps_every_element_property_and_type(tmp_path: Path, fmt: str) -> 
     doc = read_document(path)
     assert doc.colors is not None and doc.normals and "'camera' records" in doc.extras
     write_document(tmp_path / "same.ply", doc)
-    if fmt != "ascii":
-        assert (tmp_path / "same.ply").read_bytes() == path.read_bytes()
+    assert (tmp_path / "same.ply").read_bytes() == path.read_bytes()  # ASCII too: given back line by line
     V = bend(doc.mesh.vertices)
     write_document(tmp_path / "bent.ply", doc.with_vertices(V))
     a, b = plyfile.PlyData.read(str(path)), plyfile.PlyData.read(str(tmp_path / "bent.ply"))

@@ -194,3 +194,95 @@ def _format_rows(fmt: str, values: np.ndarray) -> str:
 def _number_text(values: np.ndarray) -> list[str]:
     """Shortest text that reads back to exactly each float64 value (repr), for (k,) arrays."""
     return [repr(x) for x in values.tolist()]
+
+
+# --------------------------------------------------------------------------- text precision
+
+#: Fewer significant digits than this in a file's coordinates is a coarse grid (integers, a
+#: CAD file's 2 decimals): moved values are then written in the shortest exact form instead
+#: of being snapped to that grid.
+_MIN_FILE_DIGITS = 6
+
+
+def _shortest(x: float, dtype: np.dtype) -> bytes:
+    """The shortest text that reads back to ``x`` in its number type (float64 or float32)."""
+    if np.dtype(dtype) == np.float32:
+        return str(np.float32(x)).encode()
+    return repr(float(x)).encode()
+
+
+class TextPrecision:
+    """How a text file writes its coordinates, measured from a sample of its own numbers,
+    so that a moved coordinate is written with the file's precision and no more.
+
+    Exporters write either a fixed number of decimals (``%.6f``: every number has
+    the same count) or a number of significant digits (``%g``, whose default is 6:
+    spot's ``0.348799 -0.0832331``), or the shortest exact form (``repr``, ``%.17g``).
+    The first two are recognised when every sampled number reads back as that
+    format writes it; a moved value is then rounded the same way (to 0.5e-d, or
+    half a unit of its s-th significant digit), unless the shortest exact form of
+    the value in its number type is no longer (``0.5`` rather than ``0.500000``).
+    Anything else, and a file with fewer than 6 significant digits (a coarse grid
+    an edit must not snap to), gets the shortest exact form.
+    """
+
+    def __init__(self, kind: str, digits: int = 0):
+        self.kind, self.digits = kind, digits  # "fixed" (decimals), "general" (significant), "shortest"
+
+    def __repr__(self) -> str:
+        return f"TextPrecision({self.kind!r}, {self.digits})"
+
+    @classmethod
+    def of(cls, tokens: list[bytes]) -> "TextPrecision":
+        """The precision of ``tokens`` (a sample of a file's numbers, as written)."""
+        tokens = [t for t in tokens if t]
+        if not tokens:
+            return cls("shortest")
+        decimals, significant, plain = set(), 0, True
+        for t in tokens:
+            mantissa, e, _ = t.lower().partition(b"e")
+            plain = plain and not e
+            whole, dot, frac = mantissa.lstrip(b"+-").partition(b".")
+            decimals.add(len(frac) if dot else 0)
+            significant = max(significant, len((whole + frac).lstrip(b"0")) or 1)
+        if significant < _MIN_FILE_DIGITS or significant >= 17:
+            return cls("shortest")
+        try:
+            values = [float(t) for t in tokens]
+        except ValueError:
+            return cls("shortest")
+        if plain and len(decimals) == 1 and (d := decimals.pop()) > 0:
+            if all(b"%.*f" % (d, v) == t.lstrip(b"+") for v, t in zip(values, tokens)):
+                return cls("fixed", d)
+        if all(b"%.*g" % (significant, v) == t.lstrip(b"+") for v, t in zip(values, tokens)):
+            return cls("general", significant)
+        return cls("shortest")
+
+    def text(self, x: float, dtype: np.dtype = np.float64) -> bytes:
+        """``x`` as the file would write it (see the class docstring)."""
+        exact = _shortest(x, dtype)
+        if self.kind == "fixed":
+            rounded = b"%.*f" % (self.digits, x)
+        elif self.kind == "general":
+            rounded = b"%.*g" % (self.digits, x)
+        else:
+            return exact
+        if rounded in (b"-0", b"-0." + b"0" * self.digits):
+            rounded = rounded[1:]
+        return exact if len(exact) <= len(rounded) else rounded
+
+    def bound(self, x: np.ndarray) -> np.ndarray:
+        """The largest difference between ``x`` and its text's value: half a unit of the last
+        digit written ((k,) float64; 0 where the text is exact)."""
+        x = np.abs(np.asarray(x, dtype=np.float64))
+        if self.kind == "fixed":
+            return np.full(x.shape, 0.5 * 10.0 ** -self.digits)
+        if self.kind == "general":
+            exponent = np.floor(np.log10(np.where(x > 0, x, 1.0)))
+            return 0.5 * 10.0 ** (exponent - self.digits + 1)
+        return np.zeros(x.shape)
+
+
+def _sample_rows(n: int, limit: int = 2000) -> np.ndarray:
+    """Up to ``limit`` row indices spread evenly over ``n`` rows."""
+    return np.unique(np.linspace(0, n - 1, min(n, limit)).astype(np.int64)) if n else np.zeros(0, np.int64)

@@ -1,7 +1,7 @@
 """OFF (with its C, N and ST variants): vertex lines rewritten, everything else kept.
 
 Reading keeps the file's lines. Writing rewrites the line of each vertex that
-moved (and, in NOFF files, recomputes the normal of every vertex a moved vertex
+moved, with the file's own precision (see :class:`~hybridedit.exchange.common.TextPrecision`) (and, in NOFF files, recomputes the normal of every vertex a moved vertex
 touches); colours, texture coordinates, face lines with their colours, comments
 and blank lines are kept as they are.
 """
@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..document import Document, grouped_normals, moved_vertices, vertex_normals
-from .common import _Bad, _mesh, _fan, _format_rows, _numbers, _snippet, _truncated, _widths, _words
+from .common import TextPrecision, _Bad, _sample_rows, _mesh, _fan, _format_rows, _numbers, _snippet, _truncated, _widths, _words
 
 __all__ = ["OffNative", "read", "write"]
 
@@ -189,17 +189,24 @@ def write(doc: Document) -> bytes:
         rewrite[tri[moved[tri].any(axis=1)].ravel()] = True
         normals, valid = grouped_normals(V, tri, tri, len(V))
     out = list(nat.lines)
+    style = precision(nat)
     for i in np.flatnonzero(rewrite).tolist():
         li = nat.v_lines[i]
         text, hash_, comment = out[li].partition(b"#")
         words = text.split()
         if moved[i]:
-            words[:3] = [b"%r" % x for x in V[i].tolist()]
+            words[:3] = [style.text(x) for x in V[i].tolist()]
         if normals is not None and valid[i]:
             words[3:6] = [b"%.7g" % x for x in normals[i].tolist()]
         out[li] = b" ".join(words) + ((b" " + hash_ + comment) if hash_ else b"")
     text = nat.newline.join(out)
     return text + nat.newline if nat.final_newline else text
+
+
+def precision(nat: OffNative) -> TextPrecision:
+    """How the file writes its vertex coordinates (from up to 2,000 of its vertex lines)."""
+    lines = [nat.lines[i].partition(b"#")[0] for i in nat.v_lines[_sample_rows(len(nat.v_lines))].tolist()]
+    return TextPrecision.of([t for line in lines for t in line.split()[:3]])
 
 
 def _plain(doc: Document) -> bytes:

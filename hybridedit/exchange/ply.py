@@ -4,6 +4,10 @@ Reading keeps the whole :class:`plyfile.PlyData` (elements, properties and
 their types, comments, ``obj_info``, ASCII or binary and its byte order).
 Writing gives it back with ``x y z`` replaced in their own type and ``nx ny nz``
 recomputed from the deformed surface for every vertex a moved vertex touches.
+A binary file is written by plyfile (or as one record array, below); an ASCII
+file is given back line by line, only the rewritten vertices' lines changed and
+their numbers written with the file's own precision (plyfile would write every
+number with 18 digits, a float32 ``0.1`` as ``0.100000001490116119``).
 Faces may be polygons (``vertex_indices`` or ``vertex_index``) and/or triangle
 strips (``tristrips``, -1 restarting a strip).
 
@@ -23,7 +27,7 @@ import numpy as np
 import plyfile
 
 from ..document import Document, grouped_normals, moved_vertices, vertex_normals
-from .common import _Bad, _mesh, _fan, _truncated, _words
+from .common import TextPrecision, _Bad, _mesh, _fan, _sample_rows, _truncated, _words
 
 __all__ = ["PlyNative", "read", "write"]
 
@@ -37,6 +41,7 @@ class PlyNative:
 
     data: plyfile.PlyData
     rest: np.ndarray  # (n, 3) float64
+    raw: bytes | None = None  # an ASCII file's bytes: written back line by line
 
 
 def _plain_message(exc: plyfile.PlyParseError) -> str:
@@ -252,7 +257,7 @@ def read(path: str, data: bytes) -> Document:
     if ply.comments or ply.obj_info:
         extras["header comments"] = len(ply.comments) + len(ply.obj_info)
     return Document(mesh=_mesh(vertices, faces), format="ply",
-                    native=PlyNative(data=ply, rest=vertices), polygons=polygons, colors=colors,
+                    native=PlyNative(data=ply, rest=vertices, raw=data if ply.text else None), polygons=polygons, colors=colors,
                     normals=all(n in names for n in ("nx", "ny", "nz")), extras=extras)
 
 
@@ -270,6 +275,8 @@ def write(doc: Document) -> bytes:
         return _to_bytes(_plain(doc))
     V = doc.mesh.vertices
     moved = moved_vertices(nat.rest, V)
+    if nat.raw is not None:
+        return _write_text(doc, nat, moved)
     elements = []
     for el in nat.data.elements:
         if el.name == "vertex" and moved.any():
@@ -278,11 +285,7 @@ def write(doc: Document) -> bytes:
                 rec[name][moved] = _cast(V[moved, axis], rec.dtype[name])
             names = rec.dtype.names
             if all(n in names for n in ("nx", "ny", "nz")):
-                tri = doc.mesh.faces
-                touched = np.zeros(len(V), dtype=bool)
-                touched[tri[moved[tri].any(axis=1)].ravel()] = True
-                normals, valid = grouped_normals(V, tri, tri, len(V))
-                touched &= valid
+                touched, normals = _touched_normals(doc, moved)
                 for axis, name in enumerate(("nx", "ny", "nz")):
                     rec[name][touched] = _cast(normals[touched, axis], rec.dtype[name])
             el = copy.copy(el)
@@ -291,6 +294,81 @@ def write(doc: Document) -> bytes:
     out = plyfile.PlyData(elements, text=nat.data.text, byte_order=nat.data.byte_order,
                           comments=nat.data.comments, obj_info=nat.data.obj_info)
     return _to_bytes(out)
+
+
+def _touched_normals(doc: Document, moved: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(which vertices a moved vertex's faces touch, with a valid normal (n,), normals (n, 3))."""
+    V, tri = doc.mesh.vertices, doc.mesh.faces
+    touched = np.zeros(len(V), dtype=bool)
+    touched[tri[moved[tri].any(axis=1)].ravel()] = True
+    normals, valid = grouped_normals(V, tri, tri, len(V))
+    return touched & valid, normals
+
+
+def _write_text(doc: Document, nat: PlyNative, moved: np.ndarray) -> bytes:
+    """An ASCII file given back line by line: the header and every record as they were, the
+    lines of moved vertices (and of the vertices whose normals they change) rewritten with
+    the file's own precision in the property's type (see
+    :class:`~hybridedit.exchange.common.TextPrecision`)."""
+    if not moved.any():
+        return nat.raw
+    raw = nat.raw
+    start = raw.find(b"\n", raw.index(b"end_header")) + 1
+    lines = raw[start:].splitlines(keepends=True)
+    records = [i for i, line in enumerate(lines) if line.strip()]
+    first = 0
+    for el in nat.data.elements:
+        if el.name == "vertex":
+            break
+        first += el.count
+    vertex = nat.data["vertex"]
+    props = vertex.properties
+    names = [p.name for p in props]
+    has_normals = all(n in names for n in ("nx", "ny", "nz"))
+    rewrite = moved.copy()
+    touched = normals = None
+    if has_normals:
+        touched, normals = _touched_normals(doc, moved)
+        rewrite |= touched
+
+    def columns(words: list[bytes]) -> dict[str, int]:
+        at, where = 0, {}
+        for p in props:
+            where[p.name] = at
+            at += 1 + (int(words[at]) if isinstance(p, plyfile.PlyListProperty) else 0)
+        return where
+
+    def sample(axes: tuple[str, ...]) -> TextPrecision:
+        rows = _sample_rows(vertex.count)
+        toks = []
+        for k in rows.tolist():
+            words = lines[records[first + k]].split()
+            where = columns(words)
+            toks += [words[where[a]] for a in axes]
+        return TextPrecision.of(toks)
+
+    def number(style: TextPrecision, x: float, dtype: np.dtype) -> bytes:
+        if dtype.kind in "ui":
+            return b"%d" % int(_cast(np.array([x]), dtype)[0])
+        return style.text(x, np.float32 if dtype.itemsize == 4 else np.float64)
+
+    xyz, nxyz = sample(("x", "y", "z")), sample(("nx", "ny", "nz")) if has_normals else None
+    types = {p.name: np.dtype(p.val_dtype) for p in props if not isinstance(p, plyfile.PlyListProperty)}
+    V = doc.mesh.vertices
+    for i in np.flatnonzero(rewrite).tolist():
+        li = records[first + i]
+        line = lines[li]
+        body = line.rstrip(b"\r\n")
+        words = body.split()
+        where = columns(words)
+        if moved[i]:
+            for axis, name in enumerate("xyz"):
+                words[where[name]] = number(xyz, V[i, axis], types[name])
+        if touched is not None and touched[i]:
+            for axis, name in enumerate(("nx", "ny", "nz")):
+                words[where[name]] = number(nxyz, normals[i, axis], types[name])
+        lines[li] = b" ".join(words) + line[len(body):]
+    return raw[:start] + b"".join(lines)
 
 
 def _plain(doc: Document) -> plyfile.PlyData:
