@@ -5,8 +5,11 @@ from __future__ import annotations
 from qtpy import QtGui, QtWidgets
 
 MOUSE_HELP = [
-    ("Left drag", "Camera mode: rotate the view; Select mode: rectangle or brush; "
-                  "Drag mode: move the handle in the view plane"),
+    ("Left drag", "Camera mode: rotate the view; Select mode: rectangle or brush (only the cage points in "
+                  "sight; Select Through, Alt+Z, takes the hidden ones too); Drag mode: move the handle in the "
+                  "view plane"),
+    ("Left click", "Select mode, rectangle tool: take the nearest cage point (Shift adds, Ctrl removes); "
+                   "a click on empty space changes nothing"),
     ("Shift + left drag", "Select mode: add to the selection (Camera mode: pan)"),
     ("Ctrl + left drag", "Select mode: remove from the selection (Camera mode: spin)"),
     ("Alt + left drag", "rotate the view in any mode"),
@@ -19,7 +22,11 @@ MOUSE_HELP = [
 
 HOWTO = """\
 1. Select mode (S), target ROI (R): drag a rectangle (or use the brush, B) over the cage
-   vertices that may move. Shift adds, Ctrl removes, a plain drag replaces.
+   vertices that may move. Shift adds, Ctrl removes, a plain drag replaces. Only the cage
+   vertices in sight are taken, not those hidden behind the shape; Select > Select Through
+   (Alt+Z) takes those too. A click takes the nearest cage vertex; a click on empty space
+   changes nothing. A rectangle over empty space empties the target (Ctrl+Z restores it).
+   Ctrl+Shift+A clears the ROI and every handle group; Alt+A the current target only.
 2. Target Handle (H): select the cage vertices you want to pull.
    Cage points: blue = fixed (outside the ROI), green = free (ROI), orange = handle.
 3. Drag mode (D): drag with the left button to move the handle parallel to the view;

@@ -151,6 +151,7 @@ class Scene:
         self._overlay_actors: list = []
         self.cage_visible = False
         self.metrics: ShapeMetrics | None = None
+        self.cage_spacing = 0.0
         self._near = np.zeros(0, dtype=bool)
         self._shown_points = np.zeros(0, dtype=np.int64)
         self.stretch_visible = False
@@ -225,6 +226,9 @@ class Scene:
 
         edges = unique_edges(cage_faces)
         P = np.asarray(cage_vertices, dtype=np.float64).astype(np.float32)
+        #: median cage edge length: how far from the surface cage points lie is a fraction of it
+        self.cage_spacing = float(np.median(np.linalg.norm(P[edges[:, 0]] - P[edges[:, 1]], axis=1))) \
+            if len(edges) else 0.0
         cage = pv.PolyData(P.copy())
         cage.lines = np.hstack([np.full((len(edges), 1), 2, dtype=np.int64), edges]).ravel()
         self.cage_poly = cage
@@ -422,7 +426,7 @@ class Scene:
         self._fit_clipping()
 
     def _fade_back_points(self) -> None:
-        """Cage points facing away from the camera are drawn faintly (all stay selectable)."""
+        """Cage points facing away from the camera are drawn faintly (Select Through takes the hidden ones)."""
         shown = self._shown_points
         if self.points_poly is None or len(shown) == 0:
             return

@@ -54,6 +54,94 @@ def unproject(x: float, y: float, z_ndc: float, composite: np.ndarray, size: tup
     return w[:3] / w[3]
 
 
+def unproject_many(display: np.ndarray, composite: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    """World points at display pixels and NDC depths (k, 3) (x, y, z_ndc); :func:`unproject` for many points."""
+    d = np.asarray(display, dtype=np.float64).reshape(-1, 3)
+    ndc = np.empty((len(d), 4))
+    ndc[:, 0] = 2.0 * d[:, 0] / size[0] - 1.0
+    ndc[:, 1] = 2.0 * d[:, 1] / size[1] - 1.0
+    ndc[:, 2] = d[:, 2]
+    ndc[:, 3] = 1.0
+    w = ndc @ np.linalg.inv(np.asarray(composite, dtype=np.float64)).T
+    return w[:, :3] / w[:, 3:4]
+
+
+def visible_points(display: np.ndarray, in_front: np.ndarray, depth: np.ndarray, origin: tuple[int, int],
+                   composite: np.ndarray, size: tuple[int, int], tolerance: float, radius: int = 1) -> np.ndarray:
+    """Which projected points are in sight: not hidden behind the surface of a rendered depth buffer.
+
+    A point is in sight when the surface drawn at its pixel lies at most ``tolerance`` in front of it
+    (or behind it, or there is none), or when within ``radius`` pixels the surface drawn passes
+    within ``tolerance`` of it: a point on the surface near the rim of its silhouette, where its own
+    pixel may show the surface much nearer (it slopes steeply there), is in sight; a point behind
+    the rim of another part (a hind leg behind a front leg's outline, with the background beyond)
+    is not.
+
+    Parameters
+    ----------
+    display, in_front : the points projected by :func:`project_points` with ``composite`` and ``size``.
+    depth : (h, w) window depth in [0, 1] (OpenGL's depth buffer: 0 the near plane, 1 the far plane
+        and the background) of the display pixels from ``origin`` (x0, y0), row 0 at the bottom.
+    tolerance : distance along the line of sight, in world units: cage points lie near the surface,
+        some slightly inside.
+    radius : how many pixels around a point to look for the surface through it.
+
+    Returns
+    -------
+    (k,) bool: in front of the camera, on the depth image, and in sight. Points off the image
+    (off screen) are not in sight.
+    """
+    d = np.asarray(display, dtype=np.float64)
+    h, w = depth.shape
+    xi = np.floor(d[:, 0]).astype(np.int64) - int(origin[0])
+    yi = np.floor(d[:, 1]).astype(np.int64) - int(origin[1])
+    on = np.asarray(in_front, dtype=bool) & (xi >= 0) & (xi < w) & (yi >= 0) & (yi < h)
+    idx = np.flatnonzero(on)
+    x, y = xi[idx], yi[idx]
+    # the line of sight through each point: world(z) = (a + z b) / (alpha + z beta) for NDC depth z, so
+    # |world(z1) - world(z2)| = |z1 - z2| |a beta - b alpha| / |(alpha + z1 beta)(alpha + z2 beta)|
+    Ci = np.linalg.inv(np.asarray(composite, dtype=np.float64))
+    nx = 2.0 * d[idx, 0] / size[0] - 1.0
+    ny = 2.0 * d[idx, 1] / size[1] - 1.0
+    a = np.outer(nx, Ci[:3, 0]) + np.outer(ny, Ci[:3, 1]) + Ci[:3, 3]
+    alpha = nx * Ci[3, 0] + ny * Ci[3, 1] + Ci[3, 3]
+    b, beta = Ci[:3, 2], Ci[3, 2]
+    speed = np.linalg.norm(a * beta - b[None, :] * alpha[:, None], axis=1)
+    zp = d[idx, 2]
+    wp = alpha + zp * beta
+
+    def gap(window_depth: np.ndarray) -> np.ndarray:
+        """How far the surface at this window depth lies in front of the points (negative: behind)."""
+        zs = 2.0 * window_depth.astype(np.float64) - 1.0
+        return (zp - zs) * speed / np.abs(wp * (alpha + zs * beta))
+
+    tol = float(tolerance)
+    seen = gap(depth[y, x]) <= tol
+    for dy in range(-radius, radius + 1):
+        yy = np.clip(y + dy, 0, h - 1)
+        for dx in range(-radius, radius + 1):
+            if dx == 0 and dy == 0:
+                continue
+            zq = depth[yy, np.clip(x + dx, 0, w - 1)]
+            seen |= (zq < 1.0) & (np.abs(gap(zq)) <= tol)
+    out = np.zeros(len(d), dtype=bool)
+    out[idx] = seen
+    return out
+
+
+def nearest_hit(display: np.ndarray, in_front: np.ndarray, center: tuple[float, float], radius: float) -> np.ndarray:
+    """A click: the one projected point nearest to ``center`` within ``radius`` pixels, as a (k,) bool
+    mask (all False when there is none); among points at the same pixel the one nearest the camera."""
+    d = np.asarray(display)
+    dist2 = (d[:, 0] - float(center[0])) ** 2 + (d[:, 1] - float(center[1])) ** 2
+    ok = np.asarray(in_front, dtype=bool) & (dist2 <= float(radius) ** 2)
+    out = np.zeros(len(d), dtype=bool)
+    if ok.any():
+        cand = np.flatnonzero(ok)
+        out[cand[np.lexsort((d[cand, 2], np.round(dist2[cand], 6)))[0]]] = True
+    return out
+
+
 def rectangle_hits(display: np.ndarray, in_front: np.ndarray, corner_a: tuple[float, float],
                    corner_b: tuple[float, float]) -> np.ndarray:
     """Which projected points lie in the rectangle spanned by two corners (any order).

@@ -405,6 +405,18 @@ class Session:
     def clear(self, target: str) -> bool:
         return self.set_mask(target, np.zeros(self.n_cage, dtype=bool), f"clear {target}")
 
+    def clear_all(self) -> bool:
+        """Empty the ROI and every handle group, back to one (empty) handle group, as one undo step;
+        returns False when there was nothing to clear."""
+        if not self.roi.any() and not self.all_handles.any():
+            return False
+        self.roi = np.zeros(self.n_cage, dtype=bool)
+        self.handle_group = np.zeros(self.n_cage, dtype=np.int8)
+        self.n_groups, self.active = 1, 0
+        self._identity_transforms()
+        self._selection_changed("clear selection")
+        return True
+
     def invert(self, target: str) -> bool:
         return self.set_mask(target, ~self.mask(target), f"invert {target}")
 

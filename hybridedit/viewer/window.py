@@ -152,8 +152,13 @@ class MainWindow(QtWidgets.QMainWindow):
           short="Reset")
         A("select_all", "Select &All", lambda: self._selection_op("all"), "Ctrl+A",
           tip="Select every cage vertex (current target)")
-        A("clear_sel", "&Clear Selection", lambda: self._selection_op("clear"), "Ctrl+Shift+A",
-          tip="Empty the current target (ROI or handle)")
+        A("clear_sel", "&Clear All", lambda: self._selection_op("clear_all"), "Ctrl+Shift+A",
+          tip="Empty the ROI and every handle group (one undo step)")
+        A("clear_target", "Clear &Target", lambda: self._selection_op("clear"), "Alt+A",
+          tip="Empty the current target only: the ROI, or the active handle group")
+        A("select_through", "Select &Through", self._toggle_select_through, "Alt+Z", checkable=True,
+          tip="Rectangle, brush and click also take the cage points hidden behind the shape "
+              "(Blender's X-ray); off, only the cage points in sight", short="Through")
         A("invert_sel", "&Invert Selection", lambda: self._selection_op("invert"), "Ctrl+I",
           tip="Invert the current target (ROI or handle)")
         settle = A("settle", "Settle on Release", self._toggle_settle, checkable=True,
@@ -224,8 +229,8 @@ class MainWindow(QtWidgets.QMainWindow):
         menus = {
             "&File": ["open", "save", "save_as", None, "load_edit", "save_edit", None, "screenshot", None,
                       "mesh_info", None, "quit"],
-            "&Edit": ["undo", "redo", None, "reset_pose", None, "select_all", "clear_sel", "invert_sel", None,
-                      "settle", "polish"],
+            "&Edit": ["undo", "redo", None, "reset_pose", None, "settle", "polish"],
+            "&Select": ["select_all", "invert_sel", None, "clear_sel", "clear_target", None, "select_through"],
             "&Mode": ["mode_camera", "mode_select", "mode_drag", None, "target_roi", "target_handle", None,
                       "new_group", "next_group", None, "mirror_x", "mirror_y", "mirror_z", None,
                       "tool_rect", "tool_brush", "brush_bigger", "brush_smaller"],
@@ -266,6 +271,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.brush_spin.setToolTip("Brush radius ([ and ] change it)")
         self.brush_spin.valueChanged.connect(lambda v: self.controller.set_brush_radius(v))
         tb.addWidget(self.brush_spin)
+        tb.addAction(a["select_through"])
         tb.addSeparator()
         tb.addWidget(QtWidgets.QLabel(" Cage "))
         self.cage_control = CageSizeControl(lambda: self.session.mesh.n_vertices if self.session else None)
@@ -575,6 +581,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.polisher.cancel()
         if self.session is None:
             return False
+        self._stroke_target = self.target
         self.session.begin_stroke(self.target)
         return True
 
@@ -585,9 +592,16 @@ class MainWindow(QtWidgets.QMainWindow):
         self._refresh_selection()
 
     def end_select(self) -> None:
-        if self.session is None:
+        """A selection gesture ended: one undo step; a gesture that emptied its target says how to get it back."""
+        s = self.session
+        if s is None:
             return
-        self.session.end_stroke()
+        if s.end_stroke():
+            target = getattr(self, "_stroke_target", self.target)
+            if not s.mask(target).any():
+                self.message(f"{self._target_name(target)} cleared (Ctrl+Z restores it)")
+            else:
+                self.clear_message()
         self._refresh_selection()
         self._update_actions()
 
@@ -759,8 +773,8 @@ class MainWindow(QtWidgets.QMainWindow):
         busy = self.jobs.busy
         for n in ("open", "rebuild", "load_edit"):
             a[n].setEnabled(not busy)
-        for n in ("save", "save_as", "save_edit", "reset_pose", "select_all", "clear_sel", "invert_sel", "screenshot",
-                  "mesh_info"):
+        for n in ("save", "save_as", "save_edit", "reset_pose", "select_all", "clear_sel", "clear_target", "invert_sel",
+                  "screenshot", "mesh_info"):
             a[n].setEnabled(s is not None)
         a["cancel_job"].setEnabled(busy)
 
@@ -800,16 +814,41 @@ class MainWindow(QtWidgets.QMainWindow):
         self.refresh_all()
         self.message("Back to the rest pose")
 
+    def _target_name(self, target: str) -> str:
+        s = self.session
+        if target == ROI:
+            return "ROI"
+        return f"Handle group {s.active + 1}" if s is not None and s.n_groups > 1 else "Handle"
+
     def _selection_op(self, op: str) -> None:
+        """Select all / invert / clear the current target, or clear everything ("clear_all"): one undo step."""
         s = self.session
         if s is None or self.controller.busy:
             return
         self.finish_settle()
         self.polisher.cancel()
-        {"all": s.select_all, "clear": s.clear, "invert": s.invert}[op](self.target)
-        self.clear_message()
+        if op == "clear_all":
+            changed = s.clear_all()
+            said = "Selection cleared: the ROI and every handle group (Ctrl+Z restores them)"
+        else:
+            changed = {"all": s.select_all, "clear": s.clear, "invert": s.invert}[op](self.target)
+            said = f"{self._target_name(self.target)} cleared (Ctrl+Z restores it)" if op == "clear" else ""
+        if op == "clear_all" and changed:
+            self._set_target(self.target)  # (back to one handle group: its colour)
+        if changed and said:
+            self.message(said)
+        elif op in ("clear", "clear_all") and not changed:
+            self.message("Nothing to clear")
+        else:
+            self.clear_message()
         self._refresh_selection()
         self._update_actions()
+
+    def _toggle_select_through(self) -> None:
+        on = self.actions_["select_through"].isChecked()
+        self.controller.set_select_through(on)
+        self.message("Select Through: rectangle, brush and click also take the cage points hidden behind the shape"
+                     if on else "Select Through off: only the cage points in sight are taken")
 
     # ================================================================== drag and drop
     def dragEnterEvent(self, ev: QtGui.QDragEnterEvent) -> None:  # noqa: N802

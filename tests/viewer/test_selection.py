@@ -9,8 +9,8 @@ from hybridedit.transforms import apply_transform
 from hybridedit.viewer import gizmo as gz
 from hybridedit.viewer.history import History, Snapshot
 from hybridedit.viewer.selection import (
-    ADD, FIXED, FREE, HANDLE, REMOVE, REPLACE, brush_hits, combine, fixed_mask, op_from_modifiers,
-    project_points, rectangle_hits, stroke_hits, unproject, vertex_states,
+    ADD, FIXED, FREE, HANDLE, REMOVE, REPLACE, brush_hits, combine, fixed_mask, nearest_hit, op_from_modifiers,
+    project_points, rectangle_hits, stroke_hits, unproject, unproject_many, vertex_states, visible_points,
 )
 
 
@@ -80,6 +80,55 @@ def test_modifiers_and_combine():
     assert combine(cur, hits, REMOVE).tolist() == [True, False, False, False]
     with pytest.raises(ValueError):
         combine(cur, hits, "xor")
+
+
+def test_visible_points_against_a_depth_buffer():
+    """A wall facing the camera covers the left half of the view; right of it the background above the
+    middle row and another wall, farther back, below it. What lies behind the near wall is hidden,
+    unless it is within the tolerance of it (a cage point just inside the surface) or lies on the
+    surface seen within the radius (near the rim of a silhouette, where its own pixel shows the
+    surface in front of it); a point behind the wall's outline with the background beyond is hidden."""
+    size = (640, 480)
+    C, _, _ = _camera(size=size)  # at (0, 0, 10) looking down -Z; the wall is the plane z = 0, x < 0
+    z_ndc = {z: project_points(np.array([[0.0, 0.0, z]]), C, size)[0][0, 2] for z in (0.0, -1.0)}
+    depth = np.ones((size[1], size[0]), dtype=np.float32)  # background: the far plane
+    depth[:, : size[0] // 2] = 0.5 * (z_ndc[0.0] + 1.0)  # (a plane facing the camera: one depth)
+    depth[size[1] // 2:, size[0] // 2:] = 0.5 * (z_ndc[-1.0] + 1.0)  # the far wall, z = -1, lower right
+    edge = size[0] / 2
+    pts = np.array([
+        [-1.0, 0.0, -1.0],                      # 0 behind the wall
+        [1.0, -0.5, -1.0],                      # 1 right of it, in front of the background
+        [-1.0, 0.5, -0.05],                     # 2 just behind the wall's surface
+        [-1.0, 0.0, 0.5],                       # 3 in front of the wall
+        unproject(edge - 1.5, 200.0, z_ndc[-1.0], C, size),  # 4 behind the wall's rim, background beyond
+        unproject(edge - 0.5, 300.0, z_ndc[-1.0], C, size),  # 5 on the far wall, behind the rim by a pixel
+        unproject(edge - 2.5, 300.0, z_ndc[-1.0], C, size),  # 6 the same, by three pixels
+        [-100.0, 0.0, -1.0],                    # 7 off screen
+        [0.0, 0.0, 20.0],                       # 8 behind the camera
+    ])
+    disp, front = project_points(pts, C, size)
+
+    def vis(tolerance=0.1, radius=1, image=depth, origin=(0, 0)):
+        return visible_points(disp, front, image, origin, C, size, tolerance=tolerance, radius=radius).tolist()
+
+    assert vis() == [False, True, True, True, False, True, False, False, False]
+    assert not vis(tolerance=0.01)[2]
+    assert not vis(radius=0)[5] and vis(radius=3)[6] and not vis(radius=3)[4]
+    # a depth image of part of the view: pixels are counted from its origin
+    inside = (disp[:, 0] >= 200) & (disp[:, 0] < 400) & (disp[:, 1] >= 100) & (disp[:, 1] < 400)
+    assert vis(image=depth[100:400, 200:400], origin=(200, 100)) == (np.array(vis()) & inside).tolist()
+    # unproject_many is unproject for many points
+    assert np.allclose(unproject_many(disp[:7], C, size), pts[:7], atol=1e-9)
+
+
+def test_a_click_takes_the_nearest_point():
+    disp = np.array([[10.0, 10.0, 0.2], [14.0, 10.0, 0.1], [30.0, 30.0, 0.0], [14.0, 10.0, -0.3]])
+    front = np.array([True, True, True, False])
+    assert nearest_hit(disp, front, (11.0, 10.0), 12.0).tolist() == [True, False, False, False]
+    # two points on one pixel: the one nearer the camera (the one behind it is not in front here)
+    front[3] = True
+    assert nearest_hit(disp, front, (14.0, 10.0), 12.0).tolist() == [False, False, False, True]
+    assert not nearest_hit(disp, front, (100.0, 100.0), 12.0).any()  # nothing near: nothing taken
 
 
 def test_states_and_fixed():

@@ -1,0 +1,204 @@
+"""Selecting in the window as in Blender and MeshLab, through real Qt mouse and key events: only the cage
+points in sight (Select Through, Alt+Z, for the rest), a click on empty space keeps the selection,
+Ctrl+Shift+A clears everything as one undo step and Alt+A the current target."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+from qtpy import QtCore
+
+from hybridedit.mesh import Mesh
+from hybridedit.viewer.window import MainWindow
+from test_window import key, mouse_drag, projected, to_widget, wait_loaded, win  # noqa: F401 (fixture)
+
+Qt = QtCore.Qt
+CTRL, SHIFT, ALT = (Qt.KeyboardModifier.ControlModifier, Qt.KeyboardModifier.ShiftModifier,
+                    Qt.KeyboardModifier.AltModifier)
+FRONT_Z, BACK_Z = 0.9, -0.9
+
+
+def two_limbs() -> Mesh:
+    """Two limbs side by side as seen from the side: upright bumpy capsules, one in front of the other
+    along the front view's line of sight (a front leg hiding the hind leg)."""
+    parts, faces, n = [], [], 0
+    for z in (FRONT_Z, BACK_Z):
+        s = trimesh.creation.icosphere(subdivisions=4, radius=1.0)
+        v = np.asarray(s.vertices).copy()
+        v *= (1.0 + 0.04 * np.sin(7 * v[:, 1]) * np.cos(5 * v[:, 0]))[:, None]
+        v *= [0.45, 1.6, 0.45]
+        v[:, 2] += z
+        parts.append(v)
+        faces.append(np.asarray(s.faces) + n)
+        n += len(v)
+    return Mesh(np.vstack(parts), np.vstack(faces), name="limbs")
+
+
+@pytest.fixture
+def limbs(qtbot) -> MainWindow:
+    """The window with the two limbs loaded (cage of 160 points), front view (looking down -Z), Select mode."""
+    w = MainWindow(cage_size=160)
+    w.resize(1000, 760)
+    w.show()
+    qtbot.waitExposed(w)
+    w.activateWindow()
+    qtbot.waitActive(w)
+    w.view.setFocus()
+    assert w.open_mesh(two_limbs())
+    wait_loaded(qtbot, w)
+    w.scene.reset_camera(tilted=False)
+    w.view.request_render()
+    qtbot.wait(30)
+    key(qtbot, w, Qt.Key.Key_S)
+    assert w.controller.mode == "select"
+    yield w
+    w.set_modified(False)
+    w.close()
+    w.deleteLater()
+
+
+def around(w: MainWindow, mask: np.ndarray, margin: float = 8.0) -> tuple[QtCore.QPoint, QtCore.QPoint]:
+    """Corners of a rectangle around the cage points of ``mask`` on screen."""
+    d, _ = projected(w, w.session.cage_positions[mask])
+    return (to_widget(w, (d[:, 0].min() - margin, d[:, 1].max() + margin)),
+            to_widget(w, (d[:, 0].max() + margin, d[:, 1].min() - margin)))
+
+
+def click(qtbot, w: MainWindow, at: QtCore.QPoint, modifier=Qt.KeyboardModifier.NoModifier) -> None:
+    """Press and release with a pixel of jitter (a hand's click)."""
+    mouse_drag(qtbot, w.view, at, at + QtCore.QPoint(1, 1), steps=1, modifier=modifier)
+
+
+def test_the_rectangle_takes_the_limb_in_sight_not_the_one_behind(qtbot, limbs, tmp_path):
+    w = limbs
+    s = w.session
+    P = s.cage_positions
+    front = P[:, 2] > 0
+    facing = front & (P[:, 2] - FRONT_Z > 0.15)  # the front limb's side facing the camera
+    behind = ~front
+    assert behind.sum() > 40 and facing.sum() > 20
+    a, b = around(w, np.ones(len(P), dtype=bool))  # over both limbs
+    mouse_drag(qtbot, w.view, a, b)
+    assert not s.roi[behind].any()  # the hind limb is not taken
+    assert np.all(s.roi[facing])
+    assert not s.roi[front & (P[:, 2] - FRONT_Z < -0.15)].any()  # nor the far side of the front one
+    assert w.controller.visibility_seconds < 0.5
+    w.view.screenshot(tmp_path / "limbs.png")
+    # Alt+Z: Select Through (Blender's X-ray) takes both
+    key(qtbot, w, Qt.Key.Key_Z, ALT)
+    assert w.actions_["select_through"].isChecked() and w.controller.select_through
+    assert "hidden behind the shape" in w.current_message()
+    mouse_drag(qtbot, w.view, a, b)
+    assert s.roi.all()
+    # and off again: the brush takes only what is in sight too
+    key(qtbot, w, Qt.Key.Key_Z, ALT)
+    assert not w.controller.select_through
+    key(qtbot, w, Qt.Key.Key_B)
+    w.brush_spin.setValue(60)
+    d, _ = projected(w, P)
+    c = to_widget(w, d[behind].mean(axis=0))  # the middle of both limbs on screen
+    mouse_drag(qtbot, w.view, c, c + QtCore.QPoint(0, 30), steps=3)
+    assert s.roi.any() and not s.roi[behind].any()
+
+
+def test_a_click_on_empty_space_keeps_the_selection(qtbot, limbs):
+    w = limbs
+    s = w.session
+    P = s.cage_positions
+    key(qtbot, w, Qt.Key.Key_Z, ALT)  # (through: the whole limbs)
+    key(qtbot, w, Qt.Key.Key_R)
+    mouse_drag(qtbot, w.view, *around(w, np.ones(len(P), dtype=bool)))
+    key(qtbot, w, Qt.Key.Key_H)
+    mouse_drag(qtbot, w.view, *around(w, P[:, 1] < -1.0))  # the feet
+    roi, handle = s.roi.copy(), s.handle.copy()
+    assert roi.all() and 10 < handle.sum() < len(P) // 3
+    n_hist, label = len(s.history), w.sel_label.text()
+    # a click on empty space, in Handle target, replace mode: nothing changes
+    d, _ = projected(w, P)
+    empty = to_widget(w, (d[:, 0].max() + 120, d[:, 1].mean()))
+    click(qtbot, w, empty)
+    assert np.array_equal(s.roi, roi) and np.array_equal(s.handle, handle)
+    assert len(s.history) == n_hist and w.sel_label.text() == label
+    assert w.current_message() == "No cage point there: the selection is kept"
+    # Shift or Ctrl + click on empty space: nothing either
+    click(qtbot, w, empty, CTRL)
+    assert np.array_equal(s.handle, handle) and len(s.history) == n_hist
+    # a click on a cage point takes that point alone (one undo step)
+    i = int(np.argmax(P[:, 2]))
+    click(qtbot, w, to_widget(w, d[i]))
+    assert np.flatnonzero(s.handle).tolist() == [i] and len(s.history) == n_hist + 1
+    key(qtbot, w, Qt.Key.Key_Z, CTRL)
+    assert np.array_equal(s.handle, handle)
+
+
+def test_a_rectangle_over_empty_space_clears_with_a_way_back(qtbot, limbs):
+    w = limbs
+    s = w.session
+    P = s.cage_positions
+    key(qtbot, w, Qt.Key.Key_H)
+    mouse_drag(qtbot, w.view, *around(w, P[:, 1] > 1.0))
+    handle = s.handle.copy()
+    assert handle.any()
+    d, _ = projected(w, P)
+    x = d[:, 0].max() + 60
+    mouse_drag(qtbot, w.view, to_widget(w, (x, d[:, 1].max())), to_widget(w, (x + 100, d[:, 1].min())))
+    assert not s.handle.any()  # as Blender: a drawn box that takes nothing replaces with nothing...
+    assert w.current_message() == "Handle cleared (Ctrl+Z restores it)"  # ... and says how to get it back
+    key(qtbot, w, Qt.Key.Key_Z, CTRL)
+    assert np.array_equal(s.handle, handle)
+
+
+def test_ctrl_shift_a_clears_everything_in_one_step_and_alt_a_the_target(qtbot, limbs):
+    w = limbs
+    s = w.session
+    P = s.cage_positions
+    s.set_mask("roi", P[:, 1] < 0.5)
+    s.set_mask("handle", (P[:, 1] < -1.0) & (P[:, 2] > 0))
+    key(qtbot, w, Qt.Key.Key_G, CTRL)  # a second handle group: the hind foot
+    s.set_mask("handle", (P[:, 1] < -1.0) & (P[:, 2] < 0))
+    w._refresh_selection()
+    roi, groups = s.roi.copy(), s.handle_group.copy()
+    assert s.n_groups == 2 and set(np.unique(groups)) == {0, 1, 2}
+    n_hist = len(s.history)
+    # Ctrl+Shift+A: the ROI and every handle group, one undo step
+    key(qtbot, w, Qt.Key.Key_A, CTRL | SHIFT)
+    assert not s.roi.any() and not s.all_handles.any() and s.n_groups == 1
+    assert len(s.history) == n_hist + 1
+    assert "Ctrl+Z" in w.current_message()
+    assert w.sel_label.text().startswith("ROI 0 · handle 0")
+    key(qtbot, w, Qt.Key.Key_Z, CTRL)
+    assert np.array_equal(s.roi, roi) and np.array_equal(s.handle_group, groups) and s.n_groups == 2
+    # Alt+A in Handle target: the active group only
+    key(qtbot, w, Qt.Key.Key_H)
+    active = s.active + 1
+    key(qtbot, w, Qt.Key.Key_A, ALT)
+    assert not np.any(s.handle_group == active) and np.array_equal(s.roi, roi)
+    assert np.array_equal(s.handle_group[groups != active], groups[groups != active])
+    assert w.current_message() == f"Handle group {active} cleared (Ctrl+Z restores it)"
+    key(qtbot, w, Qt.Key.Key_Z, CTRL)
+    assert np.array_equal(s.handle_group, groups)
+    # Alt+A in ROI target: the ROI only
+    key(qtbot, w, Qt.Key.Key_R)
+    key(qtbot, w, Qt.Key.Key_A, ALT)
+    assert not s.roi.any() and np.array_equal(s.handle_group, groups)
+    assert w.current_message() == "ROI cleared (Ctrl+Z restores it)"
+    n_hist = len(s.history)
+    key(qtbot, w, Qt.Key.Key_A, ALT)
+    assert w.current_message() == "Nothing to clear" and len(s.history) == n_hist
+
+
+def test_the_select_menu_toolbar_and_shortcuts_list(qtbot, limbs):
+    w = limbs
+    menus = {m.title(): m for m in (a.menu() for a in w.menuBar().actions()) if m is not None}
+    names = [a.text() for a in menus["&Select"].actions() if not a.isSeparator()]
+    assert names == ["Select &All", "&Invert Selection", "&Clear All", "Clear &Target", "Select &Through"]
+    assert w.actions_["select_through"] in w.findChild(QtCore.QObject, "tools").actions()
+    w.actions_["shortcuts"].trigger()
+    dlg = w.dialogs.shortcuts_dialog
+    qtbot.waitExposed(dlg)
+    rows = {dlg.table.item(r, 1).text(): dlg.table.item(r, 0).text() for r in range(dlg.table.rowCount())}
+    dlg.close()
+    assert rows["Clear All"] == "Ctrl+Shift+A" and rows["Clear Target"] == "Alt+A"
+    assert rows["Select Through"] == "Alt+Z"
+    assert any(key == "Left click" and "empty space changes nothing" in text for text, key in rows.items())
