@@ -1,8 +1,18 @@
-"""HybridEditor: cage + binding + cage ARAP + propagation, the engine's front door."""
+"""HybridEditor: cage + binding + cage ARAP + propagation, the engine's front door.
+
+The editor holds the state of an editing session and runs its pipeline; each
+stage is its own module:
+
+- :mod:`hybridedit.selection_model`: a selection's roles on the shape and the cage
+  (with mirror images), the rows a drag can move, the seam;
+- :mod:`hybridedit.base_pose`: the pose the next edit starts from (successive
+  edits compose) and the shape propagated from it;
+- :mod:`hybridedit.frame_steps`: one frame, from the cage's ARAP targets to the
+  exactly placed, region-solved, mirror-averaged shape.
+"""
 
 from __future__ import annotations
 
-import dataclasses
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -13,88 +23,42 @@ from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
 from .arap import ARAPSolver, edge_weights, laplacian
+from .base_pose import BasePose, current_base, fit_cage, propagate_from, propagated_residual, rest_base
 from .binding import dominant_cage_vertex
-from .constraints import FIXED, FREE, RegionStep, SeamSpread, place, region_to_solve
+from .constraints import FIXED
 from .editfile import Edit, HandleEdit, check_mesh, mesh_fingerprint
+from .frame_steps import MAX_REACH  # noqa: F401 (importable from here, as before the split)
+from .frame_steps import Frame, FrameSteps, build_frame_steps, cage_targets, solve_cage
 from .mesh import Mesh
-from .propagate import propagate
-from .residual import SelectionRows, propagate_with_residual, residual_setup
+from .residual import residual_setup
 from .rig import Progress, Rig, build_rig
-from .selection import SelectionError, as_groups, as_indices
+from .selection import SelectionError
+from .selection_model import SPACES  # noqa: F401 (importable from here, as before the split)
+from .selection_model import CageMap, Selection, build_selection, choose_roles, user_roles
 from .symmetry import Mirror
 from .transforms import check_transform, rigid_transform
 
 __all__ = ["HybridEditor", "SelectionError", "EditorState"]
 
-SPACES = ("shape", "cage")
 #: frame times kept in ``frame_seconds`` (the older half is dropped past this)
 FRAME_HISTORY = 10000
 PROPAGATIONS = ("residual", "linear")
-#: a drag may move the handle at most this many bounding-box diagonals
-MAX_REACH = 1e6
-
-
-@dataclass(frozen=True)
-class _Selection:
-    """Everything :meth:`HybridEditor.set_selection` derives (never modified later).
-
-    Internal groups are the user's handle groups, then their mirror images
-    (``source[k]`` is the user group internal group k follows; ``kind[k]`` is
-    "same", "mirror" or "self" for a group that is its own mirror image).
-    """
-
-    user_roles: np.ndarray  # (n,) int8 roles before mirroring
-    roles: np.ndarray  # (n,) int32 internal roles: -1 fixed, 0 free, k + 1 internal group k
-    cage_roles: np.ndarray  # (c,) int32 internal roles of cage vertices
-    source: tuple[int, ...]
-    kind: tuple[str, ...]
-    shape_groups: tuple[np.ndarray, ...]  # shape vertices of each internal group
-    cage_groups: tuple[np.ndarray, ...]  # cage vertices of each internal group
-    constrained: np.ndarray  # sorted cage vertices given to ARAP (fixed and handle)
-    slots: tuple[np.ndarray, ...]  # positions of each cage group within ``constrained``
-    free_cage: np.ndarray  # cage vertices ARAP moves
-    rows: np.ndarray  # free shape vertices a drag can move (recomputed every frame)
-    mirror: Mirror | None
-    sym_rows: np.ndarray  # rows whose displacement is averaged with their mirror image
-    n_groups: int
-    centers: tuple[np.ndarray, ...]  # default rotation centre of each user group
-    seam: np.ndarray  # constrained shape vertices whose rows lean on moving cage vertices
-    seam_role: np.ndarray  # their internal roles
-    spread: RegionStep | SeamSpread | None  # solves ``rows`` from the exact constraints around them
-    compute: SelectionRows  # rows propagated through M every frame (those nothing else places)
-    core: np.ndarray  # (c,) the user's cage roles before the handles' own vertices were added
-    base: "_Base | None" = None  # the pose the spread and compute objects measure against
-
-
-@dataclass(frozen=True)
-class _Base:
-    """The pose an edit starts from (its arrays are never modified in place).
-
-    The next edit's ARAP energy is measured against this pose, as sculpting tools
-    and CGAL's ``overwrite_initial_geometry`` do: the cage's edge vectors are those
-    of ``cage`` and the region step's those of ``shape``, so that an identity drag
-    leaves every vertex where it is and successive edits compose. The rest pose is
-    the first base; :meth:`HybridEditor.reset` goes back to it.
-    """
-
-    cage: np.ndarray  # (c, 3) cage positions
-    shape: np.ndarray  # (n, 3) shape positions
-    residual: np.ndarray  # (n, 3) shape - M @ cage: what the cage misses of this pose, turned with it
-    at_rest: bool
 
 
 @dataclass(frozen=True)
 class EditorState:
     """A snapshot of an editor's selection and pose (see :meth:`HybridEditor.save_state`)."""
 
-    selection: _Selection | None
+    selection: Selection | None
     transforms: tuple[np.ndarray, ...]
     cage_positions: np.ndarray
     arap_rotations: np.ndarray
     rotations: np.ndarray
     shape: np.ndarray
-    base: "_Base"
+    base: BasePose
     moved: bool
+    steps: FrameSteps | None = None  # the selection's frame steps, measured from ``base``
+    centers: tuple[np.ndarray, ...] = ()  # the default rotation centre of each handle group
 
 
 class _Default:
@@ -119,9 +83,14 @@ class HybridEditor:
 
     Constraints hold exactly in shape space: after any drag, fixed shape vertices
     are where they were when the selection was set and each handle group's shape
-    vertices are exactly at its transform of where they were. The cage vertices
-    those rows lean on are held the same way (:mod:`hybridedit.constraints`), so
-    the transition happens inside the region of interest.
+    vertices are exactly at its transform of where they were. On the cage, ARAP
+    holds the cage vertices whose nearest shape vertex is constrained (for a
+    selection made on the cage, the picked ones), fixed or following their
+    group's transform; the other cage vertices a constrained row leans on may
+    move. The exact placement of the constrained rows, then the region step
+    (or, with the linear propagation, the harmonic spread of the seam's
+    correction; :mod:`hybridedit.constraints`) absorb what that leaves, so the
+    transition happens inside the region of interest.
 
     The shape is never changed: the cage is built from a repaired private copy
     and :attr:`notes` says in plain words what was repaired. Every input vertex
@@ -206,8 +175,9 @@ class HybridEditor:
         self._blend = (idx, w)
         self.arap = ARAPSolver(cage.vertices, cage.faces, weights=weights, links=rig.links)
         self._scale = max(mesh.bbox_diagonal(), float(np.linalg.norm(np.ptp(cage.vertices, axis=0))))
-        self._cage_to_shape = cKDTree(mesh.vertices).query(cage.vertices)[1].astype(np.int64)
-        self._dominant = dominant_cage_vertex(M)
+        #: how shape and cage vertices stand for each other in a selection
+        self._maps = CageMap(nearest=cKDTree(mesh.vertices).query(cage.vertices)[1].astype(np.int64),
+                             dominant=dominant_cage_vertex(M))
         # the shape's cotangent Laplacian, for the free region's solve: built here (in
         # the window, in the build thread) rather than at the first drag
         e, w = edge_weights(mesh.vertices, mesh.faces, "cotangent")
@@ -220,13 +190,15 @@ class HybridEditor:
         #: vertices, the constraint's for held ones)
         self._rots = np.tile(np.eye(3), (cage.n_vertices, 1, 1))
         self._eye = np.tile(np.eye(3), (cage.n_vertices, 1, 1))  # the linear propagation's "rotations"
-        self._out = np.empty((mesh.n_vertices, 3))
-        self._sel: _Selection | None = None
+        self._sel: Selection | None = None
+        #: the selection's frame steps, measured from ``self._base`` (None without a selection)
+        self._steps: FrameSteps | None = None
+        self._centers: tuple[np.ndarray, ...] = ()  # default rotation centre of each handle group
         self._transforms: list[np.ndarray] = []
-        self._base = _Base(cage.vertices, mesh.vertices,  # shape: set below, from the propagation
-                           d_rest if propagation == "residual" else np.zeros_like(d_rest), at_rest=True)
-        self._propagate_all()
-        self._base = self._rest_base = _Base(self._base.cage, self._out.copy(), self._base.residual, at_rest=True)
+        #: the pose the current selection's drags start from; the rest pose first
+        self._base = self._rest_base = rest_base(binding=M, cage=cage.vertices, residual=d_rest, blend=self._blend,
+                                                 propagation=propagation)
+        self._out = self._rest_base.shape.copy()
         self._moved = False  # the pose changed since the base was taken
         #: wall time of recent :meth:`drag` calls, oldest first (bounded, see FRAME_HISTORY)
         self.frame_seconds: list[float] = []
@@ -256,21 +228,13 @@ class HybridEditor:
         """The transform of handle group 0 (identity before a selection is set)."""
         return self._transforms[0].copy() if self._transforms else np.eye(4)
 
-    def _public(self, internal: np.ndarray) -> np.ndarray:
-        sel = self._sel
-        out = np.asarray(internal, dtype=np.int8).copy()
-        if sel is not None:
-            lut = np.array([FIXED, FREE] + [s + 1 for s in sel.source], dtype=np.int8)
-            out = lut[np.asarray(internal) + 1]
-        return out
-
     @property
     def vertex_roles(self) -> np.ndarray:
         """(n,) int8 role of each shape vertex: -1 fixed, 0 free, g + 1 in handle group g
         (mirror images count in their group). This is what is held exactly."""
         if self._sel is None:
             return np.zeros(self.mesh.n_vertices, dtype=np.int8)
-        return self._public(self._sel.roles)
+        return self._sel.public(self._sel.roles)
 
     @property
     def cage_roles(self) -> np.ndarray:
@@ -278,16 +242,14 @@ class HybridEditor:
         with no constraint, held still, count as fixed."""
         if self._sel is None:
             return np.zeros(self.cage.n_vertices, dtype=np.int8)
-        roles = self._sel.cage_roles.copy()
-        roles[self.arap.held] = FIXED
-        return self._public(roles)
+        return self._sel.public_cage_roles
 
     @property
     def handle(self) -> np.ndarray:
         """(h,) int64 cage vertices that follow a handle transform (all groups)."""
         if self._sel is None:
             return np.zeros(0, dtype=np.int64)
-        return np.flatnonzero(self._sel.cage_roles > 0).astype(np.int64)
+        return self._sel.moving.copy()
 
     @property
     def fixed(self) -> np.ndarray:
@@ -302,7 +264,7 @@ class HybridEditor:
         (free vertices bound to moving cage vertices, and the handles)."""
         if self._sel is None:
             return np.zeros(0, dtype=np.int64)
-        return np.union1d(self._sel.rows, np.flatnonzero(self._sel.roles > 0)).astype(np.int64)
+        return self._sel.moving_vertices
 
     @property
     def free_mask(self) -> np.ndarray:
@@ -335,18 +297,7 @@ class HybridEditor:
         -------
         (j,) int64 array of sorted unique cage vertex indices.
         """
-        if space not in SPACES:
-            raise SelectionError(f"space must be one of {SPACES}, got {space!r}")
-        n = self.mesh.n_vertices if space == "shape" else self.cage.n_vertices
-        idx = as_indices(indices, n, role=role, space=space)
-        if space == "cage" or idx.size == 0:
-            return idx
-        selected = np.zeros(self.mesh.n_vertices, dtype=bool)
-        selected[idx] = True
-        cage_idx = np.flatnonzero(selected[self._cage_to_shape])
-        if cage_idx.size == 0:
-            cage_idx = np.unique(self._dominant[idx])
-        return cage_idx.astype(np.int64)
+        return self._maps.to_cage(indices, space=space, role=role)
 
     def shape_roles(self, cage_roles) -> np.ndarray:
         """Shape vertex roles that select exactly the given cage vertex roles.
@@ -365,12 +316,7 @@ class HybridEditor:
         -------
         (n,) int8 shape vertex roles, the same code.
         """
-        r = np.asarray(cage_roles)
-        if r.shape != (self.cage.n_vertices,) or not np.issubdtype(r.dtype, np.integer):
-            raise SelectionError(f"cage roles must be {self.cage.n_vertices:,} integers")
-        roles = r[self._dominant].astype(np.int8)
-        roles[self._cage_to_shape] = r
-        return roles
+        return self._maps.shape_roles(cage_roles)
 
     def mirror(self, symmetry) -> Mirror:
         """The shape's mirror across a plane ("x", "y", "z" or (point, normal)), as
@@ -433,109 +379,40 @@ class HybridEditor:
             A malformed or empty selection, overlapping groups, handle and fixed
             sharing vertices, or a shape not symmetric enough.
         """
-        if fixed is not None and roi is not None:
-            raise SelectionError("give either fixed or roi, not both")
-        if space not in SPACES:
-            raise SelectionError(f"space must be one of {SPACES}, got {space!r}")
-        n, c = self.mesh.n_vertices, self.cage.n_vertices
-        count = n if space == "shape" else c
-        groups = as_groups(handle, count, space=space)
-        given = np.zeros(count, dtype=np.int32)
-        if roi is not None:
-            inside = np.zeros(count, dtype=bool)
-            inside[as_indices(roi, count, role="roi", space=space)] = True
-            given[~inside] = FIXED
-        elif fixed is not None:
-            f = as_indices(fixed, count, role="fixed", space=space)
-            given[f] = FIXED
-        for k, g in enumerate(groups):
-            if fixed is not None and np.any(given[g] == FIXED):
-                both = int(np.count_nonzero(given[g] == FIXED))
-                raise SelectionError(f"handle and fixed share {both:,} {space} vertices; a vertex cannot be both")
-            given[g] = k + 1
-        user_roles = given if space == "shape" else given[self._dominant]
+        user = user_roles(handle, fixed, roi, space=space, maps=self._maps)
         mirror = self._mirror(symmetry) if symmetry is not None else None
-        roles, source, kind = self._mirrored_roles(user_roles, len(groups), mirror, roi_mode=roi is not None)
-        # cage vertices held: the user's own cage picks, or those whose nearest
-        # shape vertex is constrained (the seam's correction smooths what that leaves)
-        near = roles[self._cage_to_shape]
-        if space == "shape":
-            core = near
-        else:  # the user's own picks, but a role the mirror gave a vertex's side wins over a pick there
-            mirrored = (roles != user_roles)[self._cage_to_shape]
-            core = np.where((given != FREE) & ~mirrored, given, near)
-        cage_roles = core.astype(np.int32)
-        n_int = len(source)
-        for k in range(n_int):
-            if not np.any(cage_roles == k + 1):
-                rows = np.flatnonzero(roles == k + 1)
-                dom = np.unique(self._dominant[rows])
-                dom = dom[cage_roles[dom] <= FREE]  # a handle takes precedence over fixed
-                if dom.size == 0:
-                    raise SelectionError(
-                        f"handle group {source[k]} has no cage vertex of its own (its neighbours claim them "
-                        "all); select a larger handle or use a finer cage")
-                cage_roles[dom] = k + 1
-        constrained = np.flatnonzero(cage_roles != FREE).astype(np.int64)
-        moving = np.flatnonzero(cage_roles > 0).astype(np.int64)
+        roles = choose_roles(user, mirror=mirror, maps=self._maps)
         base = self._current_base()
         before = (self.arap.reference, self.arap.rotations.copy())
         self.arap.set_reference(base.cage)  # before the factorization: it takes the rotations there
         try:
-            self.arap.set_constrained(constrained, moving=moving)
+            self.arap.set_constrained(roles.constrained, moving=roles.moving)
         except ValueError as e:
             self.arap.reference = before[0]
             self.arap.rotations[:] = before[1]
             raise SelectionError(str(e)) from None
-        rows = self._rows_that_can_move(roles, cage_roles, constrained_too=True)
-        seam = rows[roles[rows] != FREE]
-        rows = rows[roles[rows] == FREE]
-        free_cage = self.arap.free
-        slots = tuple(np.searchsorted(constrained, np.flatnonzero(cage_roles == k + 1)) for k in range(n_int))
-        sym_rows = np.zeros(0, dtype=np.int64)
-        if mirror is not None:
-            partners = mirror.map[rows]
-            rows = np.union1d(rows, partners[roles[partners] == FREE]).astype(np.int64)
-            sym_rows = rows[roles[mirror.map[rows]] == FREE]
-        spread = self._region_solver(rows, seam, base)
-        if isinstance(spread, RegionStep):  # it places its rows itself: propagate only the others
-            compute = np.setdiff1d(rows, spread.free).astype(np.int64)
-        else:
-            compute = np.union1d(rows, seam).astype(np.int64)
-        compute = SelectionRows(self.M, compute, self._propagated_residual(base))
-        centers = self._centers(user_roles, core, len(groups), base)
-        self._sel = _Selection(
-            user_roles=user_roles.astype(np.int8), roles=roles, cage_roles=cage_roles, source=tuple(source),
-            kind=tuple(kind), shape_groups=tuple(np.flatnonzero(roles == k + 1) for k in range(n_int)),
-            cage_groups=tuple(np.flatnonzero(cage_roles == k + 1) for k in range(n_int)), constrained=constrained,
-            slots=slots, free_cage=free_cage, rows=rows, mirror=mirror, sym_rows=sym_rows, n_groups=len(groups),
-            centers=centers, seam=seam, seam_role=roles[seam], spread=spread, compute=compute, core=core,
-            base=base,
-        )
-        self._transforms = [np.eye(4) for _ in range(len(groups))]
+        sel = build_selection(roles, free_cage=self.arap.free, held=self.arap.held, binding=self.M,
+                              blend_idx=self._blend[0] if self.propagation == "residual" else None)
+        self._steps = self._frame_steps(sel, base)
+        self._centers = sel.centers(shape=base.shape, cage=base.cage)
+        self._sel = sel
+        self._transforms = [np.eye(4) for _ in range(sel.n_groups)]
         self._start_from(base)
 
-    @staticmethod
-    def _centers(user_roles: np.ndarray, core: np.ndarray, n_groups: int, base: _Base) -> tuple[np.ndarray, ...]:
-        """The default rotation centre of each user group: its shape vertices' centroid in the base pose."""
-        return tuple(base.shape[user_roles == k + 1].mean(axis=0) if np.any(user_roles == k + 1)
-                     else base.cage[core == k + 1].mean(axis=0) for k in range(n_groups))
+    def _frame_steps(self, sel: Selection, base: BasePose) -> FrameSteps:
+        """The frame steps of ``sel`` measured from ``base`` (factored here, once per selection)."""
+        return build_frame_steps(sel, base, binding=self.M, residual=self._propagated_residual(base),
+                                 propagation=self.propagation, laplacian=self._laplacian, rest=self.mesh.vertices,
+                                 blend=self._blend, cage_edge=self._cage_edge)
 
     # ------------------------------------------------------------------ the pose an edit starts from
-    def _current_base(self) -> _Base:
+    def _current_base(self) -> BasePose:
         """The current pose as the base of the next edit (the base itself when nothing moved)."""
-        if not self._moved:
-            return self._base
-        cage = self.arap.positions.copy()
-        shape = self._out.copy()
-        return _Base(cage, shape, shape - self.M @ cage, at_rest=False)
+        return current_base(self._base, moved=self._moved, cage=self.arap.positions, shape=self._out, binding=self.M)
 
-    def _propagated_residual(self, base: _Base):
-        """What the selection's rows add to M y' (turned with the cage's rotations, or
-        as it is for the linear propagation); None for the paper's plain x' = M y'."""
-        if self.propagation == "linear" and base.at_rest:
-            return None
-        return (base.residual, *self._blend)
+    def _propagated_residual(self, base: BasePose):
+        """What the selection's rows add to M y' from ``base`` (:func:`~hybridedit.base_pose.propagated_residual`)."""
+        return propagated_residual(base, self._blend, propagation=self.propagation)
 
     @property
     def _residual(self):
@@ -546,7 +423,7 @@ class HybridEditor:
         """The rotations the residual turns with: the cage's, or none for the linear propagation."""
         return self._rots if self.propagation == "residual" else self._eye
 
-    def _start_from(self, base: _Base) -> None:
+    def _start_from(self, base: BasePose) -> None:
         """Make ``base`` the pose the current selection's drags start from (the shape and
         cage must be in that pose): the energy is measured against it, every rotation
         restarts at the identity, the transforms at the identity."""
@@ -555,88 +432,11 @@ class HybridEditor:
         self.arap.set_reference(base.cage)
         self._rots[:] = np.eye(3)
         self._transforms = [np.eye(4) for _ in self._transforms]
-        sel = self._sel
-        if sel is not None and sel.base is not base:  # the same selection, measured from the new base
-            spread = sel.spread.with_reference(base.shape) if isinstance(sel.spread, RegionStep) else sel.spread
-            self._sel = dataclasses.replace(
-                sel, spread=spread, compute=sel.compute.with_residual(self._propagated_residual(base)),
-                centers=self._centers(sel.user_roles, sel.core, sel.n_groups, base), base=base)
-
-    def _mirrored_roles(self, user_roles: np.ndarray, n_groups: int, mirror: Mirror | None, *,
-                        roi_mode: bool = False):
-        """Internal roles after mirroring: (roles, source of each group, kind of each group).
-
-        A vertex takes the role of its mirror image where it has none of its own
-        (the pull-back through ``mirror.map``, so that every vertex on the other side
-        is covered even where the mesh is only nearly symmetric). With a region of
-        interest the region is mirrored (a vertex stays fixed only when its mirror
-        image is fixed too); with fixed vertices the fixed set is mirrored.
-        """
-        roles = user_roles.astype(np.int32).copy()
-        source = list(range(n_groups))
-        kind = ["same"] * n_groups
-        if mirror is None:
-            return roles, source, kind
-        image = user_roles[mirror.map]  # the role of each vertex's mirror image
-        if roi_mode:
-            roles[(roles == FIXED) & (image != FIXED)] = FREE
-        else:
-            roles[(roles == FREE) & (image == FIXED)] = FIXED
-        for k in range(n_groups):
-            own = user_roles == k + 1
-            pulled = (image == k + 1) & ~own & (user_roles <= FREE)
-            if np.count_nonzero(own & (image == k + 1)) > 0.5 * np.count_nonzero(own):
-                kind[k] = "self"  # straddles the plane: its own mirror image
-                roles[pulled] = k + 1
-            elif np.any(pulled):
-                source.append(k)
-                kind.append("mirror")
-                roles[pulled] = len(source)
-        return roles, source, kind
-
-    def _region_solver(self, rows: np.ndarray, seam: np.ndarray, base: _Base) -> RegionStep | SeamSpread | None:
-        """What places the free moving rows once the constrained ones are exact: with
-        the residual propagation a full-resolution ARAP step using the cage's
-        rotations (over the whole region when it is small, else over a band around
-        the seam, see :func:`hybridedit.constraints.region_to_solve`); with the
-        paper's linear propagation the harmonic spread of the seam's correction
-        (the propagation itself stays the paper's)."""
-        if self.propagation == "residual":
-            idx, w = self._blend
-            solve = region_to_solve(self.mesh.vertices, rows, seam, self._cage_edge)
-            return RegionStep(base.shape, self._shape_laplacian(), solve, idx, w)
-        return SeamSpread(self._shape_laplacian(), rows, seam) if seam.size else None
-
-    def _shape_laplacian(self) -> sp.csr_matrix:
-        """Cotangent Laplacian of the shape."""
-        return self._laplacian
-
-    def _rows_that_can_move(self, roles: np.ndarray, cage_roles: np.ndarray, *,
-                            constrained_too: bool = False) -> np.ndarray:
-        """Shape vertices a drag can move: bound to a free or handle cage vertex,
-        or (residual mode) turning with one; only free ones unless ``constrained_too``."""
-        changing = cage_roles > 0
-        changing[self.arap.free] = True
-        M = self.M
-        row_of_nz = np.repeat(np.arange(M.shape[0]), np.diff(M.indptr))
-        mask = np.zeros(M.shape[0], dtype=bool)
-        mask[row_of_nz[changing[M.indices]]] = True
-        if self.propagation == "residual":
-            mask |= changing[self._blend[0]].any(axis=1)
-        if not constrained_too:
-            mask &= roles == FREE
-        return np.flatnonzero(mask).astype(np.int64)
+        if self._sel is not None and self._steps.base is not base:  # the same selection, from the new base
+            self._steps = self._steps.measured_from(base, self._propagated_residual(base))
+            self._centers = self._sel.centers(shape=base.shape, cage=base.cage)
 
     # ------------------------------------------------------------------ deformation
-    def _group_transform(self, k: int, T: np.ndarray) -> np.ndarray:
-        """The transform internal group k follows when its user group has ``T``."""
-        sel = self._sel
-        if sel.kind[k] == "mirror":
-            return sel.mirror.mirrored(T)
-        if sel.kind[k] == "self":
-            return sel.mirror.symmetric_part(T)
-        return T
-
     def _as_transform(self, group: int, translate, rotate, transform) -> np.ndarray:
         if transform is not None:
             if translate is not None or rotate is not None:
@@ -644,7 +444,7 @@ class HybridEditor:
             return check_transform(transform)
         T = np.eye(4)
         if rotate is not None:
-            center = self._sel.centers[group]
+            center = self._centers[group]
             if isinstance(rotate, dict):
                 c = rotate.get("center")
                 T = rigid_transform(axis=rotate.get("axis"), degrees=float(rotate.get("degrees", 0.0)),
@@ -660,6 +460,23 @@ class HybridEditor:
         if translate is not None:
             T = rigid_transform(translate=translate) @ T
         return T
+
+    def _requested_transforms(self, translate, rotate, transform, group, transforms) -> list[np.ndarray]:
+        """Every user group's (4, 4) transform after a :meth:`drag` with these arguments."""
+        n_groups = self._sel.n_groups
+        new = list(self._transforms)
+        if transforms is not None:
+            if translate is not None or rotate is not None or transform is not None:
+                raise ValueError("give transforms, or one group's translate/rotate/transform, not both")
+            for g, T in dict(transforms).items():
+                if not isinstance(g, (int, np.integer)) or not (0 <= int(g) < n_groups):
+                    raise SelectionError(f"no handle group {g!r}; the selection has {n_groups}")
+                new[int(g)] = check_transform(T)
+        else:
+            if not isinstance(group, (int, np.integer)) or not (0 <= int(group) < n_groups):
+                raise SelectionError(f"no handle group {group!r}; the selection has {n_groups}")
+            new[int(group)] = self._as_transform(int(group), translate, rotate, transform)
+        return new
 
     def drag(
         self,
@@ -700,70 +517,20 @@ class HybridEditor:
         sel = self._sel
         if sel is None:
             raise SelectionError("set a selection (handle) before dragging")
-        new = list(self._transforms)
-        if transforms is not None:
-            if translate is not None or rotate is not None or transform is not None:
-                raise ValueError("give transforms, or one group's translate/rotate/transform, not both")
-            for g, T in dict(transforms).items():
-                if not isinstance(g, (int, np.integer)) or not (0 <= int(g) < sel.n_groups):
-                    raise SelectionError(f"no handle group {g!r}; the selection has {sel.n_groups}")
-                new[int(g)] = check_transform(T)
-        else:
-            if not isinstance(group, (int, np.integer)) or not (0 <= int(group) < sel.n_groups):
-                raise SelectionError(f"no handle group {group!r}; the selection has {sel.n_groups}")
-            new[int(group)] = self._as_transform(int(group), translate, rotate, transform)
+        new = self._requested_transforms(translate, rotate, transform, group, transforms)
         k = self.iterations if iterations is None else int(iterations)
         if k < 0:
             raise ValueError(f"iterations must be >= 0, got {k}")
         t0 = time.perf_counter()
-        cage0, shape0 = self._base.cage, self._base.shape
-        target = cage0[sel.constrained]
-        internal = [self._group_transform(g, new[sel.source[g]]) for g in range(len(sel.source))]
-        with np.errstate(all="ignore"):
-            for g, T in enumerate(internal):
-                s = sel.slots[g]
-                target[s] = target[s] @ T[:3, :3].T + T[:3, 3]
-            reach = float(np.max(np.abs(target - cage0[sel.constrained]), initial=0.0))
-        if not np.all(np.isfinite(target)):
-            raise ValueError("the drag moves the handle to non-finite positions; refused, nothing changed")
-        limit = MAX_REACH * max(self._scale, np.finfo(float).tiny)
-        if reach > limit:
-            raise ValueError(
-                f"the drag moves the handle {reach:.3g} away, more than {MAX_REACH:g} times the shape's "
-                f"size ({self._scale:.3g}); refused, nothing changed"
-            )
-        saved = (self.arap.positions.copy(), self.arap.rotations.copy())
-        self.arap.solve(target, k)
-        if not np.all(np.isfinite(self.arap.positions)):
-            self.arap.positions[:] = saved[0]
-            self.arap.rotations[:] = saved[1]
-            raise ValueError("the drag produced non-finite cage positions; refused, nothing changed")
+        base = self._base
+        internal = sel.group_transforms(new)
+        solve_cage(self.arap, cage_targets(base.cage, sel, internal, scale=self._scale), iterations=k)
         self._transforms = new
         self._moved = True
         t1 = time.perf_counter()
-        free = sel.free_cage
-        self._rots[free] = self.arap.rotations[free]
-        for g, T in enumerate(internal):
-            self._rots[sel.cage_groups[g]] = T[:3, :3]  # the base's rotations are the identity
-        sel.compute.run(self.arap.positions, self._prop_rotations(), self._out)
-        out = self._out
-        if isinstance(sel.spread, SeamSpread):
-            goal = shape0[sel.seam]
-            for g, T in enumerate(internal):
-                m = sel.seam_role == g + 1
-                goal[m] = goal[m] @ T[:3, :3].T + T[:3, 3]
-            out[sel.rows] += sel.spread.correction(goal - out[sel.seam])
-            out[sel.seam] = shape0[sel.seam]  # fixed ones (propagated above); handles are placed next
-        for g, T in enumerate(internal):
-            place(sel.shape_groups[g], shape0, T, out)
-        if isinstance(sel.spread, RegionStep):
-            sel.spread.apply(out, self._rots)
-        if sel.sym_rows.size:
-            r = sel.sym_rows
-            partner = sel.mirror.map[r]
-            U = self._out[r] - shape0[r]
-            Um = self._out[partner] - shape0[partner]
-            self._out[r] = shape0[r] + 0.5 * (U + Um @ sel.mirror.S[:3, :3].T)
+        self._steps.run(Frame(base_shape=base.shape, transforms=internal, cage=self.arap.positions,
+                              cage_rotations=self.arap.rotations, rotations=self._rots,
+                              propagation_rotations=self._prop_rotations(), out=self._out))
         t2 = time.perf_counter()
         self.frame_seconds.append(t2 - t0)
         if len(self.frame_seconds) > FRAME_HISTORY:
@@ -832,8 +599,7 @@ class HybridEditor:
         if V.shape != self._out.shape or not np.all(np.isfinite(V)):
             raise ValueError(f"a pose must be finite and {self._out.shape}, got {V.shape}")
         if cage_positions is None:
-            near = self._cage_to_shape
-            Y = self.cage.vertices + (V[near] - self.mesh.vertices[near])
+            Y = fit_cage(V, rest_shape=self.mesh.vertices, rest_cage=self.cage.vertices, nearest=self._maps.nearest)
         else:
             Y = np.asarray(cage_positions, dtype=np.float64)
             if Y.shape != self.arap.positions.shape or not np.all(np.isfinite(Y)):
@@ -848,7 +614,7 @@ class HybridEditor:
         """A snapshot of the selection and pose, for :meth:`restore_state` (undo)."""
         return EditorState(self._sel, tuple(T.copy() for T in self._transforms), self.arap.positions.copy(),
                            self.arap.rotations.copy(), self._rots.copy(), self._out.copy(), self._base,
-                           self._moved)
+                           self._moved, steps=self._steps, centers=self._centers)
 
     def restore_state(self, state: EditorState) -> np.ndarray:
         """Go back to a snapshot taken by :meth:`save_state` (the selection, the pose it
@@ -857,8 +623,10 @@ class HybridEditor:
         if state.selection is not self._sel:
             sel = state.selection
             if sel is not None:
-                self.arap.set_constrained(sel.constrained, moving=np.flatnonzero(sel.cage_roles > 0))
+                self.arap.set_constrained(sel.constrained, moving=sel.moving)
             self._sel = sel
+        self._steps = state.steps
+        self._centers = state.centers
         self.arap.positions[:] = state.cage_positions
         self.arap.rotations[:] = state.arap_rotations
         self._rots[:] = state.rotations
@@ -870,11 +638,8 @@ class HybridEditor:
 
     def _propagate_all(self) -> None:
         """Every shape vertex from the current cage pose and rotations, from the base pose."""
-        residual = self._propagated_residual(self._base)
-        if residual is None:
-            propagate(self.M, self.arap.positions, self._out)
-        else:
-            propagate_with_residual(self.M, self.arap.positions, self._prop_rotations(), *residual, self._out)
+        propagate_from(self._base, binding=self.M, cage=self.arap.positions, rotations=self._prop_rotations(),
+                       blend=self._blend, propagation=self.propagation, out=self._out)
 
     # ------------------------------------------------------------------ edits
     @property
@@ -888,7 +653,7 @@ class HybridEditor:
         handles = []
         for g in range(sel.n_groups):
             handles.append(HandleEdit.from_matrix(np.flatnonzero(roles == g + 1), self._transforms[g],
-                                                  center=sel.centers[g]))
+                                                  center=self._centers[g]))
         fixed = np.flatnonzero(roles == FIXED)
         if fixed.size == 0:
             fixed_kw = {"fixed": fixed}

@@ -62,7 +62,7 @@ def test_a_large_region_is_solved_in_a_band_around_the_seam(monkeypatch):
     monkeypatch.setattr(C, "REGION_WHOLE_MAX", 100)
     ed.set_selection(handle, fixed=fixed)
     sel = ed._sel
-    solved = sel.spread.free
+    solved = ed._steps.region.solver.free
     assert 0 < solved.size < sel.rows.size  # a band, not the whole region
     d = np.linalg.norm(x[solved][:, None] - x[sel.seam][None], axis=2).min(axis=1)
     assert d.max() <= C.BAND_CAGE_EDGES * ed._cage_edge + 1e-12
