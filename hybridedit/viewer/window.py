@@ -777,6 +777,8 @@ class MainWindow(QtWidgets.QMainWindow):
                   "screenshot", "mesh_info"):
             a[n].setEnabled(s is not None)
         a["cancel_job"].setEnabled(busy)
+        for axis in "xyz":  # the session's mirror, also after undo and redo
+            a[f"mirror_{axis}"].setChecked(s is not None and s.symmetry == axis)
 
     # ================================================================== edit actions
     @guarded

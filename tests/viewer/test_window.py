@@ -101,6 +101,8 @@ def rubber_band(qtbot, w: MainWindow, x_from: float, modifier=Qt.KeyboardModifie
 def select_roi_and_handle(qtbot, w: MainWindow) -> tuple[np.ndarray, np.ndarray]:
     key(qtbot, w, Qt.Key.Key_S)  # Select mode
     assert w.controller.mode == "select"
+    key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.AltModifier)  # Select Through: the far side of the ends too
+    assert w.controller.select_through
     key(qtbot, w, Qt.Key.Key_R)  # target ROI
     roi = rubber_band(qtbot, w, 0.0)
     key(qtbot, w, Qt.Key.Key_H)  # target handle
