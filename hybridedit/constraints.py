@@ -1,14 +1,20 @@
 """The seam between constrained and free shape vertices.
 
 Constrained shape vertices are placed exactly (fixed: where they were; handle:
-at their group's transform of where they were). The cage vertices their rows
-lean on are not all held, so near the border of the region of interest the cage
-would carry a constrained vertex slightly off its target: a small mismatch that
-varies smoothly along the border (the drift and handle error of a plain
-x' = M y'). The constraint removes it, and the free vertices take the harmonic
-extension of that correction (the smoothest field that equals the correction on
-the seam and vanishes on the vertices that do not move), so the surface stays
-smooth across the seam.
+at their group's transform of where they were). On the cage, only the cage
+vertices whose nearest shape vertex is constrained are held (fixed, or following
+their group's transform; for a selection made on the cage, the picked ones). The
+other cage vertices a constrained row leans on are free and may move, so near
+the border of the region of interest the cage alone would carry a constrained
+vertex slightly off its target: a small mismatch that varies smoothly along the
+border (the drift and handle error of a plain x' = M y'). The exact placement
+removes it on the constrained rows, and the free rows are then solved with
+those exact positions as their boundary: with the residual propagation by
+:class:`RegionStep` (one full-resolution ARAP step over the free region), with
+the linear propagation by :class:`SeamSpread`, the harmonic extension of the
+correction (the smoothest field that equals the correction on the seam and
+vanishes on the vertices that do not move), so the surface stays smooth across
+the seam.
 
 Roles are small integers, the same for shape and cage vertices:
 ``-1`` fixed, ``0`` free, ``k + 1`` handle group ``k``.
