@@ -22,7 +22,93 @@ import numpy as np
 
 from .mesh import Mesh
 
-__all__ = ["Document", "grouped_normals", "moved_vertices", "vertex_normals"]
+__all__ = ["Document", "Material", "Texturing", "grouped_normals", "moved_vertices", "vertex_normals"]
+
+
+@dataclass(eq=False)
+class Material:
+    """A surface's look as every format that has materials can carry it.
+
+    Attributes
+    ----------
+    name : str
+    color : (4,) tuple of float
+        Base (diffuse) colour RGBA in [0, 1]: OBJ's ``Kd`` and ``d``, glTF's
+        ``baseColorFactor``.
+    image : bytes or None
+        The base colour texture's file bytes (PNG, JPEG): OBJ's ``map_Kd``,
+        glTF's ``baseColorTexture``, PLY's ``TextureFile`` comment.
+    image_name : str or None
+        A file name for the image ("spot_texture.png").
+    """
+
+    name: str
+    color: tuple[float, float, float, float] = (1.0, 1.0, 1.0, 1.0)
+    image: bytes | None = None
+    image_name: str | None = None
+
+
+@dataclass(eq=False)
+class Texturing:
+    """Texture coordinates and materials of a document's polygons, format-neutral.
+
+    Attributes
+    ----------
+    uv : (t, 2) float64 array or None
+        Texture coordinates, (0, 0) at the image's bottom left (OBJ's and PLY's
+        convention; glTF's v is flipped on reading and writing).
+    corner_uv : (sum of polygon corner counts,) int64 array or None
+        The ``uv`` row of each polygon corner (in :meth:`Document.polygon_lists`
+        order), -1 for none.
+    materials : list of Material
+    face_material : (p,) int64 array or None
+        The material of each polygon, -1 for none.
+    """
+
+    uv: np.ndarray | None = None
+    corner_uv: np.ndarray | None = None
+    materials: list[Material] = field(default_factory=list)
+    face_material: np.ndarray | None = None
+
+    def vertex_split(self, n: int, flat: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Vertices split where corners of one vertex have different coordinates (glTF, and
+        PLY's per-vertex u v, keep one coordinate per vertex).
+
+        Parameters
+        ----------
+        n : int
+            The document's vertex count.
+        flat : (sum of counts,) int64
+            The polygons' vertices (:meth:`Document.polygon_lists`).
+
+        Returns
+        -------
+        source : (k,) int64
+            The document vertex of each split vertex; the first n are 0..n-1 in order
+            (every document vertex, with its first corner's coordinates), then the copies.
+        uv : (k, 2) float64
+        corner : (sum of counts,) int64
+            The split vertex of each polygon corner.
+        """
+        cuv = self.corner_uv if self.corner_uv is not None else np.full(len(flat), -1, dtype=np.int64)
+        pairs, inverse = np.unique(np.stack([flat, cuv], axis=1), axis=0, return_inverse=True)
+        inverse = inverse.reshape(-1)
+        # the first pair of each vertex keeps the vertex's index; the others come after, in order
+        first = np.r_[True, pairs[1:, 0] != pairs[:-1, 0]]
+        index = np.empty(len(pairs), dtype=np.int64)
+        index[first] = pairs[first, 0]
+        extra = np.flatnonzero(~first)
+        index[extra] = n + np.arange(len(extra))
+        k = n + len(extra)
+        source = np.arange(k, dtype=np.int64)
+        source[index] = pairs[:, 0]
+        uv_rows = np.full(k, -1, dtype=np.int64)
+        uv_rows[index] = pairs[:, 1]
+        uv = np.zeros((k, 2))
+        if self.uv is not None:
+            has = uv_rows >= 0
+            uv[has] = self.uv[uv_rows[has]]
+        return source, uv, index[inverse]
 
 
 @dataclass(eq=False)
@@ -52,6 +138,8 @@ class Document:
         (``{"texture coordinates": 3225, "material references": 1}``).
     path : Path or None
         The file it was read from (files it refers to are found next to it).
+    texturing : Texturing, a callable returning one (read when first asked for), or None
+        Texture coordinates and materials, for a conversion: see :meth:`textures`.
     """
 
     mesh: Mesh
@@ -62,6 +150,17 @@ class Document:
     normals: bool = False
     extras: dict[str, int] = field(default_factory=dict)
     path: Path | None = None
+    texturing: Any = None
+
+    def textures(self) -> Texturing | None:
+        """The document's :class:`Texturing` (texture coordinates and materials), or None.
+
+        OBJ files read theirs (``vt`` indices, ``usemtl``, the ``.mtl`` and its images) only
+        here, when a conversion asks: opening a mesh does not pay for it.
+        """
+        if callable(self.texturing):
+            self.texturing = self.texturing()
+        return self.texturing
 
     @classmethod
     def from_mesh(cls, mesh: Mesh) -> "Document":

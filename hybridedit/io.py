@@ -49,8 +49,8 @@ def write_mesh(path: str | os.PathLike[str], mesh: Mesh, *,
                like: str | os.PathLike[str] | None = None, progress=None) -> list[str]:
     """Write a mesh atomically, choosing the format by extension.
 
-    Without ``like``: ``.obj`` and ``.off`` are ASCII with repr-exact ``%.17g``
-    coordinates, ``.ply`` is binary little-endian with double coordinates and
+    Without ``like``: ``.obj`` and ``.off`` are ASCII with the shortest coordinates
+    that read back exactly (``repr``), ``.ply`` is binary little-endian with double coordinates and
     ``.stl`` is binary (float32, per-face normals); vertex and face order are
     kept. With ``like`` (the file ``mesh`` was read from), the file's whole
     structure is written with ``mesh``'s positions, as :func:`write_document`.

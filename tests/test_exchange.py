@@ -246,17 +246,93 @@ def _absolute(data: bytes, n_file_normals: int) -> bytes:
     return b"\n".join(out)
 
 
-def test_conversion_names_what_the_target_cannot_hold(spot: Path, tmp_path: Path) -> None:
+#: what each format holds of another's document; what spot's file in that format has
+HOLDS = {"obj": {"polygons", "uv", "image"}, "ply": {"polygons", "uv", "image"}, "off": {"polygons"},
+         "stl": set(), "glb": {"uv", "image"}}
+
+
+@pytest.fixture
+def spot_in_every_format(spot: Path, tmp_path: Path) -> dict[str, Path]:
+    """spot converted from its OBJ into each format, each in a folder of its own."""
     doc = read_document(spot)
-    notes = write_document(tmp_path / "spot.stl", doc)
-    assert len(notes) == 1
-    assert "texture coordinates (3,225)" in notes[0] and "polygons (2,928" in notes[0]
-    assert notes[0].startswith("STL cannot hold")
-    notes = write_document(tmp_path / "spot.ply", doc)
-    assert "polygons" not in notes[0] and "texture coordinates (3,225)" in notes[0]
-    faces = plyfile.PlyData.read(str(tmp_path / "spot.ply"))["face"].data["vertex_indices"]
-    assert {len(f) for f in faces} == {4}  # PLY holds quads: they stay quads
-    assert np.array_equal(read_mesh(tmp_path / "spot.ply").faces, doc.mesh.faces)
+    paths = {"obj": spot}
+    for ext in ("ply", "off", "stl", "glb"):
+        folder = tmp_path / f"src_{ext}"
+        folder.mkdir()
+        write_document(folder / f"spot.{ext}", doc)
+        paths[ext] = folder / f"spot.{ext}"
+    return paths
+
+
+def _corner_uvs(doc) -> np.ndarray | None:
+    """The texture coordinates of the engine's triangle corners, (m, 3, 2), or None."""
+    from hybridedit.exchange.common import _fan
+
+    tex = doc.textures()
+    if tex is None or tex.uv is None:
+        return None
+    counts, _ = doc.polygon_lists()
+    corner = _fan(counts, np.arange(len(tex.corner_uv)))
+    return tex.uv[tex.corner_uv[corner]]
+
+
+@pytest.mark.parametrize("source, target", [(a, b) for a in sorted(HOLDS) for b in sorted(HOLDS) if a != b])
+def test_conversions_keep_what_the_target_holds(spot_in_every_format, tmp_path: Path, source, target) -> None:
+    """Every pair of formats, from spot (quads, UVs, a textured material): polygons, texture coordinates
+    and the texture image are kept when the source has them and the target holds them, positions and
+    triangles always; the one note names what is not kept, and only that."""
+    src = read_document(spot_in_every_format[source])
+    has = {"polygons": src.polygons is not None, "uv": _corner_uvs(src) is not None,
+           "image": any(m.image is not None for m in (src.textures().materials if src.textures() else []))}
+    assert has == {k: k in HOLDS[source] for k in has}, has  # what each source has
+    out = tmp_path / "out" / f"converted.{target}"
+    out.parent.mkdir()
+    notes = write_document(out, src)
+    back = read_document(out)
+    float32 = {source, target} & {"ply", "stl", "glb"} - ({"ply"} if source == "ply" or target == "ply" else set())
+    tol = 1e-6 if float32 else 0.0
+    if target == "stl":  # a facet list: its vertices are welded in first-use order, the triangles are the same
+        assert np.abs(back.mesh.vertices[back.mesh.faces] - src.mesh.vertices[src.mesh.faces]).max() <= tol * 2
+    else:  # vertex and triangle order kept
+        assert np.abs(back.mesh.vertices - src.mesh.vertices).max() <= tol * 2
+        assert np.array_equal(back.mesh.faces, src.mesh.faces)
+    keep = {k for k, v in has.items() if v} & HOLDS[target]
+    lost = {k for k, v in has.items() if v} - HOLDS[target]
+    if "polygons" in keep:
+        assert np.array_equal(back.polygons[0], src.polygons[0]) and np.array_equal(back.polygons[1], src.polygons[1])
+    if "uv" in keep:  # equal to float32 precision where either side stores float32 (PLY, glTF)
+        assert np.abs(_corner_uvs(back) - _corner_uvs(src)).max() < 1e-7
+    if "image" in keep:
+        image = (SPOT / "spot_texture.png").read_bytes()
+        assert [m.image for m in back.textures().materials if m.image is not None] == [image]
+        if target != "glb":  # written beside the file
+            assert (out.parent / "spot_texture.png").read_bytes() == image
+    note = " ".join(notes)
+    assert ("polygons (2,928; written as 5,856 triangles)" in note) == ("polygons" in lost)
+    assert ("texture coordinates (" in note) == ("uv" in lost)
+    if "image" in lost:
+        assert "material" in note or "image" in note or "texture files" in note
+    assert len(notes) <= 1
+    if not lost and source != "obj":  # only a PLY's own header comment, or materials whose images are kept
+        rest = note.replace("header comments (1)", "").replace("materials (1; their texture images are kept)", "")
+        assert not any(word in rest for word in ("polygons", "texture", "material", "image")), note
+    print(f"{source} -> {target}: kept {sorted(keep) or '-'}; note: {note or '-'}")
+
+
+def test_spot_round_trips_through_ply_and_glb_keep_uvs_quads_and_texture(spot: Path, tmp_path: Path) -> None:
+    doc = read_document(spot)
+    for ext in ("ply", "glb"):
+        mid, back_path = tmp_path / ext / f"spot.{ext}", tmp_path / ext / "back" / "spot.obj"
+        back_path.parent.mkdir(parents=True)
+        write_document(mid, doc)
+        assert write_document(back_path, read_document(mid)) == [] or ext == "ply"
+        back = read_document(back_path)
+        assert np.abs(back.mesh.vertices - doc.mesh.vertices).max() <= (0 if ext == "ply" else 1e-7)
+        assert np.abs(_corner_uvs(back) - _corner_uvs(doc)).max() < 1e-7
+        if ext == "ply":  # PLY holds polygons: still quads; glTF has triangles only
+            assert np.array_equal(back.polygons[0], doc.polygons[0])
+        assert (back_path.parent / "spot_texture.png").read_bytes() == (SPOT / "spot_texture.png").read_bytes()
+        assert "map_Kd spot_texture.png" in (back_path.parent / "spot.mtl").read_text()
 
 
 # --------------------------------------------------------------------------- OBJ normals

@@ -41,25 +41,49 @@ class Format:
         Raises ``_Bad`` (a message without the file name) for a bad file.
     write : callable (Document) -> bytes
         Gives the document's own structure back when it was read in this
-        format (its ``native`` record is this module's), else a plain file.
-    holds : frozenset of {"polygons", "colors", "normals"}
-        What this format can carry over from a document read in another one.
+        format (its ``native`` record is this module's).
+    convert : callable (Document, target Path) -> bytes
+        A file of this format holding what it can of a document read in another.
+    companions : callable (Document, target Path) -> list of (Path, bytes)
+        Files a converted document needs beside ``target`` (a material library,
+        texture images).
+    holds : frozenset of {"polygons", "colors", "normals", "uv", "materials", "textures"}
+        What this format can carry over from a document read in another one
+        ("textures": the images of the materials, without the rest of them).
     """
 
     name: str
     read: Callable[[str, bytes], Document]
     write: Callable[[Document], bytes]
+    convert: Callable[[Document, Path], bytes]
+    companions: Callable[[Document, Path], list[tuple[Path, bytes]]]
     holds: frozenset[str]
 
 
-_ALL = frozenset({"polygons", "colors", "normals"})
+def _none(doc: Document, target: Path) -> list[tuple[Path, bytes]]:
+    return []
+
 
 FORMATS: dict[str, Format] = {
-    ".obj": Format("OBJ", lambda path, data: obj.read(data), obj.write, _ALL),
-    ".off": Format("OFF", lambda path, data: off.read(data), off.write, _ALL),
-    ".ply": Format("PLY", ply.read, ply.write, _ALL),
-    ".stl": Format("STL", lambda path, data: stl.read(data), stl.write, frozenset()),
-    ".glb": Format("glTF binary", glb.read, glb.write, frozenset({"colors", "normals"})),
+    ".obj": Format("OBJ", lambda path, data: obj.read(data, path), obj.write, obj.write_converted,
+                   obj.converted_companions,
+                   frozenset({"polygons", "colors", "normals", "uv", "materials", "textures"})),
+    ".off": Format("OFF", lambda path, data: off.read(data), off.write, lambda doc, target: off.write(doc),
+                   _none, frozenset({"polygons", "colors", "normals"})),
+    ".ply": Format("PLY", ply.read, ply.write, lambda doc, target: ply.write(doc), ply.converted_companions,
+                   frozenset({"polygons", "colors", "normals", "uv", "textures"})),
+    ".stl": Format("STL", lambda path, data: stl.read(data), stl.write, lambda doc, target: stl.write(doc),
+                   _none, frozenset()),
+    ".glb": Format("glTF binary", glb.read, glb.write, lambda doc, target: glb.write(doc), _none,
+                   frozenset({"colors", "normals", "uv", "materials", "textures"})),
+}
+
+#: What each inventory entry of a document (``Document.extras``) is, for the formats that hold it.
+_CARRIED = {
+    "texture coordinates": "uv",  # OBJ vt, OFF ST, PLY texcoord / u v
+    "primitives with texture coordinates": "uv",  # glTF
+    "material libraries": "materials", "material references": "materials", "materials": "materials",
+    "embedded images": "textures", "texture files": "textures",
 }
 
 SUPPORTED_EXTENSIONS = tuple(FORMATS)
@@ -150,13 +174,24 @@ def conversion_note(doc: Document, ext: str) -> str | None:
         return None
     lost = []
     counts, _ = doc.polygon_lists()
+    tex = doc.textures() if any(_CARRIED.get(k) for k in doc.extras) else None
     if doc.polygons is not None and "polygons" not in fmt.holds:
         lost.append(f"polygons ({len(counts):,}; written as {doc.mesh.n_faces:,} triangles)")
     if doc.colors is not None and "colors" not in fmt.holds:
         lost.append(f"vertex colours ({doc.mesh.n_vertices:,})")
     if doc.normals and "normals" not in fmt.holds:
         lost.append("vertex normals")
-    lost += [f"{what} ({count:,})" for what, count in doc.extras.items()]
+    carried = set()
+    if tex is not None:
+        carried = {"uv"} if tex.uv is not None and tex.corner_uv is not None else set()
+        if tex.materials:
+            carried |= {"materials", "textures"} if any(m.image is not None for m in tex.materials) \
+                else {"materials"}
+    for what, count in doc.extras.items():
+        kind = _CARRIED.get(what)
+        if kind is None or kind not in carried or kind not in fmt.holds:
+            kept = kind == "materials" and "textures" in fmt.holds and "textures" in carried
+            lost.append(f"{what} ({count:,}{'; their texture images are kept' if kept else ''})")
     if not lost:
         return None
     src = FORMATS["." + doc.format].name
@@ -218,10 +253,20 @@ def write_document(path: str | os.PathLike[str], doc: Document, *,
         tell(0.0)
     try:
         with reporting(tell), span(0.0, 0.9):  # making the file's bytes; then writing them
-            payload = fmt.write(doc if same else replace(doc, native=None))
+            payload = fmt.write(doc) if same else fmt.convert(replace(doc, native=None), Path(p))
+        beside = [] if same else fmt.companions(doc, Path(p))
     except (_Bad, MeshError) as exc:
         raise MeshFileError(f"{name}: {exc}") from None
     copies: list[tuple[Path, Path]] = []
+    made: list[tuple[Path, bytes]] = []
+    for dst, content in beside:  # a converted document's material library and images
+        if dst.is_dir():
+            notes.append(f"{dst.name} not written: {dst} is a folder")
+        elif dst.exists() and dst.read_bytes() != content:
+            notes.append(f"{dst} kept as it is: it differs from the {dst.suffix[1:]} file this conversion "
+                         "makes, and an existing file is never replaced (the output refers to it)")
+        elif not dst.exists():
+            made.append((dst, content))
     if same and ext == ".obj":
         found, more = obj.companions(doc, doc.path, Path(p))
         notes += more
@@ -239,6 +284,9 @@ def write_document(path: str | os.PathLike[str], doc: Document, *,
         dst.parent.mkdir(parents=True, exist_ok=True)
         with atomic_write(dst, "wb") as f:
             f.write(src.read_bytes())
+    for dst, content in made:
+        with atomic_write(dst, "wb") as f:
+            f.write(content)
     if tell is not None:
         tell(1.0)
     return notes

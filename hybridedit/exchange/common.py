@@ -286,3 +286,32 @@ class TextPrecision:
 def _sample_rows(n: int, limit: int = 2000) -> np.ndarray:
     """Up to ``limit`` row indices spread evenly over ``n`` rows."""
     return np.unique(np.linspace(0, n - 1, min(n, limit)).astype(np.int64)) if n else np.zeros(0, np.int64)
+
+
+def _float32_texts(values: np.ndarray) -> np.ndarray:
+    """The shortest text reading back to each float32 value (values exactly float32), (k,) str."""
+    flat = values.ravel()
+    out = np.empty(flat.shape, dtype=object)
+    todo = np.arange(len(flat))
+    for digits in range(6, 10):  # 9 significant digits always round-trip a float32
+        texts = np.array(["%.*g" % (digits, x) for x in flat[todo].tolist()], dtype=object)
+        ok = np.array(texts, dtype=np.float64).astype(np.float32) == flat[todo].astype(np.float32) \
+            if digits < 9 else np.ones(len(todo), dtype=bool)
+        out[todo[ok]] = texts[ok]
+        todo = todo[~ok]
+        if not todo.size:
+            break
+    return out.reshape(values.shape)
+
+
+def _shortest_rows(head: str, values: np.ndarray, tail: np.ndarray | None = None) -> str:
+    """``head`` and each row of ``values`` ((k, c) float64) in its shortest exact text, one line a
+    row (``tail`` columns after it with %.6g): float32 text when every value is a float32 (read
+    from a float32 PLY, STL or glTF), else float64's (repr). Progress is reported per chunk."""
+    if len(values) and np.array_equal(values.astype(np.float32).astype(np.float64), values):
+        texts = _float32_texts(values)
+        table = texts if tail is None else np.concatenate([texts, tail.astype(object)], axis=1)
+        fmt = head + " %s" * values.shape[1] + (" %.6g" * tail.shape[1] if tail is not None else "") + "\n"
+        return _format_rows(fmt, table)
+    fmt = head + " %r" * values.shape[1] + (" %.6g" * tail.shape[1] if tail is not None else "") + "\n"
+    return _format_rows(fmt, values if tail is None else np.column_stack([values, tail]))

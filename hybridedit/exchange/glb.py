@@ -10,9 +10,11 @@ byte. A normal is recomputed over all corners that share its position and its
 original direction, so normals stay smooth across UV seams and split at hard
 edges. A mesh placed by several nodes is edited through its first one.
 
-A document read from another format is written as a plain .glb (trimesh's
-exporter): one triangle mesh with its normals and, when it has them, its
-vertex colours.
+A document read from another format is written as a new .glb (pygltflib): one
+triangle mesh with its normals, vertex colours, texture coordinates and
+materials (base colour and its texture image, embedded), one primitive per
+material. Reading one back, texture coordinates (v flipped back) and materials
+are there for a conversion to OBJ or PLY.
 """
 
 from __future__ import annotations
@@ -23,8 +25,8 @@ from dataclasses import dataclass
 import numpy as np
 import pygltflib
 
-from ..document import Document, grouped_normals, moved_vertices, vertex_normals
-from .common import _Bad, _mesh
+from ..document import Document, Material, Texturing, grouped_normals, moved_vertices, vertex_normals
+from .common import _Bad, _fan, _mesh
 
 __all__ = ["GlbNative", "read", "write"]
 
@@ -129,7 +131,7 @@ def read(path: str, data: bytes) -> Document:
     if gltf is None:
         raise _Bad("not a valid glTF binary file (no JSON chunk)")
     blob = gltf.binary_blob() or b""
-    slots, points, normals, tris, colors = [], [], [], [], []
+    slots, points, normals, tris, colors, uvs, prim_material = [], [], [], [], [], [], []
     first = 0
     skipped = 0
     for mesh_index, world in _placed_meshes(gltf):
@@ -155,6 +157,8 @@ def read(path: str, data: bytes) -> Document:
             slots.append(_Slot(prim.attributes.POSITION, nrm_index, world, first))
             colors.append(None if prim.attributes.COLOR_0 is None
                           else _rgba(_read_accessor(gltf, blob, prim.attributes.COLOR_0), len(local)))
+            uvs.append(prim.attributes.TEXCOORD_0)
+            prim_material.append((len(idx) // 3, -1 if prim.material is None else prim.material))
             points.append(pts)
             normals.append(nrm)
             tris.append(idx.reshape(-1, 3) + first)
@@ -180,6 +184,10 @@ def read(path: str, data: bytes) -> Document:
         extras["embedded images"] = len(gltf.images)
     if skipped:
         extras["non-triangle primitives"] = skipped
+    maps = sum(1 for m in gltf.materials or [] if m.normalTexture or m.occlusionTexture or m.emissiveTexture
+               or (m.pbrMetallicRoughness and m.pbrMetallicRoughness.metallicRoughnessTexture))
+    if maps:
+        extras["materials' maps besides the base colour (normal, occlusion, emissive, metallic-roughness)"] = maps
     rgba = None
     if any(c is not None for c in colors):  # per engine vertex: its first file vertex's (white where none)
         file_rgba = np.concatenate([np.ones((len(p), 4)) if c is None else c for c, p in zip(colors, points)])
@@ -189,8 +197,56 @@ def read(path: str, data: bytes) -> Document:
     native = GlbNative(gltf=gltf, slots=slots, file_vertex=inverse, rest=welded,
                        normal_group=group.reshape(-1), n_groups=int(group.max()) + 1,
                        file_triangles=file_tri)
+    texturing = None
+    if uv or gltf.materials:
+        sizes = [len(p) for p in points]
+        texturing = lambda: _texturing(gltf, blob, uvs, sizes, file_tri, prim_material)  # noqa: E731
     return Document(mesh=_mesh(welded, faces), format="glb", native=native, colors=rgba,
-                    normals=any(s.normal is not None for s in slots), extras=extras)
+                    normals=any(s.normal is not None for s in slots), extras=extras, texturing=texturing)
+
+
+def _texturing(gltf: pygltflib.GLTF2, blob: bytes, uvs: list[int | None], sizes: list[int],
+               file_tri: np.ndarray, prim_material: list[tuple[int, int]]) -> Texturing:
+    """TEXCOORD_0 of every triangle corner (v flipped to OBJ's bottom-left origin) and each
+    triangle's material (base colour factor and texture image)."""
+    tex = Texturing()
+    if any(u is not None for u in uvs):
+        rows, has = [], []
+        for index, size in zip(uvs, sizes):
+            if index is None:
+                rows.append(np.zeros((size, 2)))
+                has.append(np.zeros(size, dtype=bool))
+                continue
+            values = _read_accessor(gltf, blob, index)
+            scale = {np.dtype("u1"): 255.0, np.dtype("<u2"): 65535.0}.get(values.dtype, 1.0)
+            values = values[:, :2].astype(np.float64) / scale
+            if len(values) != size:
+                raise _Bad(f"accessor {index}: TEXCOORD_0 has {len(values)} values for {size} vertices")
+            rows.append(np.column_stack([values[:, 0], 1.0 - values[:, 1]]))
+            has.append(np.ones(size, dtype=bool))
+        tex.uv = np.concatenate(rows)
+        corner = file_tri.reshape(-1)
+        tex.corner_uv = np.where(np.concatenate(has)[corner], corner, -1)
+    for k, m in enumerate(gltf.materials or []):
+        pbr = m.pbrMetallicRoughness
+        color = tuple(float(c) for c in (pbr.baseColorFactor if pbr and pbr.baseColorFactor else (1, 1, 1, 1)))
+        material = Material(m.name or f"material_{k}", color=color)
+        info = pbr.baseColorTexture if pbr else None
+        if info is not None and info.index is not None and info.index < len(gltf.textures or []):
+            source = gltf.textures[info.index].source
+            if source is not None and source < len(gltf.images or []):
+                image = gltf.images[source]
+                if image.bufferView is not None:
+                    view = gltf.bufferViews[image.bufferView]
+                    start = view.byteOffset or 0
+                    material.image = bytes(blob[start: start + view.byteLength])
+                    ext = {"image/jpeg": ".jpg", "image/png": ".png"}.get(image.mimeType or "", ".png")
+                    stem = (image.name or material.name or f"texture_{source}").rsplit(".", 1)[0]
+                    material.image_name = stem + ext
+        tex.materials.append(material)
+    if tex.materials:
+        tex.face_material = np.concatenate([np.full(n, m, dtype=np.int64) for n, m in prim_material])
+    return tex
 
 
 def _rgba(values: np.ndarray, count: int) -> np.ndarray:
@@ -254,13 +310,80 @@ def write(doc: Document) -> bytes:
 
 
 def _plain(doc: Document) -> bytes:
-    """A .glb of ``doc`` (from another format): its triangles, vertex normals and colours."""
-    import trimesh  # a dependency already; only needed for this conversion
-
+    """A .glb of ``doc`` (from another format) written with pygltflib: its triangles, vertex
+    normals, colours, texture coordinates (vertices split where a vertex's corners have
+    different ones, the document's vertices first and in order) and materials (base colour
+    and its texture image, embedded), one primitive per material."""
     mesh = doc.mesh
-    colors = None
+    counts, flat = doc.polygon_lists()
+    tex = doc.textures()
+    has_uv = tex is not None and tex.uv is not None and tex.corner_uv is not None
+    if has_uv:
+        source, uv, corner = tex.vertex_split(mesh.n_vertices, flat)
+    else:
+        source, uv, corner = np.arange(mesh.n_vertices), None, flat
+    triangles = _fan(counts, corner)  # in the engine's triangle order
+    materials = tex.materials if tex is not None else []
+    face_material = np.full(len(counts), -1, dtype=np.int64)
+    if materials and tex.face_material is not None:
+        face_material = tex.face_material
+    tri_material = np.repeat(face_material, counts - 2)
+    blob = bytearray()
+    gltf = pygltflib.GLTF2(asset=pygltflib.Asset(generator="hybridedit", version="2.0"),
+                           scene=0, scenes=[pygltflib.Scene(nodes=[0])], nodes=[pygltflib.Node(mesh=0)])
+
+    def add(array: np.ndarray, kind: str, target: int | None, minmax: bool = False) -> int:
+        array = np.ascontiguousarray(array)
+        while len(blob) % 4:
+            blob.append(0)
+        gltf.bufferViews.append(pygltflib.BufferView(buffer=0, byteOffset=len(blob), byteLength=array.nbytes,
+                                                     target=target))
+        blob.extend(array.tobytes())
+        component = {np.dtype("<f4"): pygltflib.FLOAT, np.dtype("<u4"): pygltflib.UNSIGNED_INT}[array.dtype]
+        acc = pygltflib.Accessor(bufferView=len(gltf.bufferViews) - 1, componentType=component,
+                                 count=len(array), type=kind)
+        if minmax:
+            acc.min, acc.max = array.min(axis=0).tolist(), array.max(axis=0).tolist()
+        gltf.accessors.append(acc)
+        return len(gltf.accessors) - 1
+
+    attributes = pygltflib.Attributes(
+        POSITION=add(mesh.vertices[source].astype("<f4"), pygltflib.VEC3, pygltflib.ARRAY_BUFFER, True),
+        NORMAL=add(vertex_normals(mesh.vertices, mesh.faces)[source].astype("<f4"), pygltflib.VEC3,
+                   pygltflib.ARRAY_BUFFER))
+    if has_uv:
+        attributes.TEXCOORD_0 = add(np.column_stack([uv[:, 0], 1.0 - uv[:, 1]]).astype("<f4"), pygltflib.VEC2,
+                                    pygltflib.ARRAY_BUFFER)
     if doc.colors is not None:
-        colors = np.clip(np.rint(doc.colors * 255), 0, 255).astype(np.uint8)
-    tm = trimesh.Trimesh(mesh.vertices, mesh.faces, vertex_normals=vertex_normals(mesh.vertices, mesh.faces),
-                         vertex_colors=colors, process=False)
-    return tm.export(file_type="glb", include_normals=True)
+        attributes.COLOR_0 = add(doc.colors[source].astype("<f4"), pygltflib.VEC4, pygltflib.ARRAY_BUFFER)
+    for k, m in enumerate(materials):
+        pbr = pygltflib.PbrMetallicRoughness(baseColorFactor=[float(c) for c in m.color], metallicFactor=0.0,
+                                             roughnessFactor=1.0)
+        if m.image is not None:
+            while len(blob) % 4:
+                blob.append(0)
+            gltf.bufferViews.append(pygltflib.BufferView(buffer=0, byteOffset=len(blob), byteLength=len(m.image)))
+            blob.extend(m.image)
+            mime = "image/jpeg" if m.image[:2] == b"\xff\xd8" else "image/png"
+            gltf.images.append(pygltflib.Image(bufferView=len(gltf.bufferViews) - 1, mimeType=mime,
+                                               name=m.image_name))
+            if not gltf.samplers:
+                gltf.samplers.append(pygltflib.Sampler())
+            gltf.textures.append(pygltflib.Texture(source=len(gltf.images) - 1, sampler=0))
+            pbr.baseColorTexture = pygltflib.TextureInfo(index=len(gltf.textures) - 1)
+        gltf.materials.append(pygltflib.Material(name=m.name, pbrMetallicRoughness=pbr))
+    primitives = []
+    cuts = np.flatnonzero(np.diff(tri_material)) + 1
+    for lo, hi in zip(np.r_[0, cuts].tolist(), np.r_[cuts, len(triangles)].tolist()):
+        if hi <= lo:
+            continue
+        indices = add(triangles[lo:hi].reshape(-1).astype("<u4"), pygltflib.SCALAR, pygltflib.ELEMENT_ARRAY_BUFFER)
+        material = int(tri_material[lo])
+        primitives.append(pygltflib.Primitive(attributes=attributes, indices=indices, mode=_TRIANGLES,
+                                              material=None if material < 0 else material))
+    gltf.meshes.append(pygltflib.Mesh(primitives=primitives))
+    while len(blob) % 4:
+        blob.append(0)
+    gltf.buffers.append(pygltflib.Buffer(byteLength=len(blob)))
+    gltf.set_binary_blob(bytes(blob))
+    return b"".join(gltf.save_to_bytes())

@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..document import Document, grouped_normals, moved_vertices, vertex_normals
-from .common import TextPrecision, _Bad, _indented, _sample_rows, _mesh, _fan, _format_rows, _numbers, _snippet, _token_count, _widths, _words
+from ..document import Document, Material, Texturing, grouped_normals, moved_vertices, vertex_normals
+from .common import TextPrecision, _Bad, _indented, _sample_rows, _shortest_rows, _mesh, _fan, _format_rows, _numbers, _snippet, _token_count, _widths, _words
 from .reporting import report, span
 
 _MARK = int(np.iinfo(np.int64).max)  # stands in for each line's "f" while parsing indices
@@ -191,8 +191,9 @@ class ObjNative:
     vn_relative: bool  # some face refers to its normals by negative (relative) indices
 
 
-def read(data: bytes) -> Document:
-    """Parse an OBJ file into a :class:`Document` (raises _Bad for a bad file)."""
+def read(data: bytes, path: str | None = None) -> Document:
+    """Parse an OBJ file into a :class:`Document` (raises _Bad for a bad file); its texture
+    coordinates and materials are read only when asked for (:meth:`Document.textures`)."""
     if b"\0" in data:
         raise _Bad("not a text OBJ file (it contains binary data)")
     if b"\\" in data:  # line continuations
@@ -256,8 +257,79 @@ def read(data: bytes) -> Document:
         rgba = np.column_stack([colors, np.ones(nv)])
     mesh = _mesh(vertices, _fan(counts, flat))
     polygons = None if (counts.size and np.all(counts == 3)) else (counts, flat)
+    texturing = None
+    if "texture coordinates" in extras or "material references" in extras:
+        folder = Path(path).parent if path else None
+        texturing = lambda: read_texturing(native, folder)  # noqa: E731 -- read on demand
     return Document(mesh=mesh, format="obj", native=native, polygons=polygons, colors=rgba,
-                    normals=bool(len(vn_lines)), extras=extras)
+                    normals=bool(len(vn_lines)), extras=extras, texturing=texturing)
+
+
+def read_texturing(nat: ObjNative, folder: Path | None) -> Texturing | None:
+    """The ``vt`` coordinates of every face corner, and each face's material (``usemtl``, with
+    ``Kd``, ``d`` and the ``map_Kd`` image of the ``mtllib`` libraries found in ``folder``)."""
+    heads = [(i, line.lstrip()) for i, line in enumerate(nat.lines) if line.lstrip()[:2] in (b"vt", b"us", b"mt")]
+    vt = [(i, w) for i, w in ((i, line.split()) for i, line in heads) if w and w[0] == b"vt"]
+    use = [(i, w) for i, w in ((i, line.split()) for i, line in heads) if w and w[0] == b"usemtl"]
+    libs = [w for _, line in heads for w in [line.split()] if w and w[0] == b"mtllib"]
+    uv = corner_uv = None
+    if vt:
+        uv = np.array([[float(x) for x in (w[1:3] + [b"0"])[:2]] for _, w in vt])
+        refs = []
+        for line in _pick(nat.lines, nat.f_lines):
+            for tok in line.split()[1:]:
+                parts = tok.split(b"/")
+                refs.append(int(parts[1]) if len(parts) > 1 and parts[1] else 0)
+        corner = np.asarray(refs, dtype=np.int64)
+        if corner.size and corner.min() < 0:
+            before = np.searchsorted(np.array([i for i, _ in vt]), nat.f_lines)
+            corner = np.where(corner < 0, np.repeat(before, nat.counts) + corner + 1, corner)
+        corner_uv = np.where((corner >= 1) & (corner <= len(uv)), corner - 1, -1)
+    library = {}
+    for words in libs:
+        for name in words[1:]:
+            library.update(_read_mtl(folder / name.decode("utf-8", "replace")) if folder is not None else {})
+    materials: list[Material] = []
+    face_material = None
+    if use:
+        names = [(b" ".join(w[1:])).decode("utf-8", "replace") for _, w in use]
+        order = list(dict.fromkeys(names))
+        materials = [library.get(name) or Material(name) for name in order]
+        which = np.array([order.index(name) for name in names] + [-1])
+        at = np.searchsorted(np.array([i for i, _ in use]), nat.f_lines) - 1
+        face_material = which[at]  # -1 (the last entry) before the first usemtl
+    if uv is None and not materials:
+        return None
+    return Texturing(uv=uv, corner_uv=corner_uv, materials=materials, face_material=face_material)
+
+
+def _read_mtl(path: Path) -> dict[str, Material]:
+    """The materials of a ``.mtl`` file by name ({} if it cannot be read)."""
+    try:
+        text = path.read_text(encoding="utf-8", errors="replace")
+    except OSError:
+        return {}
+    out: dict[str, Material] = {}
+    current = None
+    for line in text.splitlines():
+        words = line.split()
+        if not words:
+            continue
+        key = words[0].lower()
+        if key == "newmtl":
+            current = out.setdefault(" ".join(words[1:]), Material(" ".join(words[1:])))
+        elif current is None:
+            continue
+        elif key == "kd" and len(words) >= 4:
+            current.color = (*[float(x) for x in words[1:4]], current.color[3])
+        elif key in ("d", "tr") and len(words) >= 2:
+            alpha = float(words[1]) if key == "d" else 1.0 - float(words[1])
+            current.color = (*current.color[:3], alpha)
+        elif key == "map_kd" and len(words) >= 2:
+            image = path.parent / words[-1].replace("\\", "/")
+            if image.is_file():
+                current.image, current.image_name = image.read_bytes(), image.name
+    return out
 
 
 def _normal_line(n: np.ndarray) -> bytes:
@@ -268,7 +340,7 @@ def write(doc: Document) -> bytes:
     """The OBJ text of ``doc``: its own lines with new positions, or a plain OBJ."""
     nat = doc.native
     if not isinstance(nat, ObjNative):
-        return _plain(doc)
+        return _plain(doc)  # a bare mesh (write_converted for a document from another format)
     V = doc.mesh.vertices
     moved = moved_vertices(nat.rest, V)
     out = list(nat.lines)
@@ -383,11 +455,23 @@ def _parse_normal(line: bytes) -> np.ndarray:
     return n / length if length > 0 else n
 
 
-def _plain(doc: Document) -> bytes:
-    """A plain OBJ of ``doc``: v (with colours), vn per vertex if it had normals, polygons."""
+def write_converted(doc: Document, target: Path) -> bytes:
+    """A plain OBJ of a document read in another format (see :func:`_plain`); its material
+    library is ``target``'s name with ``.mtl`` (:func:`converted_companions`)."""
+    return _plain(doc, target.stem + ".mtl")
+
+
+def _plain(doc: Document, mtl_name: str = "") -> bytes:
+    """A plain OBJ of ``doc``: v (with colours) in their shortest exact form, vt and usemtl when it
+    has texture coordinates and materials, vn per vertex if it had normals, polygons."""
     mesh = doc.mesh
     counts, flat = doc.polygon_lists()
+    tex = doc.textures()
+    has_uv = tex is not None and tex.uv is not None and tex.corner_uv is not None
+    has_mtl = tex is not None and bool(tex.materials) and bool(mtl_name)
     parts = [f"# {mesh.n_vertices} vertices, {len(counts)} faces\n"]
+    if has_mtl:
+        parts.append(f"mtllib {mtl_name}\n")
     # progress: the rows' shares of the text (a vertex line is about as long as a face line)
     nv, nf = mesh.n_vertices, len(counts)
     rows_total = max(nv * (2 if doc.normals else 1) + nf, 1)
@@ -395,27 +479,81 @@ def _plain(doc: Document) -> bytes:
     vn_end = v_end + (nv / rows_total if doc.normals else 0.0)
     with span(0.0, v_end):
         if doc.colors is not None:
-            table = np.column_stack([mesh.vertices, doc.colors[:, :3]])
-            parts.append(_format_rows("v %.17g %.17g %.17g %.6g %.6g %.6g\n", table))
+            parts.append(_shortest_rows("v", mesh.vertices, tail=doc.colors[:, :3]))
         else:
-            parts.append(_format_rows("v %.17g %.17g %.17g\n", mesh.vertices))
-    sep = " "
+            parts.append(_shortest_rows("v", mesh.vertices))
+    if has_uv:
+        parts.append(_shortest_rows("vt", tex.uv))
     if doc.normals:
         with span(v_end, vn_end):
             parts.append(_format_rows("vn %.7g %.7g %.7g\n", vertex_normals(mesh.vertices, mesh.faces)))
     one = flat + 1
-    if np.all(counts == 3):
-        fmt = "f %d//%d %d//%d %d//%d\n" if doc.normals else "f %d %d %d\n"
-        rows = np.repeat(one.reshape(-1, 3), 2, axis=1) if doc.normals else one.reshape(-1, 3)
-        with span(vn_end, 1.0):
-            parts.append(_format_rows(fmt, rows))
-    else:
-        starts = np.cumsum(counts) - counts
-        for s, c in zip(starts.tolist(), counts.tolist()):
-            corner = one[s: s + c].tolist()
-            words = [f"{i}//{i}" if doc.normals else str(i) for i in corner]
-            parts.append("f" + sep + sep.join(words) + "\n")
-    return "".join(parts).encode("ascii")
+    columns = [one]
+    if has_uv:
+        columns.append(np.where(tex.corner_uv >= 0, tex.corner_uv + 1, 0))
+    if doc.normals:
+        columns.append(one)
+    corner_fmt = {1: "%d", 2: "%d/%d", 3: "%d/%d/%d"}[len(columns)]
+    if doc.normals and not has_uv:
+        corner_fmt = "%d//%d"
+    table = np.stack(columns, axis=1)  # (corners, 1..3)
+    material = tex.face_material if has_mtl and tex.face_material is not None else np.full(nf, -1)
+    cuts = np.flatnonzero(np.diff(material)) + 1
+    starts = np.cumsum(counts) - counts
+    with span(vn_end, 1.0):
+        for lo, hi in zip(np.r_[0, cuts].tolist(), np.r_[cuts, nf].tolist()):
+            if material[lo] >= 0:
+                parts.append(f"usemtl {tex.materials[material[lo]].name}\n")
+            c = counts[lo:hi]
+            block = table[starts[lo]: starts[hi - 1] + counts[hi - 1]] if hi > lo else table[:0]
+            if np.all(c == c[0]):
+                k = int(c[0])
+                rows = block.reshape(len(c), -1)
+                text = _format_rows("f " + " ".join([corner_fmt] * k) + "\n", rows)
+                if has_uv:  # a corner with no coordinates (index 0) has no vt index
+                    text = text.replace("/0/", "//").replace("/0 ", " ").replace("/0\n", "\n")
+                parts.append(text)
+            else:
+                for s, cc in zip((starts[lo:hi] - starts[lo]).tolist(), c.tolist()):
+                    words = [corner_fmt % tuple(r) for r in block[s: s + cc].tolist()]
+                    line = "f " + " ".join(words) + "\n"
+                    if has_uv:
+                        line = line.replace("/0/", "//").replace("/0 ", " ").replace("/0\n", "\n")
+                    parts.append(line)
+    return "".join(parts).encode("utf-8")
+
+
+def _image_names(materials: list[Material]) -> list[str | None]:
+    """A distinct plain file name for each material's image (None for none)."""
+    names, used = [], set()
+    for k, m in enumerate(materials):
+        if m.image is None:
+            names.append(None)
+            continue
+        base = Path((m.image_name or f"texture_{k}.png").replace("\\", "/")).name or f"texture_{k}.png"
+        name = base if base not in used else f"{k}_{base}"
+        used.add(name)
+        names.append(name)
+    return names
+
+
+def converted_companions(doc: Document, target: Path) -> list[tuple[Path, bytes]]:
+    """The material library (``target``'s name with ``.mtl``) and the texture images of a
+    converted document, to be written beside ``target``."""
+    tex = doc.textures()
+    if tex is None or not tex.materials:
+        return []
+    names = _image_names(tex.materials)
+    lines = [f"# materials of {target.name}"]
+    files = []
+    for m, image in zip(tex.materials, names):
+        r, g, b, a = m.color
+        lines += ["", f"newmtl {m.name}", f"Kd {r:.6g} {g:.6g} {b:.6g}", f"d {a:.6g}"]
+        if image is not None:
+            lines.append(f"map_Kd {image}")
+            files.append((target.parent / image, m.image))
+    mtl = (target.parent / (target.stem + ".mtl"), ("\n".join(lines) + "\n").encode("utf-8"))
+    return [mtl, *files]
 
 
 # --------------------------------------------------------------------------- companions

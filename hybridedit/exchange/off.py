@@ -213,7 +213,7 @@ def _plain(doc: Document) -> bytes:
     """OFF, with N when ``doc`` had normals and C when it has colours; polygons kept."""
     mesh = doc.mesh
     counts, flat = doc.polygon_lists()
-    columns, fmt = [mesh.vertices], "%.17g %.17g %.17g"
+    columns, fmt = [mesh.vertices], "%r %r %r"  # shortest exact
     kind = "OFF"
     if doc.colors is not None:
         kind = "C" + kind

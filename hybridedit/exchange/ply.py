@@ -26,13 +26,14 @@ from dataclasses import dataclass
 import numpy as np
 import plyfile
 
-from ..document import Document, grouped_normals, moved_vertices, vertex_normals
+from ..document import Document, Material, Texturing, grouped_normals, moved_vertices, vertex_normals
 from .common import TextPrecision, _Bad, _mesh, _fan, _sample_rows, _truncated, _words
 
 __all__ = ["PlyNative", "read", "write"]
 
 _FACE_LISTS = ("vertex_indices", "vertex_index")
 _COLOR = ("red", "green", "blue", "alpha")
+_VERTEX_UV = (("s", "t"), ("u", "v"), ("texture_u", "texture_v"))
 
 
 @dataclass(eq=False)
@@ -242,23 +243,70 @@ def read(path: str, data: bytes) -> Document:
         if np.dtype(vertex.data["red"].dtype).kind in "ui":
             table /= 255.0
         colors = table if table.shape[1] == 4 else np.column_stack([table, np.ones(len(table))])
-    standard = {"x", "y", "z", "nx", "ny", "nz", *_COLOR}
+    vertex_uv = next((pair for pair in _VERTEX_UV if all(a in names for a in pair)), ())
+    standard = {"x", "y", "z", "nx", "ny", "nz", *_COLOR, *vertex_uv}
     extras: dict[str, int] = {}
     custom = [n for n in names if n not in standard]
     if custom:
         extras["custom vertex properties (" + ", ".join(custom) + ")"] = vertex.count
+    polygons_kept = strips is None or not strips.count
+    face_uv = bool(face is not None and face.count and polygons_kept and "texcoord" in
+                   [p.name for p in face.properties])
     for el in ply.elements:
         if el.name not in ("vertex", "face"):
             extras[f"'{el.name}' records"] = el.count
         elif el.name == "face":
-            other = [p.name for p in el.properties if p.name not in _FACE_LISTS]
+            other = [p.name for p in el.properties if p.name not in _FACE_LISTS and
+                     not (face_uv and p.name in ("texcoord", "texnumber"))]
             if other:
                 extras["custom face properties (" + ", ".join(other) + ")"] = el.count
-    if ply.comments or ply.obj_info:
-        extras["header comments"] = len(ply.comments) + len(ply.obj_info)
+    if vertex_uv or face_uv:
+        extras["texture coordinates"] = vertex.count if vertex_uv else face.count
+    files = [c.split(None, 1)[1].strip() for c in ply.comments
+             if c.split(None, 1)[:1] == ["TextureFile"] and len(c.split(None, 1)) == 2]
+    if files:
+        extras["texture files"] = len(files)
+    if len(ply.comments) - len(files) + len(ply.obj_info):
+        extras["header comments"] = len(ply.comments) - len(files) + len(ply.obj_info)
+    texturing = None
+    if vertex_uv or face_uv or files:
+        texturing = lambda: _texturing(ply, path, vertex_uv, face_uv, files, polygons, faces)  # noqa: E731
     return Document(mesh=_mesh(vertices, faces), format="ply",
-                    native=PlyNative(data=ply, rest=vertices, raw=data if ply.text else None), polygons=polygons, colors=colors,
-                    normals=all(n in names for n in ("nx", "ny", "nz")), extras=extras)
+                    native=PlyNative(data=ply, rest=vertices, raw=data if ply.text else None), polygons=polygons,
+                    colors=colors, normals=all(n in names for n in ("nx", "ny", "nz")), extras=extras,
+                    texturing=texturing)
+
+
+def _texturing(ply: plyfile.PlyData, path: str, vertex_uv: tuple[str, str], face_uv: bool,
+               files: list[str], polygons, triangles: np.ndarray) -> Texturing:
+    """Texture coordinates (a face's ``texcoord`` list, as MeshLab writes them, or per-vertex
+    ``u v`` / ``s t``) and the ``TextureFile`` images, with ``texnumber`` choosing a face's."""
+    from pathlib import Path
+
+    tex = Texturing()
+    if face_uv:
+        counts, values = _list_values(ply["face"], "texcoord")
+        corners = polygons[0] if polygons is not None else np.full(len(counts), 3)
+        if np.array_equal(counts, 2 * corners):
+            tex.uv = values.astype(np.float64).reshape(-1, 2)
+            tex.corner_uv = np.arange(len(tex.uv), dtype=np.int64)
+    elif vertex_uv:
+        v = ply["vertex"].data
+        tex.uv = np.column_stack([v[vertex_uv[0]], v[vertex_uv[1]]]).astype(np.float64)
+        tex.corner_uv = (polygons[1] if polygons is not None else triangles.reshape(-1)).astype(np.int64)
+    folder = Path(path).parent
+    for name in files:
+        image = folder / name.replace("\\", "/")
+        tex.materials.append(Material(Path(name).stem, image=image.read_bytes() if image.is_file() else None,
+                                      image_name=Path(name).name))
+    if tex.materials:
+        face = ply["face"]
+        if "texnumber" in [p.name for p in face.properties]:
+            number = np.asarray(face.data["texnumber"], dtype=np.int64)
+            tex.face_material = np.where((number >= 0) & (number < len(files)), number, -1)
+        else:
+            tex.face_material = np.zeros(face.count, dtype=np.int64)
+    return tex
 
 
 def _cast(values: np.ndarray, dtype: np.dtype) -> np.ndarray:
@@ -269,7 +317,9 @@ def _cast(values: np.ndarray, dtype: np.dtype) -> np.ndarray:
 
 
 def write(doc: Document) -> bytes:
-    """The PLY bytes of ``doc``: its own elements with new positions, or a plain binary PLY."""
+    """The PLY bytes of ``doc``: its own elements with new positions, or a plain binary PLY
+    (with its polygons, colours, normals, per-face ``texcoord`` lists as MeshLab writes
+    them and a ``TextureFile`` comment for each texture image)."""
     nat = doc.native
     if not isinstance(nat, PlyNative):
         return _to_bytes(_plain(doc))
@@ -393,18 +443,57 @@ def _plain(doc: Document) -> plyfile.PlyData:
     if mesh.n_vertices > np.iinfo(np.int32).max:
         raise _Bad("too many vertices for 32-bit PLY face indices")
     counts, flat = doc.polygon_lists()
+    tex = doc.textures()
+    uv = None
+    if tex is not None and tex.uv is not None and tex.corner_uv is not None:
+        uv = np.where(tex.corner_uv[:, None] >= 0, tex.uv[np.maximum(tex.corner_uv, 0)], 0.0)
+    images = [m for m in (tex.materials if tex is not None else []) if m.image is not None]
+    numbered = len(images) > 1 and tex.face_material is not None
+    fields = []
     if len(counts) and np.all(counts == counts[0]):
-        faces = np.empty(len(counts), dtype=[("vertex_indices", "<i4", (int(counts[0]),))])
+        k = int(counts[0])
+        fields.append(("vertex_indices", "<i4", (k,)))
+        fields += [("texcoord", "<f4", (2 * k,))] if uv is not None else []
+        faces = np.empty(len(counts), dtype=fields + ([("texnumber", "<i4")] if numbered else []))
         faces["vertex_indices"] = flat.reshape(len(counts), -1)
+        if uv is not None:
+            faces["texcoord"] = uv.reshape(len(counts), -1)
     else:
-        faces = np.empty(len(counts), dtype=[("vertex_indices", object)])
-        faces["vertex_indices"] = np.split(flat.astype(np.int32), np.cumsum(counts)[:-1]) \
-            if len(counts) else []
+        fields = [("vertex_indices", object)] + ([("texcoord", object)] if uv is not None else [])
+        faces = np.empty(len(counts), dtype=fields + ([("texnumber", "<i4")] if numbered else []))
+        cuts = np.cumsum(counts)[:-1]
+        faces["vertex_indices"] = np.split(flat.astype(np.int32), cuts) if len(counts) else []
+        if uv is not None:
+            faces["texcoord"] = np.split(uv.astype(np.float32).reshape(-1), 2 * cuts) if len(counts) else []
+    comments = ["written by hybridedit"]
+    if images:  # MeshLab's convention: one TextureFile comment per image, texnumber per face
+        names = [name for name in texture_file_names(tex.materials) if name is not None]
+        comments += [f"TextureFile {name}" for name in names]
+        if numbered:
+            order = {id(m): k for k, m in enumerate(images)}
+            number = np.array([order.get(id(m), -1) for m in tex.materials] + [-1])
+            faces["texnumber"] = number[tex.face_material]
     return plyfile.PlyData(
         [plyfile.PlyElement.describe(rec, "vertex"),
-         plyfile.PlyElement.describe(faces, "face", len_types={"vertex_indices": "u1"},
-                                     val_types={"vertex_indices": "i4"})],
-        text=False, byte_order="<", comments=["written by hybridedit"])
+         plyfile.PlyElement.describe(faces, "face", len_types={"vertex_indices": "u1", "texcoord": "u1"},
+                                     val_types={"vertex_indices": "i4", "texcoord": "f4"})],
+        text=False, byte_order="<", comments=comments)
+
+
+def texture_file_names(materials: list[Material]) -> list[str | None]:
+    """The file name a converted PLY gives each material's image (None for none)."""
+    from .obj import _image_names
+
+    return _image_names(materials)
+
+
+def converted_companions(doc: Document, target) -> list[tuple[object, bytes]]:
+    """The texture images a converted PLY's ``TextureFile`` comments name, beside ``target``."""
+    tex = doc.textures()
+    if tex is None:
+        return []
+    return [(target.parent / name, m.image) for m, name in zip(tex.materials, texture_file_names(tex.materials))
+            if name is not None]
 
 
 def _uniform_record(el: plyfile.PlyElement, order: str) -> np.ndarray | None:
