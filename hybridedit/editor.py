@@ -25,7 +25,7 @@ from scipy.spatial.transform import Rotation
 from .arap import ARAPSolver, edge_weights, laplacian
 from .base_pose import BasePose, current_base, fit_cage, propagate_from, propagated_residual, rest_base
 from .binding import dominant_cage_vertex
-from .constraints import FIXED
+from .constraints import FIXED, FREE
 from .editfile import Edit, HandleEdit, check_mesh, mesh_fingerprint
 from .frame_steps import MAX_REACH  # noqa: F401 (importable from here, as before the split)
 from .frame_steps import Frame, FrameSteps, build_frame_steps, cage_targets, solve_cage
@@ -34,7 +34,7 @@ from .residual import residual_setup
 from .rig import Progress, Rig, build_rig
 from .selection import SelectionError
 from .selection_model import SPACES  # noqa: F401 (importable from here, as before the split)
-from .selection_model import CageMap, Selection, build_selection, choose_roles, user_roles
+from .selection_model import CageMap, Selection, build_selection, choose_roles, mirrored_roles, user_roles
 from .symmetry import Mirror
 from .transforms import check_transform, rigid_transform
 
@@ -317,6 +317,38 @@ class HybridEditor:
         (n,) int8 shape vertex roles, the same code.
         """
         return self._maps.shape_roles(cage_roles)
+
+    def preview_roles(self, roles, *, symmetry=None) -> tuple[np.ndarray, np.ndarray]:
+        """The roles a selection takes once mirrored, without setting it (nothing is
+        factored: a few milliseconds), to draw a selection on both sides as it is made.
+
+        Parameters
+        ----------
+        roles : (n,) int shape vertex roles, -1 fixed, 0 free, g + 1 handle group g
+            (e.g. from :meth:`shape_roles`); groups may be empty.
+        symmetry : None, "x", "y", "z" or (point, normal), as :meth:`set_selection`
+            takes it with ``roi`` (a vertex stays fixed only where its mirror image is fixed too).
+
+        Returns
+        -------
+        vertex_roles : (n,) int8, cage_roles : (c,) int8
+            The same code, mirror images counted in their group; a cage vertex takes
+            the role of its nearest shape vertex.
+
+        Raises
+        ------
+        SelectionError
+            Roles of the wrong length, or a shape not symmetric enough.
+        """
+        r = np.asarray(roles)
+        if r.shape != (self.mesh.n_vertices,) or not np.issubdtype(r.dtype, np.integer):
+            raise SelectionError(f"roles must be {self.mesh.n_vertices:,} integers")
+        r = r.astype(np.int32)
+        mirror = self._mirror(symmetry) if symmetry is not None else None
+        internal, source, _ = mirrored_roles(r, n_groups=int(r.max(initial=0)), mirror=mirror, roi_mode=True)
+        lut = np.array([FIXED, FREE] + [g + 1 for g in source], dtype=np.int8)
+        shape = lut[internal + 1]
+        return shape, shape[self._maps.nearest]
 
     def mirror(self, symmetry) -> Mirror:
         """The shape's mirror across a plane ("x", "y", "z" or (point, normal)), as

@@ -95,6 +95,7 @@ class Session:
         self._anchor_state = None  # the engine's state a settle starts from (the selection applied, or polished)
         self._anchor_bases: list[np.ndarray] = [np.eye(4)]
         self._engine_masks: tuple | None = None
+        self._preview_cache: tuple | None = None
         if symmetry is not None:
             editor.mirror(symmetry)  # a shape too asymmetric is refused now, not at the first drag
         self.symmetry: str | None = symmetry  # mirror the selection across this axis's mid-plane
@@ -209,14 +210,29 @@ class Session:
 
     def states(self) -> np.ndarray:
         """Per cage vertex FIXED / FREE / HANDLE (see :mod:`.selection`): the engine's cage roles
-        once it has the selection (mirror images included), else the masks."""
+        once it has the selection, else the masks; mirror images included in both cases."""
         if self._engine_masks == self._mask_key() and (self.roi.any() or self.all_handles.any()):
             roles = self.editor.cage_roles
-            return np.where(roles > 0, HANDLE_STATE + roles - 1, np.where(roles == 0, FREE_STATE, FIXED)).astype(np.int8)
-        st = vertex_states(self.roi, self.all_handles)
-        h = self.all_handles
-        st[h] = HANDLE_STATE + self.handle_group[h] - 1  # one state (colour) per handle group
-        return st
+        elif self.symmetry is not None and (self.roi.any() or self.all_handles.any()):
+            roles = self._preview()[1]  # the mirrored selection, drawn on both sides as it is made
+        else:
+            st = vertex_states(self.roi, self.all_handles)
+            h = self.all_handles
+            st[h] = HANDLE_STATE + self.handle_group[h] - 1  # one state (colour) per handle group
+            return st
+        return np.where(roles > 0, HANDLE_STATE + roles - 1, np.where(roles == 0, FREE_STATE, FIXED)).astype(np.int8)
+
+    def _engine_shape_roles(self) -> np.ndarray:
+        """(n,) the shape-space roles the engine is given for the current masks (see ``_give_engine_selection``)."""
+        cage_roles = np.where(self.handle_group > 0, self.handle_group, np.where(self.roi, 0, -1))
+        return self.editor.shape_roles(cage_roles)
+
+    def _preview(self) -> tuple[np.ndarray, np.ndarray]:
+        """(shape roles, cage roles) the engine will take for the current masks and mirror (cached)."""
+        key = self._mask_key()
+        if self._preview_cache is None or self._preview_cache[0] != key:
+            self._preview_cache = (key, self.editor.preview_roles(self._engine_shape_roles(), symmetry=self.symmetry))
+        return self._preview_cache[1]
 
     @property
     def edges(self) -> np.ndarray:
@@ -227,14 +243,13 @@ class Session:
         """Per shape vertex: -1 held fixed, 0 free, g + 1 in handle group g ((n,) int8); all 0 with no selection.
 
         Once the engine has the selection these are its roles (what it holds exactly); before,
-        the same rule previewed: a vertex takes the state of the cage vertex it depends on most.
+        what it will hold (:meth:`~hybridedit.HybridEditor.preview_roles`, mirror images included).
         """
         if not self.roi.any() and not self.all_handles.any():
             return np.zeros(self.mesh.n_vertices, dtype=np.int8)
         if self._engine_masks == self._mask_key():
             return self.editor.vertex_roles
-        st = self.states()[self.dominant].astype(np.int8)
-        return np.where(st == FIXED, -1, np.where(st == FREE_STATE, 0, st - HANDLE_STATE + 1)).astype(np.int8)
+        return self._preview()[0]
 
     def moving_vertices(self) -> np.ndarray | None:
         """The shape vertices a drag of the applied selection can move, (k,) int64 (None: no selection)."""
@@ -322,7 +337,7 @@ class Session:
         self.dominant = dominant_cage_vertex(editor.M)
         if cage_size is not None:
             self.cage_size = cage_size
-        self._engine_masks = None
+        self._engine_masks = self._preview_cache = None
         self.polished = None
         self.generation += 1
 
@@ -467,8 +482,7 @@ class Session:
         self._compact_groups()
         # given in shape vertices (the cage picks exactly, see HybridEditor.shape_roles), so that the edit
         # file it saves replays with ``hybridedit deform`` to the same vertices
-        cage_roles = np.where(self.handle_group > 0, self.handle_group, np.where(self.roi, 0, -1))
-        roles = self.editor.shape_roles(cage_roles)
+        roles = self._engine_shape_roles()
         handles = [np.flatnonzero(roles == g + 1) for g in range(self.n_groups)]
         self.editor.set_selection(handles, roi=np.flatnonzero(roles >= 0), symmetry=self.symmetry)
         self._engine_masks = self._mask_key()

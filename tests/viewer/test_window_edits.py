@@ -161,3 +161,24 @@ def test_mirror_x_is_checked_against_each_shape(qtbot, win, capsule_file, blob_f
     qtbot.waitUntil(lambda: w.session.path == blob_file and w.worker is None, timeout=60000)
     assert not w.actions_["mirror_x"].isChecked() and w.session.symmetry is None
     assert "Mirror X is off" in w.current_message()
+
+
+def test_a_mirrored_selection_is_drawn_on_both_sides_as_it_is_made(qtbot, win, capsule_file):
+    w = win
+    assert w.open_path(capsule_file)
+    qtbot.waitUntil(lambda: w.session.path == capsule_file and w.worker is None, timeout=60000)
+    s = w.session
+    key(qtbot, w, Qt.Key.Key_X, Qt.KeyboardModifier.ShiftModifier)
+    P = s.cage_positions
+    select(w, P[:, 0] > 0.0, P[:, 0] > 1.4)  # one side only; nothing applied to the engine yet
+    assert not s.applied
+    from hybridedit.viewer.selection import FIXED, HANDLE
+
+    st = s.states()
+    far = st[P[:, 0] < -1.45]
+    assert np.mean(far >= HANDLE) > 0.8 and not np.any(far == FIXED)
+    roles = s.shape_roles()
+    assert np.count_nonzero(roles[s.mesh.vertices[:, 0] < -1.5] == 1) > 0  # the tint covers the mirror image
+    # what is drawn before the drag is what the engine takes at the drag
+    s.apply_selection()
+    assert np.array_equal(s.states(), st) and np.array_equal(s.shape_roles(), roles)
