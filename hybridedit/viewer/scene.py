@@ -138,6 +138,8 @@ class Scene:
         self.gizmo = Gizmo(self.overlay)
         self.shape: pv.PolyData | None = None
         self.parts: ShapeParts | None = None
+        self.look = None  # what the file says the shape looks like (.look.Look), or None
+        self._roles = np.zeros(0, dtype=np.int8)
         self._shape_bounds = self._next_bounds = _bounds(np.zeros((0, 3)))
         self._still_bounds: tuple[np.ndarray, np.ndarray] | None = None  # the vertices a drag leaves
         self.cage_poly: pv.PolyData | None = None
@@ -189,9 +191,11 @@ class Scene:
         self.gizmo.remove()
         self.shape = self.cage_poly = self.points_poly = None
         self.metrics = None
+        self.look = None
 
     def load(self, metrics: ShapeMetrics, shape_vertices: np.ndarray, cage_vertices: np.ndarray,
-             cage_faces: np.ndarray, states: np.ndarray, roles: np.ndarray) -> None:
+             cage_faces: np.ndarray, states: np.ndarray, roles: np.ndarray, *, look=None,
+             mode: str | None = None) -> None:
         """Build the actors for a shape and its cage (replacing any previous ones).
 
         Parameters
@@ -201,6 +205,8 @@ class Scene:
         cage_vertices : (c, 3) current cage pose; cage_faces : (k, 3).
         states : (c,) cage vertex states (FIXED / FREE / HANDLE).
         roles : (n,) shape vertex roles (-1 fixed, 0 free, g + 1 handle group g).
+        look : :class:`~.look.Look` or None, what the file says the shape looks like.
+        mode : "texture", "colors" or "plain"; default: what the file has (the look's default).
         """
         self.clear()
         self.metrics = metrics
@@ -218,8 +224,12 @@ class Scene:
         self.normals32 = shape.point_data["Normals"]
         self.stretch32 = shape.point_data["stretch"]
         assert self.points32.dtype == np.float32 and self.normals32.dtype == np.float32
-        self.parts = ShapeParts(self.renderer, faces, len(V), shape_tint, self.stretch_lut)
+        self.look = look
+        if mode is None:
+            mode = look.default_mode if look is not None else "plain"
+        self.parts = ShapeParts(self.renderer, faces, len(V), shape_tint, self.stretch_lut, look=look, mode=mode)
         self.parts.stretch_visible = self.stretch_visible
+        self._roles = np.asarray(roles).copy()
         self.parts.set_roles(roles, self.points32, self.normals32, self.stretch32)
         self._shape_bounds = self._next_bounds = _bounds(self.points32)
         self._still_bounds = None
@@ -384,7 +394,29 @@ class Scene:
         self._rgba[:, :3] = STATE_COLORS[state_rows(s)]
         _array_modified(self.points_poly, "state")
         self._update_point_cells()
+        self._roles = np.asarray(roles).copy()
         self.parts.set_roles(roles, self.points32, self.normals32, self.stretch32)
+
+    @property
+    def look_mode(self) -> str:
+        """How the shape is drawn: "texture", "colors" or "plain"."""
+        return "plain" if self.parts is None else self.parts.mode
+
+    def look_modes(self) -> tuple[str, ...]:
+        """The modes the loaded shape can be drawn in (what its file has, and "plain")."""
+        return ("plain",) if self.look is None else self.look.modes()
+
+    def set_look_mode(self, mode: str) -> None:
+        """Draw the shape with its texture, its file's colours, or plain (a mode it has)."""
+        if self.parts is None or mode not in self.look_modes() or mode == self.parts.mode:
+            return
+        changed = self.parts._changed
+        self.parts.remove()
+        self.parts = ShapeParts(self.renderer, self.metrics.faces, len(self.points32), shape_tint, self.stretch_lut,
+                                look=self.look, mode=mode)
+        self.parts.stretch_visible = self.stretch_visible
+        self.parts.set_changed(changed)
+        self.parts.set_roles(self._roles, self.points32, self.normals32, self.stretch32)
 
     def stretch_modified(self) -> None:
         """The stretch buffer (:attr:`stretch32`) was written."""

@@ -51,28 +51,57 @@ def face_roles(faces: np.ndarray, roles: np.ndarray) -> np.ndarray:
     return np.where(same, r[:, 0], 0)
 
 
-class _Part:
-    """One role's faces with the points they use (local numbering) and its actor."""
+#: How much of a role's tint shows on a texture or on the file's colours (the rest is the asset's own):
+#: enough to read which region is held or moved, little enough to leave the asset readable.
+TINT_ON_ASSET = 0.35
 
-    def __init__(self, role: int, face_rows: np.ndarray, faces: np.ndarray, n: int, colour: np.ndarray) -> None:
+
+def _tinted(colour: np.ndarray, amount: float) -> np.ndarray:
+    """A colour (3,) uint8 moved ``amount`` of the way from white towards ``colour``, as [0, 1] floats:
+    the factor VTK multiplies a texture by."""
+    c = np.asarray(colour, dtype=np.float64) / 255.0
+    return 1.0 - amount * (1.0 - c)
+
+
+class _Part:
+    """One role's (and one material's) faces with the points they use (local numbering) and its actor.
+
+    A local point shows one shape vertex (``vertices``); where a texture's seam splits a
+    vertex, several local points show the same one.
+    """
+
+    def __init__(self, role: int, face_rows: np.ndarray, faces: np.ndarray, source: np.ndarray | None,
+                 colour: np.ndarray, *, uv: np.ndarray | None = None, colors: np.ndarray | None = None,
+                 texture=None, on_asset: bool = False) -> None:
         self.role = role
-        self.face_rows = face_rows  # (f,) rows of the shape's faces drawn here
-        used = np.zeros(n, dtype=bool)
-        used[faces] = True
-        self.vertices = np.flatnonzero(used)  # (k,) global index of each local point
-        self.local = np.full(n, -1, dtype=np.int64)  # (n,) local index of each global vertex, -1 if not here
-        self.local[self.vertices] = np.arange(len(self.vertices))
+        self.face_rows = face_rows  # (f,) rows of the drawn triangles (the shape's, or the render mesh's)
+        used = np.unique(faces)  # render points of these faces
+        #: (k,) global shape vertex of each local point (repeats where a seam splits a vertex)
+        self.vertices = used if source is None else source[used]
+        order = np.argsort(self.vertices, kind="stable")
+        self._order, self._sorted = order, self.vertices[order]
+        local_of = np.full(int(used[-1]) + 1 if len(used) else 0, -1, dtype=np.int64)
+        local_of[used] = np.arange(len(used))
         poly = pv.PolyData()
-        poly.points = np.zeros((len(self.vertices), 3), dtype=np.float32)
-        poly.faces = np.column_stack([np.full(len(faces), 3, dtype=np.int64), self.local[faces]]).ravel()
-        poly.point_data["Normals"] = np.zeros((len(self.vertices), 3), dtype=np.float32)
+        poly.points = np.zeros((len(used), 3), dtype=np.float32)
+        poly.faces = np.column_stack([np.full(len(faces), 3, dtype=np.int64), local_of[faces]]).ravel()
+        poly.point_data["Normals"] = np.zeros((len(used), 3), dtype=np.float32)
         poly.GetPointData().SetActiveNormals("Normals")
-        poly.point_data["stretch"] = np.zeros(len(self.vertices), dtype=np.float32)
+        if uv is not None:
+            poly.active_texture_coordinates = np.ascontiguousarray(uv[used], dtype=np.float32)
+        if colors is not None:  # the file's colours, with the role's tint blended in (set once)
+            c = colors[self.vertices].astype(np.float64)
+            if on_asset:
+                c = c * _tinted(colour, TINT_ON_ASSET)
+            poly.point_data["rgb"] = np.clip(np.rint(c), 0, 255).astype(np.uint8)
+        poly.point_data["stretch"] = np.zeros(len(used), dtype=np.float32)
         poly.point_data.active_scalars_name = "stretch"
         self.poly = poly
         self.points = poly.points  # the float32 buffers VTK draws from, written in place
         self.normals = poly.point_data["Normals"]
         self.stretch = poly.point_data["stretch"]
+        self.has_colors = colors is not None
+        self.texture = texture
         mapper = vtkPolyDataMapper()
         mapper.SetInputData(poly)
         mapper.SetVBOShiftScaleMethod(DISABLE_SHIFT_SCALE)
@@ -81,24 +110,34 @@ class _Part:
         mapper.SetInterpolateScalarsBeforeMapping(False)
         mapper.SetUseLookupTableScalarRange(True)
         actor = pv.Actor(mapper=mapper)
-        actor.prop.color = tuple(np.asarray(colour, dtype=np.float64) / 255.0)
+        if on_asset:  # a texture or the file's colours: the tint only shades them
+            actor.prop.color = tuple(_tinted(colour, TINT_ON_ASSET))
+        else:
+            actor.prop.color = tuple(np.asarray(colour, dtype=np.float64) / 255.0)
         actor.prop.interpolation = "gouraud"
         actor.prop.ambient = 0.18
         actor.prop.diffuse = 0.85
         actor.prop.specular = 0.08
         actor.prop.specular_power = 20.0
+        if texture is not None:
+            actor.texture = texture
         actor.SetPickable(False)
         self.mapper, self.actor = mapper, actor
         self.set_changed(None)
 
     def set_changed(self, rows: np.ndarray | None) -> None:
-        """The global rows a frame rewrites (None: all): ``changed_rows`` (j,) and their ``changed_local``."""
+        """The global rows a frame rewrites (None: all): ``changed_rows`` (j,) and their ``changed_local``
+        (a row shown by several local points appears once for each)."""
         if rows is None:
             self.changed_rows, self.changed_local = self.vertices, np.arange(len(self.vertices))
             return
-        loc = self.local[rows]
-        keep = loc >= 0
-        self.changed_rows, self.changed_local = rows[keep], loc[keep]
+        rows = np.asarray(rows, dtype=np.int64)
+        lo = np.searchsorted(self._sorted, rows, side="left")
+        count = np.searchsorted(self._sorted, rows, side="right") - lo
+        total = int(count.sum())
+        start = np.repeat(lo - (np.cumsum(count) - count), count)
+        self.changed_local = self._order[start + np.arange(total)]
+        self.changed_rows = np.repeat(rows, count)
 
     def copy(self, points: np.ndarray, normals: np.ndarray, everything: bool) -> None:
         if everything:
@@ -122,28 +161,70 @@ class ShapeParts:
     faces : (m, 3) int triangles of the shape; n : its vertex count.
     colour_of : callable mapping an (r,) int array of roles to (r, 3) uint8 colours.
     lut : the stretch map's lookup table.
+    look : :class:`~.look.Look`, optional
+        What the file says the shape looks like (textures, material colours, vertex colours).
+    mode : "texture", "colors" or "plain" (see :mod:`.look`); "plain" without a look.
+
+    With a texture the parts are the look's render mesh (the shape split at the texture's
+    seams), one part per role and material; each part shows its role as a light tint of the
+    asset (:data:`TINT_ON_ASSET`). The full-mesh buffers stay per shape vertex.
     """
 
-    def __init__(self, renderer, faces: np.ndarray, n: int, colour_of, lut) -> None:
+    def __init__(self, renderer, faces: np.ndarray, n: int, colour_of, lut, *, look=None,
+                 mode: str = "plain") -> None:
         self.renderer = renderer
         self.faces = np.ascontiguousarray(faces, dtype=np.int64)
         self.n = int(n)
         self.colour_of = colour_of
         self.lut = lut
+        self.look = look
+        self.mode = mode if look is not None and mode in look.modes() else "plain"
+        self._textures: dict[int, object] = {}
         self.parts: list[_Part] = []
         self.stretch_visible = False
         self._changed: np.ndarray | None = None
 
+    def _texture(self, m: int):
+        """The VTK texture of material ``m`` (made once), or None."""
+        if m < 0 or self.look.materials[m].image is None:
+            return None
+        if m not in self._textures:
+            img = self.look.materials[m].image
+            tex = pv.Texture(np.ascontiguousarray(img[::-1]))  # VTK's rows go bottom up
+            tex.interpolate = True
+            tex.mipmap = False
+            tex.repeat = True
+            self._textures[m] = tex
+        return self._textures[m]
+
     def set_roles(self, roles: np.ndarray, points: np.ndarray, normals: np.ndarray, stretch: np.ndarray) -> None:
         """Split the faces by ``roles`` ((n,) int) and fill the parts from the full-mesh buffers
         ``points``, ``normals`` ((n, 3) float32) and ``stretch`` ((n,) float32)."""
-        fr = face_roles(self.faces, roles)
-        kinds = np.unique(fr)
-        colours = self.colour_of(kinds)
+        look, mode = self.look, self.mode
+        if mode == "texture":
+            faces, source, material = look.triangles, look.source, look.material
+            fr = face_roles(source[faces], roles)
+        else:
+            faces, source, material = self.faces, None, np.full(len(self.faces), -1, dtype=np.int64)
+            fr = face_roles(faces, roles)
         self.remove()
-        for role, colour in zip(kinds.tolist(), colours):
-            rows = np.flatnonzero(fr == role)
-            part = _Part(int(role), rows, self.faces[rows], self.n, colour)
+        key = (fr + 1) * (len(look.materials) + 1 if look is not None else 1) + (material + 1)
+        for k in np.unique(key).tolist():
+            rows = np.flatnonzero(key == k)
+            role, m = int(fr[rows[0]]), int(material[rows[0]])
+            colour = self.colour_of(np.array([role]))[0]
+            if mode == "texture":
+                mat = look.materials[m] if m >= 0 else None
+                tex = self._texture(m)
+                base = np.asarray(mat.color[:3] if mat is not None else (1.0, 1.0, 1.0), dtype=np.float64)
+                part = _Part(role, rows, faces[rows], source, colour, uv=look.uv if tex is not None else None,
+                             texture=tex, on_asset=True)
+                if tex is None:  # a material with a colour and no image: its colour, tinted
+                    part.actor.prop.color = tuple(base * np.asarray(part.actor.prop.color))
+            elif mode == "colors":
+                part = _Part(role, rows, faces[rows], None, colour, colors=look.colors, on_asset=True)
+            else:
+                part = _Part(role, rows, faces[rows], None, colour)
             part.set_changed(self._changed)
             part.copy(points, normals, everything=True)
             part.stretch[:] = stretch[part.vertices]
@@ -181,21 +262,34 @@ class ShapeParts:
             self._set_stretch(part)
 
     def _set_stretch(self, part: _Part) -> None:
+        """The stretch map's colours on a part, or its own look (texture, the file's colours, or plain)."""
         m = part.mapper
         m.SetLookupTable(self.lut)
-        m.SetScalarVisibility(self.stretch_visible)
+        if self.stretch_visible or not part.has_colors:
+            part.poly.point_data.active_scalars_name = "stretch"
+            m.SetScalarModeToUsePointData()
+            m.SetColorModeToMapScalars()
+            m.SetScalarVisibility(self.stretch_visible)
+        else:  # the file's colours, as they are
+            part.poly.point_data.active_scalars_name = "rgb"
+            m.SetScalarModeToUsePointData()
+            m.SetColorModeToDirectScalars()
+            m.SetScalarVisibility(True)
+        if part.texture is not None:
+            part.actor.texture = None if self.stretch_visible else part.texture
         m.Modified()
 
     def face_colours(self) -> np.ndarray:
-        """The colour each face is drawn in (without the stretch map), (m, 3) uint8."""
+        """The colour each face is drawn in (without the stretch map), (m, 3) uint8 (plain mode)."""
         out = np.zeros((len(self.faces), 3), dtype=np.uint8)
         for part in self.parts:
             out[part.face_rows] = np.rint(np.asarray(part.actor.GetProperty().GetColor()) * 255.0).astype(np.uint8)
         return out
 
     def drawn_faces(self) -> np.ndarray:
-        """How many parts draw each face, (m,) int (1 everywhere when the split is right)."""
-        count = np.zeros(len(self.faces), dtype=np.int64)
+        """How many parts draw each face (of the render mesh in texture mode), (m,) int (1 everywhere
+        when the split is right)."""
+        count = np.zeros(len(self.look.triangles) if self.mode == "texture" else len(self.faces), dtype=np.int64)
         for part in self.parts:
             np.add.at(count, part.face_rows, 1)
         return count
@@ -203,15 +297,19 @@ class ShapeParts:
     def drawn_points(self, normals: bool = False) -> np.ndarray:
         """Each vertex's position (or normal) as the parts draw it, (n, 3) float32.
 
-        NaN for a vertex no part uses, and where two parts draw it differently.
+        NaN for a vertex no part uses, and where two parts, or two points of one part (the
+        copies a texture's seam makes), draw it differently.
         """
         out = np.full((self.n, 3), np.nan, dtype=np.float32)
         seen = np.zeros(self.n, dtype=bool)
         for part in self.parts:
             vals = part.normals if normals else part.points
             v = part.vertices
+            vs, xs = part._sorted, vals[part._order]
+            split_apart = vs[1:][(vs[1:] == vs[:-1]) & np.any(xs[1:] != xs[:-1], axis=1)]
             clash = seen[v] & np.any(out[v] != vals, axis=1)
             out[v] = vals
             out[v[clash]] = np.nan
+            out[split_apart] = np.nan
             seen[v] = True
         return out

@@ -16,7 +16,8 @@ from qtpy import QtCore
 
 from ..editor import HybridEditor
 from ..rig import build_rig
-from ..io import read_mesh
+from ..io import read_document
+from .look import Look, look_of
 from ..mesh import Mesh
 
 
@@ -52,6 +53,8 @@ class BuildResult:
     mesh: Mesh
     editor: HybridEditor
     seconds: float
+    #: what the file says the shape looks like (textures, colours), for a newly read file; else None
+    look: Look | None = None
 
 
 class BuildWorker(QtCore.QThread):
@@ -110,9 +113,11 @@ class BuildWorker(QtCore.QThread):
         req = self.request
         try:
             self._compile_kernels_once()
-            mesh = req.mesh
+            mesh, look = req.mesh, None
             if mesh is None:
-                mesh = read_mesh(req.path, progress=self._report)  # ("reading NAME", from 0 to 1)
+                document = read_document(req.path, progress=self._report)  # ("reading NAME", from 0 to 1)
+                mesh = document.mesh
+                look = self._look(document)
             # the on-disk cache makes reopening a shape (or going back to a cage size) instant
             rig = build_rig(mesh, cage_size=req.cage_size, cache=req.use_cache, progress=self._report)
             editor = HybridEditor(rig)
@@ -127,7 +132,16 @@ class BuildWorker(QtCore.QThread):
                 msg = f"{e.__class__.__name__}: {msg}"
             self.failed.emit(msg)
         else:
-            self.succeeded.emit(BuildResult(req, mesh, editor, time.perf_counter() - t0))
+            self.succeeded.emit(BuildResult(req, mesh, editor, time.perf_counter() - t0, look))
+
+    @staticmethod
+    def _look(document) -> Look | None:
+        """The file's textures and colours, read and decoded here (off the UI thread); a file whose
+        look cannot be read is still opened, plain, with a note saying why."""
+        try:
+            return look_of(document)
+        except Exception as e:  # noqa: BLE001 -- the shape opens plain, and the note says why
+            return Look.plain(document.mesh, notes=[f"its textures and colours are not shown: {e}"])
 
 
 # ---------------------------------------------------------------------------- polish on release

@@ -1,0 +1,176 @@
+"""Assets look like themselves: the render mesh split at texture seams, textures and colours on screen."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import pyvista as pv
+
+import hybridedit as he
+from hybridedit.mesh import Mesh
+from hybridedit.viewer.look import fan, look_of
+from hybridedit.viewer.regional import ShapeMetrics
+from hybridedit.viewer.scene import Scene
+
+CHECKER_A = (230, 40, 40)  # red squares
+CHECKER_B = (40, 60, 220)  # blue squares
+
+
+def checker_png(path, squares: int = 8, size: int = 256) -> None:
+    from PIL import Image
+
+    k = size // squares
+    ij = (np.arange(size) // k)
+    mask = (ij[:, None] + ij[None, :]) % 2 == 0
+    img = np.where(mask[..., None], np.array(CHECKER_A, np.uint8), np.array(CHECKER_B, np.uint8))
+    Image.fromarray(img.astype(np.uint8)).save(path)
+
+
+def uv_sphere_obj(folder, *, n_lat: int = 24, n_lon: int = 48) -> str:
+    """A UV sphere with a seam (the u = 0 / u = 1 meridian: its vertices have two texture coordinates),
+    quads, a material with a checker texture."""
+    verts, vts, faces = [], [], []
+    for i in range(n_lat + 1):
+        th = np.pi * i / n_lat
+        for j in range(n_lon):
+            ph = 2 * np.pi * j / n_lon
+            verts.append((np.sin(th) * np.cos(ph), np.cos(th), np.sin(th) * np.sin(ph)))
+    for i in range(n_lat + 1):
+        for j in range(n_lon + 1):
+            vts.append((j / n_lon, 1.0 - i / n_lat))
+    vid = lambda i, j: i * n_lon + (j % n_lon) + 1  # noqa: E731
+    tid = lambda i, j: i * (n_lon + 1) + j + 1  # noqa: E731
+    for i in range(n_lat):
+        for j in range(n_lon):
+            c = [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)]
+            faces.append(" ".join(f"{vid(a, b)}/{tid(a, b)}" for a, b in c))
+    # the poles: every vertex of row 0 (and n_lat) is the same point; keep them (the reader welds nothing in OBJ)
+    lines = ["mtllib ball.mtl", "usemtl checker"]
+    lines += [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in verts]
+    lines += [f"vt {u:.6f} {v:.6f}" for u, v in vts]
+    lines += [f"f {f}" for f in faces]
+    (folder / "ball.obj").write_text("\n".join(lines) + "\n")
+    (folder / "ball.mtl").write_text("newmtl checker\nKd 1 1 1\nmap_Kd checker.png\n")
+    checker_png(folder / "checker.png")
+    return str(folder / "ball.obj")
+
+
+def render(path, mode=None, roles=None, size=(400, 400)):
+    doc = he.read_document(path)
+    look = look_of(doc)
+    m = doc.mesh
+    pl = pv.Plotter(off_screen=True, window_size=size)
+    sc = Scene(pl)
+    met = ShapeMetrics(m.vertices, m.faces)
+    r = np.zeros(m.n_vertices, np.int8) if roles is None else roles
+    sc.load(met, m.vertices, m.vertices[:3], np.array([[0, 1, 2]]), np.zeros(3, np.int8), r, look=look, mode=mode)
+    sc.reset_camera(tilted=False)
+    img = np.asarray(pl.screenshot(return_img=True))[..., :3].astype(int)
+    pl.close()
+    return img, sc, doc
+
+
+def share_near(img, colour, tol=60):
+    d = np.abs(img - np.array(colour)[None, None, :]).sum(axis=2)
+    return float(np.mean(d < tol))
+
+
+def test_fan_triangulates_polygons_in_order():
+    tri, poly = fan(np.array([3, 5]), np.arange(8))
+    assert tri.tolist() == [[0, 1, 2], [3, 4, 5], [3, 5, 6], [3, 6, 7]] and poly.tolist() == [0, 1, 1, 1]
+
+
+def test_the_render_mesh_splits_vertices_only_at_seams(tmp_path):
+    path = uv_sphere_obj(tmp_path)
+    doc = he.read_document(path)
+    look = look_of(doc)
+    n = doc.mesh.n_vertices
+    assert look.default_mode == "texture" and look.has_texture
+    assert np.array_equal(look.source[:n], np.arange(n))
+    extra = look.source[n:]
+    # the copies are the seam's vertices (u = 0 and u = 1 meet there) and nothing else
+    x, z = doc.mesh.vertices[extra, 0], doc.mesh.vertices[extra, 2]
+    assert len(extra) > 0 and np.all(np.abs(z) < 1e-6) and np.all(x >= -1e-6)
+    # every triangle shows the shape's own triangle
+    assert np.array_equal(np.sort(look.source[look.triangles], axis=1), np.sort(doc.mesh.faces, axis=1))
+    seam_uv = look.uv[n:, 0]
+    assert np.all(np.isclose(seam_uv, 1.0) | np.isclose(seam_uv, 0.0))
+
+
+def test_seams_move_together_and_show_no_crease(tmp_path):
+    path = uv_sphere_obj(tmp_path)
+    img, sc, doc = render(path, roles=None)
+    m = doc.mesh
+    V = m.vertices.copy()
+    moving = np.flatnonzero(V[:, 0] > -0.2)
+    V[moving, 1] += 0.3 * (V[moving, 0] + 0.2) ** 2  # a bend through the seam (which lies at x > 0)
+    sc.set_moving(moving)
+    sc.update_shape(V)
+    drawn = sc.parts.drawn_points()
+    assert not np.any(np.isnan(drawn))  # every copy of a seam vertex at the same place
+    assert np.allclose(drawn, V.astype(np.float32), atol=1e-6)
+    normals = sc.parts.drawn_points(normals=True)
+    assert not np.any(np.isnan(normals))  # the same normal on both sides of the seam: no crease
+    seam = np.unique(sc.look.source[m.n_vertices:])
+    assert np.all(np.abs(np.linalg.norm(normals[seam], axis=1) - 1.0) < 1e-3)
+
+
+@pytest.mark.parametrize("fmt", ["obj", "glb"])
+def test_a_texture_is_shown_on_the_model(tmp_path, fmt):
+    path = uv_sphere_obj(tmp_path)
+    if fmt == "glb":
+        doc = he.read_document(path)
+        out = tmp_path / "ball.glb"
+        he.write_document(out, doc)
+        path = str(out)
+    img, sc, _ = render(path)
+    assert sc.look_mode == "texture"
+    a, b = share_near(img, CHECKER_A), share_near(img, CHECKER_B)
+    assert a > 0.05 and b > 0.05  # both checker colours cover the sphere (about a third of the image)
+    plain, _, _ = render(path, mode="plain")
+    assert share_near(plain, CHECKER_A) < 0.001 and share_near(plain, CHECKER_B) < 0.001
+
+
+def test_the_selection_tint_leaves_the_texture_readable(tmp_path):
+    path = uv_sphere_obj(tmp_path)
+    doc = he.read_document(path)
+    roles = np.where(doc.mesh.vertices[:, 0] < 0.0, -1, 0).astype(np.int8)  # the left half held
+    img, sc, _ = render(path, roles=roles)
+    h, w, _ = img.shape
+    left, right = img[:, : w // 2], img[:, w // 2:]
+    # both checker colours still tell apart on the held (tinted) half, as on the free half
+    for half in (left, right):
+        red = half[..., 0] - half[..., 2]
+        assert np.mean(red > 80) > 0.03 and np.mean(red < -80) > 0.03
+
+
+def test_vertex_colours_are_shown(tmp_path):
+    from plyfile import PlyData, PlyElement
+
+    s = pv.Sphere(theta_resolution=40, phi_resolution=40)
+    V = np.asarray(s.points, dtype=np.float32)
+    F = np.asarray(s.faces).reshape(-1, 4)[:, 1:]
+    red = V[:, 0] > 0
+    vert = np.zeros(len(V), dtype=[("x", "f4"), ("y", "f4"), ("z", "f4"), ("red", "u1"), ("green", "u1"),
+                                   ("blue", "u1")])
+    vert["x"], vert["y"], vert["z"] = V.T
+    vert["red"] = np.where(red, 220, 30)
+    vert["green"] = np.where(red, 30, 200)
+    vert["blue"] = 30
+    face = np.zeros(len(F), dtype=[("vertex_indices", "i4", (3,))])
+    face["vertex_indices"] = F
+    p = tmp_path / "painted.ply"
+    PlyData([PlyElement.describe(vert, "vertex"), PlyElement.describe(face, "face")]).write(str(p))
+    img, sc, _ = render(p)
+    assert sc.look_mode == "colors"
+    r = img.astype(int)
+    reddish = (r[..., 0] - r[..., 1] > 80)
+    greenish = (r[..., 1] - r[..., 0] > 80)
+    assert reddish.mean() > 0.03 and greenish.mean() > 0.03
+    plain, _, _ = render(p, mode="plain")
+    assert (plain[..., 0] - plain[..., 1] > 80).mean() < 0.001
+
+
+def test_a_plain_mesh_has_no_look():
+    m = Mesh(np.eye(3), np.array([[0, 1, 2]]))
+    assert look_of(he.Document.from_mesh(m)) is None
