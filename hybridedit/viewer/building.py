@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 from qtpy import QtCore, QtWidgets
 
@@ -20,7 +20,39 @@ from .worker import BuildRequest, BuildResult, BuildWorker, release
 if TYPE_CHECKING:
     from ..mesh import Mesh
     from .session import Session
-    from .window import MainWindow
+
+
+@runtime_checkable
+class Cancels(Protocol):
+    """Something under way that can be stopped (the view controller's gesture, the polish)."""
+
+    def cancel(self) -> None: ...
+
+
+@runtime_checkable
+class KeepsWork(Protocol):
+    """The file actions as a build sees them: the Save / Discard / Cancel question."""
+
+    def keep_work(self, doing: str) -> bool: ...
+
+
+@runtime_checkable
+class BuildHost(Protocol):
+    """What :class:`BuildJobs` asks of the window (:class:`~.window.MainWindow`)."""
+
+    @property
+    def session(self) -> Session | None: ...
+    @property
+    def files(self) -> KeepsWork: ...
+    @property
+    def controller(self) -> Cancels: ...
+    @property
+    def polisher(self) -> Cancels: ...
+    def cage_size(self) -> int | float: ...
+    def finish_settle(self) -> None: ...
+    def show_error(self, title: str, text: str) -> None: ...
+    def message(self, text: str) -> None: ...
+    def install_build(self, result: BuildResult) -> tuple[bool, str | None]: ...
 
 
 def built_message(result: BuildResult, session: "Session", rebuilt: bool, note: str | None = None) -> str:
@@ -58,9 +90,13 @@ class BuildJobs(QtCore.QObject):
     One job runs at a time; while it runs, :attr:`progress` and :attr:`cancel_button` (placed in
     the window's status bar by :meth:`place_in`) show it, and a second job is refused in words.
 
-    The window is used through ``session``, ``cage_size()``, ``files.keep_work()``,
-    ``finish_settle()``, ``controller.cancel()``, ``polisher.cancel()``, ``show_error()``,
-    ``message()`` and ``install_build(result)``; it follows :attr:`busy_changed` to enable its actions.
+    The window is used through what :class:`BuildHost` names; it follows :attr:`busy_changed` to
+    enable its actions.
+
+    Parameters
+    ----------
+    window : the window, as far as a build needs it (:class:`BuildHost`).
+    parent : the Qt parent (the window).
 
     Attributes
     ----------
@@ -75,8 +111,8 @@ class BuildJobs(QtCore.QObject):
 
     busy_changed = QtCore.Signal(bool)
 
-    def __init__(self, window: "MainWindow") -> None:
-        super().__init__(window)
+    def __init__(self, window: BuildHost, parent: QtCore.QObject | None = None) -> None:
+        super().__init__(parent)
         self.w = window
         self.worker: BuildWorker | None = None
         self.progress = QtWidgets.QProgressBar()
@@ -120,6 +156,8 @@ class BuildJobs(QtCore.QObject):
         The window carries the selection, the pose and the undo history over to the new cage.
         """
         w = self.w
+        # the settle only, not the polish: the settled pose is what the question below may save; a rebuild
+        # refused there (Cancel) leaves a polish under way running, and one that goes ahead stops it in start()
         w.finish_settle()
         s = w.session
         if s is None:
@@ -139,6 +177,8 @@ class BuildJobs(QtCore.QObject):
         if self.worker is not None:
             w.show_error("Busy", "A cage is being built; wait for it or cancel it first.")
             return False
+        # the polish only, not the settle: a settle under way may go on while the thread builds, and
+        # install_build completes it before the build goes on display
         w.controller.cancel()
         w.polisher.cancel()
         job = BuildWorker(request, self)

@@ -2,15 +2,17 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 from qtpy import QtCore, QtWidgets
 
 from .help import ABOUT, HOWTO, ShortcutsDialog
 
 if TYPE_CHECKING:
+    from qtpy import QtGui
+
     from .session import Session
-    from .window import MainWindow
     from .worker import PolishOutcome
 
 
@@ -53,10 +55,25 @@ def mesh_info_text(session: "Session | None", last_polish: "PolishOutcome | None
     return "\n".join(lines)
 
 
-class InfoDialogs:
-    """The information dialogs of a :class:`~.window.MainWindow` (parented to it).
+@runtime_checkable
+class InfoSource(Protocol):
+    """What :class:`InfoDialogs` reads of the window (:class:`~.window.MainWindow`)."""
 
-    The window is read through ``actions_`` (the shortcuts listed), ``session`` and ``last_polish``.
+    @property
+    def actions_(self) -> Mapping[str, QtGui.QAction]: ...  # the shortcuts listed
+    @property
+    def session(self) -> Session | None: ...
+    @property
+    def last_polish(self) -> PolishOutcome | None: ...
+
+
+class InfoDialogs:
+    """The information dialogs of a :class:`~.window.MainWindow`.
+
+    Parameters
+    ----------
+    window : what the dialogs show (:class:`InfoSource`).
+    parent : the widget the dialogs are parented to (the window).
 
     Attributes
     ----------
@@ -64,14 +81,15 @@ class InfoDialogs:
     mesh_info_box : the last Mesh Info box opened, or None.
     """
 
-    def __init__(self, window: "MainWindow") -> None:
+    def __init__(self, window: InfoSource, parent: QtWidgets.QWidget | None = None) -> None:
         self.w = window
+        self.parent = parent
         self.shortcuts_dialog: ShortcutsDialog | None = None
         self.mesh_info_box: QtWidgets.QMessageBox | None = None
 
     def shortcuts(self) -> ShortcutsDialog:
         """Help ▸ Shortcuts: every action with a key, and the mouse bindings (window-modal, not blocking)."""
-        dlg = ShortcutsDialog(list(self.w.actions_.values()), self.w)
+        dlg = ShortcutsDialog(list(self.w.actions_.values()), self.parent)
         dlg.setAttribute(QtCore.Qt.WidgetAttribute.WA_DeleteOnClose)
         self.shortcuts_dialog = dlg
         dlg.open()
@@ -79,13 +97,13 @@ class InfoDialogs:
 
     def howto(self) -> None:
         """Help ▸ How to Edit: the editing workflow in a few steps."""
-        QtWidgets.QMessageBox.information(self.w, "How to edit", HOWTO)
+        QtWidgets.QMessageBox.information(self.parent, "How to edit", HOWTO)
 
     def mesh_info(self) -> QtWidgets.QMessageBox:
         """File ▸ Mesh Info: counts and repairs (:func:`mesh_info_text`), in a non-modal box."""
         box = QtWidgets.QMessageBox(QtWidgets.QMessageBox.Icon.Information, "Mesh info",
                                     mesh_info_text(self.w.session, self.w.last_polish),
-                                    QtWidgets.QMessageBox.StandardButton.Ok, self.w)
+                                    QtWidgets.QMessageBox.StandardButton.Ok, self.parent)
         box.setAttribute(QtCore.Qt.WidgetAttribute.WA_DeleteOnClose)
         box.setModal(False)
         self.mesh_info_box = box
@@ -94,4 +112,4 @@ class InfoDialogs:
 
     def about(self) -> None:
         """Help ▸ About."""
-        QtWidgets.QMessageBox.about(self.w, "About hybridedit", ABOUT)
+        QtWidgets.QMessageBox.about(self.parent, "About hybridedit", ABOUT)

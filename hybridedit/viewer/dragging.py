@@ -8,16 +8,14 @@ release the engine settles in short slices on the UI thread's timer (the last
 interactive frame stays on screen meanwhile), then the window shows the final
 pose and may start a polish.
 
-The window is used through ``session``, ``scene``, ``view``, ``controller``,
-``polisher.cancel()``, ``drop_polished()``, ``show_error()``,
-``clear_message()``, ``measure()``, ``refresh_all()``, ``set_modified()`` and
-``after_drag()``.
+:class:`DragFrames` draws through the scene and the view it is given, and asks
+the rest of the window only what :class:`DragHost` names.
 """
 
 from __future__ import annotations
 
 import time
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import numpy as np
 from qtpy import QtCore
@@ -26,7 +24,10 @@ from ..editor import SelectionError
 from .framethread import DragFrame, FrameThread, Job
 
 if TYPE_CHECKING:
-    from .window import MainWindow
+    from .interaction import Gesture
+    from .scene import Scene
+    from .session import Session
+    from .view import View
 
 ERROR_INTERVAL = 0.25
 """Seconds between edge-error measurements during a drag (each walks the moving region's edges)."""
@@ -34,8 +35,40 @@ SETTLE_SLICE = 0.015
 """Seconds of settling per timer tick after a release, so the window stays responsive."""
 
 
+@runtime_checkable
+class GestureHolder(Protocol):
+    """The view controller as a drag sees it: a failed frame ends the gesture under way."""
+
+    gesture: Gesture | None
+
+
+@runtime_checkable
+class DragHost(Protocol):
+    """What :class:`DragFrames` asks of the window (:class:`~.window.MainWindow`)."""
+
+    @property
+    def session(self) -> Session | None: ...
+    @property
+    def controller(self) -> GestureHolder: ...
+    def settle_and_stop_polish(self) -> None: ...
+    def drop_polished(self) -> None: ...
+    def show_error(self, title: str, text: str) -> None: ...
+    def clear_message(self) -> None: ...
+    def measure(self, everything: bool | None = None) -> None: ...
+    def refresh_all(self) -> None: ...
+    def set_modified(self, modified: bool) -> None: ...
+    def after_drag(self) -> None: ...
+
+
 class DragFrames(QtCore.QObject):
     """The drags of a :class:`~.window.MainWindow`, frame by frame.
+
+    Parameters
+    ----------
+    window : the window, as far as a drag needs it (:class:`DragHost`).
+    scene : the actors a frame is written into.
+    view : the 3D view that renders the frames.
+    parent : the Qt parent (the window).
 
     Attributes
     ----------
@@ -46,9 +79,12 @@ class DragFrames(QtCore.QObject):
         a few times a second; a label repaint every frame costs), or None.
     """
 
-    def __init__(self, window: "MainWindow") -> None:
-        super().__init__(window)
+    def __init__(self, window: DragHost, scene: Scene, view: View,
+                 parent: QtCore.QObject | None = None) -> None:
+        super().__init__(parent)
         self.w = window
+        self.scene = scene
+        self.view = view
         self.frames = FrameThread(self._show, self)
         self.settle_timer = QtCore.QTimer(self)
         self.settle_timer.setInterval(0)
@@ -64,8 +100,7 @@ class DragFrames(QtCore.QObject):
     def begin(self) -> bool:
         """Start a drag of the active handle group; False (and said why) when there is none to drag."""
         w = self.w
-        self.finish()
-        w.polisher.cancel()
+        w.settle_and_stop_polish()  # a drag changes the pose: the frame or settle under way ends, a polish stops
         s = w.session
         if s is None:
             return False
@@ -77,7 +112,7 @@ class DragFrames(QtCore.QObject):
             return False
         w.clear_message()
         self._failed = False
-        w.scene.set_moving(s.moving_vertices())
+        self.scene.set_moving(s.moving_vertices())
         w.measure()  # every edge once: then each frame only the moving region's
         return True
 
@@ -89,12 +124,12 @@ class DragFrames(QtCore.QObject):
         if s is None or not s.applied:
             return
         # a move that arrives while the previous frame waits to be drawn is computed beside that render
-        self.frames.submit(self._job(np.asarray(D) @ self._T0), beside_render=self.w.view.render_pending)
+        self.frames.submit(self._job(np.asarray(D) @ self._T0), beside_render=self.view.render_pending)
 
     def _job(self, T: np.ndarray) -> Job:
         """The frame for handle transform T, as a job for the frame thread: the engine's solve, the
         moving region's points, normals and edge error (and stretch map when shown). No Qt or VTK."""
-        s, scene = self.w.session, self.w.scene
+        s, scene = self.w.session, self.scene
         stretch = scene.stretch_visible
         # the edge error for the status bar a few times a second (every frame with the stretch map)
         measure = stretch or time.perf_counter() - self._error_time >= ERROR_INTERVAL
@@ -132,13 +167,13 @@ class DragFrames(QtCore.QObject):
             else:
                 w.show_error("Drag failed", f"{frame.__class__.__name__}: {frame}; the drag was undone.")
             return
-        scene = w.scene
+        scene = self.scene
         upload_s = scene.show_shape()
         if frame.stretch:
             scene.stretch_modified()
         scene.update_cage(frame.cage, frame.cage_geometry)
         scene.gizmo.place(frame.centroid)
-        split = w.view.split
+        split = self.view.split
         split.add("engine", frame.engine_s)
         split.add("points", frame.points_s)
         split.add("normals", frame.normals_s)
@@ -147,7 +182,7 @@ class DragFrames(QtCore.QObject):
         if frame.error is not None:
             self.error = frame.error
         w.set_modified(True)
-        w.view.request_render()
+        self.view.request_render()
 
     def end(self) -> None:
         """The button was released: the last move's frame, then the settle in slices (or the final pose)."""

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 from qtpy import QtCore, QtWidgets
 
@@ -16,7 +16,7 @@ from ..io import SUPPORTED_EXTENSIONS, MeshFileError, write_mesh
 from ..mesh import MeshError
 
 if TYPE_CHECKING:
-    from .window import MainWindow
+    from .session import Session
 
 MESH_FILTER = ("Meshes (*.obj *.ply *.stl *.off *.glb);;OBJ (*.obj);;PLY (*.ply);;STL (*.stl);;OFF (*.off);;"
                "glTF binary (*.glb);;All files (*)")
@@ -33,7 +33,7 @@ class SaveProgress:
     appears once it has run :data:`PROGRESS_AFTER_MS`, repainted from the writer's reports
     without taking user input meanwhile. Call it as ``progress(step, fraction)``."""
 
-    def __init__(self, parent: QtWidgets.QWidget) -> None:
+    def __init__(self, parent: QtWidgets.QWidget | None) -> None:
         self._timer = QtCore.QElapsedTimer()
         self._timer.start()
         self.dialog = QtWidgets.QProgressDialog("", "", 0, 100, parent)
@@ -79,8 +79,50 @@ def dropped_path(mime: QtCore.QMimeData) -> Path | None:
     return None
 
 
+@runtime_checkable
+class Busy(Protocol):
+    """The view controller as the file actions see it: an edit file is not applied during a gesture."""
+
+    @property
+    def busy(self) -> bool: ...
+
+
+@runtime_checkable
+class Screenshots(Protocol):
+    """The 3D view as the file actions see it."""
+
+    def screenshot(self, filename: str) -> object: ...
+
+
+@runtime_checkable
+class FileHost(Protocol):
+    """What :class:`FileActions` asks of the window (:class:`~.window.MainWindow`)."""
+
+    @property
+    def session(self) -> Session | None: ...
+    @property
+    def modified(self) -> bool: ...
+    @property
+    def controller(self) -> Busy: ...
+    @property
+    def view(self) -> Screenshots: ...
+    def open_path(self, path: str | os.PathLike) -> bool: ...
+    def finish_settle(self) -> None: ...
+    def settle_and_stop_polish(self) -> None: ...
+    def show_error(self, title: str, text: str) -> None: ...
+    def confirm(self, title: str, text: str) -> bool: ...
+    def message(self, text: str) -> None: ...
+    def set_modified(self, modified: bool) -> None: ...
+    def refresh_all(self) -> None: ...
+
+
 class FileActions:
-    """File menu actions of a :class:`~.window.MainWindow` (dialogs are parented to it).
+    """File menu actions of a :class:`~.window.MainWindow`.
+
+    Parameters
+    ----------
+    window : the window, as far as the file actions need it (:class:`FileHost`).
+    parent : the widget the dialogs are parented to (the window).
 
     Attributes
     ----------
@@ -88,8 +130,9 @@ class FileActions:
     edit_path : the last edit file saved or loaded, or None.
     """
 
-    def __init__(self, window: "MainWindow") -> None:
+    def __init__(self, window: FileHost, parent: QtWidgets.QWidget | None = None) -> None:
         self.w = window
+        self.parent = parent
         self.save_path: Path | None = None
         self.edit_path: Path | None = None
         self.unsaved_box: QtWidgets.QMessageBox | None = None
@@ -121,7 +164,7 @@ class FileActions:
         name = self.session.path.name if self.session.path is not None else "the shape"
         box = QtWidgets.QMessageBox(QtWidgets.QMessageBox.Icon.Question, "Unsaved pose",
                                     f"The pose of {name} is not saved.\n\nSave it before {doing}?",
-                                    Btn.Save | Btn.Discard | Btn.Cancel, self.w)
+                                    Btn.Save | Btn.Discard | Btn.Cancel, self.parent)
         box.setDefaultButton(Btn.Save)
         box.setEscapeButton(Btn.Cancel)
         self.unsaved_box = box
@@ -137,7 +180,7 @@ class FileActions:
     def open_dialog(self) -> None:
         s = self.session
         start = str(s.path.parent) if s and s.path else os.getcwd()
-        path, _ = QtWidgets.QFileDialog.getOpenFileName(self.w, "Open mesh", start, MESH_FILTER)
+        path, _ = QtWidgets.QFileDialog.getOpenFileName(self.parent, "Open mesh", start, MESH_FILTER)
         if path:
             self.w.open_path(path)
 
@@ -155,7 +198,7 @@ class FileActions:
         ext = s.path.suffix.lower() if s.path else ".ply"
         start = str(self.save_path) if self.save_path else self.suggested_path("-edited", ext)
         path, selected = QtWidgets.QFileDialog.getSaveFileName(
-            self.w, "Save deformed mesh", start, MESH_FILTER,
+            self.parent, "Save deformed mesh", start, MESH_FILTER,
             options=QtWidgets.QFileDialog.Option.DontConfirmOverwrite)
         if not path:
             return False
@@ -172,6 +215,8 @@ class FileActions:
     def save_to(self, path: str | os.PathLike, asked: bool = False) -> bool:
         """Write the shape on display; asks before replacing the opened file or any existing file."""
         w = self.w
+        # the settle only, not the polish: saving reads the pose and changes nothing (a polish under way
+        # goes on, and shows its result when it ends)
         w.finish_settle()
         s = self.session
         if s is None:
@@ -191,7 +236,7 @@ class FileActions:
                 if not w.confirm("Replace file?", f"{p} already exists. Replace it?"):
                     w.message("Not saved")
                     return False
-        progress = SaveProgress(w)
+        progress = SaveProgress(self.parent)
         try:
             # what is shown (the polished pose when there is one), in the opened file's structure
             notes = write_mesh(p, s.mesh.copy(vertices=s.shown_positions.copy()), like=s.path,
@@ -212,7 +257,7 @@ class FileActions:
         if self.session is None:
             return False
         start = str(self.edit_path) if self.edit_path else self.suggested_path("-edit", ".json")
-        path, _ = QtWidgets.QFileDialog.getSaveFileName(self.w, "Save edit", start, EDIT_FILTER)
+        path, _ = QtWidgets.QFileDialog.getSaveFileName(self.parent, "Save edit", start, EDIT_FILTER)
         if not path:
             return False
         p = Path(path)
@@ -223,7 +268,7 @@ class FileActions:
     def save_edit_to(self, path: str | os.PathLike) -> bool:
         """Write the selection and handle transform as a JSON edit file."""
         w = self.w
-        w.finish_settle()
+        w.finish_settle()  # the settle only, not the polish: as save_to, this reads and changes nothing
         s = self.session
         if s is None:
             return False
@@ -245,7 +290,7 @@ class FileActions:
             self.w.show_error("Load edit", "Open a mesh first.")
             return False
         start = str(self.edit_path) if self.edit_path else self.suggested_path("-edit", ".json")
-        path, _ = QtWidgets.QFileDialog.getOpenFileName(self.w, "Load edit", start, EDIT_FILTER)
+        path, _ = QtWidgets.QFileDialog.getOpenFileName(self.parent, "Load edit", start, EDIT_FILTER)
         if not path:
             return False
         return self.load_edit_from(path)
@@ -253,14 +298,13 @@ class FileActions:
     def load_edit_from(self, path: str | os.PathLike) -> bool:
         """Apply a JSON edit file as 'hybridedit deform' does (from the rest pose)."""
         w = self.w
-        w.finish_settle()
         s = self.session
         if s is None:
             w.show_error("Load edit", "Open a mesh first.")
             return False
         if w.controller.busy:
             return False
-        w.polisher.cancel()
+        w.settle_and_stop_polish()
         try:
             s.load_edit(load_edit(path), path=str(path))
         except (EditFileError, SelectionError, ValueError) as e:
@@ -275,7 +319,7 @@ class FileActions:
     # ------------------------------------------------------------------ screenshots
     def screenshot_dialog(self) -> bool:
         w = self.w
-        path, _ = QtWidgets.QFileDialog.getSaveFileName(w, "Save screenshot", self.suggested_path("", ".png"),
+        path, _ = QtWidgets.QFileDialog.getSaveFileName(self.parent, "Save screenshot", self.suggested_path("", ".png"),
                                                         "PNG images (*.png)")
         if not path:
             return False

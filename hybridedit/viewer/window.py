@@ -84,11 +84,12 @@ class MainWindow(QtWidgets.QMainWindow):
         self._error_box: QtWidgets.QMessageBox | None = None
         self._rrms_full = True  # the next measure must walk every edge (the pose changed outside a drag)
         self._generation = -1  # the session's engine generation the scene shows
-        self.files = FileActions(self)
-        self.jobs = BuildJobs(self)
+        # each helper takes the window as the narrow protocol it declares (FileHost, BuildHost, InfoSource,
+        # DragHost) and, where it draws, the scene and the view themselves
+        self.files = FileActions(self, parent=self)
+        self.jobs = BuildJobs(self, parent=self)
         self.jobs.busy_changed.connect(lambda _busy: self._update_actions())
-        self.dialogs = InfoDialogs(self)
-        self.dragging = DragFrames(self)
+        self.dialogs = InfoDialogs(self, parent=self)
         self.polisher = PolishScheduler(self)
         self.polisher.succeeded.connect(self._polish_succeeded)
         self.polisher.failed.connect(lambda m: self.message(f"Polish failed: {m}"))
@@ -97,6 +98,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.view = View(self)
         self.setCentralWidget(self.view)
         self.scene = Scene(self.view.plotter)
+        self.dragging = DragFrames(self, self.scene, self.view, parent=self)
         self.controller = ViewController(self.view, self.scene, self)
         self.actions_: dict[str, QtGui.QAction] = {}
         self._make_actions()
@@ -409,6 +411,8 @@ class MainWindow(QtWidgets.QMainWindow):
     def _toggle_polish(self) -> None:
         self.polisher.enabled = self.actions_["polish"].isChecked()
         if not self.polisher.enabled:
+            # the polish only: switching it off changes neither the pose nor the selection, so a settle
+            # under way goes on
             self.polisher.cancel()
 
     @guarded
@@ -421,8 +425,7 @@ class MainWindow(QtWidgets.QMainWindow):
                 self.actions_[f"mirror_{other}"].setChecked(False)
         if s is None:
             return
-        self.finish_settle()
-        self.polisher.cancel()
+        self.settle_and_stop_polish()
         before = s.symmetry
         try:
             s.set_symmetry(axis if on else None)  # a shape too asymmetric is refused here, nothing changed
@@ -450,6 +453,9 @@ class MainWindow(QtWidgets.QMainWindow):
         s = self.session
         if s is None or self.controller.busy:
             return
+        # only the polish is dropped here, not the whole guard: a new, empty group moves no point and selects
+        # none, and Session.new_group completes a settle under way itself (the settle timer's next tick then
+        # shows the final pose and may start a polish: after_drag)
         self.polisher.cancel()
         if not s.new_group():
             self.message("The current handle group is still empty: select its cage points first")
@@ -519,9 +525,10 @@ class MainWindow(QtWidgets.QMainWindow):
         req = result.request
         ed = result.editor
         self.controller.cancel()
-        self.finish_settle()
+        self.settle_and_stop_polish()
+        # a settle the session completed by itself leaves the timer running: its tick would show (and polish)
+        # the pose after the build is on display
         self.settle_timer.stop()
-        self.polisher.cancel()
         note = None
         if req.rebuild and self.session is not None and self.session.mesh is result.mesh:
             note = self.session.adopt(ed, req.cage_size)
@@ -568,6 +575,9 @@ class MainWindow(QtWidgets.QMainWindow):
         self.view.request_render()
 
     # ================================================================== Handler (called by the view controller)
+    # cage_points and handle_center complete the settle only, not the guard: they read the pose and change
+    # nothing (cage_points also runs on every mouse move in Select mode, to draw the points near the cursor,
+    # which must not stop a polish); a gesture cancels the polish when it begins (begin_select, begin_drag)
     def cage_points(self) -> np.ndarray | None:
         self.finish_settle()
         return None if self.session is None else self.session.cage_positions
@@ -577,8 +587,7 @@ class MainWindow(QtWidgets.QMainWindow):
         return None if self.session is None else self.session.handle_centroid()
 
     def begin_select(self) -> bool:
-        self.finish_settle()
-        self.polisher.cancel()
+        self.settle_and_stop_polish()
         if self.session is None:
             return False
         self._stroke_target = self.target
@@ -627,6 +636,16 @@ class MainWindow(QtWidgets.QMainWindow):
     def finish_settle(self) -> None:
         """Complete a drag frame or a settle under way now (before anything reads or changes the pose)."""
         self.dragging.finish()
+
+    def settle_and_stop_polish(self) -> None:
+        """The guard before anything that changes the pose or the selection (undo, a gesture, an edit file, ...).
+
+        Completes a drag frame or a settle under way (:meth:`finish_settle`; a settle completed here shows
+        its pose and may start a polish), then cancels any polish running or queued: its result would be
+        of a pose or a selection that is gone. The places that do only one of the two say why.
+        """
+        self.finish_settle()
+        self.polisher.cancel()
 
     def after_drag(self) -> None:
         """A drag ended and settled: show the final pose, and polish it when that is on."""
@@ -785,8 +804,7 @@ class MainWindow(QtWidgets.QMainWindow):
     def undo(self) -> None:
         if self.session is None or self.controller.busy:
             return
-        self.finish_settle()
-        self.polisher.cancel()
+        self.settle_and_stop_polish()
         label = self.session.history.undo_label()
         if self.session.undo():
             self.set_modified(True)
@@ -797,8 +815,7 @@ class MainWindow(QtWidgets.QMainWindow):
     def redo(self) -> None:
         if self.session is None or self.controller.busy:
             return
-        self.finish_settle()
-        self.polisher.cancel()
+        self.settle_and_stop_polish()
         label = self.session.history.redo_label()
         if self.session.redo():
             self.set_modified(True)
@@ -809,8 +826,7 @@ class MainWindow(QtWidgets.QMainWindow):
     def reset_pose(self) -> None:
         if self.session is None or self.controller.busy:
             return
-        self.finish_settle()
-        self.polisher.cancel()
+        self.settle_and_stop_polish()
         self.session.reset_pose()
         self.set_modified(True)
         self.refresh_all()
@@ -827,8 +843,7 @@ class MainWindow(QtWidgets.QMainWindow):
         s = self.session
         if s is None or self.controller.busy:
             return
-        self.finish_settle()
-        self.polisher.cancel()
+        self.settle_and_stop_polish()
         if op == "clear_all":
             changed = s.clear_all()
             said = "Selection cleared: the ROI and every handle group (Ctrl+Z restores them)"
