@@ -3,16 +3,25 @@
 A cache file holds the cage (vertices, faces) and the binding matrix M of one
 shape for one (cage size, truncation) setting. Its name is a hash of the shape's
 vertices and faces, the settings and :data:`FORMAT`; the same key is stored
-inside and checked on load, with the arrays' shapes and the rows of M summing
-to 1, so a corrupt, truncated or stale file is detected and rebuilt, never
-trusted. Files are written atomically.
+inside and checked on load. Every entry also carries a SHA-256 checksum of its
+whole payload (key, versions, every array's dtype, shape and bytes) and the
+versions of the libraries that wrote it (:func:`writer_versions`: hybridedit and
+fast-simplification, which make the cage). On load the checksum is recomputed
+and the versions compared before anything else, then the arrays' shapes and the
+rows of M summing to 1 are checked: a corrupt, truncated, tampered (a cage
+shifted on disk passes every structural check, not the checksum) or stale file
+is discarded with a note (a :class:`CacheEntryDiscarded` warning) and rebuilt,
+never used. Files are written atomically.
 """
 
 from __future__ import annotations
 
 import hashlib
 import io
+import json
 import os
+import warnings
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -22,7 +31,44 @@ from .atomic import atomic_write
 from .mesh import Mesh
 
 #: Bump when the cage or binding algorithms change: old files stop matching.
-FORMAT = "hybridedit-binding-3"  # 2: fast binding; 3: repair notes stored
+FORMAT = "hybridedit-binding-4"  # 2: fast binding; 3: repair notes stored; 4: checksum, versions
+
+#: the arrays of an entry, in the order the checksum reads them
+PAYLOAD = ("cage_vertices", "cage_faces", "shape", "data", "indices", "indptr", "notes")
+
+
+class CacheEntryDiscarded(UserWarning):
+    """A cache entry failed its checks (checksum, versions, structure): it was deleted and is rebuilt."""
+
+
+@lru_cache(maxsize=1)
+def writer_versions() -> str:
+    """The versions of what makes an entry's content, as stored in it (JSON text):
+    hybridedit's and fast-simplification's (the cage's simplification)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    from . import __version__
+
+    def v(name: str) -> str:
+        try:
+            return version(name)
+        except PackageNotFoundError:
+            return "none"
+
+    return json.dumps({"hybridedit": __version__, "fast-simplification": v("fast-simplification")},
+                      sort_keys=True)
+
+
+def checksum(key: str, versions: str, arrays: dict[str, np.ndarray]) -> str:
+    """SHA-256 hex digest of an entry's payload: its key, versions and the :data:`PAYLOAD` arrays
+    (each one's name, dtype, shape and bytes)."""
+    h = hashlib.sha256()
+    h.update(FORMAT.encode() + b"\0" + key.encode() + b"\0" + versions.encode() + b"\0")
+    for name in PAYLOAD:
+        a = np.ascontiguousarray(arrays[name])
+        h.update(f"{name}:{a.dtype.str}:{a.shape}\0".encode())
+        h.update(memoryview(a).cast("B") if a.dtype.kind != "U" else a.tobytes())
+    return h.hexdigest()
 
 
 def default_cache_dir() -> Path:
@@ -53,17 +99,22 @@ def _path(folder: Path, key: str) -> Path:
 def load(folder: Path, key: str, mesh: Mesh) -> tuple[Mesh, sp.csr_matrix, list[str]] | None:
     """The cached (cage, M, notes) for ``key``, or None when absent or not valid.
 
-    An entry that fails any check (unreadable, another key, wrong shapes, a
-    non-finite or out-of-range value, rows of M not summing to 1, a cage that
-    is not a mesh) is deleted, so that it is rebuilt and stored again.
+    An entry that fails any check (unreadable, another key, a checksum that does
+    not match its payload, written by other library versions, wrong shapes, a
+    non-finite or out-of-range value, rows of M not summing to 1, a cage that is
+    not a mesh) is deleted with a :class:`CacheEntryDiscarded` warning saying
+    why, so that it is rebuilt and stored again.
     """
     p = _path(folder, key)
     if not p.is_file():
         return None
     try:
         return _checked(p, key, mesh)
-    except Exception:  # noqa: BLE001 -- whatever is wrong with the entry, it is not used
+    except Exception as e:  # noqa: BLE001 -- whatever is wrong with the entry, it is not used
         discard(folder, key)
+        why = str(e) if isinstance(e, _Invalid) else f"unreadable: {type(e).__name__}: {str(e)[:60]}"
+        warnings.warn(f"hybridedit: cache entry {p.name} not used ({why}); it is rebuilt",
+                      CacheEntryDiscarded, stacklevel=2)
         return None
 
 
@@ -81,12 +132,20 @@ class _Invalid(Exception):
 
 def _checked(p: Path, key: str, mesh: Mesh) -> tuple[Mesh, sp.csr_matrix, list[str]]:
     with np.load(p, allow_pickle=False) as z:
-        if str(z["key"]) != key:
+        if "key" not in z.files or str(z["key"]) != key:
             raise _Invalid("another key")
-        cv, cf = z["cage_vertices"], z["cage_faces"]
-        shape = tuple(int(x) for x in z["shape"])
-        M = sp.csr_matrix((z["data"], z["indices"], z["indptr"]), shape=shape)
-        notes = [str(x) for x in z["notes"]] if "notes" in z.files else []
+        if "checksum" not in z.files or "versions" not in z.files:
+            raise _Invalid("no checksum")
+        versions = str(z["versions"])
+        arrays = {name: z[name] for name in PAYLOAD}
+        if checksum(key, versions, arrays) != str(z["checksum"]):
+            raise _Invalid("checksum mismatch: the file was changed after it was written")
+    if versions != writer_versions():
+        raise _Invalid(f"written by {_versions_text(versions)}, this is {_versions_text(writer_versions())}")
+    cv, cf = arrays["cage_vertices"], arrays["cage_faces"]
+    shape = tuple(int(x) for x in arrays["shape"])
+    M = sp.csr_matrix((arrays["data"], arrays["indices"], arrays["indptr"]), shape=shape)
+    notes = [str(x) for x in arrays["notes"]]
     cage = Mesh(cv, cf, name="cage")
     if cage.n_vertices < 4 or cage.n_faces < 4 or not np.all(np.isfinite(cage.vertices)):
         raise _Invalid("cage is not a finite mesh")
@@ -101,22 +160,31 @@ def _checked(p: Path, key: str, mesh: Mesh) -> tuple[Mesh, sp.csr_matrix, list[s
     return cage, M, notes
 
 
+def _versions_text(versions: str) -> str:
+    try:
+        return ", ".join(f"{k} {v}" for k, v in sorted(json.loads(versions).items()))
+    except (ValueError, AttributeError):
+        return repr(versions)
+
+
 def store(folder: Path, key: str, cage: Mesh, M: sp.csr_matrix, notes: list[str] | tuple = ()) -> Path | None:
-    """Write (cage, M) and the repair notes made building them under ``key``;
-    returns the file, or None if it cannot be written."""
+    """Write (cage, M) and the repair notes made building them under ``key``, with the
+    payload's checksum and the writing versions; returns the file, or None if it cannot be
+    written."""
     M = sp.csr_matrix(M)
+    arrays = {
+        "cage_vertices": np.ascontiguousarray(cage.vertices),
+        "cage_faces": np.ascontiguousarray(cage.faces),
+        "shape": np.array(M.shape, dtype=np.int64),
+        "data": M.data,
+        "indices": M.indices,
+        "indptr": M.indptr,
+        "notes": np.array(list(notes), dtype=str),
+    }
+    versions = writer_versions()
     buf = io.BytesIO()
-    np.savez(
-        buf,
-        key=np.array(key),
-        cage_vertices=cage.vertices,
-        cage_faces=cage.faces,
-        shape=np.array(M.shape, dtype=np.int64),
-        data=M.data,
-        indices=M.indices,
-        indptr=M.indptr,
-        notes=np.array(list(notes), dtype=str),
-    )
+    np.savez(buf, key=np.array(key), versions=np.array(versions),
+             checksum=np.array(checksum(key, versions, arrays)), **arrays)
     p = _path(folder, key)
     try:
         folder.mkdir(parents=True, exist_ok=True)

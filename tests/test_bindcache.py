@@ -1,3 +1,5 @@
+import json
+
 import numpy as np
 import pytest
 
@@ -68,10 +70,15 @@ def test_repair_notes_survive_the_cache(tmp_path):
     assert b.cache_hit and b.notes == a.notes
 
 
-def _rewrite_entry(path, **changes):
+def _rewrite_entry(path, resign=True, **changes):
+    """Rewrite an entry with some arrays changed (a valid zip); ``resign``: with the checksum
+    recomputed, as a writer that knew the format would, so that only the later checks can
+    catch the change."""
     with np.load(path, allow_pickle=False) as z:
         arrays = {k: z[k] for k in z.files}
     arrays.update(changes)
+    if resign:
+        arrays["checksum"] = np.array(bindcache.checksum(str(arrays["key"]), str(arrays["versions"]), arrays))
     with open(path, "wb") as fh:
         np.savez(fh, **arrays)
 
@@ -94,7 +101,8 @@ def test_entries_failing_any_check_are_discarded_and_rebuilt(tmp_path, shape, da
         cf[0, 0] = len(cv) + 5
         _rewrite_entry(f, cage_faces=cf)
     key = bindcache.cache_key(shape, 80, 0.03)
-    assert bindcache.load(tmp_path, key, shape) is None
+    with pytest.warns(bindcache.CacheEntryDiscarded):
+        assert bindcache.load(tmp_path, key, shape) is None
     assert not f.exists()  # discarded, not tried again on every run
     b = HybridEditor(shape, 80, cache=tmp_path)
     assert not b.cache_hit and np.all(np.isfinite(b.cage.vertices))
@@ -124,3 +132,101 @@ def test_an_entry_that_fails_when_used_is_discarded_and_rebuilt(tmp_path, monkey
     assert not again.cache_hit and again.M.shape == first.M.shape  # rebuilt, and stored again
     monkeypatch.setattr(bindcache, "load", real_load)
     assert build_rig(shape, cage_size=40, cache=tmp_path).cache_hit
+
+
+# --------------------------------------------------------------------------- checksum and versions
+
+
+def _shifted(f, by=0.1):
+    with np.load(f) as z:
+        return z["cage_vertices"] + np.array([by, 0.0, 0.0])
+
+
+def _flip_byte(f):
+    """Flip one byte inside the binding's weights, the zip itself left valid (its CRC recomputed)."""
+    with np.load(f) as z:
+        data = z["data"].copy()
+    raw = data.view(np.uint8)
+    raw[raw.size // 2] ^= 0x01
+    _rewrite_entry(f, resign=False, data=data)
+
+
+def _flip_byte_raw(f):
+    """Flip one byte of the file on disk, as a bad sector would."""
+    b = bytearray(f.read_bytes())
+    b[len(b) // 2] ^= 0xFF
+    f.write_bytes(bytes(b))
+
+
+def _other_version(f):
+    with np.load(f) as z:
+        versions = json.loads(str(z["versions"]))
+    versions["hybridedit"] = "0.0.1"
+    _rewrite_entry(f, resign=True, versions=np.array(json.dumps(versions, sort_keys=True)))
+
+
+TAMPER = {
+    "shifted cage": lambda f: _rewrite_entry(f, resign=False, cage_vertices=_shifted(f)),
+    "truncated file": lambda f: f.write_bytes(f.read_bytes()[: f.stat().st_size * 2 // 3]),
+    "flipped byte in a weight": _flip_byte,
+    "flipped byte on disk": _flip_byte_raw,
+    "another version": _other_version,
+    "no checksum": lambda f: _strip(f, "checksum"),
+}
+
+
+def _strip(f, name):
+    with np.load(f, allow_pickle=False) as z:
+        arrays = {k: z[k] for k in z.files if k != name}
+    with open(f, "wb") as fh:
+        np.savez(fh, **arrays)
+
+
+@pytest.mark.parametrize("case", list(TAMPER))
+def test_a_tampered_entry_is_discarded_with_a_note_and_rebuilt(tmp_path, shape, case):
+    """Each tamper case: the entry is not used (a note says why), the rebuilt editor's
+    output is the clean one exactly, and the entry written again is a hit next time."""
+    clean = HybridEditor(shape, 80, cache=tmp_path)
+    handle = np.flatnonzero(shape.vertices[:, 0] > 0.6)
+    roi = np.flatnonzero(shape.vertices[:, 0] > 0.0)
+    clean.set_selection(handle, roi=roi)
+    want = clean.pose(translate=(0.0, 0.3, 0.0)).copy()
+    (f,) = tmp_path.glob("*.npz")
+    TAMPER[case](f)
+    with pytest.warns(bindcache.CacheEntryDiscarded, match="rebuilt") as rec:
+        again = HybridEditor(shape, 80, cache=tmp_path)
+    print(f"{case}: {rec[0].message}")
+    assert not again.cache_hit
+    assert np.array_equal(again.cage.vertices, clean.cage.vertices) and (again.M != clean.M).nnz == 0
+    again.set_selection(handle, roi=roi)
+    assert np.array_equal(again.pose(translate=(0.0, 0.3, 0.0)), want)
+    assert HybridEditor(shape, 80, cache=tmp_path).cache_hit  # stored again, correctly
+
+
+def test_only_the_checksum_catches_a_shifted_cage(tmp_path, shape):
+    """A cage shifted on disk is a valid mesh, so every structural check passes it: re-signed,
+    it loads (and would move the output by the shift); unsigned, the checksum refuses it."""
+    HybridEditor(shape, 80, cache=tmp_path)
+    (f,) = tmp_path.glob("*.npz")
+    key = bindcache.cache_key(shape, 80, 0.03)
+    clean_cage = bindcache.load(tmp_path, key, shape)[0].vertices
+    _rewrite_entry(f, resign=True, cage_vertices=_shifted(f, 0.1))
+    cage, _, _ = bindcache.load(tmp_path, key, shape)
+    assert np.allclose(cage.vertices - clean_cage, [0.1, 0, 0])
+    _rewrite_entry(f, resign=False, cage_vertices=_shifted(f, 0.1))
+    with pytest.warns(bindcache.CacheEntryDiscarded, match="checksum"):
+        assert bindcache.load(tmp_path, key, shape) is None
+
+
+def test_an_entry_records_its_writers_versions_and_checksum(tmp_path, shape):
+    HybridEditor(shape, 80, cache=tmp_path)
+    (f,) = tmp_path.glob("*.npz")
+    with np.load(f) as z:
+        versions = json.loads(str(z["versions"]))
+        arrays = {k: z[k] for k in z.files}
+    import hybridedit
+
+    assert versions["hybridedit"] == hybridedit.__version__
+    assert versions["fast-simplification"] not in ("", "none")
+    assert str(arrays["checksum"]) == bindcache.checksum(str(arrays["key"]), str(arrays["versions"]), arrays)
+    assert len(str(arrays["checksum"])) == 64  # SHA-256
