@@ -1,7 +1,8 @@
 """Displayed frame rate of the editor window while dragging, against a bare pyvista render.
 
     python benchmarks/window_fps.py MESH [--seconds 4] [--cage 0.05] [--size 1280x900]
-    python benchmarks/window_fps.py --smoke          (a small generated mesh, about a second)
+    python benchmarks/window_fps.py --textured       (a generated 100K+ textured mesh)
+    python benchmarks/window_fps.py --smoke [--textured]   (a small generated mesh, about a second)
 
 Opens MESH in the real window (its own Xvfb when there is no display),
 selects the top 5% of the shape along its longest axis as the handle and the
@@ -11,7 +12,9 @@ each, so both see the same machine load), a bare pyvista plotter renders the
 same mesh (same normals, same size, same camera, anti-aliasing off) as fast
 as it can, its points rewritten every frame as a drag would. Both rates are
 cadences: frame intervals over the time from a slice's first frame on screen to
-its last.
+its last. A mesh with a texture is drawn with it in both (the window's default
+for such a file): the bare plotter draws pyvista's own textured mesh, split at
+the texture's seams as VTK needs.
 Prints the frame split (per displayed frame, in ms) and last the line
 
     window_fps: <file> <n_vertices> displayed_fps=<x> bare_fps=<y> overhead=<bare_fps/displayed_fps>
@@ -124,8 +127,9 @@ def run(mesh_path: Path, cage, size: tuple[int, int], seconds: float):
         app.processEvents()
 
     window_slice(min(1.0, 0.3 * seconds))  # warm-up
+    look = w.scene.look if w.scene.look_mode == "texture" else None
     bare = BarePlotter(np.asarray(s.shape_positions), np.asarray(w.scene.normals32), s.mesh.faces,
-                       (view.width(), view.height()), w.scene.renderer.GetActiveCamera())
+                       (view.width(), view.height()), w.scene.renderer.GetActiveCamera(), look=look)
     bare.run(0.5)  # warm-up
     # window and bare plotter in alternating slices, so that both see the same machine load; each
     # slice's rate is its frames' steady cadence (intervals between the first and the last frame it
@@ -157,9 +161,10 @@ def run(mesh_path: Path, cage, size: tuple[int, int], seconds: float):
     vsize = (view.width(), view.height())
     bare.close()
     w.set_modified(False)  # no question on closing
+    mode = w.scene.look_mode
     w.close()
     app.processEvents()
-    return fps, bare_frames / bare_seconds, s.mesh.n_vertices, split, frame_ms, vsize
+    return fps, bare_frames / bare_seconds, s.mesh.n_vertices, split, frame_ms, vsize, mode
 
 
 ROUNDS = 4
@@ -170,20 +175,30 @@ FRAME_THREAD = ("engine", "points", "normals")
 
 class BarePlotter:
     """A bare pyvista plotter showing the same mesh (same normals, same size, same camera, one
-    headlight, anti-aliasing off), its points rewritten every frame as a drag would."""
+    headlight, anti-aliasing off), its points rewritten every frame as a drag would; with a
+    ``look`` (:class:`hybridedit.viewer.look.Look`), its render mesh with the first texture."""
 
-    def __init__(self, shape, normals, faces, size: tuple[int, int], camera) -> None:
+    def __init__(self, shape, normals, faces, size: tuple[int, int], camera, look=None) -> None:
         import pyvista as pv
 
-        poly = pv.PolyData(np.asarray(shape, dtype=np.float32),
-                           faces=np.hstack([np.full((len(faces), 1), 3), faces]).ravel())
-        poly.point_data["Normals"] = np.asarray(normals, dtype=np.float32)
+        source = np.arange(len(shape)) if look is None else look.source
+        tri = faces if look is None else look.triangles
+        self.source = source
+        poly = pv.PolyData(np.asarray(shape, dtype=np.float32)[source],
+                           faces=np.hstack([np.full((len(tri), 1), 3), tri]).ravel())
+        poly.point_data["Normals"] = np.asarray(normals, dtype=np.float32)[source]
         poly.GetPointData().SetActiveNormals("Normals")
+        texture = None
+        if look is not None and look.uv is not None:
+            poly.active_texture_coordinates = look.uv
+            image = next((m.image for m in look.materials if m.image is not None), None)
+            texture = None if image is None else pv.Texture(np.ascontiguousarray(image[::-1]))
         pl = pv.Plotter(window_size=list(size), lighting="none")
         pl.ren_win.SetMultiSamples(0)  # anti-aliasing off, as in the window with software OpenGL
         pl.disable_anti_aliasing()
         pl.add_light(pv.Light(light_type="headlight"))  # the window's one light
-        pl.add_mesh(poly, color=(0.89, 0.82, 0.72), smooth_shading=False)  # lit with the given normals
+        pl.add_mesh(poly, color=(0.89, 0.82, 0.72) if texture is None else None, texture=texture,
+                    smooth_shading=False)  # lit with the given normals
         pl.show(interactive_update=True, auto_close=False)
         pl.renderer.GetActiveCamera().DeepCopy(camera)
         pl.renderer.ResetCameraClippingRange()
@@ -194,7 +209,7 @@ class BarePlotter:
         """Render for ``seconds``; returns (frame intervals, their seconds): the cadence from the
         first frame's end to the last one's, as the window's is measured."""
         pts = self.poly.points
-        base = pts.copy() if shape is None else np.asarray(shape, dtype=np.float32)
+        base = pts.copy() if shape is None else np.asarray(shape, dtype=np.float32)[self.source]
         ends = []
         t0 = time.perf_counter()
         while time.perf_counter() - t0 < seconds or len(ends) < 2:
@@ -207,6 +222,36 @@ class BarePlotter:
 
     def close(self) -> None:
         self.pl.close()
+
+
+def textured_mesh(n_lat: int, n_lon: int) -> Path:
+    """A UV sphere stretched along X with a checker texture (its u = 0 / 1 meridian a seam), written
+    as OBJ + MTL + PNG to a temporary folder; (n_lat + 1) * n_lon vertices."""
+    from PIL import Image
+
+    folder = Path(tempfile.mkdtemp(prefix="window_fps-tex-"))
+    th = np.pi * np.arange(n_lat + 1) / n_lat
+    ph = 2 * np.pi * np.arange(n_lon) / n_lon
+    T, P = np.meshgrid(th, ph, indexing="ij")
+    V = np.stack([2.0 * np.sin(T) * np.cos(P), np.cos(T), np.sin(T) * np.sin(P)], axis=-1).reshape(-1, 3)
+    i, j = np.meshgrid(np.arange(n_lat), np.arange(n_lon), indexing="ij")
+    i, j = i.ravel(), j.ravel()
+    vid = lambda a, b: a * n_lon + b % n_lon + 1  # noqa: E731
+    tid = lambda a, b: a * (n_lon + 1) + b + 1  # noqa: E731
+    corners = [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)]
+    faces = np.stack([np.stack([vid(a, b), tid(a, b)], axis=1) for a, b in corners], axis=1)  # (q, 4, 2)
+    ti, tj = np.meshgrid(np.arange(n_lat + 1), np.arange(n_lon + 1), indexing="ij")
+    uv = np.stack([tj.ravel() / n_lon, 1.0 - ti.ravel() / n_lat], axis=1)
+    with open(folder / "textured.obj", "w") as f:
+        f.write("mtllib textured.mtl\nusemtl checker\n")
+        np.savetxt(f, V, fmt="v %.6f %.6f %.6f")
+        np.savetxt(f, uv, fmt="vt %.6f %.6f")
+        np.savetxt(f, faces.reshape(len(faces), 8), fmt="f %d/%d %d/%d %d/%d %d/%d")
+    (folder / "textured.mtl").write_text("newmtl checker\nKd 1 1 1\nmap_Kd checker.png\n")
+    k = (np.arange(512) // 32)
+    img = np.where(((k[:, None] + k[None, :]) % 2 == 0)[..., None], [230, 40, 40], [40, 60, 220]).astype(np.uint8)
+    Image.fromarray(img).save(folder / "checker.png")
+    return folder / "textured.obj"
 
 
 def smoke_mesh() -> Path:
@@ -230,7 +275,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cage", type=float, default=0.05, help="cage size as a fraction (default 0.05)")
     ap.add_argument("--size", type=parse_size, default=(1280, 900), help="window size, WxH (default 1280x900)")
     ap.add_argument("--smoke", action="store_true", help="a quick run on a small generated mesh")
+    ap.add_argument("--textured", action="store_true",
+                    help="without MESH: a generated textured mesh (100K+ vertices; small with --smoke)")
     args = ap.parse_args(argv)
+    if args.textured and not args.mesh:
+        args.mesh = str(textured_mesh(60, 120) if args.smoke else textured_mesh(300, 400))
     if args.smoke:
         mesh, seconds = Path(args.mesh) if args.mesh else smoke_mesh(), 1.0
     elif args.mesh:
@@ -247,8 +296,8 @@ def main(argv: list[str] | None = None) -> int:
     if sys.platform.startswith("linux"):
         os.environ.setdefault("QT_QPA_PLATFORM", "xcb")
     # (a private Xvfb ends with this process, after Qt has let go of it)
-    fps, bare, n, split, frame_ms, vsize = run(mesh, args.cage, args.size, seconds)
-    print(f"view {vsize[0]}x{vsize[1]} px, {n:,} vertices, dragged {seconds:.1f} s")
+    fps, bare, n, split, frame_ms, vsize, mode = run(mesh, args.cage, args.size, seconds)
+    print(f"view {vsize[0]}x{vsize[1]} px, {n:,} vertices, drawn {mode}, dragged {seconds:.1f} s")
     print(f"{'stage':<12} {'ms per displayed frame':>24}")
     for k, v in split.items():
         where = " (frame thread, beside the render)" if k in FRAME_THREAD else ""

@@ -99,6 +99,10 @@ class Session:
         if symmetry is not None:
             editor.mirror(symmetry)  # a shape too asymmetric is refused now, not at the first drag
         self.symmetry: str | None = symmetry  # mirror the selection across this axis's mid-plane
+        #: what the file says the shape looks like (:class:`~.look.Look`: textures, colours), or None
+        self.look = None
+        #: how the shape is drawn ("texture", "colors", "plain"); None: what the file has
+        self.look_mode: str | None = None
         self.settle_on_release = True
         self.settle_frames = 30
         self.settle_iterations = 2

@@ -206,6 +206,13 @@ class MainWindow(QtWidgets.QMainWindow):
         A("mesh_info", "Mesh &Info…", self.dialogs.mesh_info,
           tip="Vertex, face and cage counts; repairs made to the input")
         A("reset_camera", "&Frame Shape", self.reset_camera, "F", tip="Reset the camera to show the whole shape")
+        group = QtGui.QActionGroup(self)
+        for mode, text, key, tip in (
+                ("texture", "&Texture", "Alt+1", "Show the file's textures and material colours"),
+                ("colors", "&Colours", "Alt+2", "Show the file's vertex colours"),
+                ("plain", "&Plain", "Alt+3", "Show the shape's form alone, in one colour")):
+            a = A(f"look_{mode}", text, lambda m=mode: self._set_look_mode(m), key, checkable=True, tip=tip)
+            group.addAction(a)
         A("antialias", "&Anti-aliasing", self._toggle_antialias, checkable=True,
           tip="Multisample anti-aliasing (off by default with software OpenGL, where it is slow)")
         A("rebuild", "Re&build Cage", self.rebuild, "Ctrl+B", tip="Build the cage and binding again at the chosen size",
@@ -236,7 +243,8 @@ class MainWindow(QtWidgets.QMainWindow):
             "&Mode": ["mode_camera", "mode_select", "mode_drag", None, "target_roi", "target_handle", None,
                       "new_group", "next_group", None, "mirror_x", "mirror_y", "mirror_z", None,
                       "tool_rect", "tool_brush", "brush_bigger", "brush_smaller"],
-            "&View": ["show_cage", "stretch", "reset_camera", "antialias", None, "messages"],
+            "&View": ["look_texture", "look_colors", "look_plain", None, "show_cage", "stretch", "reset_camera",
+                      "antialias", None, "messages"],
             "&Cage": ["rebuild", "cancel_job"],
             "&Help": ["howto", "shortcuts", "about"],
         }
@@ -400,6 +408,18 @@ class MainWindow(QtWidgets.QMainWindow):
         self.scene.set_cage_visible(self.actions_["show_cage"].isChecked())
         self.view.request_render()
 
+    def _set_look_mode(self, mode: str) -> None:
+        """Draw the shape with its texture, its file's colours, or plain (View menu)."""
+        s = self.session
+        if s is None or mode not in self.scene.look_modes():
+            self._update_actions()
+            return
+        self.finish_settle()
+        self.scene.set_look_mode(mode)
+        s.look_mode = self.scene.look_mode
+        self.view.request_render()
+        self._update_actions()
+
     def _toggle_antialias(self) -> None:
         self.view.set_antialiasing(self.actions_["antialias"].isChecked())
 
@@ -535,6 +555,9 @@ class MainWindow(QtWidgets.QMainWindow):
             rebuilt = True
         else:
             session, note = self._new_session(ed, req)
+            session.look = result.look  # what the file says the shape looks like (None: plain)
+            if result.look is not None and result.look.notes:
+                note = "; ".join(([note] if note else []) + result.look.notes)
             self.session = session
             self.polisher.forget_shape()
             self.files.forget_paths()
@@ -567,7 +590,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self._generation = s.generation
         self.set_cage_size(s.cage_size)
         self.scene.load(s.metrics, s.shown_positions, s.cage_positions, s.editor.cage.faces, s.states(),
-                        s.shape_roles())
+                        s.shape_roles(), look=s.look, mode=s.look_mode)
+        s.look_mode = self.scene.look_mode
         self.scene.gizmo.place(s.handle_centroid())
         self._rrms_full = True
         self.measure()
@@ -796,6 +820,10 @@ class MainWindow(QtWidgets.QMainWindow):
                   "screenshot", "mesh_info"):
             a[n].setEnabled(s is not None)
         a["cancel_job"].setEnabled(busy)
+        modes = self.scene.look_modes() if s is not None else ("plain",)
+        for mode in ("texture", "colors", "plain"):  # what the shape's file has, and how it is drawn
+            a[f"look_{mode}"].setEnabled(s is not None and mode in modes)
+            a[f"look_{mode}"].setChecked(s is not None and self.scene.look_mode == mode)
         for axis in "xyz":  # the session's mirror, also after undo and redo
             a[f"mirror_{axis}"].setChecked(s is not None and s.symmetry == axis)
 

@@ -174,3 +174,53 @@ def test_vertex_colours_are_shown(tmp_path):
 def test_a_plain_mesh_has_no_look():
     m = Mesh(np.eye(3), np.array([[0, 1, 2]]))
     assert look_of(he.Document.from_mesh(m)) is None
+
+
+def test_the_window_opens_a_textured_file_textured_and_keeps_it_through_a_drag(qtbot, tmp_path):
+    from qtpy import QtCore
+
+    from hybridedit.viewer.window import MainWindow
+    from test_window import key, mouse_drag, projected, settled, to_widget
+
+    Qt = QtCore.Qt
+    path = uv_sphere_obj(tmp_path)
+    w = MainWindow(cage_size=150)
+    w.resize(900, 700)
+    w.show()
+    qtbot.waitExposed(w)
+    w.activateWindow()
+    qtbot.waitActive(w)
+    w.view.setFocus()
+    assert w.open_path(path)
+    qtbot.waitUntil(lambda: w.session is not None and w.worker is None, timeout=60000)
+    s = w.session
+    assert w.scene.look_mode == "texture" and w.actions_["look_texture"].isChecked()
+    assert not w.actions_["look_colors"].isEnabled() and w.actions_["look_plain"].isEnabled()
+
+    def shot():
+        w.view.render()
+        return np.asarray(w.view.screenshot(None, return_img=True))[..., :3].astype(int)
+
+    img = shot()
+    assert share_near(img, CHECKER_A) > 0.02 and share_near(img, CHECKER_B) > 0.02
+    # a drag: the texture stays on, every seam copy follows its vertex
+    P = s.cage_positions
+    s.set_mask("roi", P[:, 0] > 0.0)
+    s.set_mask("handle", P[:, 0] > 0.8)
+    w._refresh_selection()
+    key(qtbot, w, Qt.Key.Key_D)
+    dc, _ = projected(w, s.handle_centroid()[None])
+    a = to_widget(w, dc[0])
+    mouse_drag(qtbot, w.view, a, a + QtCore.QPoint(0, -60))
+    settled(qtbot, w)
+    drawn = w.scene.parts.drawn_points()
+    assert not np.any(np.isnan(drawn)) and np.allclose(drawn, s.shown_positions, atol=1e-5)
+    assert share_near(shot(), CHECKER_A) > 0.02
+    # View > Plain (Alt+3), and back (Alt+1)
+    key(qtbot, w, Qt.Key.Key_3, Qt.KeyboardModifier.AltModifier)
+    assert w.scene.look_mode == "plain" and w.actions_["look_plain"].isChecked()
+    assert share_near(shot(), CHECKER_B) < 0.001  # (red is taken: the gizmo's X arrow)
+    key(qtbot, w, Qt.Key.Key_1, Qt.KeyboardModifier.AltModifier)
+    assert w.scene.look_mode == "texture" and share_near(shot(), CHECKER_A) > 0.02
+    w.set_modified(False)
+    w.close()
