@@ -6,6 +6,7 @@ from typing import Any
 
 import numpy as np
 
+from .linsolve import backend_description
 from .mesh import Mesh
 from .topology import connected_parts, degenerate_faces, edge_face_counts
 
@@ -43,6 +44,9 @@ def mesh_report(mesh: Mesh) -> dict[str, Any]:
         bbox_diagonal : float
         closed : bool
             Has faces, no boundary edges and no non-manifold edges.
+        solver : str
+            The sparse solver backend the engine would use here
+            (:func:`hybridedit.linsolve.backend_description`).
     """
     v, f = mesh.vertices, mesh.faces
     n, m = mesh.n_vertices, mesh.n_faces
@@ -68,6 +72,7 @@ def mesh_report(mesh: Mesh) -> dict[str, Any]:
         "bbox_max": [float(x) for x in hi],
         "bbox_diagonal": mesh.bbox_diagonal(),
         "closed": bool(m > 0 and boundary == 0 and nonmanifold == 0),
+        "solver": backend_description(),
     }
 
 
@@ -101,6 +106,9 @@ def format_report(report: dict[str, Any]) -> str:
     ]
     keys = [None, None, None, "boundary_edges", "nonmanifold_edges",
             "unreferenced_vertices", "degenerate_faces", None, None, None]
+    if report.get("solver"):  # the machine's, not the mesh's: before the verdict, which stays last
+        rows.insert(-1, ("solver", str(report["solver"])))
+        keys.insert(-1, None)
     width = max(len(label) for label, _ in rows)
     title = report.get("name") or "mesh"
     lines = [title]
