@@ -10,11 +10,18 @@ simplifies the other, both with the cut's border kept exactly, and joins the
 halves along the cut. The caller then simplifies the joined surface, a little
 above its target, to the target as usual, and that last pass simplifies across
 the cut as well.
+
+The helper process is started only with an interpreter that is known to be a
+Python (:func:`helper_python`): inside an embedded interpreter (Blender, some
+notebook hosts) ``sys.executable`` can be the host's own program, which must
+never be started with a script. Without one, both halves are simplified in this
+process, one after the other: the same cage, on one core.
 """
 
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -24,7 +31,7 @@ import numpy as np
 from .qem_worker import simplify_half
 from .topology import group_rows
 
-__all__ = ["SPLIT_MIN_FACES", "MARGIN", "HalfWorker", "presimplify", "start_worker", "splits"]
+__all__ = ["SPLIT_MIN_FACES", "MARGIN", "HalfWorker", "helper_python", "presimplify", "start_worker", "splits"]
 
 #: surfaces of at least this many faces are simplified in two halves at once
 #: (the 173K armadillo's 346K faces: 0.6 s on one core)
@@ -32,8 +39,55 @@ SPLIT_MIN_FACES = 300_000
 #: the halves together keep this many times the final face target (the last pass
 #: then has room to simplify across the cut)
 MARGIN = 1.25
-#: the command that runs a half in another process (the worker's path is appended)
-WORKER = [sys.executable]
+#: the command that runs a half in another process (the worker's path is appended); None: the
+#: interpreter :func:`helper_python` finds, or no helper when it finds none
+WORKER: list[str] | None = None
+
+#: names of CPython and PyPy interpreters: python, python3, python3.12, python3.13t, pythonw.exe, pypy3
+_PYTHON_NAME = re.compile(r"(python|pypy)(\d+(\.\d+)*)?[dmtw]*(\.exe)?", re.IGNORECASE)
+
+
+def _is_python(path: str) -> bool:
+    """Whether ``path`` is an executable file named as a Python interpreter (itself or, for a
+    link such as a virtual environment's ``python``, what it points to)."""
+    if not path or not os.path.isfile(path) or not os.access(path, os.X_OK):
+        return False
+    names = {os.path.basename(path), os.path.basename(os.path.realpath(path))}
+    return any(_PYTHON_NAME.fullmatch(n) for n in names)
+
+
+def helper_python() -> str | None:
+    """The interpreter to start the helper with, or None when there is none to trust.
+
+    ``sys.executable`` when it is a Python interpreter; else the one multiprocessing's spawn
+    would start (``multiprocessing.set_executable``, which hosts embedding Python set to their
+    bundled interpreter) when that is one. A host program (``blender``, a notebook server's
+    binary) is never started. The helper gets this process's import path (:func:`_helper_env`),
+    so that it finds the same numpy and fast-simplification, paths a host added included.
+    """
+    candidates = [sys.executable]
+    try:
+        from multiprocessing import spawn
+
+        candidates.append(spawn.get_executable())
+    except Exception:  # noqa: BLE001 -- no multiprocessing (some embedded builds): sys.executable alone
+        pass
+    for exe in candidates:
+        if isinstance(exe, bytes):
+            exe = os.fsdecode(exe)
+        if exe and _is_python(str(exe)):
+            return str(exe)
+    return None
+
+
+def _helper_env() -> dict[str, str]:
+    """The environment of the helper: this one, with this process's import path first."""
+    here = os.path.dirname(os.path.realpath(__file__))
+    paths = [p for p in sys.path if p and os.path.isdir(p) and os.path.realpath(p) != here]
+    env = dict(os.environ)
+    old = env.get("PYTHONPATH")
+    env["PYTHONPATH"] = os.pathsep.join(paths + ([old] if old else []))
+    return env
 
 
 def _cores() -> int:
@@ -60,12 +114,21 @@ class HalfWorker:
     def __init__(self) -> None:
         self.used = False
         self._proc = None
-        if not all(WORKER):  # no interpreter to start (an embedded Python)
+        if WORKER is not None:
+            command = list(WORKER)
+        else:
+            exe = helper_python()
+            command = [exe] if exe else []
+        #: whether a helper process was started (False: its half is simplified in this process)
+        self.started = False
+        if not command or not all(command):  # no interpreter to start (an embedded Python)
             return
         worker = Path(__file__).with_name("qem_worker.py")
         try:
-            self._proc = subprocess.Popen([*WORKER, str(worker)], stdin=subprocess.PIPE,
-                                          stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
+            self._proc = subprocess.Popen([*command, str(worker)], stdin=subprocess.PIPE,
+                                          stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                                          env=_helper_env())
+            self.started = True
         except OSError:
             self._proc = None
 
