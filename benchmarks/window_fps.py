@@ -49,7 +49,7 @@ def top_fraction(V: np.ndarray, fraction: float) -> np.ndarray:
     return np.flatnonzero(x >= hi - fraction * (hi - lo))
 
 
-def run(mesh_path: Path, cage, size: tuple[int, int], seconds: float):
+def run(mesh_path: Path, cage, size: tuple[int, int], seconds: float, look: str | None = None):
     """Drag in the window and render bare, in turns; returns (displayed fps, bare fps, n_vertices,
     per-frame split in ms, frame ms, view size)."""
     from qtpy import QtCore, QtGui, QtWidgets
@@ -79,6 +79,8 @@ def run(mesh_path: Path, cage, size: tuple[int, int], seconds: float):
         m[ed.to_cage(top_fraction(V, frac), "shape")] = True
         s.set_mask(target, m)
     w._refresh_selection()
+    if look is not None:
+        w._set_look_mode(look)  # View > Texture / Colours / Plain
     w.set_mode(DRAG)
     w.scene.reset_camera()
     view = w.view
@@ -127,9 +129,9 @@ def run(mesh_path: Path, cage, size: tuple[int, int], seconds: float):
         app.processEvents()
 
     window_slice(min(1.0, 0.3 * seconds))  # warm-up
-    look = w.scene.look if w.scene.look_mode == "texture" else None
+    drawn = w.scene.look if w.scene.look_mode == "texture" else None
     bare = BarePlotter(np.asarray(s.shape_positions), np.asarray(w.scene.normals32), s.mesh.faces,
-                       (view.width(), view.height()), w.scene.renderer.GetActiveCamera(), look=look)
+                       (view.width(), view.height()), w.scene.renderer.GetActiveCamera(), look=drawn)
     bare.run(0.5)  # warm-up
     # window and bare plotter in alternating slices, so that both see the same machine load; each
     # slice's rate is its frames' steady cadence (intervals between the first and the last frame it
@@ -193,6 +195,8 @@ class BarePlotter:
             poly.active_texture_coordinates = look.uv
             image = next((m.image for m in look.materials if m.image is not None), None)
             texture = None if image is None else pv.Texture(np.ascontiguousarray(image[::-1]))
+            if texture is not None:
+                texture.interpolate = True  # as the window draws it (linear; no measurable cost)
         pl = pv.Plotter(window_size=list(size), lighting="none")
         pl.ren_win.SetMultiSamples(0)  # anti-aliasing off, as in the window with software OpenGL
         pl.disable_anti_aliasing()
@@ -275,6 +279,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cage", type=float, default=0.05, help="cage size as a fraction (default 0.05)")
     ap.add_argument("--size", type=parse_size, default=(1280, 900), help="window size, WxH (default 1280x900)")
     ap.add_argument("--smoke", action="store_true", help="a quick run on a small generated mesh")
+    ap.add_argument("--look", choices=("texture", "colors", "plain"),
+                    help="draw the mesh so (View menu; default: what its file has), the bare plotter alike")
     ap.add_argument("--textured", action="store_true",
                     help="without MESH: a generated textured mesh (100K+ vertices; small with --smoke)")
     args = ap.parse_args(argv)
@@ -296,7 +302,7 @@ def main(argv: list[str] | None = None) -> int:
     if sys.platform.startswith("linux"):
         os.environ.setdefault("QT_QPA_PLATFORM", "xcb")
     # (a private Xvfb ends with this process, after Qt has let go of it)
-    fps, bare, n, split, frame_ms, vsize, mode = run(mesh, args.cage, args.size, seconds)
+    fps, bare, n, split, frame_ms, vsize, mode = run(mesh, args.cage, args.size, seconds, args.look)
     print(f"view {vsize[0]}x{vsize[1]} px, {n:,} vertices, drawn {mode}, dragged {seconds:.1f} s")
     print(f"{'stage':<12} {'ms per displayed frame':>24}")
     for k, v in split.items():
