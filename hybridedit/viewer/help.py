@@ -34,18 +34,23 @@ HOWTO = """\
    On release the pose settles to what 'hybridedit deform' computes; then, with Edit >
    Polish on Release (on by default), about a second of full-resolution ARAP in the
    background smooths the edited region (the status bar reports the iterations and the
-   edge error before and after). The polished pose is what you see and what File > Save
-   writes; the next drag starts from the cage pose again, and undo ignores the polish.
-4. Undo / redo with Ctrl+Z / Ctrl+Shift+Z; Reset Pose (Ctrl+R) returns to rest.
+   edge error before and after). The polished pose is what you see, what File > Save
+   writes and where the next drag starts; Ctrl+Z undoes the polish on its own.
+   A new selection starts from the pose on screen: only its region can move, and a part
+   posed before stays exactly where it is.
+4. Undo / redo with Ctrl+Z / Ctrl+Shift+Z (a selection step never moves the shape);
+   Reset Pose (Ctrl+R) returns to rest.
 5. File > Save writes the deformed mesh; File > Save Edit writes the selection and the
    handle transform as a JSON edit file. It holds only the last selection and its drag,
    replayed from the rest pose: 'hybridedit deform in.obj -o out.obj --edit edit.json
-   --cage N' gives the shape you see when N is the window's cage size and that selection
-   was made on the rest pose.
+   --cage N' gives the shape you see (Mirror included) when N is the window's cage size
+   and that selection was made on the rest pose, with no polish since.
 Navigate: Camera mode (C) rotates with the left button; middle drag pans, the wheel
 zooms, Alt + left drag rotates in any mode; F frames the shape, W shows/hides the cage.
 T (View > Stretch Map) colours the shape by how much its edges stretched or shrank
-against the rest shape (blue 0 % to red 20 % or more). File > Mesh Info lists the
+against the rest shape (blue 0 % to red 20 % or more). Alt+1 / Alt+2 / Alt+3 (View >
+Texture / Colours / Plain) show the file's textures, its vertex colours, or the form
+alone (the default is what the file has). File > Mesh Info lists the
 counts and any repairs made to the input when it was loaded."""
 
 ABOUT = """\
