@@ -23,7 +23,16 @@ from .progress import SHOW_AFTER_SECONDS, TextProgress
 if TYPE_CHECKING:
     from .editor import HybridEditor
 
-DEFAULT_MESH = Path(__file__).resolve().parent.parent / "data" / "creature.ply"
+def _default_mesh(here: Path | None = None) -> Path:
+    """The default mesh: inside the package when installed from a wheel (hybridedit/data/, see
+    pyproject.toml), else the checkout's data/creature.ply (an editable install, a checkout).
+    ``here``: the package folder (this module's)."""
+    here = Path(__file__).resolve().parent if here is None else Path(here)
+    packaged = here / "data" / "creature.ply"
+    return packaged if packaged.is_file() else here.parent / "data" / "creature.ply"
+
+
+DEFAULT_MESH = _default_mesh()
 
 
 class CLIError(Exception):
@@ -302,12 +311,35 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def version_text() -> str:
+    """``hybridedit --version``: the version, the Python, and the sparse solver that runs."""
+    import platform
+
+    from . import __version__
+    from .linsolve import available_backends, backend_description
+
+    return (f"hybridedit {__version__} (Python {platform.python_version()}, {sys.platform})\n"
+            f"solver: {backend_description()}; installed: {', '.join(available_backends())}")
+
+
+class _Version(argparse.Action):
+    """--version, its text made only when asked (the solver's packages load then, not at every start)."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS, help=None):
+        super().__init__(option_strings, dest=dest, default=default, nargs=0, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(version_text())
+        parser.exit()
+
+
 def build_open_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="hybridedit",
         description="Open the hybrid mesh editor (default mesh when no file is given). "
         "Subcommands: 'hybridedit deform -h', 'hybridedit info -h'.",
     )
+    p.add_argument("--version", action=_Version, help="print the version and the sparse solver in use, and exit")
     p.add_argument("mesh", nargs="?", help="mesh to open (.obj .ply .stl .off .glb)")
     p.add_argument("--cage", type=parse_cage_size, default=0.05, help="cage vertices or fraction (default 5%%)")
     p.add_argument("--screenshot", help="render the scene to this PNG and exit")

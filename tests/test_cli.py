@@ -237,3 +237,37 @@ def test_an_error_in_the_middle_of_a_step_is_printed_on_a_line_of_its_own(tmp_pa
     text = err.getvalue()
     assert text.endswith(f"\rhybridedit: reading blob.obj   0%\nhybridedit: error: {mesh_file}: line 7: not a number\n"), \
         repr(text)
+
+
+def test_version_names_the_solver_backend(capsys, monkeypatch):
+    import hybridedit
+
+    monkeypatch.delenv("HYBRIDEDIT_SOLVER", raising=False)
+    with pytest.raises(SystemExit) as e:
+        main(["--version"])
+    assert e.value.code == 0
+    out = capsys.readouterr().out
+    from hybridedit.linsolve import available_backends, backend_name
+
+    assert out.startswith(f"hybridedit {hybridedit.__version__} (Python ")
+    assert f"solver: {backend_name()} (" in out and "installed: " + ", ".join(available_backends()) in out
+    monkeypatch.setenv("HYBRIDEDIT_SOLVER", "cholespy")
+    with pytest.raises(SystemExit):
+        main(["--version"])
+    assert "solver: cholespy (CHOLMOD via cholespy" in capsys.readouterr().out
+
+
+def test_the_default_mesh_is_found_in_a_checkout_and_in_an_installed_package(tmp_path):
+    from hybridedit import cli
+
+    from shapes import REPO
+
+    # a checkout (or an editable install): data/creature.ply beside the package
+    assert cli.DEFAULT_MESH == REPO / "data" / "creature.ply" and cli.DEFAULT_MESH.is_file()
+    assert read_mesh(cli.DEFAULT_MESH).n_vertices == 100_576
+    # an installed wheel: the copy inside the package comes first
+    pkg = tmp_path / "site-packages" / "hybridedit"
+    (pkg / "data").mkdir(parents=True)
+    (pkg / "data" / "creature.ply").write_bytes(b"ply")
+    assert cli._default_mesh(pkg) == pkg / "data" / "creature.ply"
+    assert cli._default_mesh(tmp_path / "elsewhere" / "hybridedit") == tmp_path / "elsewhere" / "data" / "creature.ply"
