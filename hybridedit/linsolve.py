@@ -141,8 +141,9 @@ def _resolve(backend: str) -> str:
     name = _canonical(backend)
     if name not in BACKENDS:
         raise ValueError(f"unknown backend {backend!r} (expected auto, {', '.join(BACKENDS)})")
-    if name == "cholmod" and not _CHOLMOD and _cholespy is not None and forced_backend() is None:
-        # asked for CHOLMOD by name without scikit-sparse: cholespy's CHOLMOD is the same factorization
+    if name == "cholmod" and not _CHOLMOD and _cholespy is not None and forced_backend() != "cholmod":
+        # asked for CHOLMOD by name without scikit-sparse: cholespy's CHOLMOD is the same
+        # factorization (unless HYBRIDEDIT_SOLVER insists on scikit-sparse's: then the error below)
         return "cholespy"
     return name
 
@@ -164,7 +165,7 @@ class SPDSolver:
     backend : "auto", "cholmod", "cholespy" or "superlu" ("scipy" is "superlu")
         "auto": ``HYBRIDEDIT_SOLVER`` when set, else the best installed (see the module's
         docstring). "cholmod" asks for a CHOLMOD factorization: scikit-sparse's, or cholespy's
-        when scikit-sparse is not installed (unless ``HYBRIDEDIT_SOLVER`` forces a backend).
+        when scikit-sparse is not installed (unless ``HYBRIDEDIT_SOLVER=cholmod`` insists).
         A backend that is not installed raises RuntimeError. :attr:`backend` is the one used.
     simplicial : bool or None
         Ask scikit-sparse's CHOLMOD for a simplicial factor (True) or a supernodal one (False);

@@ -8,7 +8,9 @@ cd "$(dirname "$0")/.."
 extras="${1:-}"
 
 # --- system packages -------------------------------------------------------
-# libsuitesparse-dev: CHOLMOD, which scikit-sparse compiles against.
+# libsuitesparse-dev: CHOLMOD, which scikit-sparse compiles against. (A plain pip install needs
+# none of this for solving: cholespy, a required dependency, brings CHOLMOD in its wheel; the
+# scikit-sparse built here is used instead where present, its supernodal factor being faster.)
 # The libraries Qt 6 (PySide6) and VTK load for a window.
 # xvfb: a virtual screen for the GUI tests.
 apt_pkgs=(libsuitesparse-dev libgl1 libegl1 libopengl0 libglib2.0-0 libdbus-1-3 libfontconfig1
@@ -34,6 +36,8 @@ py=${PYTHON:-python3}
 [[ -x .venv/bin/python ]] || "$py" -m venv .venv
 pip=(.venv/bin/python -m pip -q --disable-pip-version-check)
 
+# scikit-sparse (pyproject's "cholmod" extra; source only, so built here against the system's
+# SuiteSparse) is the fastest backend: hybridedit uses it first, cholespy otherwise.
 # scikit-sparse 0.5 needs SuiteSparse >= 7; older systems (Debian 12 ships 5.12) build 0.4.16.
 hdr=$(ls /usr/include/suitesparse/SuiteSparse_config.h /usr/include/SuiteSparse_config.h 2>/dev/null | head -n1 || true)
 ss_major=$( [[ -n "$hdr" ]] && awk '/define SUITESPARSE_MAIN_VERSION/ {print $3; exit}' "$hdr" || echo 7)
