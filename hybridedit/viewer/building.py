@@ -5,21 +5,31 @@ The work runs in a :class:`~.worker.BuildWorker` thread; this module starts it, 
 signals on the UI thread and hands a finished build to the window, which puts it on display
 (:meth:`~.window.MainWindow.install_build`). A cancelled or failed build leaves the shape and
 the edit on display as they were.
+
+The cage size of a build (:func:`build_size`): a vertex count is checked against the shape before
+its cage is built (:func:`~.cagesize.fit_cage_size`: above half the shape's vertices, 5 % is used,
+shown in the box and said in the status bar); a file opened at a vertex count is read first for that
+(:class:`FileBuildAtCount`). A new shape never starts from the count of the shape on display: it
+starts from 5 % (a percentage carries over, and so does a count typed in the box since).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 from qtpy import QtCore, QtWidgets
 
-from .worker import BuildRequest, BuildResult, BuildWorker, release
+from . import worker as worker_module
+from .cagesize import DEFAULT_SIZE, fit_cage_size, is_count
+from .worker import BuildRequest, BuildResult, BuildWorker, Cancelled, release
 
 if TYPE_CHECKING:
     from ..mesh import Mesh
     from .session import Session
+    from .statusfield import StatusRow
 
 
 @runtime_checkable
@@ -49,6 +59,7 @@ class BuildHost(Protocol):
     @property
     def polisher(self) -> Cancels: ...
     def cage_size(self) -> int | float: ...
+    def set_cage_size(self, size: int | float) -> None: ...
     def finish_settle(self) -> None: ...
     def show_error(self, title: str, text: str) -> None: ...
     def message(self, text: str) -> None: ...
@@ -84,6 +95,78 @@ def built_message(result: BuildResult, session: "Session", rebuilt: bool, note: 
     return msg
 
 
+def build_size(asked: int | float, shown: int | float | None, new_shape: bool,
+               n_vertices: int | None) -> tuple[int | float, str | None]:
+    """The cage size a build uses, and a sentence when it is not the one ``asked``.
+
+    Parameters
+    ----------
+    asked : the size in the toolbar's box.
+    shown : the cage size of the shape on display (None: no shape).
+    new_shape : the build is of another shape (opening), not a new cage for the one on display.
+    n_vertices : the vertex count of the shape to build, when known (None: a file not read yet).
+
+    Returns
+    -------
+    size : the size to build at; a vertex count only once checked against ``n_vertices``.
+    note : why ``size`` is not ``asked`` (said in the status bar before the build), or None.
+
+    Examples
+    --------
+    >>> build_size(64_000, 64_000, new_shape=True, n_vertices=None)  # the count of the shape on display
+    (0.05, None)
+    >>> build_size(0.1, 64_000, new_shape=True, n_vertices=None)  # a percentage carries over
+    (0.1, None)
+    >>> build_size(9_999_999, None, new_shape=False, n_vertices=32_000)[0]
+    0.05
+    """
+    if new_shape and is_count(asked) and shown is not None and is_count(shown) and int(asked) == int(shown):
+        return DEFAULT_SIZE, None
+    return fit_cage_size(asked, n_vertices)
+
+
+class FileBuildAtCount(BuildWorker):
+    """A file opened at a vertex count: the file is read first, the count checked against the shape
+    (:func:`~.cagesize.fit_cage_size`) and, when it is too many, :attr:`size_fitted` says so before
+    the cage is built; then the build goes on as any other.
+
+    A file that cannot be read is left to :class:`~.worker.BuildWorker` as it is (it reads it again and
+    says why, in its words).
+
+    Signals
+    -------
+    size_fitted(size, note)   the size used instead of the request's, and why (from the build thread)
+
+    Attributes
+    ----------
+    look : the file's textures and colours once read (the build's result gets them: the build itself
+        starts from the shape read here).
+    """
+
+    size_fitted = QtCore.Signal(object, str)
+
+    def __init__(self, request: BuildRequest, parent: QtCore.QObject | None = None) -> None:
+        super().__init__(request, parent)
+        self.look = None
+
+    def run(self) -> None:  # runs in the worker thread
+        req = self.request
+        try:
+            document = worker_module.read_document(req.path, progress=self._report)
+        except Cancelled:
+            self.cancelled.emit()
+            return
+        except Exception:  # noqa: BLE001 -- read again, and said, by BuildWorker.run
+            super().run()
+            return
+        self.look = self._look(document)
+        size, note = fit_cage_size(req.cage_size, document.mesh.n_vertices)
+        if note:
+            self.size_fitted.emit(size, note)
+        self.request = dataclasses.replace(req, mesh=document.mesh, cage_size=size)
+        super().run()
+
+
 class BuildJobs(QtCore.QObject):
     """The build jobs of a :class:`~.window.MainWindow`: open a file, build a loaded shape, rebuild the cage.
 
@@ -103,6 +186,7 @@ class BuildJobs(QtCore.QObject):
     worker : the build thread running now, or None.
     progress : the progress bar (stage and percentage).
     cancel_button : the Cancel button beside it.
+    size_note : why the job under way builds at another size than the box had, or None.
 
     Signals
     -------
@@ -115,23 +199,64 @@ class BuildJobs(QtCore.QObject):
         super().__init__(parent)
         self.w = window
         self.worker: BuildWorker | None = None
+        self.size_note: str | None = None
+        self._box_before: tuple[int | float, int | float] | None = None  # (the box's size, what the job set)
         self.progress = QtWidgets.QProgressBar()
         self.progress.setRange(0, 1000)
-        self.progress.setFixedWidth(420)
         self.progress.setTextVisible(True)
         self.cancel_button = QtWidgets.QPushButton("Cancel")
         self.cancel_button.clicked.connect(self.cancel)
+        self._row: StatusRow | None = None
 
     @property
     def busy(self) -> bool:
         return self.worker is not None
 
-    def place_in(self, statusbar: QtWidgets.QStatusBar) -> None:
-        """Put the progress bar and the Cancel button at the right of ``statusbar``, hidden until a job runs."""
-        statusbar.addPermanentWidget(self.progress)
-        statusbar.addPermanentWidget(self.cancel_button)
-        self.progress.hide()
-        self.cancel_button.hide()
+    PROGRESS_WIDTH = 420
+    """The progress bar's width when there is room; it shrinks to :attr:`PROGRESS_MIN` in a narrow window."""
+    PROGRESS_MIN = 120
+
+    def place_in(self, row: StatusRow) -> None:
+        """Put the progress bar and the Cancel button at the right of the status bar's ``row``, first in
+        priority (the fields give way to them), hidden until a job runs."""
+        self._row = row
+        row.add(self.progress, 0, preferred=self.PROGRESS_WIDTH, minimum=self.PROGRESS_MIN, wanted=False)
+        row.add(self.cancel_button, 0, wanted=False)
+
+    def _show_bar(self, on: bool) -> None:
+        if self._row is not None:
+            self._row.set_wanted(self.progress, on)
+            self._row.set_wanted(self.cancel_button, on)
+        else:
+            self.progress.setVisible(on)
+            self.cancel_button.setVisible(on)
+
+    # ------------------------------------------------------------------ the cage size
+    def _size(self, new_shape: bool, n_vertices: int | None) -> int | float:
+        """The size for the build about to start: shown in the box, and said when it is not the box's."""
+        w = self.w
+        asked = w.cage_size()
+        size, note = build_size(asked, w.session.cage_size if w.session is not None else None, new_shape,
+                                n_vertices)
+        self.size_note = note
+        self._show_size(asked, size, note)
+        return size
+
+    def _show_size(self, asked: int | float, size: int | float, note: str | None) -> None:
+        w = self.w
+        if size != asked or type(size) is not type(asked):
+            if self._box_before is None:
+                self._box_before = (asked, size)
+            else:
+                self._box_before = (self._box_before[0], size)
+            w.set_cage_size(size)
+        if note:
+            w.message(f"Cage size: {note}.")
+
+    def _size_fitted(self, size: int | float, note: str) -> None:
+        """The build thread read the file: its vertex count was too many for the shape."""
+        self.size_note = note
+        self._show_size(self.w.cage_size(), size, note)
 
     # ------------------------------------------------------------------ starting
     def open_file(self, path: str | os.PathLike) -> bool:
@@ -142,13 +267,18 @@ class BuildJobs(QtCore.QObject):
         p = Path(path)
         if not self.w.files.keep_work(f"opening {p.name}"):
             return False
-        return self.start(BuildRequest(cage_size=self.w.cage_size(), path=p), f"Opening {p.name}")
+        if self._refused():
+            return False
+        return self.start(BuildRequest(cage_size=self._size(True, None), path=p), f"Opening {p.name}")
 
     def open_mesh(self, mesh: "Mesh", path: Path | None = None) -> bool:
         """Build an already loaded shape (asks first if the pose is unsaved); True when the job started."""
         if not self.w.files.keep_work("opening another shape"):
             return False
-        return self.start(BuildRequest(cage_size=self.w.cage_size(), path=path, mesh=mesh), "Building")
+        if self._refused():
+            return False
+        return self.start(BuildRequest(cage_size=self._size(True, mesh.n_vertices), path=path, mesh=mesh),
+                          "Building")
 
     def rebuild(self) -> bool:
         """Build the session's cage and binding again at the toolbar's size; True when the job started.
@@ -165,23 +295,37 @@ class BuildJobs(QtCore.QObject):
             return False
         if not w.files.keep_work("rebuilding the cage (the pose is solved again on the new cage)"):
             return False
-        return self.start(BuildRequest(cage_size=w.cage_size(), path=s.path, mesh=s.mesh, rebuild=True),
+        if self._refused():
+            return False
+        size = self._size(False, s.mesh.n_vertices)
+        return self.start(BuildRequest(cage_size=size, path=s.path, mesh=s.mesh, rebuild=True),
                           "Rebuilding the cage")
+
+    def _refused(self) -> bool:
+        """A job runs: say so (an error) and return True."""
+        if self.worker is None:
+            return False
+        self.w.show_error("Busy", "A cage is being built; wait for it or cancel it first.")
+        return True
 
     def start(self, request: BuildRequest, label: str) -> bool:
         """Run ``request`` in a build thread, its progress shown as ``label…`` until the first report.
 
         Refused (an error, False) while another job runs. Gestures and polishes under way stop first.
+        A file asked at a vertex count is read first, to check the count (:class:`FileBuildAtCount`).
         """
         w = self.w
-        if self.worker is not None:
-            w.show_error("Busy", "A cage is being built; wait for it or cancel it first.")
+        if self._refused():
             return False
         # the polish only, not the settle: a settle under way may go on while the thread builds, and
         # install_build completes it before the build goes on display
         w.controller.cancel()
         w.polisher.cancel()
-        job = BuildWorker(request, self)
+        if request.mesh is None and is_count(request.cage_size):
+            job = FileBuildAtCount(request, self)
+            job.size_fitted.connect(self._size_fitted)
+        else:
+            job = BuildWorker(request, self)
         job.progress.connect(self._progress)
         job.succeeded.connect(self._succeeded)
         job.failed.connect(self._failed)
@@ -190,8 +334,7 @@ class BuildJobs(QtCore.QObject):
         self.worker = job
         self.progress.setValue(0)
         self.progress.setFormat(f"{label}…")
-        self.progress.show()
-        self.cancel_button.show()
+        self._show_bar(True)
         self.cancel_button.setEnabled(True)
         self.busy_changed.emit(True)
         job.start()
@@ -220,8 +363,12 @@ class BuildJobs(QtCore.QObject):
 
     def _succeeded(self, result: BuildResult) -> None:
         w = self.w
+        if result.look is None and isinstance(self.worker, FileBuildAtCount):
+            result.look = self.worker.look  # (read before the build, which started from the shape read)
+        self._box_before = None  # the box shows the new cage's size (install_build)
         try:
             rebuilt, note = w.install_build(result)
+            note = "; ".join(n for n in (self.size_note, note) if n) or None
             w.message(built_message(result, w.session, rebuilt, note))
         except Exception as e:  # noqa: BLE001
             w.show_error("Could not show the shape", f"{e.__class__.__name__}: {e}")
@@ -237,6 +384,11 @@ class BuildJobs(QtCore.QObject):
     def _finished(self) -> None:
         job, self.worker = self.worker, None
         release(job)
-        self.progress.hide()
-        self.cancel_button.hide()
+        if self._box_before is not None:  # not built: the box goes back to what it had (unless changed since)
+            asked, set_here = self._box_before
+            if self.w.cage_size() == set_here:
+                self.w.set_cage_size(asked)
+        self._box_before = None
+        self.size_note = None
+        self._show_bar(False)
         self.busy_changed.emit(False)

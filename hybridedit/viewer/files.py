@@ -113,6 +113,7 @@ class FileHost(Protocol):
     def confirm(self, title: str, text: str) -> bool: ...
     def message(self, text: str) -> None: ...
     def set_modified(self, modified: bool) -> None: ...
+    def update_title(self) -> None: ...
     def refresh_all(self) -> None: ...
 
 
@@ -141,6 +142,17 @@ class FileActions:
     def session(self):
         return self.w.session
 
+    @property
+    def document_name(self) -> str | None:
+        """The name the shape goes by: the file it was last saved to (Save As), else the file it was
+        opened from, else its mesh's name; None without a shape."""
+        s = self.session
+        if s is None:
+            return None
+        if self.save_path is not None:
+            return self.save_path.name
+        return s.path.name if s.path is not None else (s.mesh.name or "shape")
+
     def forget_paths(self) -> None:
         """A new shape: nothing saved yet."""
         self.save_path = None
@@ -161,7 +173,7 @@ class FileActions:
         if not self.w.modified or self.session is None:
             return True
         Btn = QtWidgets.QMessageBox.StandardButton
-        name = self.session.path.name if self.session.path is not None else "the shape"
+        name = self.document_name if self.save_path is not None or self.session.path is not None else "the shape"
         box = QtWidgets.QMessageBox(QtWidgets.QMessageBox.Icon.Question, "Unsaved pose",
                                     f"The pose of {name} is not saved.\n\nSave it before {doing}?",
                                     Btn.Save | Btn.Discard | Btn.Cancel, self.parent)
@@ -247,6 +259,7 @@ class FileActions:
         finally:
             progress.close()
         self.save_path = p
+        w.update_title()  # (Save As: the title names the new file)
         w.set_modified(False)
         # what a conversion could not carry, references not copied: said, as the CLI says them
         w.message(" ".join([f"Saved {p}."] + [f"Note: {n}." for n in notes]))

@@ -30,7 +30,7 @@ from .interaction import BRUSH, CAMERA, DRAG, RECTANGLE, SELECT, ViewController
 from .polishing import PolishScheduler
 from .scene import STATE_COLORS, Scene, state_rows
 from .session import HANDLE, ROI, Session
-from .statusfield import StatusField
+from .statusfield import MessageLine, StatusField, StatusRow
 from .view import View
 from .worker import BuildResult, BuildWorker, PolishOutcome
 
@@ -93,7 +93,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.polisher = PolishScheduler(self)
         self.polisher.succeeded.connect(self._polish_succeeded)
         self.polisher.failed.connect(lambda m: self.message(f"Polish failed: {m}"))
-        self._set_title()
+        self.update_title()
 
         self.view = View(self)
         self.setCentralWidget(self.view)
@@ -298,23 +298,24 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def _make_statusbar(self) -> None:
         sb = self.statusBar()
-        # the latest message, whole (it wraps rather than being cut); View > Messages keeps them all
-        self.message_label = QtWidgets.QLabel("")
-        self.message_label.setTextFormat(QtCore.Qt.TextFormat.PlainText)
-        self.message_label.setWordWrap(True)
-        self.message_label.setSizePolicy(QtWidgets.QSizePolicy.Policy.Ignored,
-                                         QtWidgets.QSizePolicy.Policy.Fixed)
-        # room for two lines whatever the message, so the view never changes size under the mouse
-        self.message_label.setFixedHeight(2 * self.message_label.fontMetrics().lineSpacing() + 4)
+        # the latest message on two lines, cut with "…" when longer: whole in its tooltip, and a click shows
+        # the message log (View > Messages keeps them all); its size never changes with the text
+        self.message_label = MessageLine(2, hint="Click for every message (View ▸ Messages)")
+        self.message_label.clicked.connect(self._show_messages)
         sb.addWidget(self.message_label, 1)
-        # fields of fixed size: a new frame rate or edge error while dragging re-lays nothing out
+        # fields of fixed size: a new frame rate or edge error while dragging re-lays nothing out; the row
+        # shows those that fit its width, by priority (edge error, selection, sizes, timing), never one over
+        # another; the build's progress bar and Cancel button come first
         self.time_label = StatusField(template="00 fps · engine 00.0 ms · render 000 ms")
         self.size_label = StatusField("no shape")
         self.sel_label = StatusField()
         self.error_label = StatusField(template="edge error 00.00 %")
-        for w in (self.time_label, self.size_label, self.sel_label, self.error_label):
-            sb.addPermanentWidget(w)
-        self.jobs.place_in(sb)  # the build's progress bar and Cancel button
+        # (the row takes no more than what fits beside the message at its narrowest: the rest is the message's)
+        self.status_row = StatusRow(reserve=lambda: self.message_label.minimumWidth() + 40)
+        for priority, w in ((4, self.time_label), (3, self.size_label), (2, self.sel_label), (1, self.error_label)):
+            self.status_row.add(w, priority)
+        self.jobs.place_in(self.status_row)  # the build's progress bar and Cancel button
+        sb.addPermanentWidget(self.status_row)
         self.log = QtWidgets.QPlainTextEdit()
         self.log.setReadOnly(True)
         self.log.setMaximumBlockCount(2000)
@@ -344,9 +345,9 @@ class MainWindow(QtWidgets.QMainWindow):
         return r == Btn.Yes
 
     def message(self, text: str) -> None:
-        """Show a message whole in the status bar until the next one (or until it is out of date), and log it."""
+        """Show a message in the status bar until the next one (or until it is out of date): what fits in two
+        lines, the rest cut with "…" and whole in its tooltip; and log it."""
         self.message_label.setText(text)
-        self.message_label.setToolTip(text)
         if text:
             self.log.appendPlainText(f"{time.strftime('%H:%M:%S')}  {text}")
 
@@ -356,7 +357,6 @@ class MainWindow(QtWidgets.QMainWindow):
     def clear_message(self) -> None:
         """The state changed: the message on show may no longer be true."""
         self.message_label.setText("")
-        self.message_label.setToolTip("")
 
     # ================================================================== unsaved changes
     def set_modified(self, modified: bool) -> None:
@@ -365,13 +365,11 @@ class MainWindow(QtWidgets.QMainWindow):
         self.modified = bool(modified)
         self.setWindowModified(self.modified)
 
-    def _set_title(self) -> None:
-        s = self.session
-        if s is None:
-            self.setWindowTitle("hybridedit")
-        else:
-            name = s.path.name if s.path is not None else (s.mesh.name or "shape")
-            self.setWindowTitle(f"hybridedit — {name}[*]")
+    def update_title(self) -> None:
+        """The title names the shape's file (the one last saved to by Save As, else the one opened), with
+        ``*`` while the pose on display is not saved."""
+        name = self.files.document_name
+        self.setWindowTitle("hybridedit" if name is None else f"hybridedit — {name}[*]")
         self.setWindowModified(self.modified)
 
     # ================================================================== cage size control
@@ -498,6 +496,11 @@ class MainWindow(QtWidgets.QMainWindow):
     def _toggle_messages(self) -> None:
         self.log_dock.setVisible(self.actions_["messages"].isChecked())
 
+    def _show_messages(self) -> None:
+        """A click on the status bar's message: the message log, its latest line in sight."""
+        self.log_dock.show()
+        self.log.verticalScrollBar().setValue(self.log.verticalScrollBar().maximum())
+
     def _focus_view(self) -> None:
         self.view.setFocus(QtCore.Qt.FocusReason.OtherFocusReason)
 
@@ -568,7 +571,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self._show_engine()
         if not rebuilt:
             self.scene.reset_camera()
-        self._set_title()
+        self.update_title()
         self._update_actions()
         return rebuilt, note
 

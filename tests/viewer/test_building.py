@@ -16,7 +16,8 @@ import pytest
 from qtpy import QtCore, QtWidgets
 
 from hybridedit.viewer import worker as worker_module
-from hybridedit.viewer.building import built_message
+from hybridedit.viewer.building import build_size, built_message
+from hybridedit.viewer.cagesize import DEFAULT_SIZE, MAX_SHARE, fit_cage_size
 from hybridedit.viewer.window import MainWindow
 from hybridedit.viewer.worker import BuildRequest
 from test_window import wait_loaded, win  # noqa: F401 (fixture)
@@ -199,3 +200,109 @@ def test_rebuild_without_a_shape_says_so(qtbot, monkeypatch):
     assert errors == [("Rebuild cage", "Open a mesh first.")]
     assert_idle(w)
     close_boxes(w)
+
+
+# ---------------------------------------------------------------------------- the cage size
+
+
+def test_a_count_above_half_the_shape_is_built_at_5_percent_and_said():
+    assert fit_cage_size(9_999_999, 32_000) == (0.05, "a cage of 9,999,999 vertices is more than half this "
+                                                      "shape's 32,000 vertices: using 5% (about 1,600)")
+    assert fit_cage_size(16_000, 32_000) == (16_000, None)  # half: taken
+    assert fit_cage_size(16_001, 32_000)[0] == DEFAULT_SIZE == 0.05 and MAX_SHARE == 0.5
+    assert fit_cage_size(1.0, 100) == (1.0, None)  # a percentage is the user's
+    assert fit_cage_size(5000, None) == (5000, None)  # not known yet: checked once read
+    # a new shape does not start from the count of the shape on display; a percentage, or a count typed
+    # since, is used (checked against the shape when its size is known)
+    assert build_size(3000, 3000, new_shape=True, n_vertices=None) == (0.05, None)
+    assert build_size(3000, 3000, new_shape=False, n_vertices=10_000) == (3000, None)  # a rebuild: kept
+    assert build_size(0.12, 3000, new_shape=True, n_vertices=None) == (0.12, None)
+    assert build_size(70, 3000, new_shape=True, n_vertices=2562) == (70, None)
+    assert build_size(2000, 0.05, new_shape=True, n_vertices=2562)[0] == 0.05  # (2,000 > 1,281)
+    assert build_size(2000, None, new_shape=True, n_vertices=None) == (2000, None)  # a file: read first
+
+
+def test_a_rebuild_at_too_many_vertices_says_so_before_the_build_and_the_box_shows_5_percent(qtbot, win, gate):
+    w = win
+    s = w.session
+    w.set_cage_size(5000)  # the blob has 2,562 vertices
+    assert w.rebuild()
+    said = "a cage of 5,000 vertices is more than half this shape's 2,562 vertices: using 5% (about 128)"
+    # at once, while the build has just started
+    assert w.worker is not None and w.worker.request.cage_size == 0.05
+    assert w.current_message() == f"Cage size: {said}."
+    assert w.cage_size() == 0.05 and w.cage_control.unit.currentText() == "%"
+    assert abs(w.cage_control.spin.value() - 5.0) < 1e-9
+    gate.set()
+    wait_loaded(qtbot, w)
+    assert w.session is s and s.cage_size == 0.05 and abs(s.n_cage - 128) < 30
+    assert w.current_message().startswith("Rebuilt the cage of blob.obj") and said in w.current_message()
+    assert w.cage_size() == 0.05
+    assert said in w.log.toPlainText()
+
+
+def test_a_cancelled_build_puts_the_box_back(qtbot, win, gate):
+    w = win
+    w.set_cage_size(5000)
+    assert w.rebuild()
+    assert w.cage_size() == 0.05
+    w.cancel_job()
+    qtbot.waitUntil(lambda: w.worker is None, timeout=20000)
+    assert w.cage_size() == 5000 and w.session.cage_size == 150
+
+
+def test_a_file_opened_at_too_many_vertices_is_read_then_built_at_5_percent(qtbot, gate, tmp_path, blob_file,
+                                                                            monkeypatch):
+    """The command line's --cage 5000, say, for a shape of 2,562 vertices: the count is checked once the file
+    is read, before its cage is built; the file's colours still show."""
+    from hybridedit.io import read_mesh
+
+    blob = read_mesh(blob_file)
+    coloured = tmp_path / "coloured.obj"
+    coloured.write_text("".join(f"v {x:.17g} {y:.17g} {z:.17g} 0.2 0.5 0.8\n" for x, y, z in blob.vertices)
+                        + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in blob.faces))
+    w = MainWindow(cage_size=5000)
+    qtbot.addWidget(w)
+    w.show()
+    qtbot.waitExposed(w)
+    assert w.cage_size() == 5000
+    assert w.open_path(coloured)
+    said = "a cage of 5,000 vertices is more than half this shape's 2,562 vertices: using 5% (about 128)"
+    # held at the gate: the file is read, the count checked and said, the cage not built yet
+    qtbot.waitUntil(lambda: said in w.current_message(), timeout=20000)
+    assert w.worker is not None and not gate.is_set() and w.cage_size() == 0.05
+    gate.set()
+    wait_loaded(qtbot, w)
+    s = w.session
+    assert s.path == coloured and s.cage_size == 0.05 and abs(s.n_cage - 128) < 30
+    assert said in w.current_message() and w.current_message().startswith("Loaded coloured.obj")
+    assert s.look is not None and s.look.colors is not None  # (read before the build, shown after it)
+    assert w.scene.look_mode == "colors"
+    # a count that fits is used as asked
+    w.set_cage_size(300)
+    assert w.open_path(blob_file)
+    wait_loaded(qtbot, w)
+    assert w.session.path == blob_file and w.session.cage_size == 300 and w.cage_size() == 300
+    w.close()
+
+
+def test_another_file_starts_from_5_percent_not_from_the_last_count(qtbot, win, tmp_path, make_blob):
+    from hybridedit.io import write_mesh
+
+    w = win
+    assert w.session.cage_size == 150 and w.cage_size() == 150  # (the window was made with --cage 150)
+    other = tmp_path / "other.obj"
+    write_mesh(other, make_blob(5))  # 10K vertices: 150 would do, but it was the blob's count
+    assert w.open_path(other)
+    assert w.cage_size() == 0.05  # at once, in the box
+    wait_loaded(qtbot, w)
+    s = w.session
+    assert s.path == other and s.cage_size == 0.05 and w.cage_size() == 0.05
+    assert abs(s.n_cage - 0.05 * s.mesh.n_vertices) < 0.2 * 0.05 * s.mesh.n_vertices
+    # a percentage the user chose carries over
+    w.set_cage_size(0.08)
+    assert w.rebuild()
+    wait_loaded(qtbot, w)
+    assert w.open_path(other)
+    wait_loaded(qtbot, w)
+    assert w.session.cage_size == 0.08 and w.cage_size() == 0.08

@@ -114,6 +114,31 @@ def test_a_long_save_shows_its_progress(qtbot, win, tmp_path, monkeypatch):
     assert np.allclose(read_mesh(tmp_path / "posed.obj").vertices, w.session.shown_positions)
 
 
+def test_save_as_names_the_new_file_in_the_title(qtbot, win, tmp_path, monkeypatch, other_mesh):
+    w = win
+    drag_tip(qtbot, w)
+    assert w.windowTitle() == "hybridedit — blob.obj[*]" and w.isWindowModified()
+    out = tmp_path / "posed.ply"
+    monkeypatch.setattr(QtWidgets.QFileDialog, "getSaveFileName", staticmethod(lambda *a, **k: (str(out), "")))
+    w.actions_["save_as"].trigger()
+    assert out.exists()
+    assert w.windowTitle() == "hybridedit — posed.ply[*]" and not w.isWindowModified() and not w.modified
+    # the next change marks the new file's title; the question before dropping it names that file
+    drag_tip(qtbot, w)
+    assert w.windowTitle() == "hybridedit — posed.ply[*]" and w.isWindowModified()
+    asked = answer(qtbot, w, Btn.Cancel)
+    assert not w.open_path(other_mesh)
+    assert asked and asked[0].startswith("The pose of posed.ply is not saved.")
+    # Save writes to it again, the title stays
+    w.actions_["save"].trigger()
+    assert w.windowTitle() == "hybridedit — posed.ply[*]" and not w.isWindowModified()
+    # another shape: its own name, nothing saved yet
+    assert w.open_path(other_mesh)
+    wait_loaded(qtbot, w)
+    qtbot.waitUntil(lambda: w.session.path == other_mesh, timeout=30000)
+    assert w.windowTitle() == "hybridedit — other.off[*]" and not w.isWindowModified()
+
+
 @pytest.mark.parametrize("how", ["open", "drop"])
 def test_open_or_drop_asks_before_dropping_the_pose(qtbot, win, other_mesh, tmp_path, monkeypatch, how):
     w = win
