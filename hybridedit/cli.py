@@ -7,6 +7,7 @@ import json
 import os
 import sys
 import time
+import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -360,6 +361,8 @@ def console_main() -> None:
 
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
+    # a discarded cache entry is one of the engine's notes, printed as the others are (not twice)
+    warnings.filterwarnings("ignore", message="hybridedit: cache entry")
     if argv and argv[0] in ("deform", "info"):
         args = build_parser().parse_args(argv)
     else:

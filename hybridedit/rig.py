@@ -10,6 +10,7 @@ propagation), be rebuilt in a worker thread, or come from the cache.
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -139,11 +140,18 @@ def build_rig(
     say = progress or (lambda stage, fraction: None)
     t0 = time.perf_counter()
     notes: list[str] = []
+    discarded: list[str] = []  # cache entries not used: said on this rig only, never stored with the entry
     folder = key = None
     if cache and cage is None:
         folder = bindcache.default_cache_dir() if cache is True else Path(cache)
         key = bindcache.cache_key(mesh, cage_size, float(truncation))
-        hit = bindcache.load(folder, key, mesh)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", bindcache.CacheEntryDiscarded)
+            hit = bindcache.load(folder, key, mesh)
+        for w in caught:  # said again (the CLI prints it), and kept as a note for the window
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+            if issubclass(w.category, bindcache.CacheEntryDiscarded):
+                discarded.append(str(w.message).removeprefix("hybridedit: "))
         if hit is not None:
             c, M, cached_notes = hit
             try:
@@ -162,4 +170,4 @@ def build_rig(
         bindcache.store(folder, key, c, M, notes)
     timings.setdefault("cage_seconds", 0.0)
     timings.setdefault("bind_seconds", time.perf_counter() - t0 - timings["cage_seconds"])
-    return Rig(mesh, c, M, tuple(notes), timings, False, cage_size, float(truncation))
+    return Rig(mesh, c, M, tuple(discarded + notes), timings, False, cage_size, float(truncation))

@@ -198,6 +198,7 @@ def test_a_tampered_entry_is_discarded_with_a_note_and_rebuilt(tmp_path, shape, 
         again = HybridEditor(shape, 80, cache=tmp_path)
     print(f"{case}: {rec[0].message}")
     assert not again.cache_hit
+    assert any("not used" in n and "rebuilt" in n for n in again.notes)  # a note the window and CLI show
     assert np.array_equal(again.cage.vertices, clean.cage.vertices) and (again.M != clean.M).nnz == 0
     again.set_selection(handle, roi=roi)
     assert np.array_equal(again.pose(translate=(0.0, 0.3, 0.0)), want)
