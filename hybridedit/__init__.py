@@ -50,6 +50,7 @@ _WHERE = {
     "Rig": "rig",
     "SelectionError": "selection",
     "apply_transform": "transforms",
+    "backend_description": "linsolve",
     "bind": "binding",
     "build_cage": "cage",
     "build_rig": "rig",

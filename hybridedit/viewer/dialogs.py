@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 from qtpy import QtCore, QtWidgets
 
+from .. import backend_description
 from .help import ABOUT, HOWTO, ShortcutsDialog
 
 if TYPE_CHECKING:
@@ -39,6 +40,7 @@ def mesh_info_text(session: "Session | None", last_polish: "PolishOutcome | None
         f"Faces: {m.n_faces:,}",
         f"Edges: {len(s.edges):,}",
         f"Cage: {c.n_vertices:,} vertices, {c.n_faces:,} faces",
+        f"Solver: {backend_description()}",
     ]
     notes = [str(n) for n in (getattr(s.editor, "notes", None) or [])]
     lines.append("")

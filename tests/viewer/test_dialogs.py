@@ -6,6 +6,8 @@ from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
+
+import hybridedit as he
 from qtpy import QtCore, QtWidgets
 
 from hybridedit.viewer.dialogs import mesh_info_text
@@ -22,8 +24,10 @@ def fake_session(path=None, notes=()):
 def test_mesh_info_text_counts_repairs_and_last_polish():
     assert mesh_info_text(None) == "No shape loaded."
     assert mesh_info_text(fake_session()) == (
-        "Shape: blob\nVertices: 12,345\nFaces: 24,686\nEdges: 37,029\nCage: 617 vertices, 1,230 faces\n\n"
+        "Shape: blob\nVertices: 12,345\nFaces: 24,686\nEdges: 37,029\nCage: 617 vertices, 1,230 faces\n"
+        f"Solver: {he.backend_description()}\n\n"
         "Repairs made to the input: none")
+    assert he.backend_description().split()[0] in ("cholmod", "cholespy", "superlu")  # which backend runs
     polish = SimpleNamespace(result=SimpleNamespace(iterations=42), seconds=1.004, setup_seconds=0.25,
                              error_before=3.456, error_after=1.2)
     text = mesh_info_text(fake_session(Path("/data/creature.ply"), notes=["merged 3 duplicate vertices"]), polish)
