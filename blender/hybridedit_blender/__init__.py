@@ -1,0 +1,45 @@
+"""Hybrid ARAP: pose dense meshes live in Blender with hybridedit's cage-based ARAP.
+
+ROI and handle groups come from vertex groups; each handle group follows an Empty
+(as a Hook does). Bind builds the cage and binding in the background (cached by the
+mesh's content); moving or rotating an Empty deforms the mesh live; Apply bakes the
+pose (one undo step); Reset returns to the bound pose. Only vertex positions are
+ever written: UVs, colours, custom normals and every other attribute are untouched.
+"""
+
+from __future__ import annotations
+
+import os
+
+
+def _numba_cache() -> None:
+    """Compiled kernels go to a user-writable folder (an extension's own folder may be read-only),
+    so that they compile once, not at every start. Before numba is first imported."""
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return
+    from .bind import user_folder
+
+    os.environ["NUMBA_CACHE_DIR"] = user_folder("numba")
+
+
+def register():
+    import bpy
+
+    from . import bind, live, ops, panel
+
+    _numba_cache()
+    for cls in panel.CLASSES + (bind.HYBRIDARAP_OT_bind,) + ops.CLASSES:
+        bpy.utils.register_class(cls)
+    bpy.types.Object.hybrid_arap = bpy.props.PointerProperty(type=panel.HybridArapSettings)
+    live.register()
+
+
+def unregister():
+    import bpy
+
+    from . import bind, live, ops, panel
+
+    live.unregister()
+    del bpy.types.Object.hybrid_arap
+    for cls in reversed(panel.CLASSES + (bind.HYBRIDARAP_OT_bind,) + ops.CLASSES):
+        bpy.utils.unregister_class(cls)

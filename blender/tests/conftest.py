@@ -1,0 +1,43 @@
+"""Run inside a venv with Blender as a Python module (bpy, Python 3.11) and the wheels the extension
+bundles (see blender/run_tests.sh). The extension's module is imported from blender/ and
+registered once; every test starts from an empty factory scene."""
+
+from __future__ import annotations
+
+import gc
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+import pytest
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent))
+# bindings and compiled kernels in one folder for the whole run (kept between runs when given)
+os.environ.setdefault("HYBRIDEDIT_BLENDER_CACHE", os.path.join(tempfile.gettempdir(), "hybridedit-blender-tests"))
+
+bpy = pytest.importorskip("bpy")
+import hybridedit_blender  # noqa: E402
+
+ARMADILLO = HERE.parents[2] / "shared" / "meshes" / "armadillo43k.obj"
+
+
+@pytest.fixture(scope="session", autouse=True)
+def registered():
+    hybridedit_blender.register()
+    yield
+    hybridedit_blender.unregister()
+    gc.collect()
+
+
+@pytest.fixture
+def scene(registered):
+    from hybridedit_blender.bind import SESSIONS
+
+    SESSIONS.clear()
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    if not hasattr(bpy.types.Object, "hybrid_arap"):  # (read_factory_settings keeps Python-registered classes)
+        hybridedit_blender.register()
+    yield bpy.context.scene
+    SESSIONS.clear()
