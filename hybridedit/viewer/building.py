@@ -9,8 +9,8 @@ the edit on display as they were.
 The cage size of a build (:func:`build_size`): a vertex count is checked against the shape before
 its cage is built (:func:`~.cagesize.fit_cage_size`: above half the shape's vertices, 5 % is used,
 shown in the box and said in the status bar); a file opened at a vertex count is read first for that
-(:class:`FileBuildAtCount`). A new shape never starts from the count of the shape on display: it
-starts from 5 % (a percentage carries over, and so does a count typed in the box since).
+(:class:`FileBuildAtCount`). A new shape never starts from the vertex count of the shape on display:
+it starts from 5 % (a percentage carries over, and so does a count set in the box since).
 """
 
 from __future__ import annotations
@@ -59,7 +59,8 @@ class BuildHost(Protocol):
     @property
     def polisher(self) -> Cancels: ...
     def cage_size(self) -> int | float: ...
-    def set_cage_size(self, size: int | float) -> None: ...
+    def set_cage_size(self, size: int | float, *, of_shape: bool = False) -> None: ...
+    def cage_size_of_shape(self) -> bool: ...
     def finish_settle(self) -> None: ...
     def show_error(self, title: str, text: str) -> None: ...
     def message(self, text: str) -> None: ...
@@ -95,14 +96,14 @@ def built_message(result: BuildResult, session: "Session", rebuilt: bool, note: 
     return msg
 
 
-def build_size(asked: int | float, shown: int | float | None, new_shape: bool,
+def build_size(asked: int | float, of_shape: bool, new_shape: bool,
                n_vertices: int | None) -> tuple[int | float, str | None]:
     """The cage size a build uses, and a sentence when it is not the one ``asked``.
 
     Parameters
     ----------
     asked : the size in the toolbar's box.
-    shown : the cage size of the shape on display (None: no shape).
+    of_shape : ``asked`` is the cage size of the shape on display (not a size set since).
     new_shape : the build is of another shape (opening), not a new cage for the one on display.
     n_vertices : the vertex count of the shape to build, when known (None: a file not read yet).
 
@@ -113,14 +114,14 @@ def build_size(asked: int | float, shown: int | float | None, new_shape: bool,
 
     Examples
     --------
-    >>> build_size(64_000, 64_000, new_shape=True, n_vertices=None)  # the count of the shape on display
+    >>> build_size(64_000, True, new_shape=True, n_vertices=None)  # the count of the shape on display
     (0.05, None)
-    >>> build_size(0.1, 64_000, new_shape=True, n_vertices=None)  # a percentage carries over
+    >>> build_size(0.1, True, new_shape=True, n_vertices=None)  # a percentage carries over
     (0.1, None)
-    >>> build_size(9_999_999, None, new_shape=False, n_vertices=32_000)[0]
+    >>> build_size(9_999_999, False, new_shape=False, n_vertices=32_000)[0]
     0.05
     """
-    if new_shape and is_count(asked) and shown is not None and is_count(shown) and int(asked) == int(shown):
+    if new_shape and of_shape and is_count(asked):
         return DEFAULT_SIZE, None
     return fit_cage_size(asked, n_vertices)
 
@@ -200,7 +201,8 @@ class BuildJobs(QtCore.QObject):
         self.w = window
         self.worker: BuildWorker | None = None
         self.size_note: str | None = None
-        self._box_before: tuple[int | float, int | float] | None = None  # (the box's size, what the job set)
+        # (the box's size and whether it was the shape's, and what the job set there)
+        self._box_before: tuple[int | float, bool, int | float] | None = None
         self.progress = QtWidgets.QProgressBar()
         self.progress.setRange(0, 1000)
         self.progress.setTextVisible(True)
@@ -236,8 +238,7 @@ class BuildJobs(QtCore.QObject):
         """The size for the build about to start: shown in the box, and said when it is not the box's."""
         w = self.w
         asked = w.cage_size()
-        size, note = build_size(asked, w.session.cage_size if w.session is not None else None, new_shape,
-                                n_vertices)
+        size, note = build_size(asked, w.session is not None and w.cage_size_of_shape(), new_shape, n_vertices)
         self.size_note = note
         self._show_size(asked, size, note)
         return size
@@ -245,10 +246,8 @@ class BuildJobs(QtCore.QObject):
     def _show_size(self, asked: int | float, size: int | float, note: str | None) -> None:
         w = self.w
         if size != asked or type(size) is not type(asked):
-            if self._box_before is None:
-                self._box_before = (asked, size)
-            else:
-                self._box_before = (self._box_before[0], size)
+            before = self._box_before or (asked, w.cage_size_of_shape(), size)
+            self._box_before = (before[0], before[1], size)
             w.set_cage_size(size)
         if note:
             w.message(f"Cage size: {note}.")
@@ -385,9 +384,9 @@ class BuildJobs(QtCore.QObject):
         job, self.worker = self.worker, None
         release(job)
         if self._box_before is not None:  # not built: the box goes back to what it had (unless changed since)
-            asked, set_here = self._box_before
+            asked, of_shape, set_here = self._box_before
             if self.w.cage_size() == set_here:
-                self.w.set_cage_size(asked)
+                self.w.set_cage_size(asked, of_shape=of_shape)
         self._box_before = None
         self.size_note = None
         self._show_bar(False)

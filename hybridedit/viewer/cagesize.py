@@ -59,6 +59,12 @@ class CageSizeControl(QtWidgets.QWidget):
     ----------
     shape_vertices : returns the current shape's vertex count (or None), used to
         convert the number when the unit changes.
+
+    Attributes
+    ----------
+    of_shape : the box shows the cage size of the shape on display (``set_value(..., of_shape=True)``),
+        not a size chosen since (typed, or set otherwise): a vertex count of that kind is not carried
+        over to another shape.
     """
 
     def __init__(self, shape_vertices: Callable[[], int | None], parent: QtWidgets.QWidget | None = None) -> None:
@@ -70,6 +76,10 @@ class CageSizeControl(QtWidgets.QWidget):
         self.unit = QtWidgets.QComboBox()
         self.unit.addItems(["%", "vertices"])
         self.unit.currentIndexChanged.connect(self._unit_changed)
+        self.of_shape = False
+        self._setting = False
+        self.spin.valueChanged.connect(self._edited)  # (arrows, wheel)
+        self.spin.lineEdit().textEdited.connect(self._edited)  # (typing, also the number already there)
         layout = QtWidgets.QHBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.setSpacing(2)
@@ -83,8 +93,10 @@ class CageSizeControl(QtWidgets.QWidget):
             return float(self.spin.value()) / 100.0
         return int(round(self.spin.value()))
 
-    def set_value(self, size: int | float) -> None:
-        """Show ``size``: an int vertex count, or a float fraction (shown in %)."""
+    def set_value(self, size: int | float, *, of_shape: bool = False) -> None:
+        """Show ``size``: an int vertex count, or a float fraction (shown in %); ``of_shape``: it is the
+        size of the cage on display (see :attr:`of_shape`)."""
+        self._setting = True
         self.unit.blockSignals(True)
         if is_count(size):
             self.unit.setCurrentIndex(VERTICES)
@@ -95,6 +107,12 @@ class CageSizeControl(QtWidgets.QWidget):
             self._range(PERCENT)
             self.spin.setValue(float(size) * 100.0)
         self.unit.blockSignals(False)
+        self._setting = False
+        self.of_shape = of_shape
+
+    def _edited(self, *_args) -> None:
+        if not self._setting:
+            self.of_shape = False  # (a size chosen by hand)
 
     def _range(self, unit: int) -> None:
         if unit == VERTICES:
@@ -107,6 +125,7 @@ class CageSizeControl(QtWidgets.QWidget):
             self.spin.setSingleStep(0.5)
 
     def _unit_changed(self, unit: int) -> None:
+        self.of_shape = False
         n = self._shape_vertices()
         old = self.spin.value()
         self._range(unit)

@@ -67,12 +67,15 @@ class StatusField(QtWidgets.QLabel):
         super().setText(text)
 
 
-def _wrapped_tooltip(text: str, hint: str = "") -> str:
-    """``text`` as a tooltip that wraps (rich text), with ``hint`` under it in italics."""
+def _wrapped_tooltip(text: str, hint: str, fm: QtGui.QFontMetrics, chars: int = 64) -> str:
+    """``text`` as a tooltip that wraps at about ``chars`` characters (rich text: Qt's own wrapping of a
+    long tooltip is a narrow column), with ``hint`` under it in italics."""
     if not text:
         return ""
-    body = html.escape(text).replace("\n", "<br>")
-    return f"<qt>{body}" + (f"<br><i>{html.escape(hint)}</i>" if hint else "") + "</qt>"
+    widest = max(fm.horizontalAdvance(line) for line in (text.splitlines() or [""]) + [hint])
+    width = min(widest + 8, chars * fm.averageCharWidth())
+    body = html.escape(text).replace("\n", "<br>") + (f"<br><i>{html.escape(hint)}</i>" if hint else "")
+    return f'<table width="{width}"><tr><td>{body}</td></tr></table>'
 
 
 class MessageLine(QtWidgets.QWidget):
@@ -114,7 +117,7 @@ class MessageLine(QtWidgets.QWidget):
             return
         self._text = text
         self._cache = None
-        self.setToolTip(_wrapped_tooltip(text, self._hint))
+        self.setToolTip(_wrapped_tooltip(text, self._hint, self.fontMetrics()))
         self.update()
 
     def sizeHint(self) -> QtCore.QSize:  # noqa: N802

@@ -377,8 +377,14 @@ class MainWindow(QtWidgets.QMainWindow):
         """The cage size set in the toolbar: an int vertex count or a float fraction."""
         return self.cage_control.value()
 
-    def set_cage_size(self, size: int | float) -> None:
-        self.cage_control.set_value(size)
+    def set_cage_size(self, size: int | float, *, of_shape: bool = False) -> None:
+        """Show ``size`` in the toolbar; ``of_shape``: it is the size of the cage on display (a vertex count
+        of that kind is not carried over to another shape: see :mod:`.building`)."""
+        self.cage_control.set_value(size, of_shape=of_shape)
+
+    def cage_size_of_shape(self) -> bool:
+        """The toolbar shows the cage size of the shape on display, not a size chosen since."""
+        return self.cage_control.of_shape
 
     # ================================================================== modes
     def set_mode(self, mode: str) -> None:
@@ -591,7 +597,7 @@ class MainWindow(QtWidgets.QMainWindow):
         """(Re)build the scene for the session's engine (a new shape, a rebuild, or undo across one)."""
         s = self.session
         self._generation = s.generation
-        self.set_cage_size(s.cage_size)
+        self.set_cage_size(s.cage_size, of_shape=True)
         self.scene.load(s.metrics, s.shown_positions, s.cage_positions, s.editor.cage.faces, s.states(),
                         s.shape_roles(), look=s.look, mode=s.look_mode)
         s.look_mode = self.scene.look_mode

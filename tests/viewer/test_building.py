@@ -214,12 +214,12 @@ def test_a_count_above_half_the_shape_is_built_at_5_percent_and_said():
     assert fit_cage_size(5000, None) == (5000, None)  # not known yet: checked once read
     # a new shape does not start from the count of the shape on display; a percentage, or a count typed
     # since, is used (checked against the shape when its size is known)
-    assert build_size(3000, 3000, new_shape=True, n_vertices=None) == (0.05, None)
-    assert build_size(3000, 3000, new_shape=False, n_vertices=10_000) == (3000, None)  # a rebuild: kept
-    assert build_size(0.12, 3000, new_shape=True, n_vertices=None) == (0.12, None)
-    assert build_size(70, 3000, new_shape=True, n_vertices=2562) == (70, None)
-    assert build_size(2000, 0.05, new_shape=True, n_vertices=2562)[0] == 0.05  # (2,000 > 1,281)
-    assert build_size(2000, None, new_shape=True, n_vertices=None) == (2000, None)  # a file: read first
+    assert build_size(3000, True, new_shape=True, n_vertices=None) == (0.05, None)
+    assert build_size(3000, True, new_shape=False, n_vertices=10_000) == (3000, None)  # a rebuild: kept
+    assert build_size(0.12, True, new_shape=True, n_vertices=None) == (0.12, None)
+    assert build_size(70, False, new_shape=True, n_vertices=2562) == (70, None)  # set since
+    assert build_size(2000, False, new_shape=True, n_vertices=2562)[0] == 0.05  # (2,000 > 1,281)
+    assert build_size(2000, False, new_shape=True, n_vertices=None) == (2000, None)  # a file: read first
 
 
 def test_a_rebuild_at_too_many_vertices_says_so_before_the_build_and_the_box_shows_5_percent(qtbot, win, gate):
@@ -248,7 +248,14 @@ def test_a_cancelled_build_puts_the_box_back(qtbot, win, gate):
     assert w.cage_size() == 0.05
     w.cancel_job()
     qtbot.waitUntil(lambda: w.worker is None, timeout=20000)
-    assert w.cage_size() == 5000 and w.session.cage_size == 150
+    assert w.cage_size() == 5000 and w.session.cage_size == 150 and not w.cage_size_of_shape()
+    # a new shape that starts from 5% and is cancelled: the box shows the shape's count again, as the shape's
+    w.set_cage_size(150, of_shape=True)
+    assert w.open_path(w.session.path)
+    assert w.cage_size() == 0.05
+    w.cancel_job()
+    qtbot.waitUntil(lambda: w.worker is None, timeout=20000)
+    assert w.cage_size() == 150 and w.cage_size_of_shape()
 
 
 def test_a_file_opened_at_too_many_vertices_is_read_then_built_at_5_percent(qtbot, gate, tmp_path, blob_file,
@@ -291,6 +298,7 @@ def test_another_file_starts_from_5_percent_not_from_the_last_count(qtbot, win, 
 
     w = win
     assert w.session.cage_size == 150 and w.cage_size() == 150  # (the window was made with --cage 150)
+    assert w.cage_size_of_shape()
     other = tmp_path / "other.obj"
     write_mesh(other, make_blob(5))  # 10K vertices: 150 would do, but it was the blob's count
     assert w.open_path(other)
@@ -306,3 +314,30 @@ def test_another_file_starts_from_5_percent_not_from_the_last_count(qtbot, win, 
     assert w.open_path(other)
     wait_loaded(qtbot, w)
     assert w.session.cage_size == 0.08 and w.cage_size() == 0.08
+    # a count set in the box for the next file is used, also when it is the count on display
+    w.set_cage_size(400)
+    assert w.rebuild()
+    wait_loaded(qtbot, w)
+    assert w.session.cage_size == 400 and w.cage_size_of_shape()
+    w.set_cage_size(400)  # (as a script, or typed)
+    assert not w.cage_size_of_shape()
+    assert w.open_path(other)
+    wait_loaded(qtbot, w)
+    assert w.session.cage_size == 400
+
+
+def test_a_count_typed_in_the_box_is_no_longer_the_shapes(qtbot, win):
+    w = win
+    spin = w.cage_control.spin
+    assert w.cage_size_of_shape()
+    spin.setFocus()
+    spin.selectAll()
+    qtbot.keyClicks(spin, "150")  # the same number, typed: the user's choice for what comes next
+    qtbot.keyClick(spin, Qt.Key.Key_Return)
+    assert w.cage_size() == 150 and not w.cage_size_of_shape()
+    w.set_cage_size(150, of_shape=True)
+    qtbot.keyClick(spin, Qt.Key.Key_Up)  # the arrows too
+    assert w.cage_size() != 150 and not w.cage_size_of_shape()
+    w.set_cage_size(150, of_shape=True)
+    w.cage_control.unit.setCurrentIndex(0)  # and the unit
+    assert not w.cage_size_of_shape()
