@@ -1,0 +1,96 @@
+"""Timings of the extension in Blender itself (bpy, headless): Bind cold and from the cache, and a
+live frame split into the engine's frame (HybridEditor.drag + the moving rows into the float32
+buffer), foreach_set, and Mesh.update; Blender's own redraw is not part of it (no window).
+
+    blender/.venv-bpy/bin/python blender/bench_live.py [--sizes 100000 1000000] [--frames 20]
+
+Meshes: a bumpy UV sphere made by Blender's operator (about the size asked); handle = the top 5%
+along Z, ROI = the top 30%; the Empty is moved and turned a little each frame.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--sizes", type=int, nargs="+", default=[100_000, 1_000_000])
+    ap.add_argument("--frames", type=int, default=20)
+    args = ap.parse_args()
+    cache = tempfile.mkdtemp(prefix="hybridedit-bench-")
+    numba_dir = os.environ.get("NUMBA_CACHE_DIR") or os.path.join(tempfile.gettempdir(), "hybridedit-blender-tests", "numba")
+    os.environ["NUMBA_CACHE_DIR"] = numba_dir  # compiled kernels kept (as the tests keep them)
+    os.environ["HYBRIDEDIT_BLENDER_CACHE"] = cache  # bindings: a fresh folder, so the first bind is cold
+    import bpy
+
+    import hybridedit_blender as hb
+    from hybridedit_blender import session as S
+    from hybridedit_blender.bind import SESSIONS
+
+    hb.register()
+    rows = []
+    for n in args.sizes:
+        bpy.ops.wm.read_factory_settings(use_empty=True)
+        if not hasattr(bpy.types.Object, "hybrid_arap"):
+            hb.register()
+        seg = int(round(math.sqrt(n)))
+        bpy.ops.mesh.primitive_uv_sphere_add(segments=seg, ring_count=max(3, (n - 2) // seg + 1))
+        obj = bpy.context.object
+        me = obj.data
+        P = S.read_positions(me).reshape(-1, 3)
+        P *= (1 + 0.05 * np.sin(9 * P[:, :1]) * np.sin(7 * P[:, 1:2]))  # bumps: not a perfect sphere
+        me.vertices.foreach_set("co", P.ravel())
+        me.update()
+        z = P[:, 2]
+        me.vertices.foreach_set("select", z > np.quantile(z, 0.95))
+        bpy.ops.hybrid_arap.add_handle()
+        me.vertices.foreach_set("select", z > np.quantile(z, 0.70))
+        bpy.ops.hybrid_arap.roi_from_selection()
+        t0 = time.perf_counter()
+        bpy.ops.hybrid_arap.bind()
+        cold = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        bpy.ops.hybrid_arap.bind()
+        cached = time.perf_counter() - t0
+        s = SESSIONS[obj.name]
+        assert s.cache_hit
+        empty = obj.hybrid_arap.handles[0].empty
+        loc0 = empty.location.copy()
+        eng, fset, upd, whole = [], [], [], []
+        for k in range(1, args.frames + 1):
+            empty.location.z = loc0.z + 0.01 * k
+            empty.rotation_euler.x = math.radians(0.5 * k)
+            t0 = time.perf_counter()
+            bpy.context.view_layer.update()
+            whole.append((time.perf_counter() - t0) * 1e3)
+            eng.append(s.last_engine_ms)
+            fset.append(s.last_set_ms)
+            upd.append(s.last_update_ms)
+        med = lambda a: f"{np.median(a[2:]):.1f} ({min(a[2:]):.1f}-{max(a[2:]):.1f})"  # noqa: E731 (first frames warm up)
+        rows.append((f"{len(me.vertices):,}", f"{len(s.moving):,}", f"{s.editor.cage.n_vertices:,}", f"{cold:.1f} s",
+                     f"{cached:.2f} s", med(eng), med(fset), med(upd),
+                     f"{np.median(np.add(eng, fset)[2:]):.1f}", med(whole)))
+        SESSIONS.clear()
+    head = ("vertices", "moving rows", "cage", "Bind (cold)", "Bind (cached)", "engine frame ms",
+            "foreach_set ms", "Mesh.update ms", "engine + foreach_set ms", "whole depsgraph update ms")
+    print("| " + " | ".join(head) + " |")
+    print("|" + "---|" * len(head))
+    for r in rows:
+        print("| " + " | ".join(r) + " |")
+    sys.stdout.flush()
+    os._exit(0)  # (bpy 4.2 may crash in the interpreter's teardown)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
