@@ -182,6 +182,31 @@ class Document:
         f = self.mesh.faces
         return np.full(len(f), 3, dtype=np.int64), f.reshape(-1)
 
+    def fan_triangles(self, corners: np.ndarray | None = None) -> np.ndarray:
+        """Per-corner values of the file's polygons, fan-triangulated in the engine's triangle
+        order (the readers' own rule: ``mesh.faces`` for the corners' vertices).
+
+        Parameters
+        ----------
+        corners : (sum of corner counts,) array, optional
+            A value per polygon corner (:meth:`polygon_lists` order); default: the vertices.
+
+        Returns
+        -------
+        (t, 3) array of those values, one row per triangle.
+
+        Examples
+        --------
+        >>> quad = Mesh(np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]), [[0, 1, 2], [0, 2, 3]])
+        >>> doc = Document(quad, polygons=(np.array([4]), np.arange(4)))
+        >>> doc.fan_triangles(np.array([10, 11, 12, 13])).tolist()
+        [[10, 11, 12], [10, 12, 13]]
+        """
+        from .exchange.common import _fan  # (the exchange package imports this module)
+
+        counts, flat = self.polygon_lists()
+        return _fan(counts, flat if corners is None else corners)
+
 
 def moved_vertices(rest: np.ndarray, current: np.ndarray) -> np.ndarray:
     """(n,) bool: the rows of ``current`` that differ from ``rest`` (both (n, 3))."""

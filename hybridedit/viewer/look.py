@@ -98,35 +98,6 @@ class Look:
         return self.modes()[0]
 
 
-def fan(counts: np.ndarray, flat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Fan-triangulate polygons given by corner counts.
-
-    Parameters
-    ----------
-    counts : (p,) int64 corner counts (>= 3 for a polygon that makes triangles).
-    flat : (sum counts,) values of the corners, one polygon after another.
-
-    Returns
-    -------
-    triangles : (t, 3) the corner values of each triangle (c0, c_i, c_i+1).
-    polygon : (t,) int64 the polygon each triangle comes from.
-
-    Examples
-    --------
-    >>> fan(np.array([4, 3]), np.array([0, 1, 2, 3, 4, 5, 6]))[0].tolist()
-    [[0, 1, 2], [0, 2, 3], [4, 5, 6]]
-    """
-    counts = np.asarray(counts, dtype=np.int64)
-    flat = np.asarray(flat)
-    starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
-    per = np.maximum(counts - 2, 0)
-    polygon = np.repeat(np.arange(len(counts), dtype=np.int64), per)
-    first = np.repeat(starts, per)
-    k = np.arange(per.sum(), dtype=np.int64) - np.repeat(np.cumsum(per) - per, per)  # 0.. per-1 in each polygon
-    tri = np.stack([flat[first], flat[first + 1 + k], flat[first + 2 + k]], axis=1)
-    return tri, polygon
-
-
 def decode_image(data: bytes) -> np.ndarray:
     """(h, w, 3 or 4) uint8 pixels of a PNG or JPEG file's bytes, top row first.
 
@@ -174,7 +145,8 @@ def look_of(document: Document) -> Look | None:
         source, uv, corner = tex.vertex_split(n, flat)
     else:
         source, uv, corner = np.arange(n, dtype=np.int64), None, np.asarray(flat, dtype=np.int64)
-    triangles, polygon = fan(counts, corner)
+    triangles = document.fan_triangles(corner)
+    polygon = document.fan_triangles(np.repeat(np.arange(len(counts)), counts))[:, 0]
     material = np.full(len(triangles), -1, dtype=np.int64)
     if has_mat and len(tex.face_material) == len(counts):
         material = np.asarray(tex.face_material, dtype=np.int64)[polygon]

@@ -8,7 +8,7 @@ import pyvista as pv
 
 import hybridedit as he
 from hybridedit.mesh import Mesh
-from hybridedit.viewer.look import fan, look_of
+from hybridedit.viewer.look import look_of
 from hybridedit.viewer.regional import ShapeMetrics
 from hybridedit.viewer.scene import Scene
 
@@ -75,9 +75,17 @@ def share_near(img, colour, tol=60):
     return float(np.mean(d < tol))
 
 
-def test_fan_triangulates_polygons_in_order():
-    tri, poly = fan(np.array([3, 5]), np.arange(8))
-    assert tri.tolist() == [[0, 1, 2], [3, 4, 5], [3, 5, 6], [3, 6, 7]] and poly.tolist() == [0, 1, 1, 1]
+def test_the_render_mesh_keeps_the_files_polygons_and_their_materials():
+    """A triangle and a pentagon: the render triangles are the readers' fan, each with its polygon's material."""
+    from hybridedit.document import Material, Texturing
+
+    V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [2, 0, 0], [3, 0, 0], [3, 1, 0], [2.5, 2, 0], [2, 1, 0.0]])
+    counts, flat = np.array([3, 5]), np.arange(8)
+    mesh = Mesh(V, np.array([[0, 1, 2], [3, 4, 5], [3, 5, 6], [3, 6, 7]]))
+    tex = Texturing(materials=[Material("a"), Material("b", color=(1, 0, 0, 1))], face_material=np.array([1, 0]))
+    look = look_of(he.Document(mesh, polygons=(counts, flat), texturing=tex))
+    assert look.triangles.tolist() == [[0, 1, 2], [3, 4, 5], [3, 5, 6], [3, 6, 7]]
+    assert look.material.tolist() == [1, 0, 0, 0]
 
 
 def test_the_render_mesh_splits_vertices_only_at_seams(tmp_path):
