@@ -448,8 +448,9 @@ class HybridEditor:
 
     @property
     def _residual(self):
-        """(d, idx, w) of the residual propagation from the current base, or None (linear)."""
-        return (self._base.residual, *self._blend) if self.propagation == "residual" else None
+        """What the rows add to M y' from the current base (:meth:`_propagated_residual`): (d, idx, w),
+        or None for the paper's plain x' = M y'."""
+        return self._propagated_residual(self._base)
 
     def _prop_rotations(self) -> np.ndarray:
         """The rotations the residual turns with: the cage's, or none for the linear propagation."""

@@ -520,7 +520,7 @@ class Session:
         it is what is shown and saved, and the next drag or selection starts from it exactly."""
         self.finish_settle()
         self.editor.set_pose(vertices, cage_positions=self.editor.cage_positions)
-        self.polished = self.editor.deformed_vertices.copy()
+        self.polished = self.editor.deformed_vertices  # (the engine's pose itself: read-only, no copy)
         if self._anchor is not None:
             self._bases = [T.copy() for T in self.transforms]  # the engine's drags now start here
             self._mark_anchor()
