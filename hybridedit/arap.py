@@ -25,7 +25,9 @@ def edge_weights(vertices: np.ndarray, faces: np.ndarray, kind: str = "uniform")
     faces : (m, 3) int64 array
     kind : "uniform" (w_ij = 1, the hybrid paper's choice) or "cotangent"
         (w_ij = (cot a + cot b) / 2, clamped below at 1e-3 times the mean so the
-        Laplacian stays positive definite on obtuse triangles).
+        Laplacian stays positive definite on obtuse triangles; a corner's cotangent
+        is bounded by :data:`COT_MAX`, so that a zero-area face, e.g. at a pole whose
+        copies of one point a file keeps apart, gives a stiff but finite weight).
 
     Returns
     -------
@@ -47,10 +49,15 @@ def edge_weights(vertices: np.ndarray, faces: np.ndarray, kind: str = "uniform")
     return edges, np.maximum(w, floor)
 
 
+#: Largest magnitude of a corner's cotangent (an angle of about 6e-4 degrees): the cotangent of a
+#: zero-area face's corners is unbounded, and a weight of 1e300 overflows the factorization.
+COT_MAX = 1e5
+
+
 @njit(cache=True)
 def _corner_cotangents(v, f, out):  # pragma: no cover - compiled
     """out[3t + c] = half the cotangent of the angle opposite half-edge c of face t
-    (a -> b, b -> c, c -> a); a degenerate corner gets a huge finite value."""
+    (a -> b, b -> c, c -> a), its magnitude at most COT_MAX / 2 (a degenerate corner)."""
     for t in range(f.shape[0]):
         for c in range(3):
             a, b, o = f[t, c], f[t, (c + 1) % 3], f[t, (c + 2) % 3]
@@ -60,7 +67,13 @@ def _corner_cotangents(v, f, out):  # pragma: no cover - compiled
             cy = ea2 * eb0 - ea0 * eb2
             cz = ea0 * eb1 - ea1 * eb0
             cross = np.sqrt(cx * cx + cy * cy + cz * cz)
-            out[3 * t + c] = 0.5 * (ea0 * eb0 + ea1 * eb1 + ea2 * eb2) / max(cross, 1e-300)
+            dot = ea0 * eb0 + ea1 * eb1 + ea2 * eb2
+            if dot == 0.0:
+                out[3 * t + c] = 0.0  # (a right angle, or a side of no length: no angle to speak of)
+            elif abs(dot) >= COT_MAX * cross:
+                out[3 * t + c] = 0.5 * COT_MAX if dot > 0.0 else -0.5 * COT_MAX
+            else:
+                out[3 * t + c] = 0.5 * dot / cross
 
 
 def laplacian(n: int, edges: np.ndarray, weights: np.ndarray) -> sp.csr_matrix:

@@ -39,6 +39,20 @@ def test_cotangent_weights_on_a_flat_square():
     assert 0 < d[(0, 2)] < 1e-2
 
 
+def test_cotangent_weights_of_a_zero_area_face_are_finite_and_the_solve_too():
+    # a pole kept as two copies of one point (as a UV sphere's OBJ has it): the face (0, 1, 2) has no
+    # area; its corner at 2 sees the edge 0-1 under a zero angle. The weights stay finite and an ARAP
+    # solve with the pole held stays finite too.
+    v = np.array([[0, 0, 1], [0, 0, 1], [1, 0, 0], [0, 1, 0], [-1, 0, 0], [0, 0, -1]], float)
+    f = np.array([[0, 1, 2], [0, 2, 3], [1, 3, 4], [2, 5, 3], [3, 5, 4], [4, 5, 2], [1, 4, 2]])
+    e, w = edge_weights(v, f, "cotangent")
+    assert np.all(np.isfinite(w)) and np.all(w > 0)
+    s = ARAPSolver(v, f, weights="cotangent")
+    s.set_constrained(np.array([0, 1, 5]), moving=np.zeros(0, dtype=np.int64))
+    out = s.solve(v[[0, 1, 5]] + [0.0, 0.0, 0.1], iterations=3)
+    assert np.all(np.isfinite(out))
+
+
 def blob_solver(weights="uniform"):
     m = bumpy_blob(2)
     return m, ARAPSolver(m.vertices, m.faces, weights=weights)
