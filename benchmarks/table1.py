@@ -63,7 +63,7 @@ def run_hybrid(shape, cage_n, frames, variants=VARIANTS, shape_arap=None):
         polished = np.nan
         if shape_arap is not None and prop == "residual":
             free = ed.free_mask
-            polished = rrms_edge_error(shape.vertices, polish(shape_arap, V, free, seconds=1.0).vertices, edges)
+            polished = rrms_edge_error(shape.vertices, polish(shape_arap, V, free).vertices, edges)
         out.append({
             "polish": polished,
             "variant": f"{weights[:7]}/{prop[:5]}",

@@ -19,6 +19,7 @@ from .selection import SelectionError
 from .io import SUPPORTED_EXTENSIONS, MeshFileError, read_document, read_mesh, write_document, write_mesh
 from .mesh import MeshError, edge_error_stats, rrms_edge_error
 from .outpaths import OutputPathError, check_outputs
+from .defaults import POLISH_MAX_ITERATIONS
 from .progress import SHOW_AFTER_SECONDS, TextProgress
 
 if TYPE_CHECKING:
@@ -106,26 +107,26 @@ def run_deform(args: argparse.Namespace) -> int:
         raise CLIError(f"--iterations must be >= 0, got {args.iterations}")
     if args.frames < 1:
         raise CLIError(f"--frames must be >= 1, got {args.frames}")
-    if not (np.isfinite(args.polish) and args.polish >= 0):
-        raise CLIError(f"--polish must be a number of seconds >= 0, got {args.polish}")
+    if args.polish is not None and args.polish < 1:
+        raise CLIError(f"--polish must be a number of iterations >= 1, got {args.polish}")
     t_start = time.perf_counter()
     from .editor import HybridEditor  # the compiled engine loads after the cheap checks
+    from .rig import build_rig
 
     edit = load_edit(args.edit)
+    recorded = [s.cage for s in edit.steps if s.cage is not None]
+    cage = args.cage if args.cage is not None else (recorded[-1]["size"] if recorded else 0.05)
     t_read = time.perf_counter()
     doc = read_document(src, progress=_SlowSteps(say))
     mesh = doc.mesh
     say(f"read {src.name}: {mesh.n_vertices} vertices, {mesh.n_faces} faces ({time.perf_counter() - t_read:.2f} s)")
-    ed = HybridEditor(
-        mesh,
-        args.cage,
-        truncation=args.truncation,
-        weights=args.weights,
-        iterations=args.iterations,
-        progress=say,
-        cache=not args.no_cache,
-        propagation=args.propagation,
-    )
+    options = dict(weights=args.weights, iterations=args.iterations, propagation=args.propagation)
+
+    def editor_on(size: int | float) -> "HybridEditor":
+        rig = build_rig(mesh, cage_size=size, truncation=args.truncation, cache=not args.no_cache, progress=say)
+        return HybridEditor(rig, **options)
+
+    ed = editor_on(cage)
     say(
         f"cage {ed.cage.n_vertices} vertices ({ed.timings['cage_seconds']:.2f} s"
         f"{', from the cache' if ed.cache_hit else ''}), "
@@ -133,19 +134,30 @@ def run_deform(args: argparse.Namespace) -> int:
     )
     for note in ed.notes:
         print(f"hybridedit: note: {src.name}: {note}", file=sys.stderr, flush=True)
-    say(f"deforming: {args.frames} frames of {args.iterations} ARAP iterations")
+    for note in _replay_notes(edit, ed, explicit_cage=args.cage is not None):
+        print(f"hybridedit: note: {Path(args.edit).name}: {note}", file=sys.stderr, flush=True)
+    other_cages = None if args.cage is not None else (lambda c: editor_on(c["size"]))
+    steps = len(edit.steps)
+    say(f"deforming: {steps} step{'s' if steps > 1 else ''}" if steps > 1 or edit.iterations is not None
+        else f"deforming: {args.frames} frames of {args.iterations} ARAP iterations")
     try:
-        V = ed.apply_edit(edit, frames=args.frames, path=str(args.edit))
+        ed.reset()
+        V = ed.apply_edit(edit, frames=args.frames, path=str(args.edit), progress=say, editor_for_cage=other_cages)
     except EditFileError:
         raise
     except ValueError as e:  # SelectionError, or a transform the editor refuses
         raise CLIError(f"{args.edit}: {_one_line(e)}") from None
     if not np.all(np.isfinite(V)):
         raise CLIError("the deformation produced non-finite positions; the edit is too extreme")
+    before_polish = V.copy() if args.polish is not None else None
     polished = None
-    if args.polish:
-        polished = _polish(ed, V, args.polish, say)
-        V = polished.vertices
+    if args.polish is not None:
+        if edit.polish is not None:
+            print(f"hybridedit: note: {Path(args.edit).name}: its last step records its polish "
+                  f"({edit.polish} iterations), replayed as recorded; --polish adds none", file=sys.stderr)
+        else:
+            polished = _polish(ed, args.polish, say)
+            V = ed.deformed_vertices
     t_write = time.perf_counter()
     for note in write_document(dst, doc.with_vertices(V), progress=_SlowSteps(say)):
         print(f"hybridedit: note: {dst.name}: {note}", file=sys.stderr, flush=True)
@@ -169,6 +181,7 @@ def run_deform(args: argparse.Namespace) -> int:
         "weights": args.weights,
         "iterations": args.iterations,
         "frames": args.frames,
+        "steps": len(edit.steps),
         "frame_ms_median": float(np.median(frame_ms)),
         "frame_ms_max": float(frame_ms.max()),
         "handle_groups": ed.n_groups,
@@ -184,7 +197,7 @@ def run_deform(args: argparse.Namespace) -> int:
             polish_seconds=polished.seconds,
             polish_iterations=polished.iterations,
             polish_stopped=polished.stopped,
-            rrms_edge_error_before_polish_percent=rrms_edge_error(mesh.vertices, ed.deformed_vertices, edges),
+            rrms_edge_error_before_polish_percent=rrms_edge_error(mesh.vertices, before_polish, edges),
         )
     if args.stats:
         with atomic_write(Path(args.stats), "w") as fh:
@@ -200,24 +213,31 @@ def run_deform(args: argparse.Namespace) -> int:
     return 0
 
 
-def _polish(ed: "HybridEditor", V: np.ndarray, seconds: float, say):
-    """Full-resolution ARAP of the edited region, warm-started from V, for ``seconds``."""
-    from .polish import ShapeARAP, polish
+def _replay_notes(edit, ed: "HybridEditor", *, explicit_cage: bool) -> list[str]:
+    """What a user should know before a replay that will not give the pose the edit was saved from."""
+    notes = []
+    mine = {"size": ed.rig.cage_size, "vertices": ed.cage.n_vertices}
+    cages = {(c["size"], c["vertices"]) for c in (s.cage for s in edit.steps) if c is not None}
+    if explicit_cage and cages - {(mine["size"], mine["vertices"])}:
+        counts = sorted({v for _, v in cages})
+        made = (f"a cage of {counts[0]:,} vertices" if len(counts) == 1 else
+                "cages of " + ", ".join(f"{v:,}" for v in counts[:-1]) + f" and {counts[-1]:,} vertices")
+        notes.append(f"made on {made}; replayed on --cage's {mine['vertices']:,} as asked, so the pose differs "
+                     "from the one it was saved from (leave --cage out for the cages it was made on)")
+    last = edit.steps[-1].cage
+    if not explicit_cage and last is not None and last["vertices"] != mine["vertices"]:
+        notes.append(f"its last step ran on a cage of {last['vertices']:,} vertices; the cage built here at that "
+                     f"size has {mine['vertices']:,}, so the pose may differ slightly")
+    return notes
 
+
+def _polish(ed: "HybridEditor", max_iterations: int, say):
+    """Full-resolution ARAP of the edited region until converged, at most ``max_iterations``."""
     say("polishing", 0.0)
-    t0 = time.perf_counter()
-    sa = ShapeARAP(ed.mesh)
-    free = ed.free_mask
-    budget = max(seconds - (time.perf_counter() - t0), 0.0)
-    t1 = time.perf_counter()
-
-    def tick() -> bool:
-        say("polishing", min((time.perf_counter() - t1) / max(budget, 1e-9), 0.99))
-        return False
-
-    r = polish(sa, V, free, seconds=budget, should_stop=tick)
+    free = int(ed.free_mask.sum())
+    r = ed.polish(max_iterations=max_iterations)
     say("polishing", 1.0)
-    say(f"polished {int(free.sum())} vertices: {r.iterations} iterations ({r.stopped}), "
+    say(f"polished {free} vertices: {r.iterations} iterations ({r.stopped}), "
         f"ARAP energy {r.energy_before:.4g} -> {r.energy_after:.4g}")
     return r
 
@@ -289,14 +309,20 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("input", help="input mesh (.obj .ply .stl .off .glb)")
     d.add_argument("-o", "--output", required=True, help="output mesh (.obj .ply .stl .off .glb)")
     d.add_argument("--edit", required=True, help="edit file (JSON)")
-    d.add_argument("--cage", type=parse_cage_size, default=0.05, help="cage vertices (2000) or fraction (0.05 or 5%%); default 5%%")
+    d.add_argument("--cage", type=parse_cage_size, default=None,
+                   help="cage vertices (2000) or fraction (0.05 or 5%%); default: the cage the edit was made on "
+                        "(its file says), else 5%%")
     d.add_argument("--iterations", type=int, default=2, help="ARAP iterations per frame (default 2)")
-    d.add_argument("--frames", type=int, default=30, help="frames to run (default 30)")
+    d.add_argument("--frames", type=int, default=30,
+                   help="frames to run for a step whose file does not record its iterations (default 30; an edit "
+                        "saved in the window records them)")
     d.add_argument("--weights", choices=("uniform", "cotangent"), default="cotangent",
                    help="ARAP weights on the cage (default cotangent: lower edge error than the paper's uniform in benchmarks/table1.py)")
-    d.add_argument("--polish", type=float, nargs="?", const=1.0, default=0.0, metavar="SECONDS",
-                   help="after the frames, run full-resolution ARAP on the edited region for up to "
-                        "SECONDS (default 1 when given without a value)")
+    d.add_argument("--polish", type=int, nargs="?", const=POLISH_MAX_ITERATIONS, default=None,
+                   metavar="ITERATIONS",
+                   help="after the replay, run full-resolution ARAP on the edited region until it converges, at "
+                        f"most ITERATIONS (default {POLISH_MAX_ITERATIONS}); a step saved with its polish replays "
+                        "it anyway")
     d.add_argument("--propagation", choices=("residual", "linear"), default="residual",
                    help="residual: exact rest pose, detail rotated with the cage (default); linear: the paper's x' = M y'")
     d.add_argument("--truncation", type=float, default=0.03, help="coordinate magnitude dropped per vertex (default 0.03)")

@@ -1,17 +1,36 @@
-"""The JSON edit file: a selection plus handle transforms, replayable in batch.
+"""The JSON edit file: the steps that make a pose, replayable in batch.
 
-Format (version 2; the single-handle files of version 1, with top-level
-``handle``, ``translate`` and ``rotate``, still load)::
+Format (version 3)::
 
     {
-     "format": "hybridedit-edit", "version": 2,
+     "format": "hybridedit-edit", "version": 3,
      "mesh": {"vertices": 43243, "faces": 86482, "topology": "…", "bbox": [...], "centroid": [...]},
-     "space": "shape",
-     "roi": [...],                       # or "fixed": [...]; neither: nothing fixed
-     "symmetry": "x",                    # optional: "x" | "y" | "z" | {"point": [...], "normal": [...]}
-     "handles": [{"indices": [...], "translate": [x, y, z],
-                  "rotate": {"axis": [x, y, z], "degrees": a, "center": [x, y, z]}}, ...]
+     "steps": [
+      {"cage": {"size": 0.05, "vertices": 2162},   # optional: the cage the step ran on
+       "space": "shape",
+       "roi": [...],                        # or "fixed": [...]; neither: nothing fixed
+       "symmetry": "x",                     # optional: "x" | "y" | "z" | {"point": [...], "normal": [...]}
+       "handles": [{"indices": [...], "translate": [x, y, z],
+                    "rotate": {"axis": [x, y, z], "degrees": a, "center": [x, y, z]}}, ...],
+       "iterations": 60,                    # optional: ARAP iterations at these transforms
+       "polish": 37},                       # optional: full-resolution polish iterations after them
+      {"continues": true,                   # the selection of the step before, from its polished pose
+       "handles": [{"translate": [...], "rotate": {...}}, ...], "iterations": 60},
+      ...
+     ]
     }
+
+Each step sets its selection on the pose the steps before it made (the rest pose
+for the first), which is the pose its transforms are measured from: successive
+edits compose, as in the window. ``iterations`` is how many ARAP iterations ran at
+the step's transforms (without it, the replayer's frames times iterations);
+``polish`` how many full-resolution iterations followed (a count, never a time, so
+that a replay gives the same pose on any machine). A step that ``continues`` keeps
+the selection of the step before (the window's next drag after a polish) and gives
+only its groups' transforms.
+
+Versions 1 (top-level ``handle``, ``translate`` and ``rotate``) and 2 (one step's
+keys at the top level, with ``handles``) still load, as one step.
 
 ``mesh`` fingerprints the mesh the edit was made on (vertex and face counts, a
 hash of the faces, bounding box and centroid); replaying on another mesh is
@@ -33,7 +52,7 @@ from .atomic import atomic_write
 from .transforms import decompose_rigid, rigid_transform
 
 FORMAT = "hybridedit-edit"
-VERSION = 2
+VERSION = 3
 #: Largest edit file read (bytes): indices of a 10M-vertex mesh fit many times over.
 MAX_BYTES = 512 * 1024 * 1024
 
@@ -96,7 +115,8 @@ class HandleEdit:
 
 
 class Edit:
-    """A selection and its handle transforms.
+    """The steps that make a pose: the last step's selection and handle transforms, and
+    the steps before it (:attr:`before`).
 
     Parameters
     ----------
@@ -113,10 +133,23 @@ class Edit:
     symmetry : None, "x", "y", "z" or {"point": (3,), "normal": (3,)}
     mesh : dict or None
         Fingerprint of the mesh the edit was made on (:func:`mesh_fingerprint`).
+    iterations : int or None
+        ARAP iterations run at the transforms (None: as many as the replayer runs by default).
+    polish : int or None
+        Full-resolution polish iterations after them (None: no polish).
+    cage : dict or None
+        ``{"size": int count or float fraction, "vertices": c}``: the cage the step ran on.
+    continues : bool
+        The step keeps the selection of the step before it (its handles' indices are
+        that step's), from the pose that step's polish made.
+    before : sequence of Edit
+        The steps before this one, oldest first (their ``mesh`` and ``before`` are unused).
     """
 
     def __init__(self, handle=None, fixed=None, roi=None, space: str = "shape", translate=None, rotate=None, *,
-                 handles: list[HandleEdit] | None = None, symmetry=None, mesh: dict | None = None) -> None:
+                 handles: list[HandleEdit] | None = None, symmetry=None, mesh: dict | None = None,
+                 iterations: int | None = None, polish: int | None = None, cage: dict | None = None,
+                 continues: bool = False, before=()) -> None:
         if handles is None:
             if handle is None:
                 raise ValueError("an edit needs a handle or handles")
@@ -125,12 +158,25 @@ class Edit:
                                   rotate)]
         elif handle is not None or translate is not None or rotate is not None:
             raise ValueError("give handles, or handle with translate/rotate, not both")
+        for name, v in (("iterations", iterations), ("polish", polish)):
+            if v is not None and (not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v < 0):
+                raise ValueError(f"{name} must be a count >= 0 or None, got {v!r}")
         self.handles = list(handles)
         self.fixed = None if fixed is None else np.asarray(fixed, dtype=np.int64)
         self.roi = None if roi is None else np.asarray(roi, dtype=np.int64)
         self.space = space
         self.symmetry = symmetry
         self.mesh = mesh
+        self.iterations = None if iterations is None else int(iterations)
+        self.polish = None if polish is None else int(polish)
+        self.cage = cage
+        self.continues = bool(continues)
+        self.before = tuple(before)
+
+    @property
+    def steps(self) -> list["Edit"]:
+        """Every step, oldest first: :attr:`before`, then this one."""
+        return [*self.before, self]
 
     # the single-handle view of version 1
     @property
@@ -150,19 +196,41 @@ class Edit:
         """The (4, 4) transform of handle group 0."""
         return self.handles[0].transform(default_center)
 
+    def _step_json(self) -> dict:
+        d: dict = {}
+        if self.cage is not None:
+            d["cage"] = dict(self.cage)
+        if self.continues:
+            d["continues"] = True
+            d["handles"] = [{k: v for k, v in h.to_json().items() if k != "indices"} for h in self.handles]
+        else:
+            d["space"] = self.space
+            if self.fixed is not None:
+                d["fixed"] = [int(i) for i in self.fixed]
+            if self.roi is not None:
+                d["roi"] = [int(i) for i in self.roi]
+            if self.symmetry is not None:
+                d["symmetry"] = _symmetry_json(self.symmetry)
+            d["handles"] = [h.to_json() for h in self.handles]
+        if self.iterations is not None:
+            d["iterations"] = self.iterations
+        if self.polish is not None:
+            d["polish"] = self.polish
+        return d
+
     def to_json(self) -> dict:
         d: dict = {"format": FORMAT, "version": VERSION}
         if self.mesh is not None:
             d["mesh"] = self.mesh
-        d["space"] = self.space
-        if self.fixed is not None:
-            d["fixed"] = [int(i) for i in self.fixed]
-        if self.roi is not None:
-            d["roi"] = [int(i) for i in self.roi]
-        if self.symmetry is not None:
-            d["symmetry"] = self.symmetry
-        d["handles"] = [h.to_json() for h in self.handles]
+        d["steps"] = [step._step_json() for step in self.steps]
         return d
+
+
+def _symmetry_json(s):
+    """A symmetry as JSON: an axis name, or {"point": [...], "normal": [...]} for a (point, normal) pair."""
+    if isinstance(s, (tuple, list)) and len(s) == 2:
+        return {"point": [float(x) for x in s[0]], "normal": [float(x) for x in s[1]]}
+    return s
 
 
 def mesh_fingerprint(mesh) -> dict:
@@ -206,7 +274,11 @@ def check_mesh(edit: Edit, mesh, path: str) -> None:
 
 _KEYS_V1 = {"handle", "fixed", "roi", "space", "translate", "rotate"}
 _KEYS_V2 = {"format", "version", "mesh", "space", "fixed", "roi", "symmetry", "handles"}
+_KEYS_V3 = {"format", "version", "mesh", "steps"}
+_STEP_KEYS = {"cage", "space", "fixed", "roi", "symmetry", "handles", "iterations", "polish", "continues"}
 _HANDLE_KEYS = {"indices", "translate", "rotate", "matrix"}
+#: Most steps an edit file may hold (each is a selection and a solve to replay).
+MAX_STEPS = 10000
 
 
 def _is_number(x) -> bool:
@@ -245,16 +317,24 @@ def _rotate(path: str, key: str, r) -> dict:
     return {"axis": axis, "degrees": float(r["degrees"]), "center": center}
 
 
-def _handle(path: str, k: int, h) -> HandleEdit:
-    key = f"handles[{k}]"
+def _handle(path: str, k: int, h, inherited: np.ndarray | None = None, prefix: str = "") -> HandleEdit:
+    """Handle group ``k``; with ``inherited`` (a step that continues the one before) its indices are
+    those and the group gives none."""
+    key = f"{prefix}handles[{k}]"
     if not isinstance(h, dict):
         raise EditFileError(f"{path}: \"{key}\" must be an object with \"indices\"")
     extra = set(h) - _HANDLE_KEYS
     if extra:
         raise EditFileError(f"{path}: unknown keys in \"{key}\": {sorted(extra)}; allowed: {sorted(_HANDLE_KEYS)}")
-    if "indices" not in h:
+    if inherited is not None:
+        if "indices" in h:
+            raise EditFileError(f"{path}: \"{key}\" gives \"indices\" in a step that continues the one before "
+                                "(it keeps that step's selection)")
+        idx = inherited
+    elif "indices" not in h:
         raise EditFileError(f"{path}: \"{key}\" has no \"indices\"")
-    idx = _indices(path, f"{key}.indices", h["indices"])
+    else:
+        idx = _indices(path, f"{key}.indices", h["indices"])
     if idx.size == 0:
         raise EditFileError(f"{path}: \"{key}.indices\" is empty")
     if "matrix" in h:
@@ -293,47 +373,127 @@ def _mesh(path: str, m) -> dict:
     return m
 
 
+def _count(path: str, key: str, value) -> int:
+    if not isinstance(value, int) or isinstance(value, bool) or value < 0 or value > 10 ** 9:
+        raise EditFileError(f"{path}: \"{key}\" must be a whole number of iterations (0 to 10^9), got {value!r}")
+    return int(value)
+
+
+def _cage(path: str, key: str, c) -> dict:
+    ok = isinstance(c, dict) and set(c) == {"size", "vertices"} and isinstance(c["vertices"], int) \
+        and not isinstance(c["vertices"], bool) and c["vertices"] >= 4 and _is_number(c["size"]) and c["size"] > 0
+    if not ok:
+        raise EditFileError(f"{path}: \"{key}\" must be {{\"size\": count or fraction, \"vertices\": count}}")
+    size = c["size"]
+    return {"size": size if isinstance(size, int) else float(size), "vertices": int(c["vertices"])}
+
+
+def _selection(path: str, data: dict, prefix: str = "") -> dict:
+    """The selection keys of a step (version 2's top level): fixed or roi, space, symmetry."""
+    if "fixed" in data and "roi" in data:
+        raise EditFileError(f"{path}: {prefix}give \"fixed\" or \"roi\", not both")
+    space = data.get("space", "shape")
+    if space not in ("shape", "cage"):
+        raise EditFileError(f"{path}: {prefix}\"space\" must be \"shape\" or \"cage\", got {space!r}")
+    return {"fixed": _indices(path, f"{prefix}fixed", data["fixed"]) if "fixed" in data else None,
+            "roi": _indices(path, f"{prefix}roi", data["roi"]) if "roi" in data else None,
+            "space": space, "symmetry": _symmetry(path, data.get("symmetry"))}
+
+
+def _step(path: str, k: int, d, previous: Edit | None) -> Edit:
+    """Step ``k`` of a version 3 file (``previous``: the step before it, or None)."""
+    where = f"steps[{k}]."
+    if not isinstance(d, dict):
+        raise EditFileError(f"{path}: \"steps[{k}]\" must be an object (a selection and its handles)")
+    unknown = set(d) - _STEP_KEYS
+    if unknown:
+        raise EditFileError(f"{path}: unknown keys in \"steps[{k}]\": {sorted(unknown)}; allowed: {sorted(_STEP_KEYS)}")
+    continues = d.get("continues", False)
+    if not isinstance(continues, bool):
+        raise EditFileError(f"{path}: \"{where}continues\" must be true or false")
+    hs = d.get("handles")
+    if not isinstance(hs, list) or not hs:
+        raise EditFileError(f"{path}: \"{where}handles\" must be a non-empty list of handle groups")
+    extra = {"iterations": _count(path, where + "iterations", d["iterations"]) if "iterations" in d else None,
+             "polish": _count(path, where + "polish", d["polish"]) if "polish" in d else None,
+             "cage": _cage(path, where + "cage", d["cage"]) if "cage" in d else None}
+    if continues:
+        if previous is None:
+            raise EditFileError(f"{path}: \"steps[0]\" cannot continue a step before it: there is none")
+        given = sorted({"space", "fixed", "roi", "symmetry"} & set(d))
+        if given:
+            raise EditFileError(f"{path}: \"steps[{k}]\" continues the step before (its selection) and gives "
+                                f"{given}: give either")
+        if len(hs) != len(previous.handles):
+            raise EditFileError(f"{path}: \"{where}handles\" has {len(hs)} groups; the step it continues has "
+                                f"{len(previous.handles)}")
+        handles = [_handle(path, g, h, previous.handles[g].indices, where) for g, h in enumerate(hs)]
+        return Edit(handles=handles, fixed=previous.fixed, roi=previous.roi, space=previous.space,
+                    symmetry=previous.symmetry, continues=True, **extra)
+    handles = [_handle(path, g, h, None, where) for g, h in enumerate(hs)]
+    return Edit(handles=handles, **_selection(path, d, where), **extra)
+
+
 def parse_edit(data: object, path: str = "<edit>") -> Edit:
-    """Validate decoded JSON and build an :class:`Edit`."""
+    """Validate decoded JSON (any version) and build an :class:`Edit`."""
     if not isinstance(data, dict):
         raise EditFileError(f"{path}: the edit must be a JSON object")
+    if "steps" in data or data.get("version") == 3:
+        return _parse_v3(data, path)
     v2 = "handles" in data or "format" in data
     allowed = _KEYS_V2 if v2 else _KEYS_V1
     unknown = set(data) - allowed
     if unknown:
         raise EditFileError(f"{path}: unknown keys {sorted(unknown)}; allowed: {sorted(allowed)}")
     if v2:
-        if data.get("format", FORMAT) != FORMAT:
-            raise EditFileError(f"{path}: \"format\" must be \"{FORMAT}\"")
-        ver = data.get("version", VERSION)
-        if not isinstance(ver, int) or isinstance(ver, bool) or ver > VERSION or ver < 1:
-            raise EditFileError(f"{path}: edit file version {ver!r} is not one this hybridedit reads "
-                                f"(1 to {VERSION})")
+        _check_header(data, path)
         if "handles" not in data:
             raise EditFileError(f"{path}: missing \"handles\" (a list of handle groups)")
     elif "handle" not in data:
         raise EditFileError(f"{path}: missing \"handle\" (a list of vertex indices)")
-    if "fixed" in data and "roi" in data:
-        raise EditFileError(f"{path}: give \"fixed\" or \"roi\", not both")
-    space = data.get("space", "shape")
-    if space not in ("shape", "cage"):
-        raise EditFileError(f"{path}: \"space\" must be \"shape\" or \"cage\", got {space!r}")
-    fixed = _indices(path, "fixed", data["fixed"]) if "fixed" in data else None
-    roi = _indices(path, "roi", data["roi"]) if "roi" in data else None
+    sel = _selection(path, data)
     if v2:
         hs = data["handles"]
         if not isinstance(hs, list) or not hs:
             raise EditFileError(f"{path}: \"handles\" must be a non-empty list of handle groups")
         handles = [_handle(path, k, h) for k, h in enumerate(hs)]
-        return Edit(handles=handles, fixed=fixed, roi=roi, space=space,
-                    symmetry=_symmetry(path, data.get("symmetry")),
-                    mesh=_mesh(path, data["mesh"]) if "mesh" in data else None)
+        return Edit(handles=handles, mesh=_mesh(path, data["mesh"]) if "mesh" in data else None, **sel)
     handle = _indices(path, "handle", data["handle"])
     if handle.size == 0:
         raise EditFileError(f"{path}: \"handle\" is empty")
     translate = _vector(path, "translate", data["translate"]) if "translate" in data else np.zeros(3)
     rotate = _rotate(path, "rotate", data["rotate"]) if "rotate" in data else None
-    return Edit(handle=handle, fixed=fixed, roi=roi, space=space, translate=translate, rotate=rotate)
+    sel.pop("symmetry")
+    return Edit(handle=handle, translate=translate, rotate=rotate, **sel)
+
+
+def _check_header(data: dict, path: str) -> None:
+    if data.get("format", FORMAT) != FORMAT:
+        raise EditFileError(f"{path}: \"format\" must be \"{FORMAT}\"")
+    ver = data.get("version", VERSION)
+    if not isinstance(ver, int) or isinstance(ver, bool) or ver > VERSION or ver < 1:
+        raise EditFileError(f"{path}: edit file version {ver!r} is not one this hybridedit reads (1 to {VERSION})")
+
+
+def _parse_v3(data: dict, path: str) -> Edit:
+    unknown = set(data) - _KEYS_V3
+    if unknown:
+        raise EditFileError(f"{path}: unknown keys {sorted(unknown)}; allowed in version 3: {sorted(_KEYS_V3)}")
+    _check_header(data, path)
+    if data.get("version", VERSION) != 3:
+        raise EditFileError(f"{path}: \"steps\" is a version 3 key; this file says version {data.get('version')}")
+    raw = data.get("steps")
+    if not isinstance(raw, list) or not raw:
+        raise EditFileError(f"{path}: \"steps\" must be a non-empty list of steps")
+    if len(raw) > MAX_STEPS:
+        raise EditFileError(f"{path}: {len(raw):,} steps; more than {MAX_STEPS:,} is refused")
+    steps: list[Edit] = []
+    for k, d in enumerate(raw):
+        steps.append(_step(path, k, d, steps[-1] if steps else None))
+    last = steps[-1]
+    last.before = tuple(steps[:-1])
+    last.mesh = _mesh(path, data["mesh"]) if "mesh" in data else None
+    return last
 
 
 def load_edit(path: str | Path) -> Edit:

@@ -16,6 +16,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 import scipy.sparse as sp
@@ -30,6 +31,10 @@ from .editfile import Edit, HandleEdit, check_mesh, mesh_fingerprint
 from .frame_steps import MAX_REACH  # noqa: F401 (importable from here, as before the split)
 from .frame_steps import Frame, FrameSteps, build_frame_steps, cage_targets, solve_cage
 from .mesh import Mesh
+from .polish import MAX_ITERATIONS as POLISH_MAX_ITERATIONS
+from .polish import TOLERANCE as POLISH_TOLERANCE
+from .polish import PolishJob, PolishResult, ShapeARAP
+from .pose_record import PoseRecord
 from .residual import residual_setup
 from .rig import Progress, Rig, build_rig
 from .selection import SelectionError
@@ -59,6 +64,7 @@ class EditorState:
     moved: bool
     steps: FrameSteps | None = None  # the selection's frame steps, measured from ``base``
     centers: tuple[np.ndarray, ...] = ()  # the default rotation centre of each handle group
+    record: PoseRecord = PoseRecord()  # how the pose was made (what :attr:`HybridEditor.edit` replays)
 
 
 class _Default:
@@ -200,6 +206,9 @@ class HybridEditor:
                                                  propagation=propagation)
         self._out = self._rest_base.shape.copy()
         self._moved = False  # the pose changed since the base was taken
+        #: how the pose was made from the rest pose (the steps :attr:`edit` describes)
+        self._record = PoseRecord()
+        self._shape_arap: ShapeARAP | None = None  # the full-resolution polish's set-up, made by the first
         #: wall time of recent :meth:`drag` calls, oldest first (bounded, see FRAME_HISTORY)
         self.frame_seconds: list[float] = []
         #: where the last frame's time went: local_seconds, global_seconds,
@@ -414,6 +423,7 @@ class HybridEditor:
         user = user_roles(handle, fixed, roi, space=space, maps=self._maps)
         mirror = self._mirror(symmetry) if symmetry is not None else None
         roles = choose_roles(user, mirror=mirror, maps=self._maps)
+        record = self._record_closed()
         base = self._current_base()
         before = (self.arap.reference, self.arap.rotations.copy())
         self.arap.set_reference(base.cage)  # before the factorization: it takes the rotations there
@@ -430,6 +440,7 @@ class HybridEditor:
         self._sel = sel
         self._transforms = [np.eye(4) for _ in range(sel.n_groups)]
         self._start_from(base)
+        self._record = record.restarted()
 
     def _frame_steps(self, sel: Selection, base: BasePose) -> FrameSteps:
         """The frame steps of ``sel`` measured from ``base`` (factored here, once per selection)."""
@@ -558,6 +569,8 @@ class HybridEditor:
         base = self._base
         internal = sel.group_transforms(new)
         solve_cage(self.arap, cage_targets(base.cage, sel, internal, scale=self._scale), iterations=k)
+        same = len(new) == len(self._transforms) and all(np.array_equal(a, b) for a, b in zip(new, self._transforms))
+        self._record = self._record.after_drag(same_transforms=same, iterations=k)
         self._transforms = new
         self._moved = True
         t1 = time.perf_counter()
@@ -578,6 +591,7 @@ class HybridEditor:
         self._base = self._rest_base
         self._propagate_all()
         self._start_from(self._rest_base)
+        self._record = PoseRecord()
 
     @property
     def cage_positions(self) -> np.ndarray:
@@ -606,6 +620,7 @@ class HybridEditor:
         self._propagate_all()
         self._moved = True
         self._start_from(self._current_base())
+        self._record = PoseRecord.from_outside("the cage was put in a pose by set_cage_positions")
         return self.deformed_vertices
 
     def set_pose(self, vertices: np.ndarray, *, cage_positions: np.ndarray | None = None) -> np.ndarray:
@@ -624,10 +639,21 @@ class HybridEditor:
         -------
         (n, 3) float64 array, the shape (a read-only view that later calls update).
 
+        A pose set here was made outside the editor: :attr:`edit` describes only the
+        steps after it (:attr:`replayable` is False). A polish is given with
+        :meth:`adopt_polish`, another cage's pose with :meth:`carry_pose`: those are
+        recorded.
+
         Examples
         --------
-        >>> ed.set_pose(polished, cage_positions=ed.cage_positions)  # doctest: +SKIP
+        >>> ed.set_pose(sculpted)  # doctest: +SKIP
         """
+        self._put_pose(vertices, cage_positions)
+        self._record = PoseRecord.from_outside("the pose was set by set_pose")
+        return self.deformed_vertices
+
+    def _put_pose(self, vertices: np.ndarray, cage_positions: np.ndarray | None) -> None:
+        """Make ``vertices`` (and the cage pose, by default fitted to them) the pose the next drags start from."""
         V = np.asarray(vertices, dtype=np.float64)
         if V.shape != self._out.shape or not np.all(np.isfinite(V)):
             raise ValueError(f"a pose must be finite and {self._out.shape}, got {V.shape}")
@@ -641,13 +667,98 @@ class HybridEditor:
         self._out[:] = V
         self._moved = True
         self._start_from(self._current_base())
+
+    def carry_pose(self, other: "HybridEditor") -> np.ndarray:
+        """Take the pose of another editor of the same shape (another cage: a rebuild), exactly,
+        with the steps that made it: :attr:`edit` goes on from them (each step keeps the cage it
+        ran on). Every cage vertex moves as its nearest shape vertex did from the rest pose; the
+        next selection starts from the pose.
+
+        Returns
+        -------
+        (n, 3) float64 array, the shape (a read-only view that later calls update).
+        """
+        if other.mesh.n_vertices != self.mesh.n_vertices or other.mesh.n_faces != self.mesh.n_faces:
+            raise ValueError("carry_pose: the other editor is for another shape")
+        if other._base.at_rest and not other._moved:
+            self.reset()
+            return self.deformed_vertices
+        self._put_pose(other.deformed_vertices, None)
+        self._record = PoseRecord(done=tuple(other._steps_made()), unknown=other._record.unknown)
         return self.deformed_vertices
+
+    def continue_from_pose(self) -> None:
+        """The current selection's next drags start from the pose as it is (their transforms
+        again at the identity): its drags so far become one step of :attr:`edit`, and the
+        next ones another. (What a polish does, without the polish.)"""
+        if self._sel is None:
+            raise SelectionError("set a selection first")
+        record = self._record_closed()
+        self._put_pose(self._out.copy(), self.arap.positions.copy())
+        self._record = record.restarted(continues=True)
+
+    # ------------------------------------------------------------------ polish
+    def polish_job(self, *, max_iterations: int = POLISH_MAX_ITERATIONS,
+                   tolerance: float = POLISH_TOLERANCE) -> PolishJob:
+        """A full-resolution polish of the current pose's edited region (the selection's free
+        rows), to run anywhere (:meth:`~hybridedit.polish.PolishJob.run`, e.g. in a worker
+        thread) and give back with :meth:`adopt_polish`.
+
+        Raises
+        ------
+        SelectionError
+            No selection is set.
+        """
+        if self._sel is None:
+            raise SelectionError("set a selection first: a polish works on its region")
+        return PolishJob(self._out.copy(), self.free_mask, int(max_iterations), float(tolerance))
+
+    def adopt_polish(self, job: PolishJob, result: PolishResult) -> np.ndarray:
+        """Make a polish of the current pose the pose (the next drags start from it), recorded
+        as the end of the current step with its iteration count, so that :attr:`edit` replays it.
+
+        Raises
+        ------
+        ValueError
+            The pose changed since ``job`` was made (the polish is of a pose that is gone).
+        """
+        if self._sel is None or not np.array_equal(job.start, self._out):
+            raise ValueError("the pose changed since the polish started: its result is not taken")
+        record = self._record_closed(polish=result.iterations)
+        self._put_pose(result.vertices, self.arap.positions.copy())
+        self._record = record.restarted(continues=True)
+        return self.deformed_vertices
+
+    def polish(self, *, iterations: int | None = None, max_iterations: int = POLISH_MAX_ITERATIONS,
+               tolerance: float = POLISH_TOLERANCE) -> PolishResult:
+        """Polish the current pose now and make it the pose (:meth:`polish_job`, run here,
+        :meth:`adopt_polish`).
+
+        Parameters
+        ----------
+        iterations : int, optional
+            Run exactly this many iterations (a replay); otherwise until an iteration moves
+            no vertex by more than ``tolerance`` of the diagonal, at most ``max_iterations``.
+
+        Returns
+        -------
+        PolishResult
+        """
+        if iterations is not None:
+            job = self.polish_job(max_iterations=int(iterations), tolerance=0.0)
+        else:
+            job = self.polish_job(max_iterations=max_iterations, tolerance=tolerance)
+        if self._shape_arap is None:
+            self._shape_arap = ShapeARAP(self.mesh)
+        result = job.run(self._shape_arap)
+        self.adopt_polish(job, result)
+        return result
 
     def save_state(self) -> EditorState:
         """A snapshot of the selection and pose, for :meth:`restore_state` (undo)."""
         return EditorState(self._sel, tuple(T.copy() for T in self._transforms), self.arap.positions.copy(),
                            self.arap.rotations.copy(), self._rots.copy(), self._out.copy(), self._base,
-                           self._moved, steps=self._steps, centers=self._centers)
+                           self._moved, steps=self._steps, centers=self._centers, record=self._record)
 
     def restore_state(self, state: EditorState) -> np.ndarray:
         """Go back to a snapshot taken by :meth:`save_state` (the selection, the pose it
@@ -667,6 +778,7 @@ class HybridEditor:
         self._transforms = [T.copy() for T in state.transforms]
         self._base = state.base
         self._moved = state.moved
+        self._record = state.record
         return self.deformed_vertices
 
     def _propagate_all(self) -> None:
@@ -677,39 +789,94 @@ class HybridEditor:
     # ------------------------------------------------------------------ edits
     @property
     def edit(self) -> Edit:
-        """The current selection and handle transforms as a shape-space :class:`Edit`
-        that :meth:`apply_edit` replays on any cage of the same mesh."""
-        sel = self._sel
-        if sel is None:
+        """How the current pose was made, as a shape-space :class:`Edit` that :meth:`apply_edit`
+        replays: the current selection and handle transforms, after the steps before it
+        (:attr:`Edit.before`: earlier selections, polishes). Each step records the ARAP
+        iterations run at its transforms when they all ran at them (a settle, or frames at one
+        transform), its polish iterations, and its cage. See :attr:`replayable`.
+
+        Raises
+        ------
+        SelectionError
+            No selection has been set (there is nothing to describe).
+        """
+        steps = self._steps_made(current_if_empty=True)
+        if not steps:
             raise SelectionError("no selection to describe: set one first")
+        last = steps[-1]
+        return Edit(handles=last.handles, fixed=last.fixed, roi=last.roi, space=last.space, symmetry=last.symmetry,
+                    iterations=last.iterations, polish=last.polish, cage=last.cage, continues=last.continues,
+                    before=steps[:-1], mesh=mesh_fingerprint(self.mesh))
+
+    @property
+    def record(self) -> PoseRecord:
+        """How the current pose was made from the rest pose (:class:`~hybridedit.pose_record.PoseRecord`,
+        read-only): the steps :attr:`edit` describes."""
+        return self._record
+
+    @property
+    def replayable(self) -> bool:
+        """Replaying :attr:`edit` from the rest pose on this cage gives the current pose (no pose
+        was set from outside, and no drag is left unsettled: interactive frames at changing
+        transforms make a pose that depends on their path)."""
+        return self._record.replayable
+
+    def _steps_made(self, current_if_empty: bool = False) -> list[Edit]:
+        """The steps of the record, the current one included when it has done something (or,
+        ``current_if_empty``, when it is a new selection)."""
+        r = self._record
+        steps = list(r.done)
+        if self._sel is not None and (r.dragged or (current_if_empty and not r.continues)):
+            steps.append(self._current_step())
+        return steps
+
+    def _current_step(self, polish: int | None = None) -> Edit:
+        """The current selection and transforms as one step (see :class:`~hybridedit.pose_record.PoseRecord`)."""
+        sel, r = self._sel, self._record
         roles = sel.user_roles
-        handles = []
-        for g in range(sel.n_groups):
-            handles.append(HandleEdit.from_matrix(np.flatnonzero(roles == g + 1), self._transforms[g],
-                                                  center=self._centers[g]))
+        handles = [HandleEdit.from_matrix(np.flatnonzero(roles == g + 1), self._transforms[g], center=self._centers[g])
+                   for g in range(sel.n_groups)]
         fixed = np.flatnonzero(roles == FIXED)
-        if fixed.size == 0:
-            fixed_kw = {"fixed": fixed}
-        elif fixed.size * 2 > roles.size:
-            fixed_kw = {"roi": np.flatnonzero(roles != FIXED)}
-        else:
-            fixed_kw = {"fixed": fixed}
+        # (the shorter list, but as it was given where a mirror makes them differ: with "roi" a vertex stays
+        # fixed only where its mirror image is fixed too, with "fixed" as listed)
+        as_roi = sel.roi_mode if sel.mirror is not None else fixed.size * 2 > roles.size
+        fixed_kw = {"roi": np.flatnonzero(roles != FIXED)} if as_roi else {"fixed": fixed}
+        size = self.rig.cage_size
+        cage = {"size": int(size) if isinstance(size, (int, np.integer)) else float(size),
+                "vertices": int(self.cage.n_vertices)}
         return Edit(handles=handles, space="shape", symmetry=None if sel.mirror is None else sel.mirror.spec,
-                    mesh=mesh_fingerprint(self.mesh), **fixed_kw)
+                    iterations=r.iterations if r.settled else None, polish=polish, cage=cage,
+                    continues=r.continues, **fixed_kw)
+
+    def _record_closed(self, polish: int | None = None) -> PoseRecord:
+        """The record with the current step closed (kept when it did something: a drag or a polish)."""
+        r = self._record
+        if self._sel is None or (not r.dragged and polish is None):
+            return r
+        return r.closed(self._current_step(polish))
 
     def apply_edit(self, edit: Edit, *, frames: int = 30, iterations: int | None = None,
-                   progress: Progress | None = None, path: str | None = None) -> np.ndarray:
-        """Replay an edit: set its selection, then run ``frames`` drags to its transforms.
+                   progress: Progress | None = None, path: str | None = None,
+                   editor_for_cage: Callable[[dict], "HybridEditor"] | None = None) -> np.ndarray:
+        """Replay an edit on the current pose (from the rest pose after :meth:`reset`): each
+        step sets its selection, runs its ARAP iterations at its transforms, then its polish
+        (:func:`hybridedit.replay.replay`, the one replay loop).
 
         Parameters
         ----------
         edit : Edit
+            Its steps (:attr:`Edit.steps`); a version 2 file is one step.
         frames : int
-            Drag calls (each of ``iterations`` ARAP iterations) at the edit's transforms
-            (0: set the selection only).
+            A step that does not record its iterations runs ``frames`` drags of
+            ``iterations`` each (0: the last step's selection is set and nothing is run).
+        iterations : int, optional
+            ARAP iterations a frame (default ``self.iterations``).
         progress : callable(stage, fraction), optional
         path : str, optional
             The edit file's name, for messages.
+        editor_for_cage : callable({"size", "vertices"}) -> HybridEditor, optional
+            An editor of this shape on the cage a step records, for an exact replay of an
+            edit made across cages (a rebuild); without it every step runs on this cage.
 
         Returns
         -------
@@ -722,19 +889,10 @@ class HybridEditor:
         SelectionError
             Its selection does not fit this mesh (indices out of range, ...).
         """
-        if frames < 0:
-            raise ValueError(f"frames must be >= 0, got {frames}")
-        check_mesh(edit, self.mesh, path or "<edit>")
-        say = progress or (lambda stage, fraction: None)
-        self.set_selection([h.indices for h in edit.handles], fixed=edit.fixed, roi=edit.roi, space=edit.space,
-                           symmetry=edit.symmetry)
-        Ts = self.edit_transforms(edit)
-        V = self.deformed_vertices
-        for f in range(frames):
-            say("deforming", f / frames)
-            V = self.drag(transforms=Ts, iterations=iterations)
-        say("deforming", 1.0)
-        return V
+        from .replay import replay
+
+        return replay(self, edit, frames=frames, iterations=iterations, progress=progress, path=path,
+                      editor_for_cage=editor_for_cage)
 
     def edit_transforms(self, edit: Edit) -> dict[int, np.ndarray]:
         """The (4, 4) transform of each of an edit's handle groups, {group: T}; a

@@ -201,6 +201,7 @@ class Roles:
     mirror: Mirror | None
     constrained: np.ndarray  # (k,) int64 sorted cage vertices given to ARAP (fixed and handle)
     moving: np.ndarray  # (h,) int64 sorted cage vertices that follow a handle transform
+    roi_mode: bool  # the fixed set was given as the outside of a region of interest (mirrors differ)
 
     def group_transforms(self, transforms) -> list[np.ndarray]:
         """The (4, 4) transform of each internal group when the user's groups have
@@ -263,7 +264,7 @@ def choose_roles(user: UserRoles, *, mirror: Mirror | None, maps: CageMap) -> Ro
     return Roles(user_roles=user.roles.astype(np.int8), roles=roles, cage_roles=cage_roles, core=core,
                  source=tuple(source), kind=tuple(kind), n_groups=user.n_groups, mirror=mirror,
                  constrained=np.flatnonzero(cage_roles != FREE).astype(np.int64),
-                 moving=np.flatnonzero(cage_roles > 0).astype(np.int64))
+                 moving=np.flatnonzero(cage_roles > 0).astype(np.int64), roi_mode=user.roi_mode)
 
 
 def rows_that_can_move(binding: sp.csr_matrix, changing: np.ndarray, *, blend_idx: np.ndarray | None = None

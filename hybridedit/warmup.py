@@ -215,7 +215,7 @@ def _edit_session(mesh, say: Progress, label: str) -> None:
     free = np.zeros(mesh.n_vertices, dtype=bool)
     free[roi] = True
     free[handle] = False
-    polish(ShapeARAP(mesh), V, free, seconds=5.0, max_iterations=2)
+    polish(ShapeARAP(mesh), V, free, max_iterations=2)
     say(f"{label}: exact binding", 0.8)
     bind(mesh.vertices[:50], ed.cage, method="exact")
 

@@ -14,7 +14,7 @@ def test_round_trip(tmp_path):
     back = load_edit(p)
     assert back.handle.tolist() == [3, 4] and back.roi.tolist() == [1, 2, 3, 4, 5] and back.fixed is None
     assert np.allclose(back.transform(), e.transform())
-    assert json.loads(p.read_text())["space"] == "shape"
+    assert json.loads(p.read_text())["steps"][0]["space"] == "shape"
 
 
 def test_default_rotation_center_is_used_when_missing(tmp_path):
@@ -55,7 +55,7 @@ def test_missing_file(tmp_path):
         load_edit(tmp_path / "nope.json")
 
 
-def test_version_2_round_trip_with_groups_symmetry_and_fingerprint(tmp_path, blob):
+def test_round_trip_with_groups_symmetry_and_fingerprint(tmp_path, blob):
     from hybridedit.editfile import HandleEdit, mesh_fingerprint
     from hybridedit.transforms import rigid_transform
 
@@ -67,12 +67,81 @@ def test_version_2_round_trip_with_groups_symmetry_and_fingerprint(tmp_path, blo
     p = tmp_path / "e.json"
     save_edit(p, e)
     data = json.loads(p.read_text())
-    assert data["format"] == "hybridedit-edit" and data["version"] == 2 and len(data["handles"]) == 3
+    assert data["format"] == "hybridedit-edit" and data["version"] == 3 and len(data["steps"][0]["handles"]) == 3
     back = load_edit(p)
     assert [h.indices.tolist() for h in back.handles] == [[1, 2], [7], [9]]
     assert np.allclose(back.handles[0].transform(), T, atol=1e-12)
     assert np.allclose(back.handles[2].transform(), np.diag([2.0, 1, 1, 1]))
     assert back.symmetry == "y" and back.mesh == mesh_fingerprint(blob) and back.roi.tolist() == list(range(20))
+
+
+def test_version_2_files_still_load(tmp_path, blob):
+    from hybridedit.editfile import mesh_fingerprint
+
+    p = tmp_path / "v2.json"
+    p.write_text(json.dumps({"format": "hybridedit-edit", "version": 2, "mesh": mesh_fingerprint(blob),
+                             "space": "shape", "roi": [1, 2, 3], "symmetry": "x",
+                             "handles": [{"indices": [3], "translate": [0, 1, 0]}, {"indices": [5]}]}))
+    e = load_edit(p)
+    assert len(e.steps) == 1 and e.iterations is None and e.polish is None and not e.continues
+    assert [h.indices.tolist() for h in e.handles] == [[3], [5]] and e.roi.tolist() == [1, 2, 3]
+    assert e.symmetry == "x" and e.mesh == mesh_fingerprint(blob)
+
+
+def test_version_3_steps_round_trip(tmp_path, blob):
+    """A chain: a selection settled and polished, the same selection dragged on (it continues), then
+    another selection on another cage, with a plane of symmetry."""
+    from hybridedit.editfile import HandleEdit, mesh_fingerprint
+    from hybridedit.transforms import rigid_transform
+
+    T1 = rigid_transform(translate=(0.1, 0.0, 0.0), axis=(0, 0, 1), degrees=20, center=(1, 0, 0))
+    first = Edit(handles=[HandleEdit.from_matrix([4, 5], T1, center=np.array([1.0, 0, 0]))], roi=np.arange(30),
+                 iterations=60, polish=37, cage={"size": 0.05, "vertices": 120})
+    second = Edit(handles=[HandleEdit(first.handles[0].indices, translate=np.array([0, 0.2, 0]))], roi=first.roi,
+                  continues=True, iterations=60, cage={"size": 0.05, "vertices": 120})
+    plane = (np.array([0.0, 0, 0]), np.array([1.0, 0, 0]))
+    last = Edit(handles=[HandleEdit(np.array([8]))], fixed=np.array([1, 2]), symmetry=plane, iterations=0,
+                cage={"size": 300, "vertices": 300}, before=[first, second], mesh=mesh_fingerprint(blob))
+    p = tmp_path / "chain.json"
+    save_edit(p, last)
+    data = json.loads(p.read_text())
+    assert data["version"] == 3 and len(data["steps"]) == 3
+    assert "indices" not in data["steps"][1]["handles"][0] and "roi" not in data["steps"][1]
+    back = load_edit(p)
+    assert len(back.steps) == 3 and back.mesh == mesh_fingerprint(blob)
+    b1, b2, b3 = back.steps
+    assert (b1.iterations, b1.polish, b1.cage, b1.continues) == (60, 37, {"size": 0.05, "vertices": 120}, False)
+    assert np.allclose(b1.handles[0].transform(), T1, atol=1e-12)
+    assert b2.continues and b2.handles[0].indices.tolist() == [4, 5] and b2.roi.tolist() == list(range(30))
+    assert b2.polish is None and np.allclose(b2.handles[0].translate, [0, 0.2, 0])
+    assert b3.fixed.tolist() == [1, 2] and b3.iterations == 0 and b3.cage == {"size": 300, "vertices": 300}
+    assert np.allclose(b3.symmetry[0], 0) and np.allclose(b3.symmetry[1], [1, 0, 0])
+
+
+@pytest.mark.parametrize(
+    "steps, words",
+    [
+        ([], "non-empty list of steps"),
+        ([{"continues": True, "handles": [{}]}], "cannot continue"),
+        ([{"handles": [{"indices": [1]}]}, {"continues": True, "handles": [{}, {}]}], "has 2 groups"),
+        ([{"handles": [{"indices": [1]}]}, {"continues": True, "roi": [2], "handles": [{}]}], "give either"),
+        ([{"handles": [{"indices": [1]}]}, {"continues": True, "handles": [{"indices": [2]}]}], "gives \"indices\""),
+        ([{"handles": [{"indices": [1]}], "iterations": -1}], "whole number"),
+        ([{"handles": [{"indices": [1]}], "polish": 2.5}], "whole number"),
+        ([{"handles": [{"indices": [1]}], "cage": {"size": 0.05}}], '"steps[0].cage"'),
+        ([{"handles": [{"indices": [1]}], "grip": 1}], 'unknown keys in "steps[0]"'),
+        ([{"handles": [{"indices": [1]}]}, {"handles": [{"indices": [2], "spin": 1}]}], '"steps[1].handles[0]"'),
+        ([{"handles": [{"indices": [1]}], "roi": [2], "fixed": [3]}], "not both"),
+        ([3], "must be an object"),
+    ],
+)
+def test_bad_version_3_files(tmp_path, steps, words):
+    p = tmp_path / "bad3.json"
+    p.write_text(json.dumps({"format": "hybridedit-edit", "version": 3, "steps": steps}))
+    with pytest.raises(EditFileError) as err:
+        load_edit(p)
+    msg = str(err.value)
+    assert msg.startswith(str(p)) and words in msg and "\n" not in msg
 
 
 def test_version_1_files_still_load(tmp_path):

@@ -25,7 +25,7 @@ def test_polish_lowers_energy_and_holds_the_rest(posed):
     sa = ShapeARAP(shape)
     free = ed.free_mask
     assert 0 < free.sum() < shape.n_vertices
-    r = polish(sa, V, free, seconds=10.0, max_iterations=300)
+    r = polish(sa, V, free, max_iterations=300)
     assert r.energy_after < r.energy_before
     assert r.stopped in ("converged", "iterations")
     assert np.array_equal(r.vertices[~free], V[~free])  # handle and fixed part untouched
@@ -40,18 +40,34 @@ def test_polish_lowers_energy_and_holds_the_rest(posed):
     assert all(b <= a * (1 + 1e-12) for a, b in zip(energies, energies[1:]))
 
 
-def test_polish_stops_on_cancel_and_on_time(posed):
+def test_polish_stops_on_cancel_on_its_count_and_on_convergence(posed):
     shape, ed, V = posed
     sa = ShapeARAP(shape)
     free = ed.free_mask
     r = polish(sa, V, free, should_stop=lambda: True)
     assert r.stopped == "cancelled" and r.iterations == 1
     assert r.energy_after <= r.energy_before
-    r = polish(sa, V, free, seconds=0.0, tolerance=0.0)  # set up already, but no time for an iteration
-    assert r.stopped == "time" and r.iterations == 0 and np.array_equal(r.vertices, V)
-    fresh = ShapeARAP(shape)
-    r = polish(fresh, V, free, seconds=0.0)  # no time for the set-up: it is not even started
-    assert r.stopped == "time" and r.iterations == 0 and fresh.solver is None
+    r = polish(sa, V, free, max_iterations=0)
+    assert r.iterations == 0 and np.array_equal(r.vertices, V)
+    r = polish(sa, V, free, max_iterations=7, tolerance=0.0)
+    assert r.stopped == "iterations" and r.iterations == 7
+    r = polish(sa, V, free, tolerance=1e-4)
+    assert r.stopped == "converged" and 1 <= r.iterations < 200
+
+
+def test_a_polish_is_the_same_however_often_its_set_up_is_reused(posed):
+    """What a replay relies on: k iterations from a pose give the same pose with a fresh set-up,
+    with one reused from other polishes of the same region, and run as a job."""
+    from hybridedit.polish import PolishJob
+
+    shape, ed, V = posed
+    free = ed.free_mask
+    used = ShapeARAP(shape)
+    polish(used, V * 1.01, free, max_iterations=5)  # another pose first
+    a = polish(ShapeARAP(shape), V, free, max_iterations=12, tolerance=0.0).vertices
+    b = polish(used, V, free, max_iterations=12, tolerance=0.0).vertices
+    c = PolishJob(V.copy(), free, 12, 0.0).run(used).vertices
+    assert np.array_equal(a, b) and np.array_equal(a, c)
 
 
 def test_polish_of_the_rest_pose_is_the_rest_pose(posed):
@@ -71,32 +87,6 @@ def test_bad_arguments(posed):
         polish(sa, V[:10], np.ones(10, bool))
 
 
-def test_polish_honours_its_budget_set_up_included():
-    import time
-
-    from shapes import icosphere
-
-    shape = icosphere(6)  # 40,962 vertices
-    v = shape.vertices
-    V = v + 0.05 * np.sin(3 * v[:, [1, 2, 0]])  # a pose to polish
-    free = v[:, 0] > -0.5
-    V[~free] = v[~free]
-    probe = ShapeARAP(shape)
-    probe.prepare(free)  # what a set-up takes on this machine now (later estimates learn from it)
-    setup = probe.setup_seconds
-    for budget in (0.3 * setup, 3.0 * setup + 0.5):
-        sa = ShapeARAP(shape)  # a fresh set-up each time: it must fit in the budget too
-        t0 = time.perf_counter()
-        r = polish(sa, V, free, seconds=budget, tolerance=0.0)
-        wall = time.perf_counter() - t0
-        # generous: machines here vary by +-50% and more under load; the bug was 10 s for a 2 s budget
-        assert wall <= 1.5 * budget + 0.5, (budget, wall, r.stopped, setup, sa.setup_seconds)
-        assert r.stopped == "time" or r.iterations == 200
-        assert np.array_equal(r.vertices[~free], V[~free])
-        if budget < setup:
-            assert r.iterations == 0 and sa.solver is None  # no time for the set-up: not even started
-
-
 def test_a_wholly_free_loose_part_is_left_alone():
     from shapes import icosphere
 
@@ -106,7 +96,7 @@ def test_a_wholly_free_loose_part_is_left_alone():
     free = np.zeros(shape.n_vertices, bool)
     free[: a.n_vertices] = a.vertices[:, 0] > 0  # half of the first sphere
     free[a.n_vertices:] = True  # all of the second: nothing holds it
-    r = polish(ShapeARAP(shape), V, free, seconds=5.0)
+    r = polish(ShapeARAP(shape), V, free)
     assert r.iterations >= 1 and r.energy_after < r.energy_before
     assert np.array_equal(r.vertices[a.n_vertices:], V[a.n_vertices:])
     assert np.array_equal(r.vertices[: a.n_vertices][~free[: a.n_vertices]], V[: a.n_vertices][~free[: a.n_vertices]])
@@ -126,6 +116,6 @@ def test_polish_keeps_every_held_vertex_where_the_editor_put_it():
     roles = ed.vertex_roles
     assert free.any() and not free[roles != 0].any()
     assert set(np.flatnonzero(free)) <= set(ed.moving_vertices)
-    r = polish(ShapeARAP(shape), V, free, seconds=5.0)
+    r = polish(ShapeARAP(shape), V, free)
     assert r.iterations >= 1
     assert np.array_equal(r.vertices[roles != 0], V[roles != 0])

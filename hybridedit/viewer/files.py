@@ -117,6 +117,27 @@ class FileHost(Protocol):
     def refresh_all(self) -> None: ...
 
 
+def edit_summary(edit) -> str:
+    """'3 steps (2 selections, 1 polish)': what an edit file holds, in words."""
+    steps = edit.steps
+    n_sel = sum(not st.continues for st in steps)
+    n_pol = sum(st.polish is not None for st in steps)
+    parts = [f"{n_sel} selection{'s' if n_sel != 1 else ''}"] + ([f"{n_pol} polish{'es' if n_pol != 1 else ''}"]
+                                                               if n_pol else [])
+    return f"{len(steps)} step{'s' if len(steps) != 1 else ''} ({', '.join(parts)})"
+
+
+def cage_note(edit, cage_vertices: int) -> str:
+    """' Note: ...' when an edit's steps ran on another cage than the one it is replayed on ('' else)."""
+    other = sorted({st.cage["vertices"] for st in edit.steps if st.cage is not None} - {cage_vertices})
+    if not other:
+        return ""
+    made = " and ".join(f"{c:,}" for c in other)
+    return (f" Note: it was made on a cage of {made} vertices and replayed on this one of {cage_vertices:,}, so the "
+            "pose differs from the one it was saved from by what the cages differ; rebuild at that size "
+            "(Cage box, Ctrl+B) and load it again for that pose.")
+
+
 class FileActions:
     """File menu actions of a :class:`~.window.MainWindow`.
 
@@ -279,23 +300,24 @@ class FileActions:
         return self.save_edit_to(p)
 
     def save_edit_to(self, path: str | os.PathLike) -> bool:
-        """Write the selection and handle transform as a JSON edit file."""
+        """Write how the pose on screen was made (every step since the rest pose) as a JSON edit file."""
         w = self.w
         w.finish_settle()  # the settle only, not the polish: as save_to, this reads and changes nothing
         s = self.session
         if s is None:
             return False
         try:
-            save_edit(path, s.to_edit())
+            edit = s.to_edit()
+            save_edit(path, edit)
         except (SelectionError, ValueError, WriteError, OSError) as e:
             w.show_error("Could not save the edit", str(e))
             return False
         self.edit_path = Path(path)
-        note = "" if s.anchor_at_rest or not s.applied else (
-            " Note: its drags started from a pose made by earlier edits or a polish; 'hybridedit deform' replays "
-            "them from the rest pose.")
-        w.message(f"Saved the edit to {path} (the last selection and its drag, in shape vertices: it replays "
-                  f"on any cage of this mesh, e.g. hybridedit deform --edit).{note}")
+        w.message(f"Saved the edit to {path}: {edit_summary(edit)} from the rest pose, in shape vertices. "
+                  + ("'hybridedit deform --edit' replays them to the pose on screen."
+                     if s.replayable else
+                     "Note: the last drag was not settled (Edit ▸ Settle on Release is off), so its pose depends on "
+                     "the mouse's path; 'hybridedit deform' replays it settled."))
         return True
 
     def load_edit_dialog(self) -> bool:
@@ -319,14 +341,15 @@ class FileActions:
             return False
         w.settle_and_stop_polish()
         try:
-            s.load_edit(load_edit(path), path=str(path))
+            edit = load_edit(path)
+            s.load_edit(edit, path=str(path))
         except (EditFileError, SelectionError, ValueError) as e:
             w.show_error("Could not load the edit", str(e))
             return False
         self.edit_path = Path(path)
         w.set_modified(True)
         w.refresh_all()
-        w.message(f"Applied {Path(path).name}")
+        w.message(f"Applied {Path(path).name}: {edit_summary(edit)}.{cage_note(edit, s.editor.cage.n_vertices)}")
         return True
 
     # ------------------------------------------------------------------ screenshots

@@ -11,11 +11,9 @@ from __future__ import annotations
 
 from qtpy import QtCore
 
+from ..defaults import POLISH_MAX_ITERATIONS, POLISH_TOLERANCE
 from .session import Session
 from .worker import PolishOutcome, PolishRequest, PolishWorker, ShapeARAPHolder, release
-
-POLISH_SECONDS = 1.0
-"""Time budget of the polish on release (iterations; the one-off set-up comes on top)."""
 
 
 class PolishScheduler(QtCore.QObject):
@@ -35,9 +33,10 @@ class PolishScheduler(QtCore.QObject):
     def __init__(self, parent: QtCore.QObject | None = None) -> None:
         super().__init__(parent)
         self.enabled = True
-        self.seconds = POLISH_SECONDS
-        self.iterations = 200
-        self.tolerance = 1e-6
+        # the stopping rule, never the clock: the edit file records the iterations run, and a replay
+        # runs exactly those (hybridedit deform gives the window's pose on any machine)
+        self.iterations = POLISH_MAX_ITERATIONS
+        self.tolerance = POLISH_TOLERANCE
         self.worker: PolishWorker | None = None
         self.holder: ShapeARAPHolder | None = None
         self._next: PolishRequest | None = None
@@ -50,18 +49,16 @@ class PolishScheduler(QtCore.QObject):
 
     def start(self, session: Session) -> bool:
         """Polish the session's (engine) pose in the background; False when there is nothing to polish."""
-        if not self.enabled or not session.applied or session.settling:
+        if not self.enabled:
             return False
-        free = session.editor.free_mask
-        if not free.any():
+        job = session.polish_job(max_iterations=self.iterations, tolerance=self.tolerance)
+        if job is None:
             return False
         if self.holder is None or self.holder.mesh is not session.mesh:
             self.holder = ShapeARAPHolder(session.mesh)  # built by the shape's first polish
         self._token += 1
         self._session = session
-        req = PolishRequest(self.holder, session.shape_positions.copy(), free, session.edges,
-                            seconds=self.seconds, max_iterations=self.iterations, tolerance=self.tolerance,
-                            token=self._token)
+        req = PolishRequest(self.holder, job, session.edges, token=self._token)
         if self.worker is not None:  # one at a time: queue it
             self.worker.cancel()
             self._next = req

@@ -208,9 +208,11 @@ class Session:
         return self._anchor is not None
 
     @property
-    def anchor_at_rest(self) -> bool:
-        """The applied selection's drags start from the rest pose (then a saved edit replays exactly)."""
-        return self._anchor is not None and self.editor.starts_at_rest
+    def replayable(self) -> bool:
+        """The edit file :meth:`to_edit` gives replays to the pose on display (see
+        :attr:`~hybridedit.HybridEditor.replayable`)."""
+        self.finish_settle()
+        return self.editor.replayable
 
     def states(self) -> np.ndarray:
         """Per cage vertex FIXED / FREE / HANDLE (see :mod:`.selection`): the engine's cage roles
@@ -349,13 +351,14 @@ class Session:
         """Go on with a new cage and binding of the same shape (a rebuild).
 
         The pose carries over exactly (the new engine takes the shape as it is shown,
-        :meth:`~hybridedit.HybridEditor.set_pose`, and the next drag starts from it);
+        :meth:`~hybridedit.HybridEditor.carry_pose`, and the next drag starts from it; a saved
+        edit replays the steps before the rebuild on the old cage);
         the selection carries over through the shape; the undo history stays, and
         undoing the rebuild goes back to the old cage and its exact pose. Returns a
         sentence for the status bar, or None.
         """
         self.finish_settle()
-        shape = self.shape_positions.copy()
+        old = self.editor
         posed = self.is_posed()
         roi_s = np.flatnonzero(self.roi[self.dominant])
         groups_s = self.handle_group[self.dominant]
@@ -369,7 +372,7 @@ class Session:
         self._anchor = None
         self._identity_transforms()
         if posed:
-            self.editor.set_pose(shape)
+            self.editor.carry_pose(old)  # the pose exactly, and the steps that made it (each on its cage)
         else:
             self.editor.reset()
         self._push("rebuild cage")
@@ -515,16 +518,29 @@ class Session:
         self._anchor_state = self.editor.save_state()
         self._anchor_bases = [B.copy() for B in self._bases]
 
-    def adopt_polish(self, vertices: np.ndarray) -> None:
-        """Make a polished pose (of the engine's current pose) the engine's own, as one undo step:
-        it is what is shown and saved, and the next drag or selection starts from it exactly."""
+    def polish_job(self, *, max_iterations: int, tolerance: float):
+        """A polish of the pose on display (:meth:`~hybridedit.HybridEditor.polish_job`), to run in a
+        worker thread and give back with :meth:`adopt_polish`; None when there is nothing to polish."""
+        if not self.applied or self.settling or not self.editor.free_mask.any():
+            return None
+        return self.editor.polish_job(max_iterations=max_iterations, tolerance=tolerance)
+
+    def adopt_polish(self, job, result) -> None:
+        """Make a polish of the engine's current pose the engine's own, as one undo step: it is
+        what is shown and saved, the next drag or selection starts from it exactly, and the
+        edit file records it (:meth:`~hybridedit.HybridEditor.adopt_polish`; a ValueError when
+        the pose changed since ``job`` was made)."""
         self.finish_settle()
-        self.editor.set_pose(vertices, cage_positions=self.editor.cage_positions)
+        self.editor.adopt_polish(job, result)
+        self._polished_here()
+        self._push("polish")
+
+    def _polished_here(self) -> None:
+        """The engine's pose is a polish it adopted: shown as polished, the drags start from it."""
         self.polished = self.editor.deformed_vertices  # (the engine's pose itself: read-only, no copy)
         if self._anchor is not None:
             self._bases = [T.copy() for T in self.transforms]  # the engine's drags now start here
             self._mark_anchor()
-        self._push("polish")
 
     # ------------------------------------------------------------------ dragging
     def begin_drag(self) -> np.ndarray:
@@ -624,21 +640,21 @@ class Session:
 
     # ------------------------------------------------------------------ edit files
     def to_edit(self) -> Edit:
-        """The current selection and handle transforms as a shape-space edit (the engine's
-        :attr:`~hybridedit.HybridEditor.edit`: it replays on any cage of this shape).
-
-        Only the drags since the selection was last applied are stored; ``hybridedit
-        deform`` replays them from the rest pose.
+        """How the pose on display was made, as a shape-space edit (the engine's
+        :attr:`~hybridedit.HybridEditor.edit`): every step since the rest pose (selections,
+        their settled transforms, polishes, the cage each ran on), which ``hybridedit deform``
+        replays to this pose. A selection not dragged yet is its last step.
         """
         self.finish_settle()
-        if not self.all_handles.any():
+        if not self.all_handles.any() and not self.is_posed():
             raise SelectionError("The handle is empty: there is nothing to save. Select a handle first.")
-        if self._anchor is None or self._engine_masks != self._mask_key():
+        if self.all_handles.any() and (self._anchor is None or self._engine_masks != self._mask_key()):
             self.apply_selection()  # the selection as it is now, not dragged yet
         return self.editor.edit
 
     def _replay(self, edit: Edit, path: str | None = None) -> None:
-        """Set an edit's selection from the rest pose and solve its transforms with the batch settings."""
+        """Replay an edit from the rest pose as ``hybridedit deform`` does (on this cage); its last
+        step is run here, so that its selection is the session's, anchored where it starts."""
         self.editor.reset()
         self.editor.apply_edit(edit, frames=0, path=path)
         roles = self.editor.cage_roles
@@ -652,10 +668,16 @@ class Session:
         self._anchor = self.editor.cage_positions
         self._bases = [np.eye(4) for _ in range(self.n_groups)]
         self._mark_anchor()
-        self.settle()
+        if edit.iterations is None:
+            self.settle()
+        elif edit.iterations > 0:
+            self.editor.drag(transforms=self._engine_transforms(), iterations=edit.iterations)
+        if edit.polish is not None:
+            self.editor.polish(iterations=edit.polish)
+            self._polished_here()
 
     def load_edit(self, edit: Edit, path: str | None = None) -> None:
-        """Replay an edit as ``hybridedit deform`` does: from the rest pose, with the batch settings.
+        """Replay an edit as ``hybridedit deform`` does: from the rest pose, step by step.
 
         On any error (an edit for another mesh: EditFileError; a selection that does
         not fit: SelectionError) the session is left as it was.
@@ -667,5 +689,6 @@ class Session:
         except Exception:
             self.restore(before)
             raise
-        self.polished = None
+        if edit.polish is None:
+            self.polished = None
         self._push("load edit")

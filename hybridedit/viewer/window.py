@@ -168,8 +168,8 @@ class MainWindow(QtWidgets.QMainWindow):
                        "settings, so the window shows what 'hybridedit deform' computes")
         settle.setChecked(True)
         pol = A("polish", "Polish on Release", self._toggle_polish, checkable=True,
-                tip="After a drag, run full-resolution ARAP on the edited region in the background (about 1 s) "
-                    "and show the result; the next drag starts from the cage pose again")
+                tip="After a drag, run full-resolution ARAP on the edited region in the background until it "
+                    "converges and show the result; the next edit starts from it, and a saved edit replays it")
         pol.setChecked(True)
         A("mode_camera", "&Camera Mode", lambda: self.set_mode(CAMERA), "C", checkable=True,
           tip="Left drag rotates the view", short="Camera")
@@ -704,7 +704,7 @@ class MainWindow(QtWidgets.QMainWindow):
         if s is None:
             return
         self.last_polish = out
-        s.adopt_polish(out.result.vertices)  # the engine's pose from now on: the next edit starts from it
+        s.adopt_polish(out.request.job, out.result)  # the engine's pose from now on: the next edit starts from it
         self.scene.update_shape(s.shown_positions, everything=True)
         self._pose_shown_changed()
         self.view.request_render()

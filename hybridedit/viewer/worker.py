@@ -170,19 +170,21 @@ class ShapeARAPHolder:
 
 @dataclass
 class PolishRequest:
-    """One polish: start pose ``vertices`` (n, 3), the ``free`` shape vertices (n,) bool, a time budget.
+    """One polish: the engine's ``job`` (:class:`~hybridedit.polish.PolishJob`: the start pose, the
+    free vertices, the stopping rule), run with the shape's set-up in ``holder``.
 
     ``token`` identifies the request; the window drops a result whose token is stale.
     """
 
     holder: ShapeARAPHolder
-    vertices: np.ndarray
-    free: np.ndarray
+    job: object  # hybridedit.polish.PolishJob
     edges: np.ndarray
-    seconds: float = 1.0
-    max_iterations: int = 200
-    tolerance: float = 1e-6
     token: int = 0
+
+    @property
+    def vertices(self) -> np.ndarray:
+        """(n, 3) the pose polished."""
+        return self.job.start
 
 
 @dataclass
@@ -224,7 +226,6 @@ class PolishWorker(QtCore.QThread):
 
     def run(self) -> None:  # runs in the worker thread
         from ..mesh import rrms_edge_error
-        from ..polish import polish
 
         t0 = time.perf_counter()
         req = self.request
@@ -233,13 +234,12 @@ class PolishWorker(QtCore.QThread):
             if self._cancel.is_set():
                 self.cancelled.emit()
                 return
-            sa.prepare(req.free)  # factor once per free set (cached by ShapeARAP)
+            sa.prepare(req.job.free)  # factor once per free set (cached by ShapeARAP)
             setup = time.perf_counter() - t0
             if self._cancel.is_set():
                 self.cancelled.emit()
                 return
-            res = polish(sa, req.vertices, req.free, seconds=req.seconds, max_iterations=req.max_iterations,
-                         tolerance=req.tolerance, should_stop=self._cancel.is_set)
+            res = req.job.run(sa, should_stop=self._cancel.is_set)
             if self._cancel.is_set() or res.stopped == "cancelled":
                 self.cancelled.emit()
                 return

@@ -74,7 +74,7 @@ def test_second_drag_continues_the_same_selection(session):
     s.end_drag()
     edit = s.to_edit()
     assert np.allclose(edit.translate, [0.1, 0.2, 0]) and edit.rotate is None
-    assert s.anchor_at_rest
+    assert s.replayable and len(edit.steps) == 1 and edit.iterations == s.settle_frames * s.settle_iterations
     # undo one drag: the transform goes back too
     s.undo()
     assert np.allclose(s.transform[:3, 3], [0, 0.2, 0])
@@ -83,7 +83,10 @@ def test_second_drag_continues_the_same_selection(session):
     s.set_mask(HANDLE, s.handle & (s.cage_positions[:, 0] > 1.6))
     assert not s.applied
     s.begin_drag()
-    assert not s.anchor_at_rest and np.allclose(s.transform, np.eye(4))
+    assert np.allclose(s.transform, np.eye(4))
+    edit = s.to_edit()  # the first selection's settled drag, then the new selection (not dragged yet)
+    assert s.replayable and len(edit.steps) == 2 and edit.iterations == 0
+    assert np.allclose(edit.before[0].translate, [0, 0.2, 0])
 
 
 def test_undo_into_an_earlier_selection_restores_its_engine_selection(session):
@@ -136,7 +139,7 @@ def test_load_edit_replays_and_failures_keep_the_state(session):
                 translate=np.array([0.0, 0.0, 0.25]))
     s.load_edit(edit)
     assert s.history.current.label == "load edit"
-    assert s.anchor_at_rest and np.allclose(s.transform[:3, 3], [0, 0, 0.25])
+    assert s.replayable and np.allclose(s.transform[:3, 3], [0, 0, 0.25])
     mesh = s.mesh
     ed = HybridEditor(mesh, 150, cage=s.editor.cage, binding=s.editor.M)
     ed.set_selection(edit.handle, fixed=edit.fixed, space="shape")

@@ -195,12 +195,13 @@ def test_select_drag_undo_redo_save_and_replay(qtbot, win, blob_file, tmp_path):
     assert w.files.save_edit_to(edit_path)
     data = json.loads(edit_path.read_text())
     # in shape space, with the mesh's fingerprint: it fits any cage of this shape
-    assert data["space"] == "shape" and data["mesh"]["vertices"] == 2562
-    assert data["handles"][0]["indices"] == np.flatnonzero(s.editor.vertex_roles == 1).tolist()
+    step = data["steps"][-1]
+    assert step["space"] == "shape" and data["mesh"]["vertices"] == 2562
+    assert step["handles"][0]["indices"] == np.flatnonzero(s.editor.vertex_roles == 1).tolist()
     assert np.array_equal(s.editor.cage_roles == 1, handle)  # the cage picks, exactly
     roles = s.shape_roles()
     assert np.array_equal(roles, s.editor.vertex_roles)
-    assert np.allclose(data["handles"][0]["translate"], t, atol=1e-12)
+    assert np.allclose(step["handles"][0]["translate"], t, atol=1e-12)
     replay = tmp_path / "replay.obj"
     rc = cli.main(["deform", str(blob_file), "-o", str(replay), "--edit", str(edit_path), "--cage", str(CAGE), "-q"])
     assert rc == 0
@@ -251,7 +252,8 @@ def test_gizmo_rotate_and_translate(qtbot, win, tmp_path, blob_file):
     edit_path = tmp_path / "rot.json"
     assert w.files.save_edit_to(edit_path)
     data = json.loads(edit_path.read_text())
-    assert abs(data["handles"][0]["rotate"]["degrees"] - ang[0]) < 1e-6 and np.allclose(np.abs(data["handles"][0]["rotate"]["axis"]), [0, 0, 1])
+    rot = data["steps"][-1]["handles"][0]["rotate"]
+    assert abs(rot["degrees"] - ang[0]) < 1e-6 and np.allclose(np.abs(rot["axis"]), [0, 0, 1])
     replay = tmp_path / "rot.obj"
     rc = cli.main(["deform", str(blob_file), "-o", str(replay), "--edit", str(edit_path), "--cage", str(CAGE), "-q"])
     assert rc == 0

@@ -312,7 +312,7 @@ def test_an_edit_saved_at_one_cage_size_replays_at_another(qtbot, win, tmp_path,
     roles = s.shape_roles()
     edit = tmp_path / "tip.json"
     assert w.files.save_edit_to(edit)
-    assert "any cage of this mesh" in w.current_message()
+    assert "replays them to the pose on screen" in w.current_message()
     # the same mesh on a cage of another size
     w.set_modified(False)
     w.set_cage_size(70)
@@ -322,6 +322,7 @@ def test_an_edit_saved_at_one_cage_size_replays_at_another(qtbot, win, tmp_path,
     s2 = w.session
     assert abs(s2.n_cage - 70) < 10 and s2.n_cage != s.n_cage
     assert w.files.load_edit_from(edit)
+    assert f"made on a cage of {s.n_cage:,} vertices and replayed on this one of {s2.n_cage:,}" in w.current_message()
     V = s2.shape_positions
     # the same constraints, held exactly, and the same shape up to the cage's resolution
     assert np.array_equal(s2.shape_roles(), roles)

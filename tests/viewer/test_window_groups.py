@@ -58,7 +58,7 @@ def test_two_handle_groups_move_independently(qtbot, win, tmp_path):
     edit = tmp_path / "two.json"
     assert w.files.save_edit_to(edit)
     data = json.loads(edit.read_text())
-    assert len(data["handles"]) == 2
+    assert len(data["steps"][-1]["handles"]) == 2
     # undo the last drag: group 2's pose is back, group 1 at rest
     key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
     assert np.allclose(s.shape_positions, V1, atol=1e-6)

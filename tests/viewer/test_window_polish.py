@@ -106,7 +106,7 @@ def test_a_new_drag_or_undo_cancels_a_running_polish(qtbot, win):
     s = w.session
     select_tip(qtbot, w)
     # a polish that would run for a minute: never converges, no iteration cap
-    w.polisher.seconds, w.polisher.iterations, w.polisher.tolerance = 60.0, 10 ** 9, 0.0
+    w.polisher.iterations, w.polisher.tolerance = 10 ** 9, 0.0
     drag_up(qtbot, w)
     qtbot.waitUntil(lambda: w.polisher.worker is not None and w.polisher.holder.shape_arap is not None, timeout=10000)
     qtbot.wait(150)  # iterating now
