@@ -222,6 +222,12 @@ class HybridEditor:
         return self.M.nnz / max(self.M.shape[0], 1)
 
     @property
+    def cage_edges(self) -> np.ndarray:
+        """(e, 2) int64 the cage's edges as ARAP sees them (its faces' edges and the links that tie
+        separate cage parts together), column 0 < column 1."""
+        return self.arap.edges.copy()
+
+    @property
     def n_groups(self) -> int:
         """Number of handle groups of the selection (0 before one is set)."""
         return 0 if self._sel is None else self._sel.n_groups

@@ -5,9 +5,9 @@ from __future__ import annotations
 from qtpy import QtGui, QtWidgets
 
 MOUSE_HELP = [
-    ("Left drag", "Camera mode: rotate the view; Select mode: rectangle or brush (only the cage points in "
-                  "sight; Select Through, Alt+Z, takes the hidden ones too); Drag mode: move the handle in the "
-                  "view plane"),
+    ("Left drag", "Camera mode: rotate the view; Select mode: rectangle or brush (the part it is drawn over, "
+                  "through its thickness, not what another part hides; Select Through, Alt+Z, takes that too); "
+                  "Drag mode: move the handle in the view plane"),
     ("Left click", "Select mode, rectangle tool: take the nearest cage point (Shift adds, Ctrl removes); "
                    "a click on empty space changes nothing"),
     ("Shift + left drag", "Select mode: add to the selection (Camera mode: pan)"),
@@ -22,9 +22,11 @@ MOUSE_HELP = [
 
 HOWTO = """\
 1. Select mode (S), target ROI (R): drag a rectangle (or use the brush, B) over the cage
-   vertices that may move. Shift adds, Ctrl removes, a plain drag replaces. Only the cage
-   vertices in sight are taken, not those hidden behind the shape; Select > Select Through
-   (Alt+Z) takes those too. A click takes the nearest cage vertex; a click on empty space
+   vertices that may move. Shift adds, Ctrl removes, a plain drag replaces. The part you draw
+   over is taken through its thickness (an arm drawn over from the front: its back too), not
+   a part hidden behind another; Select > Select Through (Alt+Z) takes those too. The status
+   bar warns when a handle touches the held part with nothing free between them (a drag
+   would tear there). A click takes the nearest cage vertex in sight; a click on empty space
    changes nothing. A rectangle over empty space empties the target (Ctrl+Z restores it).
    Ctrl+Shift+A clears the ROI and every handle group; Alt+A the current target only.
 2. Target Handle (H): select the cage vertices you want to pull.
@@ -32,10 +34,12 @@ HOWTO = """\
 3. Drag mode (D): drag with the left button to move the handle parallel to the view;
    or grab the gizmo (arrows move along X/Y/Z, rings rotate, the white ball moves freely).
    On release the pose settles to what 'hybridedit deform' computes; then, with Edit >
-   Polish on Release (on by default), about a second of full-resolution ARAP in the
-   background smooths the edited region (the status bar reports the iterations and the
-   edge error before and after). The polished pose is what you see, what File > Save
-   writes and where the next drag starts; Ctrl+Z undoes the polish on its own.
+   Polish on Release (on by default), full-resolution ARAP of the edited region runs in the
+   background until it converges (at most 200 iterations; the status bar reports them and
+   the edge error before and after). The polished pose is what you see, what File > Save
+   writes and where the next drag starts; Ctrl+Z undoes the polish on its own. File > Save
+   Edit (Ctrl+E) writes every step since the rest pose, polishes included: 'hybridedit
+   deform' replays them to the pose on screen.
    A new selection starts from the pose on screen: only its region can move, and a part
    posed before stays exactly where it is.
 4. Undo / redo with Ctrl+Z / Ctrl+Shift+Z (a selection step never moves the shape);

@@ -8,10 +8,14 @@ shortcuts handle the keyboard.
 
 The controller turns gestures into calls on a :class:`Handler` (the window).
 
-Selection takes only the cage points in sight, as Blender and MeshLab do: a
-point hidden behind the shape (a hind leg behind a front leg) is not taken by
-the rectangle, the brush or a click, unless :attr:`ViewController.select_through`
-is on (Blender's X-ray). Whether a point is in sight is decided once per
+Selection takes what the user points at, as in Blender and MeshLab: the cage
+points in sight, and with them, for the rectangle and the brush, the part they
+are drawn over through its thickness (:func:`~.selection.through_the_part`: the
+back of an arm drawn over from the front, the fingers behind other fingers),
+so that a limb picked from one side moves whole. A point hidden behind another
+part (a hind leg behind a front leg) is not taken, unless
+:attr:`ViewController.select_through` is on (Blender's X-ray); a click takes the
+nearest point in sight. Whether a point is in sight is decided once per
 gesture from the depth buffer of the shape's layer (:class:`~.view.DepthGrab`,
 read with the frame the view shows anyway) by
 :func:`~.selection.visible_points`. A click (the rectangle tool, moved at most
@@ -33,7 +37,7 @@ from qtpy import QtCore, QtGui
 from . import gizmo as gz
 from .scene import Scene
 from .selection import (ADD, REPLACE, brush_hits, nearest_hit, op_from_modifiers, project_points, rectangle_hits,
-                        stroke_hits, visible_points)
+                        stroke_hits, through_the_part, visible_points)
 from .view import OutlineOverlay, View
 
 CAMERA, SELECT, DRAG = "camera", "select", "drag"
@@ -63,6 +67,7 @@ class Handler(Protocol):
     """What the controller asks of the window."""
 
     def cage_points(self) -> np.ndarray | None: ...
+    def cage_edges(self) -> np.ndarray | None: ...
     def handle_center(self) -> np.ndarray | None: ...
     def begin_select(self) -> bool: ...
     def select_hits(self, hits: np.ndarray, op: str) -> None: ...
@@ -88,7 +93,9 @@ class Gesture:
         self.composite = np.eye(4)
         self.size = (1, 1)
         self.display: np.ndarray | None = None
+        self.front: np.ndarray | None = None  # in front of the camera
         self.in_front: np.ndarray | None = None  # in front of the camera and takeable (in sight, or select through)
+        self.edges: np.ndarray | None = None  # the cage's edges (a part is taken through its thickness)
 
 
 class ViewController(QtCore.QObject):
@@ -264,15 +271,23 @@ class ViewController(QtCore.QObject):
         g.op = op_from_modifiers(bool(mods & QtCore.Qt.KeyboardModifier.ShiftModifier),
                                  bool(mods & QtCore.Qt.KeyboardModifier.ControlModifier))
         g.composite, g.size = C, size
-        g.display, front = project_points(P, C, size)
-        take = self.takeable(P, C, size, g.display, front)
-        g.in_front = front if take is None else take  # (no depth to be had: everything in front)
+        g.display, g.front = project_points(P, C, size)
+        take = self.takeable(P, C, size, g.display, g.front)
+        g.in_front = g.front if take is None else take  # (no depth to be had: everything in front)
+        g.edges = self.handler.cage_edges()
         self.gesture = g
         if g.kind != RECTANGLE:  # (the rectangle is shown once the mouse moves: a click shows none)
             r = self.brush_radius * self.view.devicePixelRatioF()
-            self._dab(g, brush_hits(g.display, g.in_front, d, r))
+            self._dab(g, self._taken(g, brush_hits(g.display, g.front, d, r)))
             self.view.brush.show_at(pos, self.brush_radius, self.target_color)
         return True
+
+    def _taken(self, g: Gesture, hits: np.ndarray) -> np.ndarray:
+        """What a rectangle or brush gesture takes of its ``hits`` (every point in it, in front of the camera):
+        with Select Through all, else those in sight and the parts they lie in, through their thickness."""
+        if self.select_through or g.edges is None:
+            return hits & g.in_front
+        return through_the_part(hits, hits & g.in_front, g.edges)
 
     def _dab(self, g: Gesture, hits: np.ndarray) -> None:
         """Apply a brush dab. A replacing stroke replaces with its first dab that touches a cage point
@@ -313,7 +328,7 @@ class ViewController(QtCore.QObject):
                 self.rubber.show()
         elif g.kind == BRUSH:
             r = self.brush_radius * self.view.devicePixelRatioF()
-            self._dab(g, stroke_hits(g.display, g.in_front, g.last, d, r))
+            self._dab(g, self._taken(g, stroke_hits(g.display, g.front, g.last, d, r)))
             self.view.brush.show_at(pos, self.brush_radius, self.target_color)
         else:
             self.handler.drag(self._drag_transform(g, d))
@@ -354,7 +369,7 @@ class ViewController(QtCore.QObject):
                 else:  # a click on empty space: the selection stays
                     self.handler.message("No cage point there: the selection is kept")
             else:
-                self.handler.select_hits(rectangle_hits(g.display, g.in_front, g.start, d), g.op)
+                self.handler.select_hits(self._taken(g, rectangle_hits(g.display, g.front, g.start, d)), g.op)
             self.handler.end_select()
         elif g.kind == BRUSH:
             self.handler.end_select()
@@ -378,7 +393,9 @@ class ViewController(QtCore.QObject):
                     take = front
                     self.view.request_render()
                 r = max(NEAR_PIXELS, 1.5 * self.brush_radius) * self.view.devicePixelRatioF()
-                near = brush_hits(display, take, self.view.to_display(pos), r)
+                near = brush_hits(display, front, self.view.to_display(pos), r)
+                edges = None if self.select_through else self.handler.cage_edges()
+                near = near & take if edges is None else through_the_part(near, near & take, edges)
         if self.scene.set_points_near(near):
             self.view.request_render()
 

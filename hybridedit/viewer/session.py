@@ -257,6 +257,17 @@ class Session:
             return self.editor.vertex_roles
         return self._preview()[0]
 
+    def tearing(self) -> dict[int, int]:
+        """{handle group: cage points of the group that share a cage edge with a held (fixed) point}: with
+        no free point between them, a drag stretches those edges and tears the shape there (the front of a
+        limb taken as handle, its back left fixed). Mirror images count in their group; empty when none."""
+        st = self.states()
+        e = self.editor.cage_edges
+        touching = np.zeros(len(st), dtype=bool)
+        for x, y in ((e[:, 0], e[:, 1]), (e[:, 1], e[:, 0])):
+            touching[x[(st[x] >= HANDLE_STATE) & (st[y] == FIXED)]] = True
+        return {int(g - HANDLE_STATE): int(np.count_nonzero(touching & (st == g))) for g in np.unique(st[touching])}
+
     def moving_vertices(self) -> np.ndarray | None:
         """The shape vertices a drag of the applied selection can move, (k,) int64 (None: no selection)."""
         if self._anchor is None:

@@ -159,8 +159,8 @@ class MainWindow(QtWidgets.QMainWindow):
         A("clear_target", "Clear &Target", lambda: self._selection_op("clear"), "Alt+A",
           tip="Empty the current target only: the ROI, or the active handle group")
         A("select_through", "Select &Through", self._toggle_select_through, "Alt+Z", checkable=True,
-          tip="Rectangle, brush and click also take the cage points hidden behind the shape "
-              "(Blender's X-ray); off, only the cage points in sight", short="Through")
+          tip="Rectangle, brush and click also take the cage points hidden behind another part "
+              "(Blender's X-ray); off, the part drawn over, through its thickness", short="Through")
         A("invert_sel", "&Invert Selection", lambda: self._selection_op("invert"), "Ctrl+I",
           tip="Invert the current target (ROI or handle)")
         settle = A("settle", "Settle on Release", self._toggle_settle, checkable=True,
@@ -615,6 +615,10 @@ class MainWindow(QtWidgets.QMainWindow):
         self.finish_settle()
         return None if self.session is None else self.session.cage_positions
 
+    def cage_edges(self) -> np.ndarray | None:
+        """(e, 2) the cage's edges (a selection takes the part it is drawn over through its thickness)."""
+        return None if self.session is None else self.session.editor.cage_edges
+
     def handle_center(self) -> np.ndarray | None:
         self.finish_settle()
         return None if self.session is None else self.session.handle_centroid()
@@ -642,10 +646,24 @@ class MainWindow(QtWidgets.QMainWindow):
             target = getattr(self, "_stroke_target", self.target)
             if not s.mask(target).any():
                 self.message(f"{self._target_name(target)} cleared (Ctrl+Z restores it)")
-            else:
+            elif not self._warn_if_tearing():
                 self.clear_message()
         self._refresh_selection()
         self._update_actions()
+
+    def _warn_if_tearing(self) -> bool:
+        """Say so (and return True) when a handle group touches held cage points with nothing free between
+        them: a drag would tear the shape there (:meth:`Session.tearing`)."""
+        s = self.session
+        tears = s.tearing() if s is not None and s.all_handles.any() and s.roi.any() else {}
+        if not tears:
+            return False
+        g, n = max(tears.items(), key=lambda kv: kv[1])
+        who = f"Handle group {g + 1}" if s.n_groups > 1 else "The handle"
+        self.message(f"{who} touches the held part at {n} cage point{'s' if n != 1 else ''} with nothing free "
+                     "between them: a drag tears the shape there (the back of a limb left out of the ROI?). Take "
+                     "the ROI around the handle (R, Shift+drag), or select through (Alt+Z).")
+        return True
 
     def begin_drag(self) -> bool:
         return self.dragging.begin()
@@ -893,7 +911,7 @@ class MainWindow(QtWidgets.QMainWindow):
             self.message(said)
         elif op in ("clear", "clear_all") and not changed:
             self.message("Nothing to clear")
-        else:
+        elif not self._warn_if_tearing():
             self.clear_message()
         self._refresh_selection()
         self._update_actions()
@@ -902,7 +920,8 @@ class MainWindow(QtWidgets.QMainWindow):
         on = self.actions_["select_through"].isChecked()
         self.controller.set_select_through(on)
         self.message("Select Through: rectangle, brush and click also take the cage points hidden behind the shape"
-                     if on else "Select Through off: only the cage points in sight are taken")
+                     if on else "Select Through off: the part drawn over is taken through its thickness, not what "
+                                "another part hides")
 
     # ================================================================== drag and drop
     def dragEnterEvent(self, ev: QtGui.QDragEnterEvent) -> None:  # noqa: N802

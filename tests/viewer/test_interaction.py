@@ -23,8 +23,10 @@ FRONT_Z, BACK_Z = 1.6, -1.6
 class Window:
     """What the controller asks of the main window, recorded."""
 
-    def __init__(self, P: np.ndarray) -> None:
+    def __init__(self, P: np.ndarray, cage_faces: np.ndarray | None = None) -> None:
         self.P = P
+        self.edges = None if cage_faces is None else np.sort(
+            np.vstack([cage_faces[:, [0, 1]], cage_faces[:, [1, 2]], cage_faces[:, [2, 0]]]), axis=1)
         self.mask = np.zeros(len(P), dtype=bool)
         self.calls: list[tuple[np.ndarray, str]] = []
         self.messages: list[str] = []
@@ -32,6 +34,9 @@ class Window:
 
     def cage_points(self):
         return self.P.copy()
+
+    def cage_edges(self):
+        return self.edges
 
     def handle_center(self):
         return None
@@ -84,7 +89,7 @@ def rig(qtbot):
     scene = Scene(view.plotter)
     scene.load(ShapeMetrics(V, F), V, P, CF, np.zeros(len(P), dtype=np.int8), np.zeros(len(V), dtype=np.int8))
     scene.reset_camera(tilted=False)
-    win = Window(P)
+    win = Window(P, CF)
     ctl = ViewController(view, scene, win)
     ctl.set_mode(SELECT)
     view.render()
@@ -120,7 +125,7 @@ def _everything(view, scene, P) -> tuple[QtCore.QPoint, QtCore.QPoint]:
             _widget(view, (d[:, 0].max() + 8, d[:, 1].min() - 8)))
 
 
-def test_the_rectangle_takes_only_what_is_in_sight(qtbot, rig, monkeypatch):
+def test_the_rectangle_takes_the_part_in_front_through_its_thickness(qtbot, rig, monkeypatch):
     view, scene, ctl, win = rig
     P = win.P
     front_ball = P[:, 2] > 0
@@ -133,11 +138,12 @@ def test_the_rectangle_takes_only_what_is_in_sight(qtbot, rig, monkeypatch):
     taken = win.mask
     assert win.calls[-1][1] == REPLACE and win.begun == win.ended == 1
     assert len(tests) == 1  # one visibility test for the whole gesture, not one per mouse move
-    # the back ball is hidden behind the front one; of the front one, the half facing the camera is taken
-    # (its points lie 0.03 inside the surface: within the tolerance)
+    # the back ball is hidden behind the front one: not taken; the front one is taken whole, its far half
+    # too (hidden only by the ball itself: one wall in front of it), as Select Through takes it
     assert not taken[~front_ball].any()
-    assert np.all(taken[front_ball & (local_z > 0.25)])
-    assert not taken[front_ball & (local_z < -0.25)].any()
+    assert np.all(taken[front_ball])
+    sight = ctl.takeable(P, scene.composite_matrix(), scene.display_size(), *_projected(scene, P))
+    assert np.all(sight[front_ball & (local_z > 0.25)]) and not sight[front_ball & (local_z < -0.25)].any()
     # Select Through takes every point in the rectangle
     ctl.set_select_through(True)
     _drag(qtbot, view, a, b)
@@ -189,6 +195,11 @@ def test_a_brush_stroke_over_empty_space_keeps_the_selection(qtbot, rig):
     _drag(qtbot, view, _widget(view, (d[i, 0] - 200, d[i, 1])), _widget(view, d[i, :2]), steps=20)
     assert win.calls[0][1] == REPLACE and all(op == "add" for _, op in win.calls[1:])
     assert win.mask[i] and not win.mask[P[:, 2] < 0].any()  # (the back ball: hidden)
+    # a brush as wide as the ball takes it through its depth, its far side too; the ball behind it still not
+    ctl.set_brush_radius(160)
+    c = _widget(view, d[i, :2])
+    _drag(qtbot, view, c, c + QtCore.QPoint(1, 0), steps=1)
+    assert win.mask[P[:, 2] > 0].all() and not win.mask[P[:, 2] < 0].any()
 
 
 def test_the_points_shown_near_the_cursor_are_those_a_selection_takes(qtbot, rig):
@@ -196,6 +207,8 @@ def test_the_points_shown_near_the_cursor_are_those_a_selection_takes(qtbot, rig
     P = win.P
     d, _ = _projected(scene, P)
     c = _widget(view, d[int(np.argmax(P[:, 2])), :2])
+    qtbot.mouseMove(view, c + QtCore.QPoint(7, 5))  # (from elsewhere: a move to where the cursor is sends nothing)
+    qtbot.wait(10)
     qtbot.mouseMove(view, c)
     qtbot.waitUntil(lambda: len(scene.shown_points) > 0, timeout=3000)
     qtbot.wait(50)
@@ -229,4 +242,6 @@ def test_the_depth_is_read_once_per_view_and_only_in_select_mode(qtbot, rig):
     ctl.set_mode(SELECT)
     a, b = _everything(view, scene, win.P)
     _drag(qtbot, view, a, b)
-    assert depth.serial == n + 2 and win.mask.any() and not win.mask.all()
+    assert depth.serial == n + 2
+    # turned 40 degrees, the balls no longer hide each other: each is taken whole, through its thickness
+    assert win.mask.all()
