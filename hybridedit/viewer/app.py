@@ -14,7 +14,7 @@ import traceback
 from pathlib import Path
 
 from ..editor import HybridEditor
-from ..io import read_mesh
+from ..io import read_document
 from ..mesh import MeshError
 
 SCREENSHOT_SIZE = (1280, 960)
@@ -40,6 +40,9 @@ def render_screenshot(path: str | os.PathLike, out: str | os.PathLike, cage: int
                       size: tuple[int, int] = SCREENSHOT_SIZE, show_cage: bool = False) -> int:
     """Render a mesh as the window first shows it, off-screen, to a PNG; returns the exit status.
 
+    The file is read as the window reads it (:func:`hybridedit.read_document`) and drawn with the
+    same look: its textures, material colours or vertex colours (:func:`.look.shown_look`).
+
     Parameters
     ----------
     path : mesh file; out : PNG file to write.
@@ -48,6 +51,7 @@ def render_screenshot(path: str | os.PathLike, out: str | os.PathLike, cage: int
     """
     import pyvista as pv
 
+    from .look import shown_look
     from .scene import Scene
     from .session import Session
 
@@ -57,17 +61,21 @@ def render_screenshot(path: str | os.PathLike, out: str | os.PathLike, cage: int
     if not out.parent.is_dir():
         return _error(f"{out}: the folder {out.parent} does not exist")
     try:
-        mesh = read_mesh(path)
+        document = read_document(path)
+        mesh = document.mesh
         editor = HybridEditor(mesh, cage, cache=True)
     except (MeshError, ValueError, OSError) as e:
         return _error(str(e))
     session = Session(editor, path=Path(path), cage_size=cage)
+    session.look = shown_look(document)
+    for note in session.look.notes if session.look is not None else []:
+        print(f"hybridedit: note: {Path(path).name}: {note}", file=sys.stderr)
     _headless_render_window()
     pl = pv.Plotter(off_screen=True, window_size=list(size))
     try:
         scene = Scene(pl)
         scene.load(session.metrics, session.shape_positions, session.cage_positions, editor.cage.faces,
-                   session.states(), session.shape_roles())
+                   session.states(), session.shape_roles(), look=session.look)
         scene.set_cage_visible(show_cage)
         scene.reset_camera()
         pl.add_text(f"{Path(path).name}: {mesh.n_vertices:,} vertices, cage {editor.cage.n_vertices:,}",

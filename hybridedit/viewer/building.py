@@ -24,6 +24,7 @@ from qtpy import QtCore, QtWidgets
 
 from . import worker as worker_module
 from .cagesize import DEFAULT_SIZE, fit_cage_size, is_count
+from .look import shown_look
 from .worker import BuildRequest, BuildResult, BuildWorker, Cancelled, release
 
 if TYPE_CHECKING:
@@ -160,7 +161,7 @@ class FileBuildAtCount(BuildWorker):
         except Exception:  # noqa: BLE001 -- read again, and said, by BuildWorker.run
             super().run()
             return
-        self.look = self._look(document)
+        self.look = shown_look(document)
         size, note = fit_cage_size(req.cage_size, document.mesh.n_vertices)
         if note:
             self.size_fitted.emit(size, note)

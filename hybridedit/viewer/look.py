@@ -116,6 +116,15 @@ def decode_image(data: bytes) -> np.ndarray:
         raise ValueError(f"not an image Pillow can read ({e.__class__.__name__})") from None
 
 
+def shown_look(document: Document) -> Look | None:
+    """The look the window shows a document with: :func:`look_of`, or, when its textures or colours cannot
+    be read, a plain look whose note says why (the shape still opens)."""
+    try:
+        return look_of(document)
+    except Exception as e:  # noqa: BLE001 -- the shape opens plain, and the note says why
+        return Look.plain(document.mesh, notes=[f"its textures and colours are not shown: {e}"])
+
+
 def look_of(document: Document) -> Look | None:
     """The look of a document, or None when it has neither texture coordinates, materials nor colours.
 

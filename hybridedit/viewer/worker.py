@@ -17,7 +17,7 @@ from qtpy import QtCore
 from ..editor import HybridEditor
 from ..rig import build_rig
 from ..io import read_document
-from .look import Look, look_of
+from .look import Look, shown_look
 from ..mesh import Mesh
 
 
@@ -117,7 +117,7 @@ class BuildWorker(QtCore.QThread):
             if mesh is None:
                 document = read_document(req.path, progress=self._report)  # ("reading NAME", from 0 to 1)
                 mesh = document.mesh
-                look = self._look(document)
+                look = shown_look(document)
             # the on-disk cache makes reopening a shape (or going back to a cage size) instant
             rig = build_rig(mesh, cage_size=req.cage_size, cache=req.use_cache, progress=self._report)
             editor = HybridEditor(rig)
@@ -134,14 +134,6 @@ class BuildWorker(QtCore.QThread):
         else:
             self.succeeded.emit(BuildResult(req, mesh, editor, time.perf_counter() - t0, look))
 
-    @staticmethod
-    def _look(document) -> Look | None:
-        """The file's textures and colours, read and decoded here (off the UI thread); a file whose
-        look cannot be read is still opened, plain, with a note saying why."""
-        try:
-            return look_of(document)
-        except Exception as e:  # noqa: BLE001 -- the shape opens plain, and the note says why
-            return Look.plain(document.mesh, notes=[f"its textures and colours are not shown: {e}"])
 
 
 # ---------------------------------------------------------------------------- polish on release

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import pyvista as pv
@@ -152,7 +154,8 @@ def test_the_selection_tint_leaves_the_texture_readable(tmp_path):
         assert np.mean(red > 80) > 0.03 and np.mean(red < -80) > 0.03
 
 
-def test_vertex_colours_are_shown(tmp_path):
+def painted_ply(folder):
+    """A sphere in a PLY with vertex colours: red where x > 0, green elsewhere."""
     from plyfile import PlyData, PlyElement
 
     s = pv.Sphere(theta_resolution=40, phi_resolution=40)
@@ -167,8 +170,13 @@ def test_vertex_colours_are_shown(tmp_path):
     vert["blue"] = 30
     face = np.zeros(len(F), dtype=[("vertex_indices", "i4", (3,))])
     face["vertex_indices"] = F
-    p = tmp_path / "painted.ply"
+    p = folder / "painted.ply"
     PlyData([PlyElement.describe(vert, "vertex"), PlyElement.describe(face, "face")]).write(str(p))
+    return p
+
+
+def test_vertex_colours_are_shown(tmp_path):
+    p = painted_ply(tmp_path)
     img, sc, _ = render(p)
     assert sc.look_mode == "colors"
     r = img.astype(int)
@@ -177,6 +185,26 @@ def test_vertex_colours_are_shown(tmp_path):
     assert reddish.mean() > 0.03 and greenish.mean() > 0.03
     plain, _, _ = render(p, mode="plain")
     assert (plain[..., 0] - plain[..., 1] > 80).mean() < 0.001
+
+
+def test_the_screenshot_shows_the_asset_as_the_window_does(tmp_path):
+    """`hybridedit --screenshot`: a textured OBJ with its texture's two colours, a PLY with its vertex colours."""
+    import subprocess
+    import sys
+
+    from PIL import Image
+
+    def shot(mesh) -> np.ndarray:
+        out = tmp_path / f"{Path(mesh).stem}.png"
+        r = subprocess.run([sys.executable, "-m", "hybridedit", "--screenshot", str(out), "--cage", "120", str(mesh)],
+                           capture_output=True, text=True, timeout=180)
+        assert r.returncode == 0, r.stderr
+        return np.asarray(Image.open(out).convert("RGB")).astype(int)
+
+    img = shot(uv_sphere_obj(tmp_path))
+    assert share_near(img, CHECKER_A) > 0.02 and share_near(img, CHECKER_B) > 0.02
+    img = shot(painted_ply(tmp_path))
+    assert (img[..., 0] - img[..., 1] > 80).mean() > 0.02 and (img[..., 1] - img[..., 0] > 80).mean() > 0.02
 
 
 def test_a_plain_mesh_has_no_look():
