@@ -404,6 +404,11 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("hybridedit: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        # the reader went away (`hybridedit info FILE | head -1`): what it wanted was written; nothing more
+        # is said, and the interpreter's last flush at exit must not fail on the closed pipe either
+        _quiet_stdout()
+        return 0
     except MemoryError:
         if os.environ.get("HYBRIDEDIT_DEBUG") == "1":
             raise
@@ -420,6 +425,16 @@ def main(argv: list[str] | None = None) -> int:
         print(f"hybridedit: internal error: {_input_name(args)}{type(e).__name__}: {_one_line(e)} "
               "(set HYBRIDEDIT_DEBUG=1 for the traceback)", file=sys.stderr)
         return 1
+
+
+def _quiet_stdout() -> None:
+    """Point standard output at the null device (its reader has closed the pipe)."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError):
+        pass
 
 
 def _run(args: argparse.Namespace) -> int:

@@ -277,3 +277,15 @@ def test_the_default_mesh_is_found_in_a_checkout_and_in_an_installed_package(tmp
     (pkg / "data" / "creature.ply").write_bytes(b"ply")
     assert cli._default_mesh(pkg) == pkg / "data" / "creature.ply"
     assert cli._default_mesh(tmp_path / "elsewhere" / "hybridedit") == tmp_path / "elsewhere" / "data" / "creature.ply"
+
+
+def test_info_into_a_closed_pipe_exits_quietly(mesh_file):
+    """`hybridedit info FILE | head -1`: the reader may go away before the report is written."""
+    import subprocess
+    import sys
+
+    p = subprocess.Popen([sys.executable, "-m", "hybridedit", "info", str(mesh_file)], stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE)
+    p.stdout.close()  # the reader has gone before the child writes anything
+    err = p.stderr.read().decode()
+    assert p.wait(timeout=120) == 0 and err == ""

@@ -90,6 +90,8 @@ class DragFrames(QtCore.QObject):
         self.settle_timer.setInterval(0)
         self.settle_timer.timeout.connect(self._settle_tick)
         self.engine_ms = 0.0
+        #: when the latest drag frame was shown (``time.perf_counter()``; 0 before the first)
+        self.frame_shown_at = 0.0
         self.error: float | None = None
         self._T0 = np.eye(4)  # the handle's transform when the drag began
         self._failed = False  # a frame of this drag failed (the drag was undone)
@@ -179,6 +181,7 @@ class DragFrames(QtCore.QObject):
         split.add("normals", frame.normals_s)
         split.add("vtk update", upload_s)
         self.engine_ms = frame.engine_s * 1e3
+        self.frame_shown_at = time.perf_counter()
         if frame.error is not None:
             self.error = frame.error
         w.set_modified(True)

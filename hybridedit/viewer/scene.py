@@ -108,6 +108,13 @@ def _array_modified(poly: pv.PolyData, name: str) -> None:
     poly.GetPointData().GetArray(name).Modified()
 
 
+POINT_PIXELS = (2.0, 8.0)
+"""Smallest and largest drawn size of a cage point, in pixels."""
+POINT_SPACING = 0.4
+"""A cage point is drawn this fraction of the cage's median edge wide (as seen on screen): dots with room
+between them, so that the ROI of a dense cage (25,000 points) tints the surface instead of hiding it."""
+
+
 class Scene:
     """The actors of one loaded shape on a pyvista plotter.
 
@@ -144,6 +151,7 @@ class Scene:
         self._still_bounds: tuple[np.ndarray, np.ndarray] | None = None  # the vertices a drag leaves
         self.cage_poly: pv.PolyData | None = None
         self.points_poly: pv.PolyData | None = None
+        self.points_actor: pv.Actor | None = None
         self._cage_faces = np.zeros((0, 3), dtype=np.int64)
         self._cage_pos = np.zeros((0, 3))
         self._cage_bounds: tuple[np.ndarray, np.ndarray] | None = None
@@ -160,18 +168,25 @@ class Scene:
         self.stretch_lut = stretch_lookup_table()
         bar = vtkScalarBarActor()
         bar.SetLookupTable(self.stretch_lut)
-        bar.SetTitle("edge stretch %")
+        bar.SetTitle("stretch %")
         bar.SetNumberOfLabels(5)
         bar.SetLabelFormat("%.0f")
-        bar.SetMaximumWidthInPixels(70)
+        # text at fixed sizes (VTK would scale the title to the bar's width: unreadable, and the labels up)
+        bar.UnconstrainedFontSizeOn()
+        bar.SetVerticalTitleSeparation(10)
+        bar.SetTextPad(4)
+        bar.SetBarRatio(0.35)
+        bar.SetMaximumWidthInPixels(80)
         bar.SetMaximumHeightInPixels(320)
         bar.SetPosition(0.9, 0.08)
         bar.SetWidth(0.08)
         bar.SetHeight(0.45)
-        for tp in (bar.GetTitleTextProperty(), bar.GetLabelTextProperty()):
+        for tp, size in ((bar.GetTitleTextProperty(), 15), (bar.GetLabelTextProperty(), 13)):
             tp.SetColor(0.1, 0.1, 0.12)
             tp.SetShadow(False)
             tp.SetItalic(False)
+            tp.SetBold(False)
+            tp.SetFontSize(size)
         bar.SetVisibility(False)
         bar.SetPickable(False)
         self.stretch_bar = bar
@@ -189,7 +204,7 @@ class Scene:
             self.parts.remove()
             self.parts = None
         self.gizmo.remove()
-        self.shape = self.cage_poly = self.points_poly = None
+        self.shape = self.cage_poly = self.points_poly = self.points_actor = None
         self.metrics = None
         self.look = None
 
@@ -275,7 +290,7 @@ class Scene:
         pmapper.scalar_visibility = True
         pactor = pv.Actor(mapper=pmapper)
         pactor.prop.render_points_as_spheres = True
-        pactor.prop.point_size = 8.0 if len(P) <= 400 else (6.0 if len(P) <= 1500 else 5.0)
+        pactor.prop.point_size = POINT_PIXELS[1]  # (fitted to the cage's spacing on screen before each render)
         pactor.prop.lighting = False
         pactor.SetPickable(False)
         self.overlay.AddActor(pactor)
@@ -456,6 +471,26 @@ class Scene:
     def _before_render(self, *_args) -> None:
         self._fade_back_points()
         self._fit_clipping()
+        self._fit_point_size()
+
+    def point_pixels(self) -> float:
+        """The cage points' drawn size in pixels: :data:`POINT_SPACING` of the cage's median edge as seen at
+        the camera's focal distance, within :data:`POINT_PIXELS` (a dense cage must not hide the surface)."""
+        if self.cage_spacing <= 0:
+            return POINT_PIXELS[1]
+        cam = self.renderer.GetActiveCamera()
+        h = max(self.display_size()[1], 1)
+        if cam.GetParallelProjection():
+            per_unit = h / max(2.0 * cam.GetParallelScale(), 1e-300)
+        else:
+            per_unit = h / max(2.0 * cam.GetDistance() * np.tan(np.radians(cam.GetViewAngle() / 2.0)), 1e-300)
+        return float(np.clip(np.round(2.0 * POINT_SPACING * self.cage_spacing * per_unit) / 2.0, *POINT_PIXELS))
+
+    def _fit_point_size(self) -> None:
+        if self.points_actor is not None:
+            size = self.point_pixels()
+            if self.points_actor.prop.point_size != size:
+                self.points_actor.prop.point_size = size
 
     def _fade_back_points(self) -> None:
         """Cage points facing away from the camera are drawn faintly (Select Through takes the hidden ones)."""

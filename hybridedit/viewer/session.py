@@ -324,6 +324,13 @@ class Session:
         else:
             self._anchor = None
             self._identity_transforms()
+        # a pose a polish made, nothing dragged since (a selection changed, a rebuild), is still the polish
+        self.polished = self.editor.deformed_vertices if self._pose_is_a_polish() else None
+
+    def _pose_is_a_polish(self) -> bool:
+        """The engine's pose is the end of a polish: its last step was polished and nothing dragged since."""
+        r = self.editor.record
+        return not r.dragged and bool(r.done) and r.done[-1].polish is not None
 
     def _padded(self, stack: np.ndarray | None) -> list[np.ndarray]:
         """One transform per handle group from a snapshot's stack (identities where it has none)."""

@@ -79,6 +79,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.session: Session | None = None
         self.last_error: str | None = None
         self.modified = False
+        self._saved_pose: np.ndarray | None = None  # the pose last saved or opened (see pose_saved)
         self.settle_on_release = True
         self.last_polish: PolishOutcome | None = None
         self._error_box: QtWidgets.QMessageBox | None = None
@@ -360,10 +361,30 @@ class MainWindow(QtWidgets.QMainWindow):
 
     # ================================================================== unsaved changes
     def set_modified(self, modified: bool) -> None:
+        """The pose on display is (not) saved; ``False`` also remembers it as the saved pose, so that undo and
+        redo back to it clear the title's ``*`` again."""
+        if not modified:
+            self._saved_pose = self._pose_reference()
         if bool(modified) == self.modified:
             return  # (every drag frame says so: no window-title event each time)
         self.modified = bool(modified)
         self.setWindowModified(self.modified)
+
+    def _pose_reference(self) -> np.ndarray | None:
+        """The pose on display, as an array to compare with later: the undo history's own copy of it when it
+        has one (no copy made), else a copy."""
+        s = self.session
+        if s is None:
+            return None
+        shown = s.shown_positions
+        kept = getattr(getattr(s.history.current, "engine", None), "shape", None)
+        return kept if kept is not None and np.array_equal(kept, shown) else shown.copy()
+
+    def pose_saved(self) -> bool:
+        """The pose on display is the one last saved (or opened)."""
+        s, ref = self.session, self._saved_pose
+        return s is not None and ref is not None and ref.shape == s.shown_positions.shape and \
+            np.array_equal(ref, s.shown_positions)
 
     def update_title(self) -> None:
         """The title names the shape's file (the one last saved to by Save As, else the one opened), with
@@ -823,8 +844,10 @@ class MainWindow(QtWidgets.QMainWindow):
         self.time_label.setText(self.timing_text())
 
     def timing_text(self) -> str:
-        """Frames shown per second first (what the eye gets), then the engine's and the render's share."""
-        fps = self.view.display_fps()
+        """Frames of a drag shown per second first (what the eye gets), then the engine's and the render's
+        share; a brush stroke or a turn of the camera renders too, but that rate is not a drag's: "idle"."""
+        dragging = time.perf_counter() - self.dragging.frame_shown_at <= 1.0
+        fps = self.view.display_fps() if dragging else 0.0
         parts = [f"{fps:.0f} fps" if fps > 0 else "idle"]
         if self.dragging.engine_ms > 0:
             parts.append(f"engine {self.dragging.engine_ms:.1f} ms")
@@ -862,7 +885,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.settle_and_stop_polish()
         label = self.session.history.undo_label()
         if self.session.undo():
-            self.set_modified(True)
+            self.set_modified(not self.pose_saved())
             self.refresh_all()
             self.message(f"Undid: {label}")
 
@@ -873,7 +896,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.settle_and_stop_polish()
         label = self.session.history.redo_label()
         if self.session.redo():
-            self.set_modified(True)
+            self.set_modified(not self.pose_saved())
             self.refresh_all()
             self.message(f"Redid: {label}")
 
@@ -883,7 +906,7 @@ class MainWindow(QtWidgets.QMainWindow):
             return
         self.settle_and_stop_polish()
         self.session.reset_pose()
-        self.set_modified(True)
+        self.set_modified(not self.pose_saved())
         self.refresh_all()
         self.message("Back to the rest pose")
 

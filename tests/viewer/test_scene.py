@@ -45,3 +45,30 @@ def test_cage_points_only_where_they_help(qtbot, win):
     # back in Camera mode they go
     key(qtbot, w, Qt.Key.Key_C)
     assert set(w.scene.shown_points.tolist()) == shown
+
+
+def test_a_dense_cage_draws_small_points_and_they_grow_as_the_view_zooms_in(qtbot, win):
+    """Cage points are drawn a fraction of the cage's spacing on screen wide: the ROI of a dense cage tints the
+    surface instead of covering it."""
+    from hybridedit.viewer.scene import POINT_PIXELS, POINT_SPACING
+
+    w = win
+    sc = w.scene
+    w.view.render()
+    size = sc.points_actor.prop.point_size
+    assert size == sc.point_pixels() and POINT_PIXELS[0] <= size <= POINT_PIXELS[1]
+    # the spacing on screen, measured: the projected length of the cage's median edge
+    P = w.session.cage_positions
+    d, _ = projected(w, np.array([P.mean(axis=0), P.mean(axis=0) + [sc.cage_spacing, 0, 0]]))
+    assert abs(size - POINT_SPACING * np.hypot(*(d[1, :2] - d[0, :2]))) <= 1.0 or size in POINT_PIXELS
+    # a cage fifty times as dense draws its points at the smallest size
+    sc.cage_spacing /= 50.0
+    w.view.render()
+    assert sc.points_actor.prop.point_size == POINT_PIXELS[0] < size
+    # zoomed in, they grow back
+    sc.renderer.GetActiveCamera().Zoom(6.0)
+    w.view.render()
+    assert sc.points_actor.prop.point_size > POINT_PIXELS[0]
+    # the stretch map's legend: text at a readable fixed size, not scaled to the bar's width
+    bar = sc.stretch_bar
+    assert bar.GetUnconstrainedFontSize() and bar.GetTitleTextProperty().GetFontSize() >= 12

@@ -409,3 +409,28 @@ def test_save_writes_what_deform_writes_and_says_what_a_conversion_drops(qtbot, 
     said = w.current_message()
     assert said.startswith(f"Saved {tmp_path / 'posed.stl'}.") and "Note: STL cannot hold" in said
     assert "colours" in said or "colors" in said
+
+
+def test_the_title_star_follows_the_pose_through_undo_redo_and_saves(qtbot, win, tmp_path):
+    """`*` while the pose on display differs from the one last saved or opened, also after undo and redo."""
+    w = win
+    s = w.session
+    assert not w.isWindowModified()
+    drag_tip(qtbot, w)
+    assert w.isWindowModified() and w.windowTitle().endswith("[*]")
+    while s.history.can_undo():  # back to the file as it was opened: no star
+        key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
+    assert not w.isWindowModified()
+    key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier | Qt.KeyboardModifier.ShiftModifier)
+    assert not w.isWindowModified()  # (the selection: the pose is the opened one still)
+    while s.history.can_redo():
+        key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier | Qt.KeyboardModifier.ShiftModifier)
+    assert w.isWindowModified()
+    assert w.files.save_to(tmp_path / "posed.obj")
+    assert not w.isWindowModified()
+    key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)  # the saved pose undone: a star again
+    assert w.isWindowModified()
+    key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier | Qt.KeyboardModifier.ShiftModifier)
+    assert not w.isWindowModified()
+    key(qtbot, w, Qt.Key.Key_R, Qt.KeyboardModifier.ControlModifier)  # reset: the rest pose is not the saved one
+    assert w.isWindowModified()

@@ -92,6 +92,15 @@ def test_polish_on_release_lowers_the_energy_and_save_writes_it(qtbot, win, tmp_
     assert np.array_equal(s.shape_positions, P)
     assert np.allclose(w.scene.parts.drawn_points(), P, atol=1e-5)
     assert w.polisher.worker is None
+    assert w.polished is not None and w.error_label.text().endswith("(polished)")  # (redone: still the polish)
+    # a selection changed, and undone: the pose on display is still the polished one, and says so
+    Pc = s.cage_positions
+    s.set_mask("handle", Pc[:, 0] < -1.4)
+    w._refresh_selection()
+    w.measure(everything=True)
+    assert w.error_label.text().endswith("(polished)")
+    key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
+    assert np.array_equal(s.shape_positions, P) and w.error_label.text().endswith("(polished)")
     # off: a release shows the engine's pose only
     w.actions_["polish"].trigger()
     assert not w.polisher.enabled

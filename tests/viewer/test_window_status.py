@@ -119,6 +119,16 @@ def test_a_wide_window_shows_every_field(qtbot, win):
     assert not w.time_label.isVisible()
     narrow(qtbot, w, 1280, 900)
     assert w.time_label.isVisible()
+    # a message on two lines, and fields as wide as a drag with two handle groups makes them: all still shown
+    w.status_timer.stop()
+    w.message(LONG)
+    w.time_label.setText("24 fps · engine 12.5 ms · render 140 ms")
+    w.sel_label.setText("ROI 12,345 · handle 1,234 (group 2 of 3) · fixed 45,678")
+    w.error_label.setText("edge error 12.34 % (polished)")
+    qtbot.wait(100)
+    assert_fits(w)
+    assert all(f.isVisible() for f in (w.time_label, w.size_label, w.sel_label, w.error_label))
+    assert w.message_label.is_cut() and len(w.message_label.shown_lines()) == 2
 
 
 def test_during_a_build_the_progress_bar_stays_inside_the_window(qtbot, win, make_blob, gate):
@@ -189,3 +199,16 @@ def test_a_row_places_by_priority_and_shrinks_only_what_may_shrink(qtbot, width)
     assert shown[-1].geometry().right() == row.width() - 1
     for left, right in zip(shown, shown[1:]):
         assert left.geometry().right() < right.x()
+
+
+def test_a_brush_stroke_is_not_a_frame_rate(qtbot, win):
+    """The timing field gives a drag's frames per second; the renders of a brush stroke are none."""
+    from test_window import key, mouse_drag
+
+    w = win
+    key(qtbot, w, Qt.Key.Key_S)
+    key(qtbot, w, Qt.Key.Key_B)
+    c = w.view.rect().center()
+    mouse_drag(qtbot, w.view, c, c + QtCore.QPoint(120, 40), steps=20)
+    assert w.view.display_fps() > 0  # the stroke did render
+    assert w.timing_text().startswith("idle")
