@@ -51,6 +51,7 @@ def render_screenshot(path: str | os.PathLike, out: str | os.PathLike, cage: int
     """
     import pyvista as pv
 
+    from ..up_axis import up_axis_of
     from .look import shown_look
     from .scene import Scene
     from .session import Session
@@ -74,6 +75,7 @@ def render_screenshot(path: str | os.PathLike, out: str | os.PathLike, cage: int
     pl = pv.Plotter(off_screen=True, window_size=list(size))
     try:
         scene = Scene(pl)
+        scene.up_axis = up_axis_of(mesh, path=path)[0]  # as the window opens it: remembered, else guessed
         scene.load(session.metrics, session.shape_positions, session.cage_positions, editor.cage.faces,
                    session.states(), session.shape_roles(), look=session.look)
         scene.set_cage_visible(show_cage)

@@ -115,6 +115,25 @@ POINT_SPACING = 0.4
 between them, so that the ROI of a dense cage (25,000 points) tints the surface instead of hiding it."""
 
 
+VIEWS = ("front", "back", "right", "left", "top", "bottom")
+"""The sides the shape can be looked at from (View menu; numpad 1, 3, 7, with Ctrl the opposite side)."""
+
+
+def view_directions(up: str, view: str) -> tuple[np.ndarray, np.ndarray]:
+    """(direction from the shape to the camera, the camera's up) of a view of a shape with ``up`` up.
+
+    The front of a shape with +Y (or -Y, or +-X) up faces +Z; with +Z up it faces -Y and with -Z up +Y
+    (Blender's front view, Z up, looks along +Y); its right is up x front.
+    """
+    from ..up_axis import axis_vector
+
+    u = axis_vector(up)
+    front = {"Y": np.array([0.0, 0, 1]), "X": np.array([0.0, 0, 1])}.get(up[1], np.array([0.0, -u[2], 0]))
+    right = np.cross(u, front)
+    return {"front": (front, u), "back": (-front, u), "right": (right, u), "left": (-right, u),
+            "top": (u, -front), "bottom": (-u, front)}[view]
+
+
 class Scene:
     """The actors of one loaded shape on a pyvista plotter.
 
@@ -152,6 +171,8 @@ class Scene:
         self.cage_poly: pv.PolyData | None = None
         self.points_poly: pv.PolyData | None = None
         self.points_actor: pv.Actor | None = None
+        #: the shape's up axis ("+Y", "+Z", ...: :data:`hybridedit.up_axis.AXES`); the views follow it
+        self.up_axis = "+Y"
         self._cage_faces = np.zeros((0, 3), dtype=np.int64)
         self._cage_pos = np.zeros((0, 3))
         self._cage_bounds: tuple[np.ndarray, np.ndarray] | None = None
@@ -456,11 +477,25 @@ class Scene:
 
     # ------------------------------------------------------------------ camera
     def reset_camera(self, tilted: bool = True) -> None:
-        """Frame the shape: a front view (looking down -Z, Y up), slightly turned when ``tilted``."""
+        """Frame the shape: a front view (with +Y up, looking down -Z), slightly turned when ``tilted``."""
+        self.set_view("front", tilted=tilted)
+
+    def set_view(self, view: str, *, tilted: bool = False) -> None:
+        """Look at the whole shape from one side (:data:`VIEWS`), as Blender's numpad views do, with
+        :attr:`up_axis` up on screen (the top and bottom views: the front down on screen)."""
+        if view not in VIEWS:
+            raise ValueError(f"view must be one of {VIEWS}, got {view!r}")
         if self.shape is None:
             return
-        self.renderer.view_xy(render=False)
+        direction, screen_up = view_directions(self.up_axis, view)
         cam = self.renderer.GetActiveCamera()
+        lo, hi = _bounds(self.points32)
+        centre = 0.5 * (lo + hi)
+        distance = max(float(np.linalg.norm(hi - lo)), 1e-9) * 2.0
+        cam.SetFocalPoint(*centre)
+        cam.SetPosition(*(centre + distance * direction))
+        cam.SetViewUp(*screen_up)
+        self.renderer.camera_set = True  # (else pyvista puts its own default view in place at the first render)
         if tilted:
             cam.Elevation(12.0)
             cam.Azimuth(-18.0)

@@ -103,6 +103,9 @@ class Session:
         self.look = None
         #: how the shape is drawn ("texture", "colors", "plain"); None: what the file has
         self.look_mode: str | None = None
+        #: the shape's up axis (:mod:`hybridedit.up_axis`), and the key it is remembered under (None: not yet)
+        self.up_axis = "+Y"
+        self.shape_key: str | None = None
         self.settle_on_release = True
         self.settle_frames = 30
         self.settle_iterations = 2

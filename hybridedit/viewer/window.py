@@ -20,6 +20,7 @@ import numpy as np
 from qtpy import QtCore, QtGui, QtWidgets
 
 from ..editor import SelectionError
+from ..up_axis import AXES, remember_up_axis, shape_key
 from .building import BuildJobs
 from .cagesize import CageSizeControl
 from .dialogs import InfoDialogs
@@ -28,7 +29,7 @@ from .dragging import DragFrames
 from .framethread import FrameThread
 from .interaction import BRUSH, CAMERA, DRAG, RECTANGLE, SELECT, ViewController
 from .polishing import PolishScheduler
-from .scene import STATE_COLORS, Scene, state_rows
+from .scene import STATE_COLORS, VIEWS, Scene, state_rows
 from .session import HANDLE, ROI, Session
 from .statusfield import MessageLine, StatusField, StatusRow
 from .view import View
@@ -207,6 +208,23 @@ class MainWindow(QtWidgets.QMainWindow):
         A("mesh_info", "Mesh &Info…", self.dialogs.mesh_info,
           tip="Vertex, face and cage counts; repairs made to the input")
         A("reset_camera", "&Frame Shape", self.reset_camera, "F", tip="Reset the camera to show the whole shape")
+        Kp = QtCore.Qt.KeyboardModifier.KeypadModifier
+        for view, text, digit, ctrl in (("front", "&Front", 1, False), ("back", "&Back", 1, True),
+                                        ("right", "&Right", 3, False), ("left", "&Left", 3, True),
+                                        ("top", "&Top", 7, False), ("bottom", "B&ottom", 7, True)):
+            key = QtCore.Qt.Key(int(QtCore.Qt.Key.Key_0) + digit)
+            mods = QtCore.Qt.KeyboardModifier.ControlModifier if ctrl else QtCore.Qt.KeyboardModifier.NoModifier
+            a = A(f"view_{view}", f"{text} View", lambda v=view: self.set_view(v), None,
+                  tip=f"Look at the shape from its {view} (numpad {'Ctrl+' if ctrl else ''}{digit}, as in Blender; "
+                      "the digit row too)")
+            a.setShortcuts([QtGui.QKeySequence(QtCore.QKeyCombination(mods | Kp, key)),
+                            QtGui.QKeySequence(QtCore.QKeyCombination(mods, key))])
+            a.setToolTip(f"{text.replace('&', '')} View ({a.shortcut().toString()})")
+        up_group = QtGui.QActionGroup(self)
+        for axis in AXES:
+            a = A(f"up_{axis}", f"{axis} Up", lambda ax=axis: self.set_up_axis(ax), checkable=True,
+                  tip=f"The shape's up axis is {axis}: the views follow it; remembered for this shape")
+            up_group.addAction(a)
         group = QtGui.QActionGroup(self)
         for mode, text, key, tip in (
                 ("texture", "&Texture", "Alt+1", "Show the file's textures and material colours"),
@@ -245,7 +263,8 @@ class MainWindow(QtWidgets.QMainWindow):
                       "new_group", "next_group", None, "mirror_x", "mirror_y", "mirror_z", None,
                       "tool_rect", "tool_brush", "brush_bigger", "brush_smaller"],
             "&View": ["look_texture", "look_colors", "look_plain", None, "show_cage", "stretch", "reset_camera",
-                      "antialias", None, "messages"],
+                      ("&Viewpoint", ["view_front", "view_back", "view_right", "view_left", "view_top", "view_bottom"]),
+                      ("&Up Axis", [f"up_{axis}" for axis in AXES]), "antialias", None, "messages"],
             "&Cage": ["rebuild", "cancel_job"],
             "&Help": ["howto", "shortcuts", "about"],
         }
@@ -254,6 +273,10 @@ class MainWindow(QtWidgets.QMainWindow):
             for n in names:
                 if n is None:
                     m.addSeparator()
+                elif isinstance(n, tuple):  # a submenu
+                    sub = m.addMenu(n[0])
+                    for k in n[1]:
+                        sub.addAction(a[k])
                 else:
                     m.addAction(a[n])
 
@@ -540,6 +563,32 @@ class MainWindow(QtWidgets.QMainWindow):
         self.scene.reset_camera()
         self.view.request_render()
 
+    def set_view(self, view: str) -> None:
+        """Look at the shape from one side (front, back, right, left, top, bottom), its up axis up."""
+        if self.session is None:
+            return
+        self.scene.set_view(view)
+        self.view.request_render()
+        self.message(f"{view.capitalize()} view ({self.session.up_axis} up; View ▸ Up Axis changes it)")
+
+    @guarded
+    def set_up_axis(self, axis: str) -> None:
+        """The shape's up axis: the views follow it, and it is remembered for this shape (the next time it
+        opens this way up)."""
+        s = self.session
+        if s is None:
+            self._update_actions()
+            return
+        s.up_axis = self.scene.up_axis = axis
+        if s.shape_key is None:
+            s.shape_key = shape_key(s.mesh)
+        kept = remember_up_axis(s.shape_key, axis)
+        self.scene.reset_camera()
+        self.view.request_render()
+        self._update_actions()
+        self.message(f"{axis} is up for {self.files.document_name or 'this shape'}"
+                     + (" (remembered: it opens this way next time)" if kept else
+                        " (not remembered: the cache folder cannot be written)"))
     # ================================================================== loading (the build jobs of .building)
     @property
     def worker(self) -> BuildWorker | None:
@@ -586,6 +635,8 @@ class MainWindow(QtWidgets.QMainWindow):
         else:
             session, note = self._new_session(ed, req)
             session.look = result.look  # what the file says the shape looks like (None: plain)
+            if result.up is not None:  # which way is up: remembered for this shape, or guessed
+                session.up_axis, _, session.shape_key = result.up
             if result.look is not None and result.look.notes:
                 note = "; ".join(([note] if note else []) + result.look.notes)
             self.session = session
@@ -619,6 +670,7 @@ class MainWindow(QtWidgets.QMainWindow):
         s = self.session
         self._generation = s.generation
         self.set_cage_size(s.cage_size, of_shape=True)
+        self.scene.up_axis = s.up_axis
         self.scene.load(s.metrics, s.shown_positions, s.cage_positions, s.editor.cage.faces, s.states(),
                         s.shape_roles(), look=s.look, mode=s.look_mode)
         s.look_mode = self.scene.look_mode
@@ -876,6 +928,11 @@ class MainWindow(QtWidgets.QMainWindow):
             a[f"look_{mode}"].setChecked(s is not None and self.scene.look_mode == mode)
         for axis in "xyz":  # the session's mirror, also after undo and redo
             a[f"mirror_{axis}"].setChecked(s is not None and s.symmetry == axis)
+        for axis in AXES:
+            a[f"up_{axis}"].setEnabled(s is not None)
+            a[f"up_{axis}"].setChecked(s is not None and s.up_axis == axis)
+        for view in VIEWS:
+            a[f"view_{view}"].setEnabled(s is not None)
 
     # ================================================================== edit actions
     @guarded

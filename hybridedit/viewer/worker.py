@@ -16,6 +16,7 @@ from qtpy import QtCore
 
 from ..editor import HybridEditor
 from ..rig import build_rig
+from ..up_axis import shape_key, up_axis_of
 from ..io import read_document
 from .look import Look, shown_look
 from ..mesh import Mesh
@@ -55,6 +56,9 @@ class BuildResult:
     seconds: float
     #: what the file says the shape looks like (textures, colours), for a newly read file; else None
     look: Look | None = None
+    #: a new shape's up axis, whether it was remembered (else guessed), and the key it is remembered
+    #: under (:mod:`hybridedit.up_axis`); None for a rebuild
+    up: tuple[str, bool, str] | None = None
 
 
 class BuildWorker(QtCore.QThread):
@@ -121,6 +125,10 @@ class BuildWorker(QtCore.QThread):
             # the on-disk cache makes reopening a shape (or going back to a cage size) instant
             rig = build_rig(mesh, cage_size=req.cage_size, cache=req.use_cache, progress=self._report)
             editor = HybridEditor(rig)
+            up = None
+            if not req.rebuild:
+                key = shape_key(mesh)
+                up = (*up_axis_of(mesh, path=req.path, key=key), key)
             self._report("done", 1.0)
         except Cancelled:
             self.cancelled.emit()
@@ -132,7 +140,7 @@ class BuildWorker(QtCore.QThread):
                 msg = f"{e.__class__.__name__}: {msg}"
             self.failed.emit(msg)
         else:
-            self.succeeded.emit(BuildResult(req, mesh, editor, time.perf_counter() - t0, look))
+            self.succeeded.emit(BuildResult(req, mesh, editor, time.perf_counter() - t0, look, up))
 
 
 
