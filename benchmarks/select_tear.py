@@ -42,7 +42,7 @@ def limbs(V: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray, tuple[int, i
             "leg": (np.flatnonzero(leg), np.flatnonzero(foot), (1, 0))}
 
 
-def run(path: Path, pixels: int, size=(1100, 850)) -> list[dict]:
+def run(path: Path, pixels: int, size=(1100, 850), cage: float = 0.05) -> list[dict]:
     from qtpy import QtCore, QtGui, QtWidgets
 
     from hybridedit.mesh import edge_error_stats
@@ -51,7 +51,7 @@ def run(path: Path, pixels: int, size=(1100, 850)) -> list[dict]:
 
     Qt = QtCore.Qt
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication([])
-    w = MainWindow(cage_size=0.05)
+    w = MainWindow(cage_size=cage)
     w.polisher.enabled = False
     w.show()
     w.resize(*size)
@@ -152,7 +152,7 @@ def main() -> None:
             meshes.append(arm)
     rows = []
     for m in meshes:
-        rows += run(m, args.pixels)
+        rows += run(m, args.pixels, cage=0.3 if args.smoke else 0.05)
     head = f"{'mesh':>18} {'edit':>5} {'selection':>15} {'ROI':>6} {'handle':>7} {'RRMS-E %':>9} " \
            f"{'max stretch %':>14} {'warned':>7}"
     print(f"# select_tear: rectangles from the front, a {args.pixels} px drag, settled, no polish")

@@ -13,7 +13,7 @@ full-mesh solver with cotangent weights, the quality reference, and "/conv" is
 RRMS-E after 30 frames divided by it. Each cage is bound once and run with
 uniform and cotangent weights, and with the paper's x' = M y' ("linea") and the
 exact-rest-pose residual propagation ("resid"); residual rows are then polished
-on release (full-resolution ARAP of the edited region, 1 s budget): "polished".
+on release (full-resolution ARAP of the edited region until converged, at most 200 iterations): "polished".
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ def run_hybrid(shape, cage_n, frames, variants=VARIANTS, shape_arap=None):
     """Bind once, then run the edit with each (weights, propagation) variant.
 
     With ``shape_arap`` (a polish.ShapeARAP of the shape), residual variants are
-    also polished on release (1 s budget) and the RRMS-E after that is reported.
+    also polished on release (as the window does) and the RRMS-E after that is reported.
     """
     handle, roi, d = canonical_edit(shape)
     base = HybridEditor(shape, cage_n, propagation="linear")
