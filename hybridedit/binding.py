@@ -43,7 +43,7 @@ from .mvc_flat import (
     prepare_fast_cage,
 )
 from .mvc_tree import THETA, compute_tree_truncated, prepare_tree_cage, tree_scratch
-from .truncation import MIN_KEPT_SUM, check_truncation, truncate_row
+from .truncation import MAX_ROW, MIN_KEPT_SUM, cap_rows, check_truncation, truncate_row
 
 __all__ = ["bind", "truncate_rows", "dominant_cage_vertex", "MIN_KEPT_SUM", "METHODS"]
 
@@ -240,6 +240,7 @@ def bind(
     progress: Callable[[float], None] | None = None,
     method: str = "fast",
     far_ratio: float = FAR_RATIO,
+    max_row: int | None = MAX_ROW,
 ) -> sp.csr_matrix:
     """Truncated mean value coordinates of ``points`` w.r.t. ``cage``.
 
@@ -275,6 +276,10 @@ def bind(
     far_ratio : float >= 1
         Only for "fast" and "flat": larger is more accurate and slower;
         ``inf`` makes every near face exact.
+    max_row : int or None
+        When truncating, the most coordinates a row keeps
+        (:func:`hybridedit.truncation.cap_rows`: a wider row keeps its largest); None: no
+        bound (the plain rule).
 
     Returns
     -------
@@ -379,6 +384,8 @@ def bind(
     if flat_kind:
         M = M[np.argsort(row_of)]
         M.has_sorted_indices = True
+    if t > 0.0 and max_row is not None:
+        M = cap_rows(M, int(max_row))
     return M
 
 

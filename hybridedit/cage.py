@@ -50,17 +50,23 @@ def cage_vertex_target(n_vertices: int, size: int | float) -> int:
 OWN_CAGE_FRACTION = 0.75
 #: the fewest vertices a simplified cage part gets (a smaller part is its own cage)
 MIN_PART_CAGE = 32
-#: an open part that, its holes closed with fans, is at least this round (its
-#: isoperimetric quotient: a scan with holes, a head open at the neck, a bowl) gets
-#: the fans; a flatter one (a sheet, a cloth, a relief) gets a thin closed shell
-MIN_ROUNDNESS = 0.2
+#: an open part whose holes, closed with fans, add less than this share of its area (a
+#: scan with holes, a head open at the neck, a statue open at its base, a bowl) is
+#: simplified and its cage's holes are closed: the cage stays a closed volume around
+#: the shape, where mean value coordinates are positive and local. A part whose rim
+#: encloses about as much as the part itself (a sheet, a terrain, a cloth, a relief)
+#: has no volume to close: it gets a thin closed shell
+MAX_CAP_SHARE = 0.5
 #: a cage piece closer to a bigger one than this many of its own bounding-box
 #: diagonals (or inside it) is carried along by it (see :func:`cage_links`)
 HOST_REACH = 0.1
 #: cage pieces of at most this many vertices are bound on one thread (see :func:`_bind_parts`)
 SMALL_PIECE = 64
-#: half the thickness of the shell cage of an open surface, in mean cage edge lengths
-SHELL_HALF_THICKNESS = 0.25
+#: half the thickness of the shell cage of an open surface, in mean cage edge lengths: mean value
+#: coordinates of a point between the layers reach about 6 half-thicknesses along the shell before
+#: the truncation drops the rest, so a thin shell keeps rows local (mountain, 5% cage: 7 coordinates
+#: a vertex at 0.05, 16 at 0.1, 70 at 0.25, 326 at 1)
+SHELL_HALF_THICKNESS = 0.05
 #: progress shares of the cage build (for the time-left estimate): the repair pass
 #: takes about this much of it, and the two halves of a big part this much of the part's
 #: simplification (the last pass takes the rest), as measured at 690K-2.7M vertices
@@ -188,7 +194,9 @@ def _cage_parts(mesh: Mesh, size: int | float, said: list[str], say: Callable[[f
     if isinstance(size, (int, np.integer)):
         target = int(size)
     else:
-        target = int(round(float(size) * mesh.n_vertices))
+        # a fraction of the surface's own vertices: an unwelded soup (each face with copies of its
+        # corners) or a file full of duplicates gets the cage of the surface it is, not one 6x as dense
+        target = int(round(float(size) * n))
     if target > n:
         said.append(f"the mesh has only {plural(n, 'usable vertex', 'usable vertices')}; "
                     f"the cage uses all of them instead of {target:,}")
@@ -270,7 +278,7 @@ def _cage_piece(part: Mesh, want: int, *, known_closed: bool = False,
 
     own = want * 1.0 >= OWN_CAGE_FRACTION * part.n_vertices
     loops = [] if known_closed else hole_loops(part.faces, part.n_vertices)
-    if loops and _roundness(close_holes(part)[0]) < MIN_ROUNDNESS:
+    if loops and cap_share(part) >= MAX_CAP_SHARE:
         surface = part if own or want >= part.n_vertices else _simplify(part, max(want // 2, 3))
         shell = thicken(surface)
         if shell is not None:
@@ -290,18 +298,21 @@ def _cage_piece(part: Mesh, want: int, *, known_closed: bool = False,
     return box_cage(part.vertices), "box", 0
 
 
-def _roundness(closed: Mesh) -> float:
-    """Isoperimetric quotient 36 pi V^2 / A^3 of a closed surface: 1 for a sphere,
-    about 0.5 for a cube, 0 for a flat one."""
-    v, f = closed.vertices, closed.faces
-    c = v.mean(axis=0)
-    p0, p1, p2 = (v[f[:, k]] - c for k in range(3))
-    cross = np.cross(p1 - p0, p2 - p0)
-    vol = float(np.einsum("ij,ij->i", p0, np.cross(p1, p2)).sum()) / 6.0
-    area = 0.5 * float(np.linalg.norm(cross, axis=1).sum())
-    if not (area > 0 and np.isfinite(vol)):
-        return 0.0
-    return 36.0 * np.pi * vol * vol / area ** 3
+def _area(mesh: Mesh) -> float:
+    v, f = mesh.vertices, mesh.faces
+    return 0.5 * float(np.linalg.norm(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=1).sum())
+
+
+def cap_share(part: Mesh) -> float:
+    """The area that closing an open part's holes with fans adds, as a share of its own area: small
+    for a scan with holes (0.01 for the armadillo with five holes punched), about 1 for a sheet or a
+    terrain (0.81 for the shared mountain); inf for a part of no area."""
+    from .repair import close_holes
+
+    area = _area(part)
+    if not area > 0:
+        return np.inf
+    return (_area(close_holes(part)[0]) - area) / area
 
 
 def thicken(surface: Mesh, half_thickness: float | None = None) -> Mesh | None:

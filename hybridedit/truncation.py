@@ -42,8 +42,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["MIN_KEPT_SUM", "check_truncation", "keep_row", "truncate_row", "truncate_row_sparse",
-           "UNDECIDED", "NOT_FINITE", "TOO_WIDE"]
+__all__ = ["MIN_KEPT_SUM", "MAX_ROW", "check_truncation", "keep_row", "truncate_row", "truncate_row_sparse",
+           "cap_rows", "UNDECIDED", "NOT_FINITE", "TOO_WIDE"]
 
 #: Below this signed sum of the kept coordinates a row is left untruncated.
 MIN_KEPT_SUM = 0.5
@@ -296,3 +296,84 @@ def truncate_row_sparse(row, truncation, min_kept_sum, col_of_slot, surv, vals, 
     if n_keep < 0:
         return n_keep
     return store_kept(n_keep, scale, idx, vals, col_of_slot, out_cols, out_vals)
+
+
+#: Most coordinates a truncated row keeps (:func:`cap_rows`): a row the rule above would keep wider
+#: (a point in a fold of the cage, or outside it, where the coordinates are large and signed) keeps
+#: its largest ones, so that no row costs a frame more than this.
+MAX_ROW = 64
+
+
+@njit(cache=True, fastmath=False, error_model="numpy")
+def _cap_rows(indptr, indices, data, cap, min_kept_sum, counts, out_indices, out_data):  # pragma: no cover
+    """Rows of (indptr, indices, data) with at most ``cap`` entries; see :func:`cap_rows`."""
+    n = indptr.shape[0] - 1
+    k = 0
+    for i in range(n):
+        a, b = indptr[i], indptr[i + 1]
+        if b - a <= cap:
+            for j in range(a, b):
+                out_indices[k] = indices[j]
+                out_data[k] = data[j]
+                k += 1
+            counts[i] = b - a
+            continue
+        order = np.argsort(-np.abs(data[a:b]))[:cap]
+        keep = np.sort(order)
+        total = 0.0
+        for j in keep:
+            total += data[a + j]
+        if total >= min_kept_sum:
+            for j in keep:
+                out_indices[k] = indices[a + j]
+                out_data[k] = data[a + j] / total
+                k += 1
+            counts[i] = cap
+        else:  # no usable subset: the row follows its largest positive coordinate alone
+            best, at = -np.inf, a
+            for j in range(a, b):
+                if data[j] > best:
+                    best, at = data[j], j
+            out_indices[k] = indices[at]
+            out_data[k] = 1.0
+            k += 1
+            counts[i] = 1
+    return k
+
+
+def cap_rows(M, cap: int = MAX_ROW):
+    """``M`` (a CSR binding) with every row of more than ``cap`` entries cut to its ``cap`` largest (by
+    magnitude), rescaled to sum to 1; a row whose largest entries sum to less than
+    :data:`MIN_KEPT_SUM` follows its largest positive entry alone. Rows of at most ``cap`` entries
+    are kept as they are. The result is a partition of unity with at most ``cap`` entries a row.
+
+    Parameters
+    ----------
+    M : (n, c) scipy.sparse.csr_matrix with sorted indices
+    cap : int >= 1
+
+    Returns
+    -------
+    (n, c) scipy.sparse.csr_matrix (``M`` itself when no row is wider than ``cap``)
+
+    Examples
+    --------
+    >>> cap_rows(M, 64).indptr  # doctest: +SKIP
+    """
+    import scipy.sparse as sp
+
+    if cap < 1:
+        raise ValueError(f"cap must be >= 1, got {cap}")
+    counts = np.diff(M.indptr)
+    if counts.size == 0 or int(counts.max()) <= cap:
+        return M
+    new = np.empty(M.shape[0], dtype=np.int64)
+    nnz = int(np.minimum(counts, cap).sum())
+    out_i = np.empty(nnz, dtype=M.indices.dtype)
+    out_d = np.empty(nnz)
+    k = _cap_rows(M.indptr.astype(np.int64), M.indices, M.data, int(cap), MIN_KEPT_SUM, new, out_i, out_d)
+    indptr = np.zeros(M.shape[0] + 1, dtype=M.indptr.dtype)
+    np.cumsum(new, out=indptr[1:])
+    out = sp.csr_matrix((out_d[:k], out_i[:k], indptr), shape=M.shape)
+    out.has_sorted_indices = True
+    return out

@@ -227,6 +227,13 @@ def _rare_paths(shape) -> None:
     from .rotations import closest_rotations
 
     bind(0.5 * shape.vertices[:8], shape, truncation=0.0)  # the shape as its own cage, untruncated
+    import scipy.sparse as sp
+
+    from .truncation import cap_rows
+
+    wide = sp.csr_matrix(np.full((2, 6), 1.0 / 6.0))  # rows wider than the cap: cut to their largest
+    wide.has_sorted_indices = True
+    cap_rows(wide, 3)
 
     closest_rotations(np.tile(np.eye(3), (4, 1, 1)), np.empty((4, 3, 3)))
     atan2_pos_array(np.ones(4), np.ones(4))

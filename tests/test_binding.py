@@ -174,9 +174,9 @@ def test_bind_fast_untruncated_is_close_to_exact_and_linearly_precise():
 def test_bind_chunking_does_not_change_the_result(method):
     pts, cage = bumpy_shape_and_cage()
     pts = pts[::20]
-    a = bind(pts, cage, truncation=0.03, method=method)
-    b = bind(pts, cage, truncation=0.03, chunk_size=7, method=method)
-    c = bind(pts, cage, truncation=0.03, chunk_size=1, method=method)
+    a = bind(pts, cage, truncation=0.03, method=method, max_row=None)
+    b = bind(pts, cage, truncation=0.03, chunk_size=7, method=method, max_row=None)
+    c = bind(pts, cage, truncation=0.03, chunk_size=1, method=method, max_row=None)
     for other in (b, c):
         np.testing.assert_array_equal(a.indptr, other.indptr)
         np.testing.assert_array_equal(a.indices, other.indices)
@@ -187,7 +187,7 @@ def test_bind_chunking_does_not_change_the_result(method):
 def test_bind_truncated_properties_bumpy_sphere(method):
     pts, cage = bumpy_shape_and_cage()
     t = 0.03
-    M = bind(pts, cage, truncation=t, method=method)
+    M = bind(pts, cage, truncation=t, method=method, max_row=None)
     rows = reference_rows(pts, cage, method, t)
     check_truncated(M, rows, t)
     check_error_bound(M, rows, cage.vertices, pts, t)
@@ -241,7 +241,7 @@ def test_bind_real_simplified_mesh(method):
     assert np.abs(whole @ cv - pts).max() <= 1e-8 * diag
 
     t = 0.03
-    M = bind(pts, cage, truncation=t, method=method)
+    M = bind(pts, cage, truncation=t, method=method, max_row=None)
     rows = reference_rows(pts, cage, method, t)
     check_truncated(M, rows, t)
     nnz = np.diff(M.indptr)
@@ -261,7 +261,7 @@ def test_bind_moves_with_the_cage_rigidly():
     # truncation error, rotated.
     pts, cage = bumpy_shape_and_cage()
     pts = pts[::9]
-    M = bind(pts, cage, truncation=0.05)
+    M = bind(pts, cage, truncation=0.05, max_row=None)
     rng = np.random.default_rng(3)
     q, _ = np.linalg.qr(rng.standard_normal((3, 3)))
     shift = np.array([3.0, -1.0, 2.0])
@@ -317,8 +317,8 @@ def test_fast_binding_accuracy_against_exact():
     assert np.abs(fast0 @ cage.vertices - pts).max() <= 1e-9 * diag
     # (b) truncated: the reconstruction error is the truncation's, within 5%
     t = 0.03
-    Me = bind(pts, cage, truncation=t, method="exact")
-    Mf = bind(pts, cage, truncation=t, method="fast")
+    Me = bind(pts, cage, truncation=t, method="exact", max_row=None)
+    Mf = bind(pts, cage, truncation=t, method="fast", max_row=None)
     np.testing.assert_allclose(np.asarray(Mf.sum(axis=1)).ravel(), 1.0, rtol=0, atol=1e-12)
     err_e = np.linalg.norm(Me @ cage.vertices - pts, axis=1)
     err_f = np.linalg.norm(Mf @ cage.vertices - pts, axis=1)
@@ -359,10 +359,10 @@ def test_fast_truncating_kernel_matches_dense_truncation(monkeypatch):
         want = truncate_rows(rows[:, perm], t).tocoo()
         want = sp.csr_matrix((want.data, (want.row, perm[want.col])), shape=rows.shape)
         want.sort_indices()
-        got = bind(pts, cage, truncation=t, method="flat")
+        got = bind(pts, cage, truncation=t, method="flat", max_row=None)
         for cap in (2, 7):
             monkeypatch.setattr(binding, "SPARSE_ROW_CAP", cap)
-            narrow = bind(pts, cage, truncation=t, chunk_size=50, method="flat")
+            narrow = bind(pts, cage, truncation=t, chunk_size=50, method="flat", max_row=None)
             monkeypatch.undo()
             assert np.count_nonzero(np.diff(narrow.indptr) > cap) > 10
             for other in (got, narrow):

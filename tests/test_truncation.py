@@ -71,3 +71,41 @@ def test_check_truncation():
     for bad in (-0.1, 1.0, "x", None):
         with pytest.raises(ValueError):
             check_truncation(bad)
+
+
+def test_cap_rows_keeps_the_largest_entries_of_a_wide_row_as_a_partition_of_unity():
+    import scipy.sparse as sp
+
+    from hybridedit.truncation import cap_rows
+
+    rows = [np.array([0.5, 0.2, -0.05, 0.15, 0.1, 0.1]),   # wide: its 3 largest (0.5, 0.2, 0.15) kept
+            np.array([0.7, 0.3, 0, 0, 0, 0]),               # narrow: as it is
+            np.array([-3.0, 2.5, 0.4, 0.4, 0.4, 0.3])]      # its 3 largest sum to -0.1: its largest positive
+    M = sp.csr_matrix(np.array(rows))
+    M.sort_indices()
+    C = cap_rows(M, 3)
+    dense = C.toarray()
+    assert np.allclose(dense.sum(axis=1), 1.0) and np.all(np.diff(C.indptr) <= 3)
+    assert np.allclose(dense[0], np.array([0.5, 0.2, 0, 0.15, 0, 0]) / 0.85)
+    assert np.array_equal(dense[1], rows[1])
+    assert np.array_equal(dense[2], [0, 1.0, 0, 0, 0, 0])
+    assert cap_rows(M, 6) is M  # nothing wider than the cap: the matrix itself
+    with pytest.raises(ValueError):
+        cap_rows(M, 0)
+
+
+def test_bind_bounds_every_row_and_keeps_a_partition_of_unity():
+    from hybridedit.binding import bind
+    from hybridedit.truncation import MAX_ROW
+
+    from shapes import bumpy_blob, icosphere
+
+    cage = icosphere(3)
+    pts = bumpy_blob(3).vertices * 1.8  # many points far outside the cage: wide, signed rows
+    whole = bind(pts, cage, truncation=0.03, max_row=None)
+    assert np.diff(whole.indptr).max() > MAX_ROW  # (the plain rule keeps them wide)
+    M = bind(pts, cage, truncation=0.03)
+    assert np.diff(M.indptr).max() <= MAX_ROW
+    assert np.allclose(np.asarray(M.sum(axis=1)).ravel(), 1.0)
+    narrow = np.diff(whole.indptr) <= MAX_ROW  # the rows within the bound are the rule's own
+    assert (abs(M[narrow] - whole[narrow]) > 0).nnz == 0
