@@ -31,10 +31,10 @@ from .atomic import atomic_write
 from .mesh import Mesh
 
 #: Bump when the cage or binding algorithms change: old files stop matching.
-FORMAT = "hybridedit-binding-4"  # 2: fast binding; 3: repair notes stored; 4: checksum, versions
+FORMAT = "hybridedit-binding-5"  # 2: fast binding; 3: repair notes stored; 4: checksum, versions; 5: links
 
 #: the arrays of an entry, in the order the checksum reads them
-PAYLOAD = ("cage_vertices", "cage_faces", "shape", "data", "indices", "indptr", "notes")
+PAYLOAD = ("cage_vertices", "cage_faces", "shape", "data", "indices", "indptr", "notes", "links")
 
 
 class CacheEntryDiscarded(UserWarning):
@@ -67,7 +67,7 @@ def checksum(key: str, versions: str, arrays: dict[str, np.ndarray]) -> str:
     for name in PAYLOAD:
         a = np.ascontiguousarray(arrays[name])
         h.update(f"{name}:{a.dtype.str}:{a.shape}\0".encode())
-        h.update(memoryview(a).cast("B") if a.dtype.kind != "U" else a.tobytes())
+        h.update(memoryview(a).cast("B") if a.dtype.kind != "U" and a.size else a.tobytes())
     return h.hexdigest()
 
 
@@ -96,8 +96,9 @@ def _path(folder: Path, key: str) -> Path:
     return folder / f"{key[:40]}.npz"
 
 
-def load(folder: Path, key: str, mesh: Mesh) -> tuple[Mesh, sp.csr_matrix, list[str]] | None:
-    """The cached (cage, M, notes) for ``key``, or None when absent or not valid.
+def load(folder: Path, key: str, mesh: Mesh) -> tuple[Mesh, sp.csr_matrix, list[str], np.ndarray] | None:
+    """The cached (cage, M, notes, links) for ``key``, or None when absent or not valid (``links``: the
+    cage's extra ARAP edges, :func:`hybridedit.cage.cage_links`, (k, 2) int64).
 
     An entry that fails any check (unreadable, another key, a checksum that does
     not match its payload, written by other library versions, wrong shapes, a
@@ -130,7 +131,7 @@ class _Invalid(Exception):
     pass
 
 
-def _checked(p: Path, key: str, mesh: Mesh) -> tuple[Mesh, sp.csr_matrix, list[str]]:
+def _checked(p: Path, key: str, mesh: Mesh) -> tuple[Mesh, sp.csr_matrix, list[str], np.ndarray]:
     with np.load(p, allow_pickle=False) as z:
         if "key" not in z.files or str(z["key"]) != key:
             raise _Invalid("another key")
@@ -156,8 +157,11 @@ def _checked(p: Path, key: str, mesh: Mesh) -> tuple[Mesh, sp.csr_matrix, list[s
         raise _Invalid("non-finite weights")
     if not np.allclose(np.asarray(M.sum(axis=1)).ravel(), 1.0, atol=1e-9):
         raise _Invalid("rows do not sum to 1")
+    links = np.asarray(arrays["links"], dtype=np.int64).reshape(-1, 2)
+    if links.size and (links.min() < 0 or links.max() >= cage.n_vertices):
+        raise _Invalid("links out of range")
     M.sort_indices()
-    return cage, M, notes
+    return cage, M, notes, links
 
 
 def _versions_text(versions: str) -> str:
@@ -167,10 +171,15 @@ def _versions_text(versions: str) -> str:
         return repr(versions)
 
 
-def store(folder: Path, key: str, cage: Mesh, M: sp.csr_matrix, notes: list[str] | tuple = ()) -> Path | None:
-    """Write (cage, M) and the repair notes made building them under ``key``, with the
-    payload's checksum and the writing versions; returns the file, or None if it cannot be
-    written."""
+def store(folder: Path, key: str, cage: Mesh, M: sp.csr_matrix, notes: list[str] | tuple = (),
+          links: np.ndarray | None = None) -> Path | None:
+    """Write (cage, M), the repair notes made building them and the cage's links (computed here when
+    not given: they take a while on a cage of many pieces) under ``key``, with the payload's checksum
+    and the writing versions; returns the file, or None if it cannot be written."""
+    if links is None:
+        from .cage import cage_links
+
+        links = cage_links(cage)
     M = sp.csr_matrix(M)
     arrays = {
         "cage_vertices": np.ascontiguousarray(cage.vertices),
@@ -180,6 +189,7 @@ def store(folder: Path, key: str, cage: Mesh, M: sp.csr_matrix, notes: list[str]
         "indices": M.indices,
         "indptr": M.indptr,
         "notes": np.array(list(notes), dtype=str),
+        "links": np.ascontiguousarray(links, dtype=np.int64).reshape(-1, 2),
     }
     versions = writer_versions()
     buf = io.BytesIO()

@@ -153,10 +153,11 @@ def build_rig(
             if issubclass(w.category, bindcache.CacheEntryDiscarded):
                 discarded.append(str(w.message).removeprefix("hybridedit: "))
         if hit is not None:
-            c, M, cached_notes = hit
+            c, M, cached_notes, links = hit
             try:
                 rig = Rig(mesh, c, M, tuple(cached_notes), {"cage_seconds": 0.0, "bind_seconds": 0.0}, True,
                           cage_size, float(truncation))
+                object.__setattr__(rig, "_links", links)  # (stored with the entry: no search among the pieces)
                 _check_usable(rig)
             except Exception:  # noqa: BLE001 -- an entry that fails in any way is rebuilt, never trusted
                 bindcache.discard(folder, key)
@@ -166,8 +167,9 @@ def build_rig(
     timings: dict[str, float] = {}
     c, M = cage_and_binding(mesh, cage_size, truncation=float(truncation), cage=cage, binding=binding,
                             notes=notes, timings=timings, progress=say)
-    if folder is not None and key is not None:
-        bindcache.store(folder, key, c, M, notes)
     timings.setdefault("cage_seconds", 0.0)
     timings.setdefault("bind_seconds", time.perf_counter() - t0 - timings["cage_seconds"])
-    return Rig(mesh, c, M, tuple(discarded + notes), timings, False, cage_size, float(truncation))
+    rig = Rig(mesh, c, M, tuple(discarded + notes), timings, False, cage_size, float(truncation))
+    if folder is not None and key is not None:
+        bindcache.store(folder, key, c, M, notes, rig.links)
+    return rig

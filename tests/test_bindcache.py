@@ -3,7 +3,7 @@ import json
 import numpy as np
 import pytest
 
-from hybridedit import HybridEditor, bindcache
+from hybridedit import HybridEditor, Mesh, bindcache
 
 from shapes import bumpy_blob
 
@@ -125,8 +125,8 @@ def test_an_entry_that_fails_when_used_is_discarded_and_rebuilt(tmp_path, monkey
     real_load = bindcache.load
 
     def stale(folder, key, mesh):
-        cage, M, notes = real_load(folder, key, mesh)
-        return cage, sp.hstack([M, sp.csr_matrix((M.shape[0], 1))]).tocsr(), notes
+        cage, M, notes, links = real_load(folder, key, mesh)
+        return cage, sp.hstack([M, sp.csr_matrix((M.shape[0], 1))]).tocsr(), notes, links
 
     monkeypatch.setattr(bindcache, "load", stale)
     again = build_rig(shape, cage_size=40, cache=tmp_path)
@@ -136,6 +136,24 @@ def test_an_entry_that_fails_when_used_is_discarded_and_rebuilt(tmp_path, monkey
 
 
 # --------------------------------------------------------------------------- checksum and versions
+
+
+def test_the_cage_links_are_kept_with_the_entry(tmp_path):
+    """A cage of many pieces: its links are stored with the entry and come back equal to the ones
+    computed from the cage (a reopen does not search among the pieces again)."""
+    from hybridedit import bindcache
+    from hybridedit.cage import cage_links
+    from hybridedit.rig import build_rig
+
+    a, b = bumpy_blob(2), bumpy_blob(2)
+    inner = Mesh(0.4 * a.vertices, a.faces)  # a piece inside another: tied to it
+    shape = Mesh(np.vstack([b.vertices, inner.vertices]), np.vstack([b.faces, inner.faces + b.n_vertices]))
+    built = build_rig(shape, cage_size=60, cache=tmp_path)
+    key = bindcache.cache_key(shape, 60, 0.03)
+    cage, _, _, links = bindcache.load(tmp_path, key, shape)
+    assert len(links) > 0 and np.array_equal(links, cage_links(cage)) and np.array_equal(links, built.links)
+    again = build_rig(shape, cage_size=60, cache=tmp_path)
+    assert again.cache_hit and np.array_equal(again.links, built.links)
 
 
 def _shifted(f, by=0.1):
@@ -213,7 +231,7 @@ def test_only_the_checksum_catches_a_shifted_cage(tmp_path, shape):
     key = bindcache.cache_key(shape, 80, 0.03)
     clean_cage = bindcache.load(tmp_path, key, shape)[0].vertices
     _rewrite_entry(f, resign=True, cage_vertices=_shifted(f, 0.1))
-    cage, _, _ = bindcache.load(tmp_path, key, shape)
+    cage, _, _, _ = bindcache.load(tmp_path, key, shape)
     assert np.allclose(cage.vertices - clean_cage, [0.1, 0, 0])
     _rewrite_entry(f, resign=False, cage_vertices=_shifted(f, 0.1))
     with pytest.warns(bindcache.CacheEntryDiscarded, match="checksum"):

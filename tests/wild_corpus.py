@@ -23,6 +23,7 @@ from hybridedit.mesh import Mesh  # noqa: E402
 SHARED = HERE.parent.parent / "shared" / "meshes"
 ARMADILLO = SHARED / "armadillo43k.obj"
 SPOT_QUADS = SHARED / "spot" / "spot_quadrangulated.obj"
+SPOT = SHARED / "spot" / "spot_triangulated.obj"
 MOUNTAIN = SHARED / "mountain" / "mountain.obj"
 
 
@@ -177,7 +178,8 @@ def subdivided(mesh: Mesh, times: int) -> Mesh:
                 name=f"{mesh.name}-x{4 ** times}")
 
 
-CASES = ("closed", "holes10", "holes100", "holes1000", "parts", "soup", "fins", "doubled", "ngons", "mountain")
+CASES = ("closed", "holes10", "holes100", "holes1000", "parts", "soup", "fins", "doubled", "spot", "ngons",
+         "mountain")
 """The corpus's cases, in order; :func:`case` makes one."""
 
 
@@ -186,6 +188,8 @@ def case(name: str, *, base: Mesh | None = None) -> Mesh:
     (ngons: spot; mountain: the shared terrain)."""
     if name == "ngons":
         return ngons()
+    if name == "spot":  # (closed: the ngons' reference)
+        return read(SPOT, "spot")
     if name == "mountain":
         return read(MOUNTAIN, "mountain")
     arm = base if base is not None else read(ARMADILLO, "armadillo")

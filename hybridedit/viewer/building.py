@@ -66,6 +66,8 @@ class BuildHost(Protocol):
     def show_error(self, title: str, text: str) -> None: ...
     def message(self, text: str) -> None: ...
     def install_build(self, result: BuildResult) -> tuple[bool, str | None]: ...
+    def preview_shape(self, mesh: "Mesh", look, up: tuple[str, bool, str]) -> None: ...
+    def end_preview(self) -> None: ...
 
 
 def built_message(result: BuildResult, session: "Session", rebuilt: bool, note: str | None = None) -> str:
@@ -162,6 +164,7 @@ class FileBuildAtCount(BuildWorker):
             super().run()
             return
         self.look = shown_look(document)
+        self.announce(document.mesh, self.look)
         size, note = fit_cage_size(req.cage_size, document.mesh.n_vertices)
         if note:
             self.size_fitted.emit(size, note)
@@ -327,6 +330,7 @@ class BuildJobs(QtCore.QObject):
         else:
             job = BuildWorker(request, self)
         job.progress.connect(self._progress)
+        job.shape_read.connect(self._shape_read)
         job.succeeded.connect(self._succeeded)
         job.failed.connect(self._failed)
         job.cancelled.connect(self._cancelled)
@@ -361,6 +365,11 @@ class BuildJobs(QtCore.QObject):
         self.progress.setValue(int(round(1000 * min(max(fraction, 0.0), 1.0))))
         self.progress.setFormat(f"{stage} %p%")
 
+    def _shape_read(self, mesh, look, up) -> None:
+        """The job read a new shape: the window shows it while the cage and binding are built."""
+        if self.worker is not None and not self.worker.cancel_requested:
+            self.w.preview_shape(mesh, look, up)
+
     def _succeeded(self, result: BuildResult) -> None:
         w = self.w
         if result.look is None and isinstance(self.worker, FileBuildAtCount):
@@ -371,19 +380,23 @@ class BuildJobs(QtCore.QObject):
             note = "; ".join(n for n in (self.size_note, note) if n) or None
             w.message(built_message(result, w.session, rebuilt, note))
         except Exception as e:  # noqa: BLE001
+            w.end_preview()  # (the shape on display before comes back)
             w.show_error("Could not show the shape", f"{e.__class__.__name__}: {e}")
 
     def _failed(self, message: str) -> None:
+        self.w.end_preview()
         req = self.worker.request if self.worker is not None else None
         rebuilding = req is not None and req.rebuild
         self.w.show_error("Could not rebuild the cage" if rebuilding else "Could not open the mesh", message)
 
     def _cancelled(self) -> None:
+        self.w.end_preview()
         self.w.message("Cancelled; the current shape and edit are unchanged.")
 
     def _finished(self) -> None:
         job, self.worker = self.worker, None
         release(job)
+        self.w.end_preview()  # (a job that showed a shape and did not install it: the one before is back)
         if self._box_before is not None:  # not built: the box goes back to what it had (unless changed since)
             asked, of_shape, set_here = self._box_before
             if self.w.cage_size() == set_here:

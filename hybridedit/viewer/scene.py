@@ -229,6 +229,30 @@ class Scene:
         self.metrics = None
         self.look = None
 
+    def show_preview(self, vertices: np.ndarray, faces: np.ndarray) -> None:
+        """Show a shape read but not yet bound (its cage and binding are being built): plain, flat shaded,
+        framed with its up axis (:attr:`up_axis`) up; replaced by :meth:`load`. Only the camera works on it.
+
+        Parameters
+        ----------
+        vertices : (n, 3) float; faces : (m, 3) int
+        """
+        self.clear()
+        V = np.ascontiguousarray(vertices, dtype=np.float32)
+        poly = pv.PolyData.from_regular_faces(V, np.ascontiguousarray(faces, dtype=np.int64))
+        mapper = pv.DataSetMapper(poly)
+        mapper.scalar_visibility = False
+        actor = pv.Actor(mapper=mapper)
+        actor.prop.color = tuple(SHAPE_COLOR / 255.0)
+        actor.SetPickable(False)
+        self.renderer.AddActor(actor)
+        self._actors.append(actor)
+        self.shape = poly
+        self.points32 = poly.points
+        self._shape_bounds = self._next_bounds = self._cage_bounds = _bounds(self.points32)
+        self._still_bounds = None
+        self.reset_camera()
+
     def load(self, metrics: ShapeMetrics, shape_vertices: np.ndarray, cage_vertices: np.ndarray,
              cage_faces: np.ndarray, states: np.ndarray, roles: np.ndarray, *, look=None,
              mode: str | None = None) -> None:

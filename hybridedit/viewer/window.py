@@ -81,6 +81,9 @@ class MainWindow(QtWidgets.QMainWindow):
         self.last_error: str | None = None
         self.modified = False
         self._saved_pose: np.ndarray | None = None  # the pose last saved or opened (see pose_saved)
+        #: while a new shape read is shown and its cage is built: (the session put aside,) (see preview_shape)
+        self._aside: tuple[Session | None] | None = None
+        self._previewed: Mesh | None = None  # the shape shown by preview_shape
         self.settle_on_release = True
         self.last_polish: PolishOutcome | None = None
         self._error_box: QtWidgets.QMessageBox | None = None
@@ -613,6 +616,40 @@ class MainWindow(QtWidgets.QMainWindow):
         """Cancel the cage and binding build under way; the shape on display stays."""
         self.jobs.cancel()
 
+    def preview_shape(self, mesh: Mesh, look, up: tuple[str, bool, str]) -> None:
+        """A new shape is read: show it at once, plain, its up axis up, while its cage and binding are built.
+        The camera works on it; editing waits for the build. The shape on display before is put aside,
+        and comes back if the build is cancelled or fails."""
+        if self._aside is None:
+            self._aside = (self.session,)
+        self._previewed = mesh
+        self.controller.cancel()
+        self.session = None
+        self.scene.up_axis = up[0]
+        self.scene.show_preview(mesh.vertices, mesh.faces)
+        self.size_label.setText(f"shape {_fmt(mesh.n_vertices)} v / {_fmt(mesh.n_faces)} f · cage …")
+        self.sel_label.setText("")
+        self.error_label.setText("")
+        self._update_actions()
+        self.view.request_render()
+        self.message("The shape is read: turn it and look while its cage and binding are built; editing starts "
+                     "when they are done.")
+
+    def end_preview(self) -> None:
+        """The build shown by :meth:`preview_shape` did not finish: the shape on display before is back."""
+        if self._aside is None:
+            return
+        (s,), self._aside = self._aside, None
+        self._previewed = None
+        self.session = s
+        if s is not None:
+            self._show_engine()
+        else:
+            self.scene.clear()
+            self._update_labels()
+            self.view.request_render()
+        self._update_actions()
+
     def install_build(self, result: BuildResult) -> tuple[bool, str | None]:
         """Show a finished build: a new session for a new shape, or the edit carried over to the new cage.
 
@@ -629,6 +666,7 @@ class MainWindow(QtWidgets.QMainWindow):
         # the pose after the build is on display
         self.settle_timer.stop()
         note = None
+        self._aside = None  # (a shape put aside for this one's preview: replaced)
         if req.rebuild and self.session is not None and self.session.mesh is result.mesh:
             note = self.session.adopt(ed, req.cage_size)
             rebuilt = True
@@ -646,8 +684,9 @@ class MainWindow(QtWidgets.QMainWindow):
             rebuilt = False
         self.session.settle_on_release = self.settle_on_release
         self.last_polish = None
+        previewed, self._previewed = self._previewed, None
         self._show_engine()
-        if not rebuilt:
+        if not rebuilt and result.mesh is not previewed:  # (a shape shown while built keeps the user's camera)
             self.scene.reset_camera()
         self.update_title()
         self._update_actions()
@@ -926,8 +965,9 @@ class MainWindow(QtWidgets.QMainWindow):
         for mode in ("texture", "colors", "plain"):  # what the shape's file has, and how it is drawn
             a[f"look_{mode}"].setEnabled(s is not None and mode in modes)
             a[f"look_{mode}"].setChecked(s is not None and self.scene.look_mode == mode)
-        for axis in "xyz":  # the session's mirror, also after undo and redo
-            a[f"mirror_{axis}"].setChecked(s is not None and s.symmetry == axis)
+        for axis in "xyz":  # the session's mirror, also after undo and redo (none on show: the choice stays)
+            if s is not None:
+                a[f"mirror_{axis}"].setChecked(s.symmetry == axis)
         for axis in AXES:
             a[f"up_{axis}"].setEnabled(s is not None)
             a[f"up_{axis}"].setChecked(s is not None and s.up_axis == axis)

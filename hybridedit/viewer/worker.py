@@ -67,12 +67,15 @@ class BuildWorker(QtCore.QThread):
     Signals
     -------
     progress(stage: str, fraction: float)
+    shape_read(mesh, look, up)   a new shape is read (its look or None, its up axis): the window shows
+                                 it while the cage and binding are built (not for a rebuild)
     succeeded(BuildResult)
     failed(message: str)   a one-line message for the user (never a traceback)
     cancelled()
     """
 
     progress = QtCore.Signal(str, float)
+    shape_read = QtCore.Signal(object, object, object)
     succeeded = QtCore.Signal(object)
     failed = QtCore.Signal(str)
     cancelled = QtCore.Signal()
@@ -83,6 +86,7 @@ class BuildWorker(QtCore.QThread):
         self._cancel = threading.Event()
         self._last_emit = 0.0
         self._last_stage = ""
+        self._up: tuple[str, bool, str] | None = None  # the new shape's up axis, once read
 
     def cancel(self) -> None:
         """Ask the job to stop at its next progress report."""
@@ -99,6 +103,14 @@ class BuildWorker(QtCore.QThread):
         if stage != self._last_stage or fraction >= 1.0 or now - self._last_emit > 0.05:
             self._last_stage, self._last_emit = stage, now
             self.progress.emit(stage, float(fraction))
+
+    def announce(self, mesh: Mesh, look: Look | None) -> None:
+        """A new shape is read: its up axis (remembered, else guessed) and ``shape_read`` for the window, once."""
+        if self._up is not None:
+            return
+        key = shape_key(mesh)
+        self._up = (*up_axis_of(mesh, path=self.request.path, key=key), key)
+        self.shape_read.emit(mesh, look, self._up)
 
     def _compile_kernels_once(self) -> None:
         """First run after a plain install (scripts/setup.sh does this at set-up): compile every kernel
@@ -117,18 +129,20 @@ class BuildWorker(QtCore.QThread):
         req = self.request
         try:
             self._compile_kernels_once()
-            mesh, look = req.mesh, None
+            mesh, look = req.mesh, getattr(self, "look", None)
             if mesh is None:
                 document = read_document(req.path, progress=self._report)  # ("reading NAME", from 0 to 1)
                 mesh = document.mesh
                 look = shown_look(document)
+            if not req.rebuild:
+                self.announce(mesh, look)
             # the on-disk cache makes reopening a shape (or going back to a cage size) instant
             rig = build_rig(mesh, cage_size=req.cage_size, cache=req.use_cache, progress=self._report)
+            # the editor's own set-up (the shape's Laplacian, the residual, the selection maps) takes a
+            # while on a big shape: said, so that "100%" is the end of the work
+            self._report("setting up the editor", 0.0)
             editor = HybridEditor(rig)
-            up = None
-            if not req.rebuild:
-                key = shape_key(mesh)
-                up = (*up_axis_of(mesh, path=req.path, key=key), key)
+            up = self._up
             self._report("done", 1.0)
         except Cancelled:
             self.cancelled.emit()

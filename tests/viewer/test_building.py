@@ -341,3 +341,37 @@ def test_a_count_typed_in_the_box_is_no_longer_the_shapes(qtbot, win):
     w.set_cage_size(150, of_shape=True)
     w.cage_control.unit.setCurrentIndex(0)  # and the unit
     assert not w.cage_size_of_shape()
+
+
+def test_a_new_shape_is_drawn_while_its_cage_is_built_and_the_camera_works(qtbot, win, make_blob, gate):
+    """Opening a shape shows it at once (plain, framed) while the cage and binding are built; the camera
+    turns it; editing waits; Cancel brings the shape before back, and a build that ends shows the new shape
+    with the camera where the user left it."""
+    w = win
+    s = w.session
+    other = make_blob(3)
+    assert w.open_mesh(other)
+    qtbot.waitUntil(lambda: w.scene.shape is not None and w.scene.shape.n_points == other.n_vertices,
+                    timeout=20000)
+    assert w.worker is not None and w.session is None  # still building; nothing to edit yet
+    assert np.allclose(np.asarray(w.scene.shape.points), other.vertices, atol=1e-6)
+    img = np.asarray(w.view.screenshot(None, return_img=True))[..., :3].astype(int)
+    assert ((img[..., 0] - img[..., 2]) > 15).mean() > 0.02  # the shape's warm colour is on screen
+    assert not w.actions_["save"].isEnabled() and not w.actions_["reset_pose"].isEnabled()
+    cam = w.scene.renderer.GetActiveCamera()
+    cam.Azimuth(30)  # the camera works during the build
+    turned = cam.GetPosition()
+    w.view.render()
+    # Esc: the shape before is back, as it was
+    qtbot.keyClick(w.view, Qt.Key.Key_Escape)
+    qtbot.waitUntil(lambda: w.worker is None, timeout=20000)
+    assert w.session is s and w.scene.shape.n_points == s.mesh.n_vertices
+    # again, to the end: the new shape, and the camera the user set on it
+    gate.clear()
+    assert w.open_mesh(other)
+    qtbot.waitUntil(lambda: w.session is None and w.scene.shape is not None, timeout=20000)
+    cam.Azimuth(30)
+    turned = cam.GetPosition()
+    gate.set()
+    wait_loaded(qtbot, w)
+    assert w.session.mesh is other and np.allclose(cam.GetPosition(), turned)

@@ -397,7 +397,7 @@ def test_drop_shortcuts_cage_toggle_and_rebuild(qtbot, win, blob_file, tmp_path,
                             Qt.KeyboardModifier.NoModifier)
     QtWidgets.QApplication.sendEvent(w, drop)
     wait_loaded(qtbot, w)
-    qtbot.waitUntil(lambda: w.session.mesh.n_vertices == m.n_vertices, timeout=30000)
+    qtbot.waitUntil(lambda: w.session is not None and w.session.mesh.n_vertices == m.n_vertices, timeout=30000)
     assert "sphere.off" in w.windowTitle()
 
 

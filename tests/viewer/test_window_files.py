@@ -135,7 +135,7 @@ def test_save_as_names_the_new_file_in_the_title(qtbot, win, tmp_path, monkeypat
     # another shape: its own name, nothing saved yet
     assert w.open_path(other_mesh)
     wait_loaded(qtbot, w)
-    qtbot.waitUntil(lambda: w.session.path == other_mesh, timeout=30000)
+    qtbot.waitUntil(lambda: w.session is not None and w.session.path == other_mesh, timeout=30000)
     assert w.windowTitle() == "hybridedit — other.off[*]" and not w.isWindowModified()
 
 

@@ -121,7 +121,7 @@ def test_mirror_x_with_its_polish(qtbot, win, capsule_file, tmp_path, monkeypatc
     w.set_cage_size(CAGE)
     assert w.open_path(capsule_file)
     wait_loaded(qtbot, w)
-    qtbot.waitUntil(lambda: w.session.path == capsule_file, timeout=60000)
+    qtbot.waitUntil(lambda: w.session is not None and w.session.path == capsule_file, timeout=60000)
     w.scene.reset_camera(tilted=False)
     key(qtbot, w, Qt.Key.Key_X, Qt.KeyboardModifier.ShiftModifier)
     assert w.session.symmetry == "x"
