@@ -37,25 +37,107 @@ def _diagonal(v: np.ndarray) -> float:
     return float(np.linalg.norm(v.max(axis=0) - v.min(axis=0)))
 
 
-def _drop_nonmanifold(f: np.ndarray, n: int) -> tuple[np.ndarray, int]:
-    """Drop faces (latest first) until no edge is used by more than two faces."""
-    dropped = 0
-    for _ in range(10):
-        key, _, face = half_edges(f, n)
-        order = np.argsort(key, kind="stable")
-        ks = key[order]
-        start = np.ones(len(ks), dtype=bool)
-        start[1:] = ks[1:] != ks[:-1]
-        group_start = np.maximum.accumulate(np.where(start, np.arange(len(ks)), 0))
-        rank = np.arange(len(ks)) - group_start  # 0, 1, 2, ... within an edge
-        bad_faces = np.unique(face[order][rank >= 2])
-        if bad_faces.size == 0:
-            break
-        keep = np.ones(len(f), dtype=bool)
-        keep[bad_faces] = False
-        f = f[keep]
-        dropped += int(bad_faces.size)
-    return f, dropped
+def _split_nonmanifold(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray, int, int]:
+    """Separate the sheets that meet at edges shared by more than two faces, so that a closed surface
+    pinched along an edge (two solids touching along it) stays closed, instead of dropping faces there.
+
+    Around such an edge the faces are sorted by angle; each face opens towards one side of the
+    rotation (its solid's inside, behind its normal), and a face opening forwards is paired with the
+    next face opening backwards, as brackets are matched: two faces of one sheet, the inside between
+    them. A face left without a partner (a fin standing on a surface) is dropped. Then every vertex of
+    such an edge is given a copy for each further sheet meeting there (the faces around it that the
+    pairs and the ordinary edges do not join).
+
+    Returns
+    -------
+    v : (n + k, 3) the vertices, the k copies appended
+    f : (m', 3) the faces
+    split : how many edges had their sheets separated
+    dropped : how many faces were dropped (fins)
+    """
+    n = len(v)
+    key, fwd, face = half_edges(f, n)
+    order = np.argsort(key, kind="stable")
+    ks = key[order]
+    start = np.flatnonzero(np.r_[True, ks[1:] != ks[:-1]])
+    count = np.diff(np.r_[start, len(ks)])
+    wide = np.flatnonzero(count > 2)
+    if wide.size == 0:
+        return v, f, 0, 0
+    # the face pairs that join across each edge: every two-face edge, and the matched pairs of wide ones
+    joined: dict[int, list[tuple[int, int]]] = {}
+    drop: set[int] = set()
+    for g in wide:
+        hs = order[start[g]:start[g] + count[g]]
+        k = int(ks[start[g]])
+        a, b = k // n, k % n
+        axis = v[b] - v[a]
+        axis = axis / (np.linalg.norm(axis) or 1.0)
+        faces_here = face[hs]
+        third = np.array([int(x) for t in faces_here for x in f[t] if x != a and x != b][: len(hs)])
+        w = v[third] - v[a]
+        w -= np.outer(w @ axis, axis)
+        ref = w[0] / (np.linalg.norm(w[0]) or 1.0)
+        angle = np.arctan2(w @ np.cross(axis, ref), w @ ref)
+        # a face with the half-edge a -> b and its third corner at angle phi has its normal along
+        # axis x wing, the way the angle grows: its inside (behind the normal) lies behind it in angle;
+        # with b -> a, ahead
+        opens_ahead = ~fwd[hs]
+        ring = np.argsort(angle, kind="stable")
+        step = np.where(opens_ahead[ring], 1, -1)
+        first = int(np.argmin(np.cumsum(step))) + 1  # brackets on a circle: start where none is left open
+        pairs, stack = [], []
+        for i in np.roll(ring, -first):
+            if opens_ahead[i]:
+                stack.append(i)
+            elif stack:
+                pairs.append((stack.pop(), i))
+        paired = {x for p in pairs for x in p}
+        drop.update(int(faces_here[i]) for i in range(len(hs)) if i not in paired)
+        joined[k] = [(int(faces_here[p]), int(faces_here[q])) for p, q in pairs]
+    keep = np.ones(len(f), dtype=bool)
+    keep[list(drop)] = False
+    # the vertices of the wide edges: one copy for each further group of their faces
+    touched = np.unique(np.concatenate([[k // n, k % n] for k in joined]))
+    extra: list[np.ndarray] = []
+    out = f.copy()
+    nxt = n
+    ranks = {int(ks[start[g]]): g for g in range(len(start))}
+    for x in touched.tolist():
+        around = [t for t in np.flatnonzero(np.any(f == x, axis=1)).tolist() if keep[t]]
+        parent = {t: t for t in around}
+
+        def root(t):
+            while parent[t] != t:
+                parent[t] = parent[parent[t]]
+                t = parent[t]
+            return t
+
+        for t in around:
+            for y in f[t]:
+                if y == x:
+                    continue
+                k = min(x, int(y)) * n + max(x, int(y))
+                if k in joined:
+                    links = joined[k]
+                else:
+                    g = ranks[k]
+                    hs = order[start[g]:start[g] + count[g]]
+                    links = [(int(face[hs[0]]), int(face[hs[1]]))] if count[g] == 2 else []
+                for p, q in links:
+                    if p in parent and q in parent:
+                        parent[root(p)] = root(q)
+        groups: dict[int, list[int]] = {}
+        for t in around:
+            groups.setdefault(root(t), []).append(t)
+        for members in list(groups.values())[1:]:
+            for t in members:
+                out[t][f[t] == x] = nxt
+            extra.append(v[x])
+            nxt += 1
+    if extra:
+        v = np.vstack([v, np.array(extra)])
+    return v, out[keep], sum(len(p) > 1 for p in joined.values()), len(drop)
 
 
 @numba.njit(cache=True)
@@ -233,9 +315,12 @@ def repaired_source(mesh: Mesh) -> CageSource:
     if len(first) < len(f):
         notes.append(f"dropped {plural(len(f) - len(first), 'duplicate face')}")
         f = f[np.sort(first)]
-    f, dropped = _drop_nonmanifold(f, len(v))
+    v, f, split, dropped = _split_nonmanifold(v, f)
+    if split:
+        notes.append(f"separated the sheets meeting at {plural(split, 'non-manifold edge')} (edges shared by more "
+                     "than two faces)")
     if dropped:
-        notes.append(f"dropped {plural(dropped, 'face')} at non-manifold edges (edges shared by more than two faces)")
+        notes.append(f"dropped {plural(dropped, 'face')} standing alone at non-manifold edges (fins)")
     # compact again (merging and dropping can leave vertices unused)
     keep = np.zeros(len(v), dtype=bool)
     keep[f.ravel()] = True

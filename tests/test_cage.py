@@ -112,14 +112,14 @@ def test_orientation_per_component_and_outward():
     assert trimesh.Trimesh(src.vertices, src.faces).split(only_watertight=False)[0].volume > 0
 
 
-def test_nonmanifold_edges_are_dropped():
+def test_a_fin_on_an_edge_is_dropped():
     b = trimesh.creation.box()
     v = np.vstack([b.vertices, [[0.0, 0.0, 3.0]]])
     e = b.faces[0]
     f = np.vstack([b.faces, [[e[0], e[1], 8]], [[e[1], e[0], 8]]])
     src, notes = cage_source(Mesh(v, f))
     assert notes == ["dropped 1 duplicate face",  # the second fin face has the first one's vertices
-                     "dropped 1 face at non-manifold edges (edges shared by more than two faces)"]
+                     "dropped 1 face standing alone at non-manifold edges (fins)"]
     check_closed(src.faces)
 
 

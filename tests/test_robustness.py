@@ -59,7 +59,7 @@ REPAIRED = {
     "unreferenced_vertices.obj": ["ignored 3 unreferenced vertices for the cage (they still follow the deformation)"],
     "nonmanifold.obj": [
         "ignored 1 unreferenced vertex for the cage (they still follow the deformation)",
-        "dropped 1 face at non-manifold edges (edges shared by more than two faces)",
+        "dropped 1 face standing alone at non-manifold edges (fins)",
     ],
     "components.obj": ["3 disconnected parts"],
     "holes.obj": [
