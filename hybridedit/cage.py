@@ -51,12 +51,16 @@ OWN_CAGE_FRACTION = 0.75
 #: the fewest vertices a simplified cage part gets (a smaller part is its own cage)
 MIN_PART_CAGE = 32
 #: an open part whose holes, closed with fans, add less than this share of its area (a
-#: scan with holes, a head open at the neck, a statue open at its base, a bowl) is
-#: simplified and its cage's holes are closed: the cage stays a closed volume around
-#: the shape, where mean value coordinates are positive and local. A part whose rim
-#: encloses about as much as the part itself (a sheet, a terrain, a cloth, a relief)
-#: has no volume to close: it gets a thin closed shell
+#: scan with holes, a head open at the neck, a statue open at its base), or that closed is
+#: at least :data:`MIN_ROUNDNESS` round (a bowl, a band of a body cut across), is simplified
+#: and its cage's holes are closed: the cage stays a closed volume around the shape, where
+#: mean value coordinates are positive and local. A part whose rim encloses about as much as
+#: the part itself and that closed is flat (a sheet, a terrain, a cloth, a relief) has no
+#: volume to close: it gets a thin closed shell
 MAX_CAP_SHARE = 0.5
+#: the isoperimetric quotient (36 pi V^2 / A^3: 1 for a ball, about 0.5 for a cube, 0 for
+#: a flat plate) from which a closed part counts as round (see :data:`MAX_CAP_SHARE`)
+MIN_ROUNDNESS = 0.2
 #: a cage piece closer to a bigger one than this many of its own bounding-box
 #: diagonals (or inside it) is carried along by it (see :func:`cage_links`)
 HOST_REACH = 0.1
@@ -278,7 +282,7 @@ def _cage_piece(part: Mesh, want: int, *, known_closed: bool = False,
 
     own = want * 1.0 >= OWN_CAGE_FRACTION * part.n_vertices
     loops = [] if known_closed else hole_loops(part.faces, part.n_vertices)
-    if loops and cap_share(part) >= MAX_CAP_SHARE:
+    if loops and cap_share(part) >= MAX_CAP_SHARE and _roundness(close_holes(part)[0]) < MIN_ROUNDNESS:
         surface = part if own or want >= part.n_vertices else _simplify(part, max(want // 2, 3))
         shell = thicken(surface)
         if shell is not None:
@@ -301,6 +305,19 @@ def _cage_piece(part: Mesh, want: int, *, known_closed: bool = False,
 def _area(mesh: Mesh) -> float:
     v, f = mesh.vertices, mesh.faces
     return 0.5 * float(np.linalg.norm(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=1).sum())
+
+
+def _roundness(closed: Mesh) -> float:
+    """Isoperimetric quotient 36 pi V^2 / A^3 of a closed surface: 1 for a sphere,
+    about 0.5 for a cube, 0 for a flat one."""
+    v, f = closed.vertices, closed.faces
+    c = v.mean(axis=0)
+    p0, p1, p2 = (v[f[:, k]] - c for k in range(3))
+    vol = float(np.einsum("ij,ij->i", p0, np.cross(p1, p2)).sum()) / 6.0
+    area = _area(closed)
+    if not (area > 0 and np.isfinite(vol)):
+        return 0.0
+    return 36.0 * np.pi * vol * vol / area ** 3
 
 
 def cap_share(part: Mesh) -> float:

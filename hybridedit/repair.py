@@ -102,9 +102,10 @@ def _split_nonmanifold(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.nda
     extra: list[np.ndarray] = []
     out = f.copy()
     nxt = n
-    ranks = {int(ks[start[g]]): g for g in range(len(start))}
+    near = np.flatnonzero(np.isin(f, touched).any(axis=1) & keep)  # the faces around them, once
+    ranks = {int(ks[g]): g for g in start[np.isin(ks[start] // n, touched) | np.isin(ks[start] % n, touched)]}
     for x in touched.tolist():
-        around = [t for t in np.flatnonzero(np.any(f == x, axis=1)).tolist() if keep[t]]
+        around = near[np.any(f[near] == x, axis=1)].tolist()
         parent = {t: t for t in around}
 
         def root(t):
@@ -121,9 +122,10 @@ def _split_nonmanifold(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.nda
                 if k in joined:
                     links = joined[k]
                 else:
-                    g = ranks[k]
-                    hs = order[start[g]:start[g] + count[g]]
-                    links = [(int(face[hs[0]]), int(face[hs[1]]))] if count[g] == 2 else []
+                    g0 = ranks[k]  # (the position of the edge's first half-edge in the sorted order)
+                    c = int(count[np.searchsorted(start, g0)])
+                    hs = order[g0:g0 + c]
+                    links = [(int(face[hs[0]]), int(face[hs[1]]))] if c == 2 else []
                 for p, q in links:
                     if p in parent and q in parent:
                         parent[root(p)] = root(q)
