@@ -6,7 +6,6 @@ import errno
 import os
 import re
 import tempfile
-import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import IO, Any
@@ -170,8 +169,6 @@ def atomic_write(path: str | os.PathLike[str], mode: str = "wb") -> Iterator[IO[
 
 _MARK = "hybridedit"
 _OURS = re.compile(r"^\..+\." + _MARK + r"-(\d+)-[A-Za-z0-9_]{8}\.tmp$")
-_LEGACY = re.compile(r"^\..+\.[A-Za-z0-9_]{8}\.tmp$")  # before the mark: '.NAME.XXXXXXXX.tmp'
-_LEGACY_AGE = 3600.0  # seconds
 
 
 def _alive(pid: int) -> bool:
@@ -190,27 +187,21 @@ def remove_stale_temporaries(folder: str | os.PathLike[str]) -> list[str]:
     """Remove hidden temporary files that a killed write of ours left in ``folder``.
 
     Ours are named ``.NAME.hybridedit-PID-XXXXXXXX.tmp``; one is stale when no
-    process PID runs (a running write's file is never touched). Files of the
-    older form ``.NAME.XXXXXXXX.tmp`` are removed once an hour old. Best effort:
-    returns the names removed.
+    process PID runs (a running write's file is never touched). Nothing else is
+    ever removed: ``.NAME.XXXXXXXX.tmp`` is the name Python's :mod:`tempfile`
+    gives every program's temporaries. Best effort: returns the names removed.
     """
     removed = []
     try:
         entries = list(os.scandir(folder))
     except OSError:
         return removed
-    now = time.time()
     for e in entries:
-        if not e.name.endswith(".tmp") or not e.name.startswith("."):
-            continue
         m = _OURS.match(e.name)
+        if m is None:
+            continue
         try:
-            if m:
-                stale = not _alive(int(m.group(1)))
-            else:
-                stale = bool(_LEGACY.match(e.name)) and e.is_file(follow_symlinks=False) and \
-                    now - e.stat(follow_symlinks=False).st_mtime > _LEGACY_AGE
-            if stale:
+            if not _alive(int(m.group(1))) and e.is_file(follow_symlinks=False):
                 os.unlink(e.path)
                 removed.append(e.name)
         except OSError:

@@ -115,9 +115,17 @@ def test_force_allows_only_the_mesh_onto_the_input(files, capsys) -> None:
     assert files["mesh"].read_bytes() != before
 
 
-def test_check_outputs_accepts_good_paths(tmp_path: Path) -> None:
-    outpaths.check_outputs({"-o": (tmp_path / "a.obj", (".obj",)), "--stats": (tmp_path / "a.json", (".json",)),
-                            "--other": (None, (".x",))}, inputs={"input": tmp_path / "in.obj"})
+def test_check_outputs_accepts_good_paths_and_refuses_the_same_ones_gone_wrong(tmp_path: Path) -> None:
+    good = {"-o": (tmp_path / "a.obj", (".obj",)), "--stats": (tmp_path / "a.json", (".json",)),
+            "--other": (None, (".x",))}
+    outputs_before = sorted(tmp_path.iterdir())
+    assert outpaths.check_outputs(good, inputs={"input": tmp_path / "in.obj"}) is None
+    assert sorted(tmp_path.iterdir()) == outputs_before  # a check writes nothing
+    for bad, words in (({**good, "-o": (tmp_path / "a.txt", (".obj",))}, ".txt"),
+                       ({**good, "--stats": (tmp_path / "a.obj", (".obj",))}, "same file"),
+                       ({**good, "-o": (tmp_path / "in.obj", (".obj",))}, "input")):
+        with pytest.raises(outpaths.OutputPathError, match=words):
+            outpaths.check_outputs(bad, inputs={"input": tmp_path / "in.obj"})
 
 
 def test_stale_temporaries_of_ours_are_removed_by_the_next_write(tmp_path: Path) -> None:
@@ -125,13 +133,16 @@ def test_stale_temporaries_of_ours_are_removed_by_the_next_write(tmp_path: Path)
     dead.wait()
     stale = tmp_path / f".out.obj.hybridedit-{dead.pid}-abcdefgh.tmp"
     live = tmp_path / f".out.obj.hybridedit-{os.getpid()}-abcdefgh.tmp"
-    old = tmp_path / ".out.obj.k2j4h5g6.tmp"  # the form before the mark, an hour old
-    young = tmp_path / ".other.obj.k2j4h5g7.tmp"
+    # another program's temporaries, named as Python's tempfile names them (two hours old), are never ours
+    notes = tmp_path / ".notes.abcd1234.tmp"
+    out_like = tmp_path / ".out.obj.k2j4h5g6.tmp"
     someone_elses = tmp_path / ".notes.tmp"
-    for p in (stale, live, old, young, someone_elses):
+    for p in (stale, live, notes, out_like, someone_elses):
         p.write_bytes(b"x" * 100)
-    os.utime(old, (time.time() - 7200, time.time() - 7200))
+    for p in (notes, out_like):
+        os.utime(p, (time.time() - 7200, time.time() - 7200))
     write_mesh(tmp_path / "new.ply", bumpy_blob(0))
     left = sorted(p.name for p in tmp_path.iterdir())
-    assert left == sorted([live.name, young.name, someone_elses.name, "new.ply"])
+    assert left == sorted([live.name, notes.name, out_like.name, someone_elses.name, "new.ply"])
+    assert notes.read_bytes() == b"x" * 100  # intact
     assert atomic.remove_stale_temporaries(tmp_path / "missing") == []
