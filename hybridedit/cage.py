@@ -17,7 +17,7 @@ import fast_simplification
 from .mesh import Mesh
 from .qem import HalfWorker, presimplify, start_worker
 from .qem_worker import AGGRESSIVENESS
-from .topology import check_closed, connected_parts, degenerate_faces
+from .topology import check_closed, connected_parts, degenerate_faces, repeats_a_face
 
 
 def cage_vertex_target(n_vertices: int, size: int | float) -> int:
@@ -741,7 +741,7 @@ def clean_surface(vertices: np.ndarray, faces: np.ndarray) -> Mesh:
     while True:
         m0 = len(f)
         f = f[~degenerate_faces(v, f)]
-        if len(f) and _repeats_a_face(f, len(v)):
+        if len(f) and repeats_a_face(f, len(v)):
             key = np.sort(f, axis=1)
             _, first, inverse, counts = np.unique(
                 key, axis=0, return_index=True, return_inverse=True, return_counts=True
@@ -765,16 +765,6 @@ def clean_surface(vertices: np.ndarray, faces: np.ndarray) -> Mesh:
     used[f.reshape(-1)] = True
     remap = np.cumsum(used) - 1
     return Mesh(v[used], remap[f])
-
-
-def _repeats_a_face(f: np.ndarray, n: int) -> bool:
-    """Whether two faces use the same three vertices (either orientation); a quick
-    one-key sort where the vertex count allows it (the usual case: no repeat)."""
-    if n >= 2_097_152:  # n**3 would overflow int64
-        return True
-    key = np.sort(f, axis=1)
-    key = np.sort((key[:, 0] * n + key[:, 1]) * n + key[:, 2])
-    return bool(np.any(key[1:] == key[:-1]))
 
 
 def _parity(tri: np.ndarray) -> int:

@@ -17,8 +17,8 @@ import numba
 import numpy as np
 
 from .mesh import Mesh, MeshError
-from .topology import (connected_parts, degenerate_faces, edge_balance, group_rows, half_edges,
-                       is_closed_oriented, weld)
+from .topology import (connected_parts, degenerate_faces, edge_balance, edge_index, group_rows, half_edges,
+                       is_closed_oriented, repeats_a_face, weld)
 
 __all__ = ["CageSource", "cage_source", "repaired_source", "close_holes", "box_cage", "plural", "MERGE_TOLERANCE"]
 
@@ -56,6 +56,8 @@ def _split_nonmanifold(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.nda
     dropped : how many faces were dropped (fins)
     """
     n = len(v)
+    if len(f) == 0 or np.bincount(edge_index(f, n)[1]).max() <= 2:  # (linear time: the usual case, none)
+        return v, f, 0, 0
     key, fwd, face = half_edges(f, n)
     order = np.argsort(key, kind="stable")
     ks = key[order]
@@ -312,9 +314,10 @@ def repaired_source(mesh: Mesh) -> CageSource:
         notes.append(f"dropped {plural(int(bad.sum()), 'degenerate face')} (zero area or a repeated vertex)")
     if len(f) == 0:
         raise MeshError(f"{label}every face is degenerate (zero area); there is no surface to edit")
-    # duplicate faces (same three vertices, either orientation): keep the first
-    first, _ = group_rows(np.sort(f, axis=1))
-    if len(first) < len(f):
+    # duplicate faces (same three vertices, either orientation): keep the first (grouped only when there
+    # are any: the quick test is a sort of one key a face)
+    if repeats_a_face(f, len(v)):
+        first, _ = group_rows(np.sort(f, axis=1))
         notes.append(f"dropped {plural(len(f) - len(first), 'duplicate face')}")
         f = f[np.sort(first)]
     v, f, split, dropped = _split_nonmanifold(v, f)

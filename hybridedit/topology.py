@@ -450,3 +450,18 @@ def _parts(f, labels):  # pragma: no cover - compiled
                 count += 1
             labels[a] = number[r]
     return count
+
+
+def repeats_a_face(f: np.ndarray, n: int) -> bool:
+    """Whether two faces use the same three vertices (either orientation); a quick
+    one-key sort where the vertex count allows it (the usual case: no repeat).
+
+    Parameters
+    ----------
+    f : (m, 3) int array of faces; n : the vertex count (every index below it)
+    """
+    if n >= 2_097_152:  # n**3 would overflow int64
+        return True
+    key = np.sort(f, axis=1)
+    key = np.sort((key[:, 0] * n + key[:, 1]) * n + key[:, 2])
+    return bool(np.any(key[1:] == key[:-1]))
