@@ -43,15 +43,15 @@ sys.path.insert(0, str(REPO))
 import fast_simplification  # noqa: E402
 import numba  # noqa: E402
 
-from hybridedit import mvc  # noqa: E402
-from hybridedit.binding import bind  # noqa: E402
-from hybridedit.mesh import Mesh  # noqa: E402
+from hybridedit.binding import mvc  # noqa: E402
+from hybridedit.binding.bind import bind  # noqa: E402
+from hybridedit.core.mesh import Mesh  # noqa: E402
 
 
 def load_mesh(path: Path) -> Mesh:
-    """The mesh at ``path`` through hybridedit.io, or trimesh if that is missing."""
+    """The mesh at ``path`` through hybridedit.fileio.meshfiles, or trimesh if that is missing."""
     try:
-        from hybridedit.io import read_mesh
+        from hybridedit.fileio.meshfiles import read_mesh
     except ImportError:
         read_mesh = None
     if read_mesh is not None:

@@ -5,7 +5,7 @@ Usage: python benchmarks/cage_build.py [--smoke] [--code PATH] [--meshes DIR]
 Table 1, cage build alone (repair pass + QEM per part, no binding) of the armadillo
 Loop-subdivided once (173K) and twice (690K), written to ``--meshes`` (default: a
 temporary folder) the first time, each with one QEM pass and with two halves
-simplified at once (:mod:`hybridedit.qem`), and how close each cage is to the
+simplified at once (:mod:`hybridedit.cage.qem`), and how close each cage is to the
 shape (libigl's point-mesh distance both ways, in % of the bounding-box
 diagonal). ``--smoke`` uses a 10K ellipsoid instead.
 
@@ -60,8 +60,8 @@ import trimesh  # noqa: E402
 from common import armadillo, machine  # noqa: E402
 
 from hybridedit import HybridEditor, Mesh  # noqa: E402
-from hybridedit.cage import build_cage  # noqa: E402
-from hybridedit.mesh import edge_stretch  # noqa: E402
+from hybridedit.cage.build import build_cage  # noqa: E402
+from hybridedit.core.mesh import edge_stretch  # noqa: E402
 
 
 def sphere(center, radius: float, sub: int = 3) -> tuple[np.ndarray, np.ndarray]:
@@ -124,8 +124,8 @@ def cage_distances(m: Mesh, c: Mesh) -> str:
 
 
 def build_times() -> None:
-    """One QEM pass against two halves on two cores (hybridedit.qem), same process, best of 2."""
-    from hybridedit import qem
+    """One QEM pass against two halves on two cores (hybridedit.cage.qem), same process, best of 2."""
+    from hybridedit.cage import qem
 
     print("| shape | vertices | QEM | cage vertices | cage build s (best of 2) "
           "| shape->cage mean / max % | cage->shape mean / max % |")
@@ -198,7 +198,7 @@ def eye_in_head() -> str:
     import scipy.sparse as sp
     from scipy.sparse.csgraph import connected_components
 
-    from hybridedit.binding import bind
+    from hybridedit.binding.bind import bind
 
     cage = ed.cage
     f = cage.faces

@@ -22,7 +22,7 @@ from common import REPO, armadillo, armadillo_21k, machine
 from table1 import full_constraints, run_hybrid
 
 from hybridedit import rrms_edge_error
-from hybridedit.arap import ARAPSolver
+from hybridedit.deform.arap import ARAPSolver
 
 PAPER_POINTS = {"43K": [(5000, 2.25)]}
 SIZES = {"21K": (250, 500, 1000, 1500, 2000, 3000, 4000), "43K": (500, 1000, 1500, 2000, 3000, 5000)}

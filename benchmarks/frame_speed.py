@@ -33,7 +33,8 @@ from scale import subdivided_armadillo
 from table1 import run_full_libigl
 
 from hybridedit import HybridEditor, read_mesh
-from hybridedit import constraints, linsolve, residual
+from hybridedit.core import linsolve
+from hybridedit.deform import constraints, residual
 
 #: issue 21 item 6
 TARGET_43K_MS = 1.1

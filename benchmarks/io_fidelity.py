@@ -30,8 +30,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from hybridedit import HybridEditor  # noqa: E402
-from hybridedit.document import vertex_normals  # noqa: E402
-from hybridedit.io import read_document, write_document, write_mesh  # noqa: E402
+from hybridedit.fileio.document import vertex_normals  # noqa: E402
+from hybridedit.fileio.meshfiles import read_document, write_document, write_mesh  # noqa: E402
 
 SHARED = ROOT.parent / "shared" / "meshes"
 
@@ -168,7 +168,7 @@ def big_mesh(smoke: bool) -> Path:
         return src
     out = Path(tempfile.gettempdir()) / "armadillo_loop2_690k.obj"
     if not out.exists():
-        from hybridedit.io import read_mesh
+        from hybridedit.fileio.meshfiles import read_mesh
 
         m = read_mesh(src)
         v, f = trimesh.remesh.subdivide_loop(m.vertices, m.faces, iterations=2)
@@ -216,7 +216,7 @@ def refusal_case(work: Path, smoke: bool) -> list[str]:
 def obj_speed_case(work: Path, smoke: bool) -> list[str]:
     """Seconds to read the big OBJ, write it back in its own structure with every vertex moved,
     and write it as a plain OBJ (from a document that was not read from an OBJ)."""
-    from hybridedit.document import Document
+    from hybridedit.fileio.document import Document
 
     mesh = big_mesh(smoke)
     if not mesh.exists():

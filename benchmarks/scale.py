@@ -40,7 +40,7 @@ import trimesh
 from common import REPO, Timer, armadillo, canonical_edit, machine
 
 from hybridedit import HybridEditor, Mesh, apply_transform, build_rig, read_mesh, write_mesh
-from hybridedit import bindcache
+from hybridedit.binding import cache as bindcache
 
 #: Targets of issue 14 by armadillo level (1, 2, 3 Loop subdivisions).
 TARGETS = {

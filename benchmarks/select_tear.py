@@ -45,8 +45,8 @@ def limbs(V: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray, tuple[int, i
 def run(path: Path, pixels: int, size=(1100, 850), cage: float = 0.05) -> list[dict]:
     from qtpy import QtCore, QtGui, QtWidgets
 
-    from hybridedit.mesh import edge_error_stats
-    from hybridedit.viewer.selection import project_points
+    from hybridedit.core.mesh import edge_error_stats
+    from hybridedit.viewer.picking import project_points
     from hybridedit.viewer.window import MainWindow
 
     Qt = QtCore.Qt
@@ -140,7 +140,7 @@ def main() -> None:
     if args.smoke:
         import tempfile
 
-        from hybridedit.io import write_mesh
+        from hybridedit.fileio.meshfiles import write_mesh
 
         tmp = tempfile.TemporaryDirectory()
         meshes = [Path(tmp.name) / "figure.ply"]
@@ -173,7 +173,7 @@ def figure():
     """A small standing figure for the smoke run: a body, two arms out to the sides, two legs."""
     import trimesh
 
-    from hybridedit.mesh import Mesh
+    from hybridedit.core.mesh import Mesh
 
     parts = [trimesh.creation.capsule(height=1.2, radius=0.45, count=[16, 16]),
              trimesh.creation.capsule(height=1.6, radius=0.14, count=[12, 12]),

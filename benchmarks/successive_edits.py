@@ -25,9 +25,9 @@ import numpy as np
 from common import Timer, armadillo, machine  # noqa: E402 (common puts the repo on the path)
 
 import hybridedit as he  # noqa: E402
-from hybridedit.arap import ARAPSolver  # noqa: E402
-from hybridedit.mesh import rrms_edge_error  # noqa: E402
-from hybridedit.transforms import rigid_transform  # noqa: E402
+from hybridedit.deform.arap import ARAPSolver  # noqa: E402
+from hybridedit.core.mesh import rrms_edge_error  # noqa: E402
+from hybridedit.core.transforms import rigid_transform  # noqa: E402
 
 
 def five_edits(mesh: he.Mesh) -> list[tuple[str, np.ndarray, np.ndarray, np.ndarray]]:

@@ -26,8 +26,8 @@ import numpy as np
 from common import Timer, armadillo, armadillo_21k, canonical_edit, machine
 
 from hybridedit import HybridEditor, apply_transform, rrms_edge_error
-from hybridedit.arap import ARAPSolver
-from hybridedit.polish import ShapeARAP, polish
+from hybridedit.deform.arap import ARAPSolver
+from hybridedit.deform.polish import ShapeARAP, polish
 
 # Figures of the paper's Table 1 that we have (43,244-vertex armadillo, 2,000-vertex cage,
 # uniform weights, x' = M y'); the others are not in our notes, so they print as "-".

@@ -33,7 +33,7 @@ from common import REPO, canonical_edit, machine
 sys.path.insert(0, str(REPO / "tests"))
 
 import hybridedit as he  # noqa: E402
-from hybridedit.rig import build_rig  # noqa: E402
+from hybridedit.binding.rig import build_rig  # noqa: E402
 from wild_corpus import ARMADILLO, CASES, available, case, read, subdivided  # noqa: E402
 
 

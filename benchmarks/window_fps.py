@@ -262,8 +262,8 @@ def smoke_mesh() -> Path:
     """A small closed shape (about 10K vertices) written to a temporary file."""
     import trimesh
 
-    from hybridedit.io import write_mesh
-    from hybridedit.mesh import Mesh
+    from hybridedit.fileio.meshfiles import write_mesh
+    from hybridedit.core.mesh import Mesh
 
     s = trimesh.creation.icosphere(subdivisions=5)
     v = np.asarray(s.vertices) * np.array([2.0, 1.0, 1.0])

@@ -23,7 +23,7 @@ import numpy as np
 
 import hybridedit as he
 from hybridedit.cli import parse_cage_size
-from hybridedit.mesh import edge_stretch
+from hybridedit.core.mesh import edge_stretch
 
 DEFAULT_MESH = Path(__file__).resolve().parent.parent / "data" / "creature.ply"
 

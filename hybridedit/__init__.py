@@ -27,7 +27,7 @@ def _numba_cache_where_writable() -> None:
     pycache = _os.path.join(here, "__pycache__")
     if _os.access(pycache if _os.path.isdir(pycache) else here, _os.W_OK):
         return
-    from .bindcache import default_cache_dir
+    from .binding.cache import default_cache_dir
 
     folder = str(default_cache_dir() / "numba")
     _os.environ["NUMBA_CACHE_DIR"] = folder
@@ -38,37 +38,37 @@ def _numba_cache_where_writable() -> None:
 _numba_cache_where_writable()
 
 _WHERE = {
-    "ARAPSolver": "arap",
-    "Document": "document",
-    "Edit": "editfile",
-    "EditFileError": "editfile",
-    "HandleEdit": "editfile",
-    "HybridEditor": "editor",
-    "Mesh": "mesh",
-    "MeshError": "mesh",
-    "MeshFileError": "io",
-    "Rig": "rig",
-    "SelectionError": "selection",
-    "apply_transform": "transforms",
-    "backend_description": "linsolve",
-    "bind": "binding",
-    "build_cage": "cage",
-    "build_rig": "rig",
-    "load_edit": "editfile",
-    "mean_value_coordinates": "mvc",
-    "propagate_positions": "propagate",
-    "read_document": "io",
-    "read_mesh": "io",
-    "rigid_transform": "transforms",
-    "rrms_edge_error": "mesh",
-    "save_edit": "editfile",
-    "write_document": "io",
-    "write_mesh": "io",
+    "ARAPSolver": "deform.arap",
+    "Document": "fileio.document",
+    "Edit": "fileio.editfile",
+    "EditFileError": "fileio.editfile",
+    "HandleEdit": "fileio.editfile",
+    "HybridEditor": "deform.editor",
+    "Mesh": "core.mesh",
+    "MeshError": "core.mesh",
+    "MeshFileError": "fileio.meshfiles",
+    "Rig": "binding.rig",
+    "SelectionError": "deform.selection",
+    "apply_transform": "core.transforms",
+    "backend_description": "core.linsolve",
+    "bind": "binding.bind",
+    "build_cage": "cage.build",
+    "build_rig": "binding.rig",
+    "load_edit": "fileio.editfile",
+    "mean_value_coordinates": "binding.mvc",
+    "propagate_positions": "deform.propagate",
+    "read_document": "fileio.meshfiles",
+    "read_mesh": "fileio.meshfiles",
+    "rigid_transform": "core.transforms",
+    "rrms_edge_error": "core.mesh",
+    "save_edit": "fileio.editfile",
+    "write_document": "fileio.meshfiles",
+    "write_mesh": "fileio.meshfiles",
 }
 
 #: exported under another name than in their module: a package attribute named like a
 #: submodule would be that function in a fresh interpreter but the submodule once anything
-#: imported it (the import system binds ``hybridedit.propagate`` to the module)
+#: imported it (the import system binds ``hybridedit.deform.propagate`` to the module)
 _RENAMED = {"propagate_positions": "propagate"}
 
 __all__ = sorted(_WHERE)  # (not ``open``: ``from hybridedit import *`` must not hide the builtin)
@@ -82,7 +82,7 @@ def open(path, cage_size: int | float = 0.05, **options):  # noqa: A001  (he.ope
     edited positions. Options: ``cache``, ``truncation``, ``progress`` (building),
     ``weights``, ``iterations``, ``propagation`` (the editor).
     """
-    from .editor import HybridEditor
+    from .deform.editor import HybridEditor
 
     return HybridEditor.from_file(path, cage_size, **options)
 

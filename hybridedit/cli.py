@@ -13,17 +13,17 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .atomic import WriteError, atomic_write
-from .editfile import EditFileError, load_edit
-from .selection import SelectionError
-from .io import SUPPORTED_EXTENSIONS, MeshFileError, read_document, read_mesh, write_document, write_mesh
-from .mesh import MeshError, edge_error_stats, rrms_edge_error
-from .outpaths import OutputPathError, check_outputs
+from .fileio.atomic import WriteError, atomic_write
+from .fileio.editfile import EditFileError, load_edit
+from .deform.selection import SelectionError
+from .fileio.meshfiles import SUPPORTED_EXTENSIONS, MeshFileError, read_document, read_mesh, write_document, write_mesh
+from .core.mesh import MeshError, edge_error_stats, rrms_edge_error
+from .fileio.outpaths import OutputPathError, check_outputs
 from .defaults import POLISH_MAX_ITERATIONS
-from .progress import SHOW_AFTER_SECONDS, TextProgress
+from .core.progress import SHOW_AFTER_SECONDS, TextProgress
 
 if TYPE_CHECKING:
-    from .editor import HybridEditor
+    from .deform.editor import HybridEditor
 
 def _default_mesh(here: Path | None = None) -> Path:
     """The default mesh: inside the package when installed from a wheel (hybridedit/data/, see
@@ -66,7 +66,7 @@ _PROGRESS: list[TextProgress] = []
 
 def _progress(quiet: bool, stream=None):
     """A progress callback for HybridEditor and the CLI's own steps, on stderr
-    (:class:`hybridedit.progress.TextProgress`: the time left on a terminal)."""
+    (:class:`hybridedit.core.progress.TextProgress`: the time left on a terminal)."""
     say = TextProgress(quiet, stream)
     _PROGRESS.append(say)
     return say
@@ -110,8 +110,8 @@ def run_deform(args: argparse.Namespace) -> int:
     if args.polish is not None and args.polish < 1:
         raise CLIError(f"--polish must be a number of iterations >= 1, got {args.polish}")
     t_start = time.perf_counter()
-    from .editor import HybridEditor  # the compiled engine loads after the cheap checks
-    from .rig import build_rig
+    from .deform.editor import HybridEditor  # the compiled engine loads after the cheap checks
+    from .binding.rig import build_rig
 
     edit = load_edit(args.edit)
     recorded = [s.cage for s in edit.steps if s.cage is not None]
@@ -243,9 +243,9 @@ def _polish(ed: "HybridEditor", max_iterations: int, say):
 
 
 def run_info(args: argparse.Namespace) -> int:
-    from .meshinfo import format_report, mesh_report
+    from .core.meshinfo import format_report, mesh_report
 
-    from .repair import cage_source
+    from .core.repair import cage_source
 
     mesh = read_mesh(args.input)
     rep = mesh_report(mesh)
@@ -281,7 +281,7 @@ def _demo(path: Path, args: argparse.Namespace) -> int:
     say = _progress(False)
     out = Path(args.output or "hybridedit-demo.ply")
     check_outputs({"-o": (out, SUPPORTED_EXTENSIONS)}, inputs={"input": path})
-    from .editor import HybridEditor
+    from .deform.editor import HybridEditor
 
     mesh = read_mesh(path)
     say(f"demo on {path.name}: {mesh.n_vertices} vertices")
@@ -343,7 +343,7 @@ def version_text() -> str:
     import platform
 
     from . import __version__
-    from .linsolve import available_backends, backend_description
+    from .core.linsolve import available_backends, backend_description
 
     return (f"hybridedit {__version__} (Python {platform.python_version()}, {sys.platform})\n"
             f"solver: {backend_description()}; installed: {', '.join(available_backends())}")

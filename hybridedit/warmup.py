@@ -146,7 +146,7 @@ def blob(subdivisions: int = 3):
     """A closed bumpy capsule along X (642 vertices at subdivision 3)."""
     import trimesh
 
-    from .mesh import Mesh
+    from .core.mesh import Mesh
 
     s = trimesh.creation.icosphere(subdivisions=subdivisions, radius=1.0)
     v = np.asarray(s.vertices, dtype=np.float64).copy()
@@ -158,7 +158,7 @@ def blob(subdivisions: int = 3):
 
 def needs_repair(mesh):
     """The same shape with a duplicated vertex and some faces flipped (runs the repair pass)."""
-    from .mesh import Mesh
+    from .core.mesh import Mesh
 
     v = np.vstack([mesh.vertices, mesh.vertices[:1]])
     f = mesh.faces.copy()
@@ -181,8 +181,8 @@ def _selection(mesh):
 def _edit_session(mesh, say: Progress, label: str) -> None:
     """Cage, binding, both propagations, drags, polish and the window's kernels on one shape."""
     from . import HybridEditor, rigid_transform
-    from .binding import bind
-    from .polish import ShapeARAP, polish
+    from .binding.bind import bind
+    from .deform.polish import ShapeARAP, polish
     from .viewer.regional import ShapeMetrics, copy_rows
 
     say(f"{label}: cage and binding", 0.0)
@@ -222,14 +222,14 @@ def _edit_session(mesh, say: Progress, label: str) -> None:
 
 def _rare_paths(shape) -> None:
     """Binding rows wider than the fast kernel's row buffer, and public kernels the pipeline does not call."""
-    from .binding import bind
-    from .mvc import atan2_pos_array
-    from .rotations import closest_rotations
+    from .binding.bind import bind
+    from .binding.mvc import atan2_pos_array
+    from .core.rotations import closest_rotations
 
     bind(0.5 * shape.vertices[:8], shape, truncation=0.0)  # the shape as its own cage, untruncated
     import scipy.sparse as sp
 
-    from .truncation import cap_rows
+    from .binding.truncation import cap_rows
 
     wide = sp.csr_matrix(np.full((2, 6), 1.0 / 6.0))  # rows wider than the cap: cut to their largest
     wide.has_sorted_indices = True
@@ -271,7 +271,7 @@ def stamp_path() -> Path:
     """The file that says the warm-up ran for this code, numba and Python (in the user cache folder)."""
     import numba
 
-    from .bindcache import default_cache_dir
+    from .binding.cache import default_cache_dir
 
     h = hashlib.sha256()
     h.update(f"{numba.__version__} {sys.version} {sys.platform} {PACKAGE_DIR}".encode())

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from hybridedit.mesh import Mesh
+from hybridedit.core.mesh import Mesh
 
 from shapes import REPO, SHARED_MESHES, bumpy_blob, icosphere  # noqa: F401  (fixtures below use them)
 

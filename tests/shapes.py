@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from hybridedit.mesh import Mesh
+from hybridedit.core.mesh import Mesh
 
 REPO = Path(__file__).resolve().parent.parent
 SHARED_MESHES = REPO.parent / "shared" / "meshes"

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from hybridedit.cli import main, parse_cage_size
-from hybridedit.io import read_mesh, write_mesh
+from hybridedit.fileio.meshfiles import read_mesh, write_mesh
 
 from shapes import bumpy_blob
 
@@ -83,7 +83,7 @@ def test_cage_size_parsing():
 def test_info_and_deform_report_repairs(tmp_path, capsys):
     import trimesh
 
-    from hybridedit.mesh import Mesh
+    from hybridedit.core.mesh import Mesh
 
     s = trimesh.creation.icosphere(subdivisions=3)
     f = np.asarray(s.faces)[:, ::-1]  # inside out
@@ -184,7 +184,7 @@ def test_deform_holds_constraints_exactly_with_several_groups(tmp_path, mesh_fil
     out = tmp_path / "o.ply"
     assert main(["deform", str(mesh_file), "-o", str(out), "--edit", str(e), "--cage", "100", "-q"]) == 0
     d = read_mesh(out).vertices
-    from hybridedit.transforms import rigid_transform, apply_transform
+    from hybridedit.core.transforms import rigid_transform, apply_transform
 
     diag = m.bbox_diagonal()
     assert np.abs(d[mid] - x[mid]).max() <= 1e-9 * diag
@@ -247,7 +247,7 @@ def test_version_names_the_solver_backend(capsys, monkeypatch):
         main(["--version"])
     assert e.value.code == 0
     out = capsys.readouterr().out
-    from hybridedit.linsolve import available_backends, backend_name
+    from hybridedit.core.linsolve import available_backends, backend_name
 
     assert out.startswith(f"hybridedit {hybridedit.__version__} (Python ")
     assert f"solver: {backend_name()} (" in out and "installed: " + ", ".join(available_backends()) in out

@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hybridedit.editfile import load_edit
-from hybridedit.io import read_mesh, write_mesh
+from hybridedit.fileio.editfile import load_edit
+from hybridedit.fileio.meshfiles import read_mesh, write_mesh
 
 from shapes import SHARED_MESHES, bumpy_blob
 

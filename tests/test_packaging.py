@@ -105,7 +105,7 @@ def installed(wheel, tmp_path_factory) -> Path:
 def test_an_installed_wheel_opens_its_default_mesh(installed, tmp_path):
     """From an installed wheel (no checkout around it), ``hybridedit`` with no argument has its
     mesh: the copy inside the package, which reads as the creature."""
-    code = ("import hybridedit, hybridedit.cli as c, hybridedit.io as io; "
+    code = ("import hybridedit, hybridedit.cli as c, hybridedit.fileio.meshfiles as io; "
             "m = io.read_mesh(c.DEFAULT_MESH); print(hybridedit.__file__); print(c.DEFAULT_MESH); print(m.n_vertices)")
     run = _run_installed(installed, code, tmp_path)
     assert run.returncode == 0, run.stderr
@@ -127,7 +127,7 @@ def test_a_read_only_installation_keeps_its_kernels_in_the_user_cache(installed,
         "os.access = lambda p, m, **k: False if (m & os.W_OK and str(p).startswith(pkg)) else real(p, m, **k)\n"
         "import hybridedit, numpy as np\n"
         "print(os.environ['NUMBA_CACHE_DIR'])\n"
-        "from hybridedit.rotations import closest_rotation\n"
+        "from hybridedit.core.rotations import closest_rotation\n"
         "out = np.zeros((3, 3)); closest_rotation(np.eye(3) * 2.0, out); assert np.allclose(out, np.eye(3))\n"
     )
     env = {"HYBRIDEDIT_CACHE_DIR": str(cache)}

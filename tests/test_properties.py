@@ -8,11 +8,11 @@ from hypothesis import strategies as st
 from scipy.spatial import ConvexHull
 import trimesh
 
-from hybridedit.arap import ARAPSolver
-from hybridedit.binding import bind
-from hybridedit.mesh import Mesh
-from hybridedit.mvc import mean_value_coordinates
-from hybridedit.transforms import rigid_transform
+from hybridedit.deform.arap import ARAPSolver
+from hybridedit.binding.bind import bind
+from hybridedit.core.mesh import Mesh
+from hybridedit.binding.mvc import mean_value_coordinates
+from hybridedit.core.transforms import rigid_transform
 
 SETTINGS = settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 _ICO = trimesh.creation.icosphere(subdivisions=1)

@@ -18,7 +18,7 @@ import scipy.sparse as sp
 import pytest
 
 from hybridedit.cli import main
-from hybridedit.io import read_mesh, write_mesh
+from hybridedit.fileio.meshfiles import read_mesh, write_mesh
 
 sys.path.insert(0, str(Path(__file__).resolve().parent / "data"))
 import make_bad  # noqa: E402
@@ -127,7 +127,7 @@ def test_a_header_promising_more_than_the_file_holds_is_refused_at_once(name, ca
     """10^12 elements (2^32-1 for STL, its largest count) in a file of a few hundred bytes: one
     MeshFileError naming the file and the counts, before any allocation (the CLI test above
     checks exit 2 and the one line for info and deform)."""
-    from hybridedit.io import MeshFileError
+    from hybridedit.fileio.meshfiles import MeshFileError
 
     t0 = time.perf_counter()
     with pytest.raises(MeshFileError) as err:
@@ -265,7 +265,7 @@ def test_no_fixed_vertex_moves_everything(blob_file, tmp_path, capsys):
 
 
 def test_failed_write_keeps_the_existing_output(blob_file, tmp_path, capsys, monkeypatch):
-    import hybridedit.atomic as atomic
+    import hybridedit.fileio.atomic as atomic
 
     e = tmp_path / "edit.json"
     e.write_text(json.dumps({"handle": [0], "roi": [0, 1, 2, 3], "translate": [0, 0.1, 0]}))
@@ -291,7 +291,7 @@ def test_unexpected_errors_are_one_line(blob_file, tmp_path, capsys, monkeypatch
         raise RuntimeError("something\nbroke")
 
     monkeypatch.setattr(cli, "mesh_report", boom, raising=False)
-    monkeypatch.setattr("hybridedit.meshinfo.mesh_report", boom)
+    monkeypatch.setattr("hybridedit.core.meshinfo.mesh_report", boom)
     monkeypatch.delenv("HYBRIDEDIT_DEBUG", raising=False)
     assert main(["info", str(blob_file)]) == 1
     err = capsys.readouterr().err
@@ -301,7 +301,7 @@ def test_unexpected_errors_are_one_line(blob_file, tmp_path, capsys, monkeypatch
     with pytest.raises(RuntimeError):
         main(["info", str(blob_file)])
     monkeypatch.delenv("HYBRIDEDIT_DEBUG")
-    monkeypatch.setattr(__import__("hybridedit.editor").editor.HybridEditor, "drag", boom)
+    monkeypatch.setattr(__import__("hybridedit.deform.editor").deform.editor.HybridEditor, "drag", boom)
     rc, out, _ = run_deform(blob_file, tmp_path, {"handle": [0], "roi": [0, 1]})
     assert rc == 1 and not out.exists()
     assert capsys.readouterr().err.strip().startswith("hybridedit: internal error: blob.obj: RuntimeError")

@@ -14,7 +14,7 @@ AFTER_WARMUP = textwrap.dedent("""
     import trimesh
     import hybridedit as he
     from hybridedit import warmup
-    from hybridedit.polish import ShapeARAP, polish
+    from hybridedit.deform.polish import ShapeARAP, polish
     from hybridedit.viewer.regional import ShapeMetrics
 
     s = trimesh.creation.icosphere(subdivisions=6)  # 41K vertices: past the parallel thresholds
@@ -52,8 +52,8 @@ def test_nothing_compiles_after_the_warmup(tmp_path):
 
 def test_every_entry_kernel_is_found():
     names = warmup.entry_kernels()
-    assert "hybridedit.propagate._csr_times_xyz_parallel" in names
+    assert "hybridedit.deform.propagate._csr_times_xyz_parallel" in names
     assert "hybridedit.viewer.regional._vertex_normals_serial" in names
-    assert "hybridedit.propagate._row" not in names  # inlined into the entry kernels
+    assert "hybridedit.deform.propagate._row" not in names  # inlined into the entry kernels
     assert all(not m.startswith("hybridedit.viewer.") or m == "hybridedit.viewer.regional"
                for m in warmup.kernel_modules())

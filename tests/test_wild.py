@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import hybridedit as he
-from hybridedit.truncation import MAX_ROW
+from hybridedit.binding.truncation import MAX_ROW
 
 import wild_corpus
 
@@ -70,7 +70,7 @@ def test_a_part_nothing_connects_to_the_handle_stays_still(corpus):
     """The parts case with a separate piece set apart (a prop beside the figure): in a region of interest
     that takes everything, an edit of the arm moves the figure's parts but not the piece that no part
     and no handle reaches."""
-    from hybridedit.topology import connected_parts
+    from hybridedit.core.topology import connected_parts
 
     figure = corpus["parts"]
     count, labels = connected_parts(figure.faces, figure.n_vertices)

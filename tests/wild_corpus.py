@@ -18,7 +18,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 
-from hybridedit.mesh import Mesh  # noqa: E402
+from hybridedit.core.mesh import Mesh  # noqa: E402
 
 SHARED = HERE.parent.parent / "shared" / "meshes"
 ARMADILLO = SHARED / "armadillo43k.obj"
@@ -125,7 +125,7 @@ def doubled_sheet(mesh: Mesh, *, share: float = 0.15, gap: float = 0.003) -> Mes
 def ngons(path: Path = SPOT_QUADS) -> Mesh:
     """Spot's quads merged in pairs into hexagons where two share an edge (the rest stay quads), then
     read as a reader gives them (fan-triangulated): a quad- and ngon-dominant asset."""
-    from hybridedit.io import read_document
+    from hybridedit.fileio.meshfiles import read_document
     import tempfile
 
     lines = path.read_text().splitlines()
@@ -161,7 +161,7 @@ def ngons(path: Path = SPOT_QUADS) -> Mesh:
 
 
 def read(path: Path, name: str) -> Mesh:
-    from hybridedit.io import read_mesh
+    from hybridedit.fileio.meshfiles import read_mesh
 
     m = read_mesh(path)
     return Mesh(m.vertices, m.faces, name=name)
@@ -201,7 +201,7 @@ def case(name: str, *, base: Mesh | None = None) -> Mesh:
 
 
 def main(argv: list[str]) -> None:
-    from hybridedit.io import write_mesh
+    from hybridedit.fileio.meshfiles import write_mesh
 
     out = Path(argv[0]) if argv else Path("wild")
     out.mkdir(parents=True, exist_ok=True)

@@ -1,7 +1,7 @@
 """The desktop editor window of hybridedit (Qt + pyvista/VTK).
 
 Only this subpackage imports Qt or VTK; it drives the engine
-(:class:`hybridedit.editor.HybridEditor`) through its public API.
+(:class:`hybridedit.deform.editor.HybridEditor`) through its public API.
 
 Modules
 -------

@@ -13,9 +13,9 @@ import sys
 import traceback
 from pathlib import Path
 
-from ..editor import HybridEditor
-from ..io import read_document
-from ..mesh import MeshError
+from ..deform.editor import HybridEditor
+from ..fileio.meshfiles import read_document
+from ..core.mesh import MeshError
 
 SCREENSHOT_SIZE = (1280, 960)
 
@@ -51,7 +51,7 @@ def render_screenshot(path: str | os.PathLike, out: str | os.PathLike, cage: int
     """
     import pyvista as pv
 
-    from ..up_axis import up_axis_of
+    from ..core.up_axis import up_axis_of
     from .look import shown_look
     from .scene import Scene
     from .session import Session

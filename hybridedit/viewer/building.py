@@ -28,7 +28,7 @@ from .look import shown_look
 from .worker import BuildRequest, BuildResult, BuildWorker, Cancelled, release
 
 if TYPE_CHECKING:
-    from ..mesh import Mesh
+    from ..core.mesh import Mesh
     from .session import Session
     from .statusfield import StatusRow
 

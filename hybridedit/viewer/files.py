@@ -9,11 +9,11 @@ from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 from qtpy import QtCore, QtWidgets
 
-from ..atomic import WriteError
-from ..editfile import EditFileError, load_edit, save_edit
-from ..editor import SelectionError
-from ..io import SUPPORTED_EXTENSIONS, MeshFileError, write_mesh
-from ..mesh import MeshError
+from ..fileio.atomic import WriteError
+from ..fileio.editfile import EditFileError, load_edit, save_edit
+from ..deform.editor import SelectionError
+from ..fileio.meshfiles import SUPPORTED_EXTENSIONS, MeshFileError, write_mesh
+from ..core.mesh import MeshError
 
 if TYPE_CHECKING:
     from .session import Session

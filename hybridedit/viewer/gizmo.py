@@ -12,8 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 import pyvista as pv
 
-from ..transforms import rigid_transform
-from .selection import project_points, unproject
+from ..core.transforms import rigid_transform
+from .picking import project_points, unproject
 
 AXES = np.eye(3)
 AXIS_COLORS = ((0.90, 0.20, 0.20), (0.25, 0.75, 0.25), (0.25, 0.45, 0.95))

@@ -10,7 +10,7 @@ The controller turns gestures into calls on a :class:`Handler` (the window).
 
 Selection takes what the user points at, as in Blender and MeshLab: the cage
 points in sight, and with them, for the rectangle and the brush, the part they
-are drawn over through its thickness (:func:`~.selection.through_the_part`: the
+are drawn over through its thickness (:func:`~.picking.through_the_part`: the
 back of an arm drawn over from the front, the fingers behind other fingers),
 so that a limb picked from one side moves whole. A point hidden behind another
 part (a hind leg behind a front leg) is not taken, unless
@@ -18,7 +18,7 @@ part (a hind leg behind a front leg) is not taken, unless
 nearest point in sight. Whether a point is in sight is decided once per
 gesture from the depth buffer of the shape's layer (:class:`~.view.DepthGrab`,
 read with the frame the view shows anyway) by
-:func:`~.selection.visible_points`. A click (the rectangle tool, moved at most
+:func:`~.picking.visible_points`. A click (the rectangle tool, moved at most
 :data:`CLICK_PIXELS`) takes the nearest cage point within :data:`PICK_PIXELS`;
 on empty space it changes nothing. A rectangle drawn over empty space in
 replace mode empties the target, as in Blender (the window says that Ctrl+Z
@@ -36,7 +36,7 @@ from qtpy import QtCore, QtGui
 
 from . import gizmo as gz
 from .scene import Scene
-from .selection import (ADD, REPLACE, brush_hits, nearest_hit, op_from_modifiers, project_points, rectangle_hits,
+from .picking import (ADD, REPLACE, brush_hits, nearest_hit, op_from_modifiers, project_points, rectangle_hits,
                         stroke_hits, through_the_part, visible_points)
 from .view import OutlineOverlay, View
 

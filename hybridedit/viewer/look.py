@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..document import Document
+from ..fileio.document import Document
 
 MODES = ("texture", "colors", "plain")
 

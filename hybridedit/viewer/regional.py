@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ..mesh import unique_edges
+from ..core.mesh import unique_edges
 
 
 PARALLEL_MIN = 50_000
@@ -352,7 +352,7 @@ class ShapeMetrics:
         _region_normals(c.P, c.faces, c.targets, self.normal_vertices, c.acc, out)
 
     def update_error(self, V: np.ndarray, *, everything: bool = False) -> float:
-        """The relative RMS edge-length error of V in percent (as :func:`hybridedit.mesh.rrms_edge_error`).
+        """The relative RMS edge-length error of V in percent (as :func:`hybridedit.core.mesh.rrms_edge_error`).
 
         The pose outside the moving region must be the one of the last call with ``everything``.
         """

@@ -27,10 +27,10 @@ from vtkmodules.vtkCommonCore import vtkLookupTable
 from vtkmodules.vtkRenderingAnnotation import vtkScalarBarActor
 from vtkmodules.vtkRenderingCore import vtkRenderer
 
-from ..mesh import unique_edges
+from ..core.mesh import unique_edges
 from .gizmo import RING_RATIO, Gizmo
 from .regional import ShapeMetrics
-from .selection import FIXED as FIXED_STATE
+from .picking import FIXED as FIXED_STATE
 from .shapeparts import ShapeParts
 
 BACKGROUND = (0.78, 0.80, 0.84)
@@ -125,7 +125,7 @@ def view_directions(up: str, view: str) -> tuple[np.ndarray, np.ndarray]:
     The front of a shape with +Y (or -Y, or +-X) up faces +Z; with +Z up it faces -Y and with -Z up +Y
     (Blender's front view, Z up, looks along +Y); its right is up x front.
     """
-    from ..up_axis import axis_vector
+    from ..core.up_axis import axis_vector
 
     u = axis_vector(up)
     front = {"Y": np.array([0.0, 0, 1]), "X": np.array([0.0, 0, 1])}.get(up[1], np.array([0.0, -u[2], 0]))
@@ -171,7 +171,7 @@ class Scene:
         self.cage_poly: pv.PolyData | None = None
         self.points_poly: pv.PolyData | None = None
         self.points_actor: pv.Actor | None = None
-        #: the shape's up axis ("+Y", "+Z", ...: :data:`hybridedit.up_axis.AXES`); the views follow it
+        #: the shape's up axis ("+Y", "+Z", ...: :data:`hybridedit.core.up_axis.AXES`); the views follow it
         self.up_axis = "+Y"
         self._cage_faces = np.zeros((0, 3), dtype=np.int64)
         self._cage_pos = np.zeros((0, 3))

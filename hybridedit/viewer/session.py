@@ -1,4 +1,4 @@
-"""The editing state of one loaded shape, on top of :class:`hybridedit.editor.HybridEditor`.
+"""The editing state of one loaded shape, on top of :class:`hybridedit.deform.editor.HybridEditor`.
 
 No Qt here: the window turns user actions into calls on a :class:`Session`.
 
@@ -36,13 +36,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..binding import dominant_cage_vertex
-from ..editfile import Edit
-from ..editor import HybridEditor, SelectionError
-from ..mesh import Mesh, rrms_edge_error
+from ..binding.bind import dominant_cage_vertex
+from ..fileio.editfile import Edit
+from ..deform.editor import HybridEditor, SelectionError
+from ..core.mesh import Mesh, rrms_edge_error
 from .history import History, Snapshot
 from .regional import ShapeMetrics
-from .selection import FIXED, FREE as FREE_STATE, HANDLE as HANDLE_STATE, combine, vertex_states
+from .picking import FIXED, FREE as FREE_STATE, HANDLE as HANDLE_STATE, combine, vertex_states
 
 ROI, HANDLE = "roi", "handle"
 TARGETS = (ROI, HANDLE)
@@ -103,7 +103,7 @@ class Session:
         self.look = None
         #: how the shape is drawn ("texture", "colors", "plain"); None: what the file has
         self.look_mode: str | None = None
-        #: the shape's up axis (:mod:`hybridedit.up_axis`), and the key it is remembered under (None: not yet)
+        #: the shape's up axis (:mod:`hybridedit.core.up_axis`), and the key it is remembered under (None: not yet)
         self.up_axis = "+Y"
         self.shape_key: str | None = None
         self.settle_on_release = True
@@ -218,7 +218,7 @@ class Session:
         return self.editor.replayable
 
     def states(self) -> np.ndarray:
-        """Per cage vertex FIXED / FREE / HANDLE (see :mod:`.selection`): the engine's cage roles
+        """Per cage vertex FIXED / FREE / HANDLE (see :mod:`.picking`): the engine's cage roles
         once it has the selection, else the masks; mirror images included in both cases."""
         if self._engine_masks == self._mask_key() and (self.roi.any() or self.all_handles.any()):
             roles = self.editor.cage_roles

@@ -19,8 +19,8 @@ from typing import TYPE_CHECKING, Callable
 import numpy as np
 from qtpy import QtCore, QtGui, QtWidgets
 
-from ..editor import SelectionError
-from ..up_axis import AXES, remember_up_axis, shape_key
+from ..deform.editor import SelectionError
+from ..core.up_axis import AXES, remember_up_axis, shape_key
 from .building import BuildJobs
 from .cagesize import CageSizeControl
 from .dialogs import InfoDialogs
@@ -36,7 +36,7 @@ from .view import View
 from .worker import BuildResult, BuildWorker, PolishOutcome
 
 if TYPE_CHECKING:
-    from ..mesh import Mesh
+    from ..core.mesh import Mesh
 
 
 def _fmt(n: int) -> str:

@@ -14,12 +14,12 @@ from pathlib import Path
 import numpy as np
 from qtpy import QtCore
 
-from ..editor import HybridEditor
-from ..rig import build_rig
-from ..up_axis import shape_key, up_axis_of
-from ..io import read_document
+from ..deform.editor import HybridEditor
+from ..binding.rig import build_rig
+from ..core.up_axis import shape_key, up_axis_of
+from ..fileio.meshfiles import read_document
 from .look import Look, shown_look
-from ..mesh import Mesh
+from ..core.mesh import Mesh
 
 
 def release(thread: QtCore.QThread | None) -> None:
@@ -57,7 +57,7 @@ class BuildResult:
     #: what the file says the shape looks like (textures, colours), for a newly read file; else None
     look: Look | None = None
     #: a new shape's up axis, whether it was remembered (else guessed), and the key it is remembered
-    #: under (:mod:`hybridedit.up_axis`); None for a rebuild
+    #: under (:mod:`hybridedit.core.up_axis`); None for a rebuild
     up: tuple[str, bool, str] | None = None
 
 
@@ -174,7 +174,7 @@ class ShapeARAPHolder:
 
     def get(self):
         if self.shape_arap is None:
-            from ..polish import ShapeARAP
+            from ..deform.polish import ShapeARAP
 
             t0 = time.perf_counter()
             self.shape_arap = ShapeARAP(self.mesh)
@@ -184,14 +184,14 @@ class ShapeARAPHolder:
 
 @dataclass
 class PolishRequest:
-    """One polish: the engine's ``job`` (:class:`~hybridedit.polish.PolishJob`: the start pose, the
+    """One polish: the engine's ``job`` (:class:`~hybridedit.deform.polish.PolishJob`: the start pose, the
     free vertices, the stopping rule), run with the shape's set-up in ``holder``.
 
     ``token`` identifies the request; the window drops a result whose token is stale.
     """
 
     holder: ShapeARAPHolder
-    job: object  # hybridedit.polish.PolishJob
+    job: object  # hybridedit.deform.polish.PolishJob
     edges: np.ndarray
     token: int = 0
 
@@ -239,7 +239,7 @@ class PolishWorker(QtCore.QThread):
         return self._cancel.is_set()
 
     def run(self) -> None:  # runs in the worker thread
-        from ..mesh import rrms_edge_error
+        from ..core.mesh import rrms_edge_error
 
         t0 = time.perf_counter()
         req = self.request

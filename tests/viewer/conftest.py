@@ -49,7 +49,7 @@ def capsule_blob(subdivisions: int = 4):
     """A closed, bumpy capsule about 4 long along X, 2.5K vertices at subdivision 4."""
     import trimesh
 
-    from hybridedit.mesh import Mesh
+    from hybridedit.core.mesh import Mesh
 
     s = trimesh.creation.icosphere(subdivisions=subdivisions, radius=1.0)
     v = np.asarray(s.vertices).copy()
@@ -70,7 +70,7 @@ def make_blob():
 @pytest.fixture(scope="session")
 def blob_file(tmp_path_factory) -> Path:
     """The test shape written to an OBJ file (exact %.17g coordinates)."""
-    from hybridedit.io import write_mesh
+    from hybridedit.fileio.meshfiles import write_mesh
 
     p = tmp_path_factory.mktemp("meshes") / "blob.obj"
     write_mesh(p, capsule_blob())

@@ -262,7 +262,7 @@ def test_a_file_opened_at_too_many_vertices_is_read_then_built_at_5_percent(qtbo
                                                                             monkeypatch):
     """The command line's --cage 5000, say, for a shape of 2,562 vertices: the count is checked once the file
     is read, before its cage is built; the file's colours still show."""
-    from hybridedit.io import read_mesh
+    from hybridedit.fileio.meshfiles import read_mesh
 
     blob = read_mesh(blob_file)
     coloured = tmp_path / "coloured.obj"
@@ -294,7 +294,7 @@ def test_a_file_opened_at_too_many_vertices_is_read_then_built_at_5_percent(qtbo
 
 
 def test_another_file_starts_from_5_percent_not_from_the_last_count(qtbot, win, tmp_path, make_blob):
-    from hybridedit.io import write_mesh
+    from hybridedit.fileio.meshfiles import write_mesh
 
     w = win
     assert w.session.cage_size == 150 and w.cage_size() == 150  # (the window was made with --cage 150)

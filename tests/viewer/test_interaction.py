@@ -12,7 +12,7 @@ from hybridedit.viewer import interaction
 from hybridedit.viewer.interaction import BRUSH, CAMERA, SELECT, ViewController
 from hybridedit.viewer.regional import ShapeMetrics
 from hybridedit.viewer.scene import Scene
-from hybridedit.viewer.selection import REPLACE, combine, project_points
+from hybridedit.viewer.picking import REPLACE, combine, project_points
 from hybridedit.viewer.view import View
 
 Qt = QtCore.Qt

@@ -9,7 +9,7 @@ import pytest
 import pyvista as pv
 
 import hybridedit as he
-from hybridedit.mesh import Mesh
+from hybridedit.core.mesh import Mesh
 from hybridedit.viewer.look import look_of
 from hybridedit.viewer.regional import ShapeMetrics
 from hybridedit.viewer.scene import Scene
@@ -79,7 +79,7 @@ def share_near(img, colour, tol=60):
 
 def test_the_render_mesh_keeps_the_files_polygons_and_their_materials():
     """A triangle and a pentagon: the render triangles are the readers' fan, each with its polygon's material."""
-    from hybridedit.document import Material, Texturing
+    from hybridedit.fileio.document import Material, Texturing
 
     V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [2, 0, 0], [3, 0, 0], [3, 1, 0], [2.5, 2, 0], [2, 1, 0.0]])
     counts, flat = np.array([3, 5]), np.arange(8)

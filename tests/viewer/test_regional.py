@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hybridedit.mesh import edge_stretch, rrms_edge_error, vertex_stretch
+from hybridedit.core.mesh import edge_stretch, rrms_edge_error, vertex_stretch
 from hybridedit.viewer import regional
 from hybridedit.viewer.regional import ShapeMetrics, vertex_normals
 

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hybridedit.editfile import Edit
-from hybridedit.editor import HybridEditor, SelectionError
-from hybridedit.transforms import rigid_transform
+from hybridedit.fileio.editfile import Edit
+from hybridedit.deform.editor import HybridEditor, SelectionError
+from hybridedit.core.transforms import rigid_transform
 from hybridedit.viewer.session import HANDLE, ROI, Session
 
 

@@ -13,9 +13,9 @@ import pytest
 from qtpy import QtCore, QtGui, QtWidgets
 
 from hybridedit import cli
-from hybridedit.io import read_mesh, write_mesh
+from hybridedit.fileio.meshfiles import read_mesh, write_mesh
 from hybridedit.viewer import gizmo as gz
-from hybridedit.viewer.selection import project_points, rectangle_hits
+from hybridedit.viewer.picking import project_points, rectangle_hits
 from hybridedit.viewer.window import MainWindow
 
 CAGE = 150

@@ -8,8 +8,8 @@ import pytest
 from qtpy import QtCore
 
 from hybridedit import cli
-from hybridedit.io import read_mesh, write_mesh
-from hybridedit.mesh import Mesh
+from hybridedit.fileio.meshfiles import read_mesh, write_mesh
+from hybridedit.core.mesh import Mesh
 from hybridedit.viewer.window import MainWindow
 from test_window import CAGE, key, mouse_drag, projected, settled, to_widget, wait_loaded, win  # noqa: F401 (fixture)
 
@@ -123,7 +123,7 @@ def test_mirror_x_drag_equals_the_deform_replay_of_its_edit(qtbot, win, capsule_
     s.apply_selection()
     w._refresh_selection()
     # the mirrored selection is drawn on both sides: the engine's roles, mirror images included
-    from hybridedit.viewer.selection import FIXED, HANDLE
+    from hybridedit.viewer.picking import FIXED, HANDLE
 
     st = s.states()
     far = st[P[:, 0] < -1.45]  # (the cage is not itself symmetric: the mirror maps through the shape)
@@ -175,7 +175,7 @@ def test_a_mirrored_selection_is_drawn_on_both_sides_as_it_is_made(qtbot, win, c
     P = s.cage_positions
     select(w, P[:, 0] > 0.0, P[:, 0] > 1.4)  # one side only; nothing applied to the engine yet
     assert not s.applied
-    from hybridedit.viewer.selection import FIXED, HANDLE
+    from hybridedit.viewer.picking import FIXED, HANDLE
 
     st = s.states()
     far = st[P[:, 0] < -1.45]

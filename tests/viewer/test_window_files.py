@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from qtpy import QtCore, QtGui, QtWidgets
 
-from hybridedit.io import read_mesh, write_mesh
+from hybridedit.fileio.meshfiles import read_mesh, write_mesh
 from test_window import key, mouse_drag, projected, settled, to_widget, wait_loaded, win  # noqa: F401 (fixture)
 
 Qt = QtCore.Qt
@@ -347,7 +347,7 @@ def test_an_edit_saved_at_one_cage_size_replays_at_another(qtbot, win, tmp_path,
 def test_mirror_x_moves_both_sides_or_says_why_not(qtbot, win, tmp_path):
     import trimesh
 
-    from hybridedit.mesh import Mesh
+    from hybridedit.core.mesh import Mesh
 
     w = win
     # the test blob is not symmetric: refused in words, nothing changes
@@ -388,7 +388,7 @@ def test_mirror_x_moves_both_sides_or_says_why_not(qtbot, win, tmp_path):
 
 
 def test_save_writes_what_deform_writes_and_says_what_a_conversion_drops(qtbot, win, tmp_path):
-    from hybridedit.io import read_document, write_document
+    from hybridedit.fileio.meshfiles import read_document, write_document
 
     w = win
     blob = read_mesh(w.session.path)

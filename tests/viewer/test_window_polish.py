@@ -7,9 +7,9 @@ import time
 import numpy as np
 from qtpy import QtCore
 
-from hybridedit.arap import ARAPSolver
-from hybridedit.io import read_mesh
-from hybridedit.mesh import edge_stretch, vertex_stretch
+from hybridedit.deform.arap import ARAPSolver
+from hybridedit.fileio.meshfiles import read_mesh
+from hybridedit.core.mesh import edge_stretch, vertex_stretch
 from hybridedit.viewer import worker as worker_module
 from hybridedit.viewer.dialogs import mesh_info_text
 from hybridedit.viewer.window import MainWindow

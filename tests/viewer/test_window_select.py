@@ -10,7 +10,7 @@ import pytest
 import trimesh
 from qtpy import QtCore
 
-from hybridedit.mesh import Mesh
+from hybridedit.core.mesh import Mesh
 from hybridedit.viewer.window import MainWindow
 from test_window import key, mouse_drag, projected, to_widget, wait_loaded, win  # noqa: F401 (fixture)
 

@@ -8,8 +8,8 @@ import pytest
 import trimesh
 from qtpy import QtCore
 
-from hybridedit.io import write_mesh
-from hybridedit.mesh import Mesh
+from hybridedit.fileio.meshfiles import write_mesh
+from hybridedit.core.mesh import Mesh
 from hybridedit.viewer.scene import view_directions
 from hybridedit.viewer.window import MainWindow
 from test_window import key, projected, wait_loaded

@@ -1,0 +1,205 @@
+"""On-disk cache of cages and bindings, keyed by the shape and the settings.
+
+A cache file holds the cage (vertices, faces) and the binding matrix M of one
+shape for one (cage size, truncation) setting. Its name is a hash of the shape's
+vertices and faces, the settings and :data:`FORMAT`; the same key is stored
+inside and checked on load. Every entry also carries a SHA-256 checksum of its
+whole payload (key, versions, every array's dtype, shape and bytes) and the
+versions of the libraries that wrote it (:func:`writer_versions`: hybridedit and
+fast-simplification, which make the cage). On load the checksum is recomputed
+and the versions compared before anything else, then the arrays' shapes and the
+rows of M summing to 1 are checked: a corrupt, truncated, tampered (a cage
+shifted on disk passes every structural check, not the checksum) or stale file
+is discarded with a note (a :class:`CacheEntryDiscarded` warning) and rebuilt,
+never used. Files are written atomically.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import os
+import warnings
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..fileio.atomic import atomic_write
+from ..core.mesh import Mesh
+
+#: Bump when the cage or binding algorithms change: old files stop matching.
+FORMAT = "hybridedit-binding-5"  # 2: fast binding; 3: repair notes stored; 4: checksum, versions; 5: links
+
+#: the arrays of an entry, in the order the checksum reads them
+PAYLOAD = ("cage_vertices", "cage_faces", "shape", "data", "indices", "indptr", "notes", "links")
+
+
+class CacheEntryDiscarded(UserWarning):
+    """A cache entry failed its checks (checksum, versions, structure): it was deleted and is rebuilt."""
+
+
+@lru_cache(maxsize=1)
+def writer_versions() -> str:
+    """The versions of what makes an entry's content, as stored in it (JSON text):
+    hybridedit's and fast-simplification's (the cage's simplification)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    from .. import __version__
+
+    def v(name: str) -> str:
+        try:
+            return version(name)
+        except PackageNotFoundError:
+            return "none"
+
+    return json.dumps({"hybridedit": __version__, "fast-simplification": v("fast-simplification")},
+                      sort_keys=True)
+
+
+def checksum(key: str, versions: str, arrays: dict[str, np.ndarray]) -> str:
+    """SHA-256 hex digest of an entry's payload: its key, versions and the :data:`PAYLOAD` arrays
+    (each one's name, dtype, shape and bytes)."""
+    h = hashlib.sha256()
+    h.update(FORMAT.encode() + b"\0" + key.encode() + b"\0" + versions.encode() + b"\0")
+    for name in PAYLOAD:
+        a = np.ascontiguousarray(arrays[name])
+        h.update(f"{name}:{a.dtype.str}:{a.shape}\0".encode())
+        h.update(memoryview(a).cast("B") if a.dtype.kind != "U" and a.size else a.tobytes())
+    return h.hexdigest()
+
+
+def default_cache_dir() -> Path:
+    """$HYBRIDEDIT_CACHE_DIR, else the user cache folder (e.g. ~/.cache/hybridedit)."""
+    env = os.environ.get("HYBRIDEDIT_CACHE_DIR")
+    if env:
+        return Path(env)
+    from platformdirs import user_cache_dir
+
+    return Path(user_cache_dir("hybridedit", appauthor=False))
+
+
+def cache_key(mesh: Mesh, cage_size: int | float, truncation: float, extra: str = "") -> str:
+    """Hex digest naming the cage + binding of ``mesh`` for these settings."""
+    h = hashlib.sha256()
+    h.update(FORMAT.encode())
+    h.update(repr((type(cage_size).__name__, cage_size, float(truncation), extra)).encode())
+    h.update(np.int64(mesh.n_vertices).tobytes())
+    h.update(np.ascontiguousarray(mesh.vertices, dtype="<f8").tobytes())
+    h.update(np.ascontiguousarray(mesh.faces, dtype="<i8").tobytes())
+    return h.hexdigest()
+
+
+def _path(folder: Path, key: str) -> Path:
+    return folder / f"{key[:40]}.npz"
+
+
+def load(folder: Path, key: str, mesh: Mesh) -> tuple[Mesh, sp.csr_matrix, list[str], np.ndarray] | None:
+    """The cached (cage, M, notes, links) for ``key``, or None when absent or not valid (``links``: the
+    cage's extra ARAP edges, :func:`hybridedit.cage.build.cage_links`, (k, 2) int64).
+
+    An entry that fails any check (unreadable, another key, a checksum that does
+    not match its payload, written by other library versions, wrong shapes, a
+    non-finite or out-of-range value, rows of M not summing to 1, a cage that is
+    not a mesh) is deleted with a :class:`CacheEntryDiscarded` warning saying
+    why, so that it is rebuilt and stored again.
+    """
+    p = _path(folder, key)
+    if not p.is_file():
+        return None
+    try:
+        return _checked(p, key, mesh)
+    except Exception as e:  # noqa: BLE001 -- whatever is wrong with the entry, it is not used
+        discard(folder, key)
+        why = str(e) if isinstance(e, _Invalid) else f"unreadable: {type(e).__name__}: {str(e)[:60]}"
+        warnings.warn(f"hybridedit: cache entry {p.name} not used ({why}); it is rebuilt",
+                      CacheEntryDiscarded, stacklevel=2)
+        return None
+
+
+def discard(folder: Path, key: str) -> None:
+    """Delete the entry for ``key`` (for instance when using it failed); best effort."""
+    try:
+        _path(folder, key).unlink()
+    except OSError:
+        pass
+
+
+class _Invalid(Exception):
+    pass
+
+
+def _checked(p: Path, key: str, mesh: Mesh) -> tuple[Mesh, sp.csr_matrix, list[str], np.ndarray]:
+    with np.load(p, allow_pickle=False) as z:
+        if "key" not in z.files or str(z["key"]) != key:
+            raise _Invalid("another key")
+        if "checksum" not in z.files or "versions" not in z.files:
+            raise _Invalid("no checksum")
+        versions = str(z["versions"])
+        arrays = {name: z[name] for name in PAYLOAD}
+        if checksum(key, versions, arrays) != str(z["checksum"]):
+            raise _Invalid("checksum mismatch: the file was changed after it was written")
+    if versions != writer_versions():
+        raise _Invalid(f"written by {_versions_text(versions)}, this is {_versions_text(writer_versions())}")
+    cv, cf = arrays["cage_vertices"], arrays["cage_faces"]
+    shape = tuple(int(x) for x in arrays["shape"])
+    M = sp.csr_matrix((arrays["data"], arrays["indices"], arrays["indptr"]), shape=shape)
+    notes = [str(x) for x in arrays["notes"]]
+    cage = Mesh(cv, cf, name="cage")
+    if cage.n_vertices < 4 or cage.n_faces < 4 or not np.all(np.isfinite(cage.vertices)):
+        raise _Invalid("cage is not a finite mesh")
+    if shape != (mesh.n_vertices, cage.n_vertices):
+        raise _Invalid("shape")
+    M.check_format(full_check=True)
+    if not np.all(np.isfinite(M.data)):
+        raise _Invalid("non-finite weights")
+    if not np.allclose(np.asarray(M.sum(axis=1)).ravel(), 1.0, atol=1e-9):
+        raise _Invalid("rows do not sum to 1")
+    links = np.asarray(arrays["links"], dtype=np.int64).reshape(-1, 2)
+    if links.size and (links.min() < 0 or links.max() >= cage.n_vertices):
+        raise _Invalid("links out of range")
+    M.sort_indices()
+    return cage, M, notes, links
+
+
+def _versions_text(versions: str) -> str:
+    try:
+        return ", ".join(f"{k} {v}" for k, v in sorted(json.loads(versions).items()))
+    except (ValueError, AttributeError):
+        return repr(versions)
+
+
+def store(folder: Path, key: str, cage: Mesh, M: sp.csr_matrix, notes: list[str] | tuple = (),
+          links: np.ndarray | None = None) -> Path | None:
+    """Write (cage, M), the repair notes made building them and the cage's links (computed here when
+    not given: they take a while on a cage of many pieces) under ``key``, with the payload's checksum
+    and the writing versions; returns the file, or None if it cannot be written."""
+    if links is None:
+        from ..cage.build import cage_links
+
+        links = cage_links(cage)
+    M = sp.csr_matrix(M)
+    arrays = {
+        "cage_vertices": np.ascontiguousarray(cage.vertices),
+        "cage_faces": np.ascontiguousarray(cage.faces),
+        "shape": np.array(M.shape, dtype=np.int64),
+        "data": M.data,
+        "indices": M.indices,
+        "indptr": M.indptr,
+        "notes": np.array(list(notes), dtype=str),
+        "links": np.ascontiguousarray(links, dtype=np.int64).reshape(-1, 2),
+    }
+    versions = writer_versions()
+    buf = io.BytesIO()
+    np.savez(buf, key=np.array(key), versions=np.array(versions),
+             checksum=np.array(checksum(key, versions, arrays)), **arrays)
+    p = _path(folder, key)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        with atomic_write(p, "wb") as fh:
+            fh.write(buf.getvalue())
+    except OSError:
+        return None
+    return p

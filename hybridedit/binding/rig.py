@@ -1,0 +1,175 @@
+"""Building step: the cage and binding of a shape, as one value the editor takes.
+
+:func:`build_rig` does everything slow that an edit needs before the first drag
+(cage by QEM, binding by truncated mean value coordinates, the on-disk cache)
+and returns a :class:`Rig`. The editor (:class:`hybridedit.HybridEditor`) only
+reads a rig, so the same rig can serve several editors (different ARAP weights,
+propagation), be rebuilt in a worker thread, or come from the cache.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+import scipy.sparse as sp
+
+from . import cache as bindcache
+from ..cage.build import cage_and_binding, cage_links
+from ..core.mesh import Mesh
+
+Progress = Callable[[str, float], None]
+"""progress(stage, fraction): stage is a short message, fraction in [0, 1] of that
+stage. A callback may raise (e.g. to cancel); the exception propagates."""
+
+
+@dataclass(frozen=True)
+class Rig:
+    """A shape bound to its cage.
+
+    Attributes
+    ----------
+    mesh : Mesh
+        The shape (n vertices), never modified.
+    cage : Mesh
+        The control mesh at rest (c vertices).
+    M : (n, c) scipy.sparse.csr_matrix, float64
+        The binding: row i holds the coordinates of shape vertex i, summing to 1.
+    notes : tuple of str
+        Plain-word sentences about what was repaired or adjusted to build the cage.
+    timings : dict
+        ``cage_seconds`` and ``bind_seconds`` (a cache hit counts in ``cage_seconds``).
+    cache_hit : bool
+        True when cage and binding came from the on-disk cache.
+    cage_size, truncation
+        The settings the rig was built with.
+    """
+
+    mesh: Mesh
+    cage: Mesh
+    M: sp.csr_matrix
+    notes: tuple[str, ...] = ()
+    timings: dict = field(default_factory=dict)
+    cache_hit: bool = False
+    cage_size: int | float = 0.05
+    truncation: float = 0.03
+
+    def __post_init__(self) -> None:
+        M = sp.csr_matrix(self.M, dtype=np.float64)
+        if M.shape != (self.mesh.n_vertices, self.cage.n_vertices):
+            raise ValueError(f"binding must be {(self.mesh.n_vertices, self.cage.n_vertices)}, got {M.shape}")
+        M.sort_indices()
+        object.__setattr__(self, "M", M)
+        object.__setattr__(self, "notes", tuple(self.notes))
+
+    @property
+    def links(self) -> np.ndarray:
+        """(k, 2) int64 extra cage edges for ARAP tying separate cage parts to the
+        part that holds them (see :func:`hybridedit.cage.build.cage_links`)."""
+        cached = self.__dict__.get("_links")
+        if cached is None:
+            cached = cage_links(self.cage)
+            object.__setattr__(self, "_links", cached)
+        return cached
+
+    @property
+    def nnz_per_row(self) -> float:
+        """Mean number of cage vertices each shape vertex depends on."""
+        return self.M.nnz / max(self.M.shape[0], 1)
+
+
+def _check_usable(rig: Rig) -> None:
+    """Raise if a rig cannot serve an editor: the cage's ARAP weights and links must
+    be computable and finite (what a cached entry is first used for)."""
+    from ..deform.arap import edge_weights
+
+    _, w = edge_weights(rig.cage.vertices, rig.cage.faces, "cotangent")
+    if not np.all(np.isfinite(w)) or not np.all(np.isfinite(rig.M.data)):
+        raise ValueError("the cage or binding has non-finite values")
+    rig.links  # noqa: B018 -- computed here, so that a bad cage fails now
+
+
+def build_rig(
+    mesh: Mesh,
+    *,
+    cage_size: int | float = 0.05,
+    cage: Mesh | None = None,
+    binding: sp.spmatrix | None = None,
+    truncation: float = 0.03,
+    cache: bool | str | Path = False,
+    progress: Progress | None = None,
+) -> Rig:
+    """Build (or load from the cache) the cage and binding of ``mesh``.
+
+    Parameters
+    ----------
+    mesh : Mesh
+        The shape (n vertices).
+    cage_size : int or float
+        Cage vertex count (int) or fraction of the shape's vertices (float).
+    cage : Mesh, optional
+        Use this cage instead of simplifying the shape.
+    binding : (n, c) scipy sparse matrix, optional
+        Use this binding (rows summing to 1) instead of computing it; needs ``cage``.
+    truncation : float
+        Fraction of each row's coordinate magnitude dropped (the paper: 0.03).
+    cache : bool or path
+        Reuse cage and binding from the on-disk cache (True: the user cache folder,
+        :func:`hybridedit.binding.cache.default_cache_dir`; a path: that folder), keyed by
+        the shape and the settings; store them there after computing them. Ignored
+        when ``cage`` or ``binding`` is given.
+    progress : callable(stage, fraction), optional
+        Called during the slow steps; it may raise to cancel them.
+
+    Returns
+    -------
+    Rig
+
+    Examples
+    --------
+    >>> import hybridedit as he
+    >>> rig = he.build_rig(he.read_mesh("data/creature.ply"), cage_size=0.05, cache=True)  # doctest: +SKIP
+    >>> ed = he.HybridEditor(rig)  # doctest: +SKIP
+    """
+    if binding is not None and cage is None:
+        raise ValueError("a binding needs its cage")
+    say = progress or (lambda stage, fraction: None)
+    t0 = time.perf_counter()
+    notes: list[str] = []
+    discarded: list[str] = []  # cache entries not used: said on this rig only, never stored with the entry
+    folder = key = None
+    if cache and cage is None:
+        folder = bindcache.default_cache_dir() if cache is True else Path(cache)
+        key = bindcache.cache_key(mesh, cage_size, float(truncation))
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", bindcache.CacheEntryDiscarded)
+            hit = bindcache.load(folder, key, mesh)
+        for w in caught:  # said again (the CLI prints it), and kept as a note for the window
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+            if issubclass(w.category, bindcache.CacheEntryDiscarded):
+                discarded.append(str(w.message).removeprefix("hybridedit: "))
+        if hit is not None:
+            c, M, cached_notes, links = hit
+            try:
+                rig = Rig(mesh, c, M, tuple(cached_notes), {"cage_seconds": 0.0, "bind_seconds": 0.0}, True,
+                          cage_size, float(truncation))
+                object.__setattr__(rig, "_links", links)  # (stored with the entry: no search among the pieces)
+                _check_usable(rig)
+            except Exception:  # noqa: BLE001 -- an entry that fails in any way is rebuilt, never trusted
+                bindcache.discard(folder, key)
+            else:
+                rig.timings["cage_seconds"] = time.perf_counter() - t0
+                return rig
+    timings: dict[str, float] = {}
+    c, M = cage_and_binding(mesh, cage_size, truncation=float(truncation), cage=cage, binding=binding,
+                            notes=notes, timings=timings, progress=say)
+    timings.setdefault("cage_seconds", 0.0)
+    timings.setdefault("bind_seconds", time.perf_counter() - t0 - timings["cage_seconds"])
+    rig = Rig(mesh, c, M, tuple(discarded + notes), timings, False, cage_size, float(truncation))
+    if folder is not None and key is not None:
+        bindcache.store(folder, key, c, M, notes, rig.links)
+    return rig

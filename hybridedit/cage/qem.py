@@ -1,0 +1,283 @@
+"""Quadric simplification of a big surface on two cores.
+
+fast-simplification runs on one core and holds Python's lock. On a surface of
+millions of faces it is most of the cage build (7-12 s at 2.7M vertices), and a
+good part of that is its first touch of the 2 GB it allocates. :func:`presimplify`
+cuts such a surface in two halves across its longest axis, simplifies one half in
+a process of its own (:mod:`hybridedit.cage.qem_worker`, which a caller can start early
+with :func:`start_worker`, so that it is ready when the half is) while this process
+simplifies the other, both with the cut's border kept exactly, and joins the
+halves along the cut. The caller then simplifies the joined surface, a little
+above its target, to the target as usual, and that last pass simplifies across
+the cut as well.
+
+The helper process is started only with an interpreter that is known to be a
+Python (:func:`helper_python`): inside an embedded interpreter (Blender, some
+notebook hosts) ``sys.executable`` can be the host's own program, which must
+never be started with a script. Without one, both halves are simplified in this
+process, one after the other: the same cage, on one core.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from .qem_worker import simplify_half
+from ..core.topology import group_rows
+
+__all__ = ["SPLIT_MIN_FACES", "MARGIN", "HalfWorker", "helper_python", "presimplify", "start_worker", "splits"]
+
+#: surfaces of at least this many faces are simplified in two halves at once
+#: (the 173K armadillo's 346K faces: 0.6 s on one core)
+SPLIT_MIN_FACES = 300_000
+#: the halves together keep this many times the final face target (the last pass
+#: then has room to simplify across the cut)
+MARGIN = 1.25
+#: the command that runs a half in another process (the worker's path is appended); None: the
+#: interpreter :func:`helper_python` finds, or no helper when it finds none
+WORKER: list[str] | None = None
+
+#: names of CPython and PyPy interpreters: python, python3, python3.12, python3.13t, pythonw.exe, pypy3
+_PYTHON_NAME = re.compile(r"(python|pypy)(\d+(\.\d+)*)?[dmtw]*(\.exe)?", re.IGNORECASE)
+
+
+def _is_python(path: str) -> bool:
+    """Whether ``path`` is an executable file named as a Python interpreter (itself or, for a
+    link such as a virtual environment's ``python``, what it points to)."""
+    if not path or not os.path.isfile(path) or not os.access(path, os.X_OK):
+        return False
+    names = {os.path.basename(path), os.path.basename(os.path.realpath(path))}
+    return any(_PYTHON_NAME.fullmatch(n) for n in names)
+
+
+def helper_python() -> str | None:
+    """The interpreter to start the helper with, or None when there is none to trust.
+
+    ``sys.executable`` when it is a Python interpreter; else the one multiprocessing's spawn
+    would start (``multiprocessing.set_executable``, which hosts embedding Python set to their
+    bundled interpreter) when that is one. A host program (``blender``, a notebook server's
+    binary) is never started. The helper gets this process's import path (:func:`_helper_env`),
+    so that it finds the same numpy and fast-simplification, paths a host added included.
+    """
+    candidates = [sys.executable]
+    try:
+        from multiprocessing import spawn
+
+        candidates.append(spawn.get_executable())
+    except Exception:  # noqa: BLE001 -- no multiprocessing (some embedded builds): sys.executable alone
+        pass
+    for exe in candidates:
+        if isinstance(exe, bytes):
+            exe = os.fsdecode(exe)
+        if exe and _is_python(str(exe)):
+            return str(exe)
+    return None
+
+
+def _helper_env() -> dict[str, str]:
+    """The environment of the helper: this one, with this process's import path first."""
+    here = os.path.dirname(os.path.realpath(__file__))
+    paths = [p for p in sys.path if p and os.path.isdir(p) and os.path.realpath(p) != here]
+    env = dict(os.environ)
+    old = env.get("PYTHONPATH")
+    env["PYTHONPATH"] = os.pathsep.join(paths + ([old] if old else []))
+    return env
+
+
+def _cores() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def splits(n_faces: int, *, min_faces: int | None = None) -> bool:
+    """Whether a surface of ``n_faces`` faces is big enough to simplify in halves on this machine."""
+    limit = SPLIT_MIN_FACES if min_faces is None else int(min_faces)
+    return n_faces >= max(limit, 8) and _cores() >= 2
+
+
+class HalfWorker:
+    """A :mod:`hybridedit.cage.qem_worker` process, started before its half is known.
+
+    It imports numpy and fast-simplification while the caller prepares the
+    surface; :meth:`simplify` sends it a half and :meth:`result` collects it.
+    :meth:`close` ends it (a worker that got nothing exits quietly).
+    """
+
+    def __init__(self) -> None:
+        self.used = False
+        self._proc = None
+        if WORKER is not None:
+            command = list(WORKER)
+        else:
+            exe = helper_python()
+            command = [exe] if exe else []
+        #: whether a helper process was started (False: its half is simplified in this process)
+        self.started = False
+        if not command or not all(command):  # no interpreter to start (an embedded Python)
+            return
+        worker = Path(__file__).with_name("qem_worker.py")
+        try:
+            self._proc = subprocess.Popen([*command, str(worker)], stdin=subprocess.PIPE,
+                                          stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                                          env=_helper_env())
+            self.started = True
+        except OSError:
+            self._proc = None
+
+    def simplify(self, vertices: np.ndarray, faces: np.ndarray, target: int) -> bool:
+        """Send a surface ((k, 3) float64, (t, 3) int32) to simplify to ``target`` faces;
+        False when the worker is not there to take it."""
+        self.used = True
+        if self._proc is None:
+            return False
+        try:
+            pipe = self._proc.stdin
+            pipe.write(np.array([len(vertices), len(faces), int(target)], dtype=np.int64).tobytes())
+            pipe.write(np.ascontiguousarray(vertices, dtype=np.float64).tobytes())
+            pipe.write(np.ascontiguousarray(faces, dtype=np.int32).tobytes())
+            pipe.close()
+            return True
+        except OSError:  # it died (a broken pipe)
+            self.close()
+            return False
+
+    def result(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The simplified surface, or None when the worker failed."""
+        if self._proc is None:
+            return None
+        out = self._proc.stdout.read()
+        self._proc.wait()
+        ok = self._proc.returncode == 0 and len(out) >= 16
+        self._proc = None
+        if not ok:
+            return None
+        nv, nf = (int(x) for x in np.frombuffer(out[:16], dtype=np.int64))
+        if nv < 0 or nf < 0 or len(out) != 16 + 24 * nv + 12 * nf:
+            return None
+        v = np.frombuffer(out, dtype=np.float64, count=3 * nv, offset=16).reshape(nv, 3).copy()
+        f = np.frombuffer(out, dtype=np.int32, count=3 * nf, offset=16 + 24 * nv).reshape(nf, 3).copy()
+        if nf and (f.min() < 0 or f.max() >= nv):
+            return None
+        return v, f
+
+    def close(self) -> None:
+        """End the worker (at once if it is still working)."""
+        proc, self._proc = self._proc, None
+        if proc is None:
+            return
+        if proc.poll() is None:
+            proc.kill()
+        for pipe in (proc.stdin, proc.stdout):
+            try:
+                pipe.close()
+            except OSError:
+                pass
+        proc.wait()
+
+
+def start_worker(n_faces: int) -> HalfWorker | None:
+    """A worker started now for a surface of ``n_faces`` faces that :func:`presimplify` will
+    split, else None. Give it to :func:`presimplify`; :meth:`HalfWorker.close` it afterwards."""
+    return HalfWorker() if splits(n_faces) else None
+
+
+def presimplify(vertices: np.ndarray, faces: np.ndarray, target_faces: int, *,
+                min_faces: int | None = None, worker: HalfWorker | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """A surface close to ``MARGIN * target_faces`` faces made on two cores, or the input itself.
+
+    A surface below ``min_faces`` faces (:data:`SPLIT_MIN_FACES` by default),
+    one whose target is not well below its size, or a machine of one core gets
+    the input back unchanged. Otherwise the faces are cut in two at the median of
+    their centroids along the longest axis of the bounding box; each half is
+    simplified with its border kept (one in a worker process, one here, at the
+    same time), and the halves are joined by merging the cut's vertices, which
+    neither pass moved. If the worker fails, its half is simplified here.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float array
+    faces : (m, 3) int array
+    target_faces : int
+        The face count the caller will simplify to.
+    min_faces : int, optional
+        Split only from this many faces.
+    worker : HalfWorker, optional
+        A worker started earlier (:func:`start_worker`), used if it has not been
+        yet; else one is started here. The caller closes it.
+
+    Returns
+    -------
+    vertices : (k, 3) float64
+    faces : (t, 3) int32, on ``vertices`` (some of which may be unused)
+
+    Examples
+    --------
+    >>> v, f = presimplify(mesh.vertices, mesh.faces, 50_000)  # doctest: +SKIP
+    """
+    v = np.ascontiguousarray(vertices, dtype=np.float64)
+    f = np.ascontiguousarray(faces).reshape(-1, 3)
+    m = len(f)
+    if not splits(m, min_faces=min_faces) or MARGIN * target_faces > 0.5 * m:
+        return v, f.astype(np.int32, copy=False)
+    axis = int(np.argmax(np.ptp(v, axis=0)))
+    key = v[f[:, 0], axis] + v[f[:, 1], axis] + v[f[:, 2], axis]
+    first = key <= np.partition(key, m // 2)[m // 2]
+    if first.all():  # every centroid on the median: no cut to make
+        return v, f.astype(np.int32, copy=False)
+    halves = [_half(v, f[first]), _half(v, f[~first])]
+    targets = [max(4, int(round(MARGIN * target_faces * len(h[1]) / m))) for h in halves]
+    own = worker is None or worker.used
+    if own:
+        worker = HalfWorker()
+    try:
+        sent = worker.simplify(halves[1][0], halves[1][1], targets[1])
+        done0 = simplify_half(halves[0][0], halves[0][1], targets[0])
+        done1 = worker.result() if sent else None
+    finally:
+        if own:
+            worker.close()
+    if done1 is None:
+        done1 = simplify_half(halves[1][0], halves[1][1], targets[1])
+    return _join(done0, done1)
+
+
+def _half(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The vertices a set of faces uses (in order) and the faces on them (int32)."""
+    used = np.zeros(len(v), dtype=bool)
+    used[f.ravel()] = True
+    remap = (np.cumsum(used) - 1).astype(np.int32)
+    return v[used], remap[f]
+
+
+def _join(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """The two simplified halves as one surface: a vertex of b's border that sits
+    exactly on one of a's border vertices becomes that vertex."""
+    (va, fa), (vb, fb) = a, b
+    border_a, border_b = _border(fa, len(va)), _border(fb, len(vb))
+    remap = np.arange(len(va), len(va) + len(vb), dtype=np.int64)
+    if border_a.size and border_b.size:
+        keys = np.vstack([va[border_a], vb[border_b]]) + 0.0  # -0.0 as 0.0
+        first, group = group_rows(keys.view(np.int64))
+        # a group's first row is an a vertex when any of its rows is one (a's rows come first)
+        head = first[group[len(border_a):]]
+        on_a = head < len(border_a)
+        remap[border_b[on_a]] = border_a[head[on_a]]
+    v = np.vstack([va, vb])
+    f = np.vstack([fa.astype(np.int64), remap[fb]])
+    return v, f.astype(np.int32)
+
+
+def _border(f: np.ndarray, n: int) -> np.ndarray:
+    """The vertices on an edge that only one face uses (sorted)."""
+    from ..core.topology import edge_face_counts
+
+    edges, counts = edge_face_counts(f, n)
+    return np.unique(edges[counts == 1])

@@ -1,0 +1,162 @@
+"""Which way is up for a shape: guessed from the file and the geometry, remembered per shape.
+
+The window opens a shape standing the right way up, and its front, side and top views
+follow that axis. glTF says it in its specification (+Y up). Otherwise the geometry
+tells, when it can: an open scan (a statue scanned on its base, a terrain) has its
+outward normals summing to the side it is open away from, which is up; a closed shape
+standing on a flat base has a flat patch of faces at one end of its bounding box facing
+down. Nothing telling: +Y, the convention of most scans and of this window. What the
+user chooses (View ▸ Up Axis) is remembered per shape in the user cache folder, keyed
+by the shape's vertices and faces, so a file opens the way it was last shown.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ..fileio.atomic import atomic_write
+from .mesh import Mesh
+
+AXES = ("+Y", "+Z", "-Y", "-Z", "+X", "-X")
+"""The up axes a shape can have."""
+DEFAULT = "+Y"
+#: An open shape's outward normals must sum to at least this fraction of its area to tell which way is up.
+OPEN_SHARE = 0.01
+#: A flat base: faces within this angle of facing straight down ...
+FLAT_DEGREES = 10.0
+#: ... within this fraction of the extent from the bottom of the bounding box ...
+FLAT_BAND = 0.01
+#: ... covering at least this fraction of the shape's area.
+FLAT_SHARE = 0.03
+#: File suffixes whose format fixes the up axis.
+FORMAT_UP = {".glb": "+Y", ".gltf": "+Y"}
+
+
+def axis_vector(axis: str) -> np.ndarray:
+    """(3,) float64 unit vector of an axis name ("+Y", "-Z", ...).
+
+    Raises
+    ------
+    ValueError
+        Not one of :data:`AXES`.
+    """
+    if axis not in AXES:
+        raise ValueError(f"up axis must be one of {AXES}, got {axis!r}")
+    v = np.zeros(3)
+    v["XYZ".index(axis[1])] = 1.0 if axis[0] == "+" else -1.0
+    return v
+
+
+def _name(v: np.ndarray) -> str:
+    k = int(np.argmax(np.abs(v)))
+    return ("+" if v[k] > 0 else "-") + "XYZ"[k]
+
+
+def guess_up_axis(mesh: Mesh, *, path: str | Path | None = None) -> str:
+    """The up axis a shape most likely has (see the module's description).
+
+    Parameters
+    ----------
+    mesh : Mesh
+        The shape (n vertices, m triangles).
+    path : the file it was read from (its format may say), optional.
+
+    Returns
+    -------
+    str, one of :data:`AXES`.
+
+    Examples
+    --------
+    >>> guess_up_axis(he.read_mesh("statue_on_its_base.ply"))  # doctest: +SKIP
+    '+Z'
+    """
+    if path is not None and Path(path).suffix.lower() in FORMAT_UP:
+        return FORMAT_UP[Path(path).suffix.lower()]
+    v, f = np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces, dtype=np.int64)
+    if len(f) == 0:
+        return DEFAULT
+    cross = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]) * 0.5  # area-weighted normals
+    area = np.linalg.norm(cross, axis=1)
+    total = float(area.sum())
+    if total <= 0:
+        return DEFAULT
+    summed = cross.sum(axis=0)
+    if np.linalg.norm(summed) > OPEN_SHARE * total and np.max(np.abs(summed)) > 0.7 * np.linalg.norm(summed):
+        return _name(summed)  # open: the normals sum to the side it is open away from
+    centre = v[f].mean(axis=1)
+    unit = cross / np.where(area > 0, area, 1.0)[:, None]
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    extent = max(float(np.max(hi - lo)), 1e-300)
+    cos = np.cos(np.radians(FLAT_DEGREES))
+    best, best_area = None, 0.0
+    for axis in AXES:
+        down = -axis_vector(axis)
+        k = "XYZ".index(axis[1])
+        bottom = lo[k] if axis[0] == "+" else -hi[k]
+        height = centre[:, k] if axis[0] == "+" else -centre[:, k]
+        flat = (unit @ down > cos) & (height <= bottom + FLAT_BAND * extent)
+        a = float(area[flat].sum())
+        if a > best_area:
+            best, best_area = axis, a
+    if best is not None and best_area > FLAT_SHARE * total:
+        return best
+    return DEFAULT
+
+
+# ---------------------------------------------------------------------------- remembered per shape
+
+FILE_NAME = "up-axes.json"
+"""The file in the cache folder that remembers the up axis chosen for each shape."""
+
+
+def shape_key(mesh: Mesh) -> str:
+    """Hex digest naming a shape by its vertices and faces (the key it is remembered under)."""
+    h = hashlib.sha256()
+    h.update(np.int64(mesh.n_vertices).tobytes())
+    h.update(np.ascontiguousarray(mesh.vertices, dtype="<f8").tobytes())
+    h.update(np.ascontiguousarray(mesh.faces, dtype="<i8").tobytes())
+    return h.hexdigest()[:40]
+
+
+def _read(folder: Path) -> dict:
+    try:
+        data = json.loads((folder / FILE_NAME).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return {}
+    return data if isinstance(data, dict) else {}
+
+
+def remembered_up_axis(key: str, *, folder: Path | None = None) -> str | None:
+    """The up axis last chosen for the shape ``key`` (:func:`shape_key`), or None."""
+    from ..binding.cache import default_cache_dir
+
+    axis = _read(folder or default_cache_dir()).get(key)
+    return axis if axis in AXES else None
+
+
+def remember_up_axis(key: str, axis: str, *, folder: Path | None = None) -> bool:
+    """Remember ``axis`` for the shape ``key``; False when the cache folder cannot be written."""
+    from ..binding.cache import default_cache_dir
+
+    axis_vector(axis)  # (checks the name)
+    folder = folder or default_cache_dir()
+    data = _read(folder)
+    data[key] = axis
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        with atomic_write(folder / FILE_NAME, "w") as fh:
+            json.dump(data, fh, indent=0, sort_keys=True)
+    except OSError:
+        return False
+    return True
+
+
+def up_axis_of(mesh: Mesh, *, path: str | Path | None = None, key: str | None = None) -> tuple[str, bool]:
+    """(axis, remembered): the axis chosen last for this shape, else the guess."""
+    key = key or shape_key(mesh)
+    got = remembered_up_axis(key)
+    return (got, True) if got is not None else (guess_up_axis(mesh, path=path), False)

@@ -1,0 +1,3 @@
+"""Deformation: cage ARAP, the selection model, propagation with the residual, exact constraints, the region
+step, the pose an edit starts from, the polish, the record of a pose and its replay, and the editor (the
+engine's front door)."""

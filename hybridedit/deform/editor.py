@@ -1,0 +1,1005 @@
+"""HybridEditor: cage + binding + cage ARAP + propagation, the engine's front door.
+
+The editor holds the state of an editing session and runs its pipeline; each
+stage is its own module:
+
+- :mod:`hybridedit.deform.selection`: a selection's roles on the shape and the cage
+  (with mirror images), the rows a drag can move, the seam;
+- :mod:`hybridedit.deform.base_pose`: the pose the next edit starts from (successive
+  edits compose) and the shape propagated from it;
+- :mod:`hybridedit.deform.frame_steps`: one frame, from the cage's ARAP targets to the
+  exactly placed, region-solved, mirror-averaged shape.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.spatial import cKDTree
+from scipy.spatial.transform import Rotation
+
+from .arap import ARAPSolver, edge_weights, laplacian
+from .base_pose import BasePose, current_base, fit_cage, propagate_from, propagated_residual, rest_base
+from ..binding.bind import dominant_cage_vertex
+from .constraints import FIXED, FREE
+from ..fileio.editfile import Edit, HandleEdit, mesh_fingerprint
+from .frame_steps import MAX_REACH  # noqa: F401 (importable from here, as before the split)
+from .frame_steps import Frame, FrameSteps, build_frame_steps, cage_targets, solve_cage
+from ..core.mesh import Mesh
+from .polish import MAX_ITERATIONS as POLISH_MAX_ITERATIONS
+from .polish import TOLERANCE as POLISH_TOLERANCE
+from .polish import PolishJob, PolishResult, ShapeARAP
+from .pose_record import PoseRecord
+from .residual import residual_setup
+from ..binding.rig import Progress, Rig, build_rig
+from .selection import SelectionError
+from .selection import SPACES  # noqa: F401 (importable from here, as before the split)
+from .selection import CageMap, Selection, build_selection, choose_roles, mirrored_roles, user_roles
+from .symmetry import Mirror
+from ..core.transforms import check_transform, rigid_transform
+
+__all__ = ["HybridEditor", "SelectionError", "EditorState"]
+
+#: frame times kept in ``frame_seconds`` (the older half is dropped past this)
+FRAME_HISTORY = 10000
+PROPAGATIONS = ("residual", "linear")
+
+
+@dataclass(frozen=True)
+class EditorState:
+    """A snapshot of an editor's selection and pose (see :meth:`HybridEditor.save_state`)."""
+
+    selection: Selection | None
+    transforms: tuple[np.ndarray, ...]
+    cage_positions: np.ndarray
+    arap_rotations: np.ndarray
+    rotations: np.ndarray
+    shape: np.ndarray
+    base: BasePose
+    moved: bool
+    steps: FrameSteps | None = None  # the selection's frame steps, measured from ``base``
+    centers: tuple[np.ndarray, ...] = ()  # the default rotation centre of each handle group
+    record: PoseRecord = PoseRecord()  # how the pose was made (what :attr:`HybridEditor.edit` replays)
+
+
+class _Default:
+    """A build option's default (shown as its value in the signature), told apart from the same value
+    given explicitly: :class:`HybridEditor` refuses build options given with a ready :class:`Rig`."""
+
+    __slots__ = ("value",)
+
+    def __init__(self, value) -> None:
+        self.value = value
+
+    def __repr__(self) -> str:
+        return repr(self.value)
+
+
+class HybridEditor:
+    """Interactive hybrid mesh editing of one shape.
+
+    Takes a :class:`~hybridedit.binding.rig.Rig` (cage + binding, see :func:`hybridedit.build_rig`),
+    or builds one from a mesh; then :meth:`set_selection` and :meth:`drag` deform
+    the cage with ARAP and the shape follows as M @ cage plus the rotated residual.
+
+    Constraints hold exactly in shape space: after any drag, fixed shape vertices
+    are where they were when the selection was set and each handle group's shape
+    vertices are exactly at its transform of where they were. On the cage, ARAP
+    holds the cage vertices whose nearest shape vertex is constrained (for a
+    selection made on the cage, the picked ones), fixed or following their
+    group's transform; the other cage vertices a constrained row leans on may
+    move. The exact placement of the constrained rows, then the region step
+    (or, with the linear propagation, the harmonic spread of the seam's
+    correction; :mod:`hybridedit.deform.constraints`) absorb what that leaves, so the
+    transition happens inside the region of interest.
+
+    The shape is never changed: the cage is built from a repaired private copy
+    and :attr:`notes` says in plain words what was repaired. Every input vertex
+    is bound, in input order.
+
+    Parameters
+    ----------
+    mesh : Mesh or Rig
+        The shape (n vertices), or a rig built for it (then giving any of
+        ``cage_size``, ``cage``, ``binding``, ``truncation``, ``cache`` or
+        ``progress`` is a ValueError: they are :func:`hybridedit.build_rig`'s).
+    cage_size : int or float
+        Cage vertex count (int) or fraction of the shape's vertices (float).
+    cage : Mesh, optional
+        Use this cage instead of simplifying the shape.
+    binding : (n, c) scipy sparse matrix, optional
+        Use this binding instead of computing it (rows must sum to 1).
+    truncation : float
+        Fraction of each row's coordinate magnitude dropped (the paper: 0.03).
+    weights : "cotangent" (default) or "uniform" (the paper's w_ij = 1)
+        ARAP edge weights on the cage.
+    iterations : int
+        ARAP local/global iterations per :meth:`drag` call.
+    progress : callable(stage: str, fraction: float), optional
+        Called during the slow steps (cage, bind); it may raise to cancel them.
+    cache : bool or path
+        Reuse the cage and binding from an on-disk cache (see :func:`hybridedit.build_rig`).
+    propagation : "residual" or "linear"
+        "linear" is the paper's x' = M y'. "residual" adds back, rotated with
+        the cage, what M loses of the rest shape (:mod:`hybridedit.deform.residual`),
+        so that with no edit the output is the input exactly.
+
+    Examples
+    --------
+    >>> import hybridedit as he
+    >>> ed = he.HybridEditor(he.build_rig(mesh, cage_size=0.05))  # doctest: +SKIP
+    >>> ed.set_selection(handle=[hand, foot], roi=leg_and_arm)  # doctest: +SKIP
+    >>> V = ed.drag(transforms={0: T_hand, 1: T_foot})  # doctest: +SKIP
+    """
+
+    def __init__(
+        self,
+        mesh: Mesh | Rig,
+        cage_size: int | float = _Default(0.05),
+        *,
+        cage: Mesh | None = _Default(None),
+        binding: sp.spmatrix | None = _Default(None),
+        truncation: float = _Default(0.03),
+        weights: str = "cotangent",
+        iterations: int = 2,
+        progress: Progress | None = _Default(None),
+        cache: bool | str | Path = _Default(False),
+        propagation: str = "residual",
+    ) -> None:
+        build = dict(cage_size=cage_size, cage=cage, binding=binding, truncation=truncation, cache=cache,
+                     progress=progress)
+        if isinstance(mesh, Rig):
+            given = [k for k, v in build.items() if not isinstance(v, _Default)]
+            if given:
+                raise ValueError(f"{', '.join(given)} cannot be given with a Rig (it is built already); "
+                                 "pass them to build_rig, or pass the Mesh")
+            rig = mesh
+        else:
+            rig = build_rig(mesh, **{k: v.value if isinstance(v, _Default) else v for k, v in build.items()})
+        if propagation not in PROPAGATIONS:
+            raise ValueError(f"propagation must be one of {PROPAGATIONS}, got {propagation!r}")
+        #: the cage and binding this editor works on (see :func:`hybridedit.build_rig`)
+        self.rig = rig
+        self.mesh = mesh = rig.mesh
+        self.cage = cage = rig.cage
+        self.M = M = rig.M
+        self.truncation = rig.truncation
+        self.iterations = int(iterations)
+        self.timings: dict[str, float] = dict(rig.timings)
+        self.cache_hit = rig.cache_hit
+        #: plain-word sentences about what was repaired or adjusted to build the cage
+        #: (the shape itself is never changed), e.g. "merged 12 duplicate vertices"
+        self.notes: list[str] = list(rig.notes)
+        self.propagation = propagation
+        d_rest, idx, w = residual_setup(M, mesh.vertices, cage.vertices)
+        #: the cage vertices and weights of each shape vertex's rotation blend, (n, k) each
+        self._blend = (idx, w)
+        self.arap = ARAPSolver(cage.vertices, cage.faces, weights=weights, links=rig.links)
+        self._scale = max(mesh.bbox_diagonal(), float(np.linalg.norm(np.ptp(cage.vertices, axis=0))))
+        #: how shape and cage vertices stand for each other in a selection
+        self._maps = CageMap(nearest=cKDTree(mesh.vertices).query(cage.vertices)[1].astype(np.int64),
+                             dominant=dominant_cage_vertex(M))
+        # the shape's cotangent Laplacian, for the free region's solve: built here (in
+        # the window, in the build thread) rather than at the first drag
+        e, w = edge_weights(mesh.vertices, mesh.faces, "cotangent")
+        self._laplacian = laplacian(mesh.n_vertices, e, w)
+        ce = self.arap.edges
+        self._cage_edge = float(np.mean(np.linalg.norm(cage.vertices[ce[:, 0]] - cage.vertices[ce[:, 1]], axis=1))) \
+            if len(ce) else self._scale
+        self._mirrors: dict[str, Mirror] = {}
+        #: rotations the residual turns with, per cage vertex (ARAP's for free
+        #: vertices, the constraint's for held ones)
+        self._rots = np.tile(np.eye(3), (cage.n_vertices, 1, 1))
+        self._eye = np.tile(np.eye(3), (cage.n_vertices, 1, 1))  # the linear propagation's "rotations"
+        self._sel: Selection | None = None
+        #: the selection's frame steps, measured from ``self._base`` (None without a selection)
+        self._steps: FrameSteps | None = None
+        self._centers: tuple[np.ndarray, ...] = ()  # default rotation centre of each handle group
+        self._transforms: list[np.ndarray] = []
+        #: the pose the current selection's drags start from; the rest pose first
+        self._base = self._rest_base = rest_base(binding=M, cage=cage.vertices, residual=d_rest, blend=self._blend,
+                                                 propagation=propagation)
+        self._out = self._rest_base.shape.copy()
+        self._moved = False  # the pose changed since the base was taken
+        #: how the pose was made from the rest pose (the steps :attr:`edit` describes)
+        self._record = PoseRecord()
+        self._shape_arap: ShapeARAP | None = None  # the full-resolution polish's set-up, made by the first
+        #: wall time of recent :meth:`drag` calls, oldest first (bounded, see FRAME_HISTORY)
+        self.frame_seconds: list[float] = []
+        #: where the last frame's time went: local_seconds, global_seconds,
+        #: propagate_seconds, total_seconds
+        self.frame_breakdown: dict[str, float] = {}
+
+    # ------------------------------------------------------------------ properties
+    @property
+    def nnz_per_row(self) -> float:
+        """Mean number of cage vertices each shape vertex depends on."""
+        return self.M.nnz / max(self.M.shape[0], 1)
+
+    @property
+    def cage_edges(self) -> np.ndarray:
+        """(e, 2) int64 the cage's edges as ARAP sees them (its faces' edges and the links that tie
+        separate cage parts together), column 0 < column 1."""
+        return self.arap.edges.copy()
+
+    @property
+    def n_groups(self) -> int:
+        """Number of handle groups of the selection (0 before one is set)."""
+        return 0 if self._sel is None else self._sel.n_groups
+
+    @property
+    def transforms(self) -> list[np.ndarray]:
+        """Current (4, 4) transform of each handle group, relative to the pose when
+        the selection was set (copies)."""
+        return [T.copy() for T in self._transforms]
+
+    @property
+    def transform(self) -> np.ndarray:
+        """The transform of handle group 0 (identity before a selection is set)."""
+        return self._transforms[0].copy() if self._transforms else np.eye(4)
+
+    @property
+    def vertex_roles(self) -> np.ndarray:
+        """(n,) int8 role of each shape vertex: -1 fixed, 0 free, g + 1 in handle group g
+        (mirror images count in their group). This is what is held exactly."""
+        if self._sel is None:
+            return np.zeros(self.mesh.n_vertices, dtype=np.int8)
+        return self._sel.public(self._sel.roles)
+
+    @property
+    def cage_roles(self) -> np.ndarray:
+        """(c,) int8 role of each cage vertex, as :attr:`vertex_roles`; cage parts
+        with no constraint, held still, count as fixed."""
+        if self._sel is None:
+            return np.zeros(self.cage.n_vertices, dtype=np.int8)
+        return self._sel.public_cage_roles
+
+    @property
+    def handle(self) -> np.ndarray:
+        """(h,) int64 cage vertices that follow a handle transform (all groups)."""
+        if self._sel is None:
+            return np.zeros(0, dtype=np.int64)
+        return self._sel.moving.copy()
+
+    @property
+    def fixed(self) -> np.ndarray:
+        """(f,) int64 cage vertices held where they are (fixed, and parts held still)."""
+        if self._sel is None:
+            return np.zeros(0, dtype=np.int64)
+        return np.flatnonzero(self.cage_roles == FIXED).astype(np.int64)
+
+    @property
+    def moving_vertices(self) -> np.ndarray:
+        """(k,) int64 sorted shape vertices a drag can move: the edited region
+        (free vertices bound to moving cage vertices, and the handles)."""
+        if self._sel is None:
+            return np.zeros(0, dtype=np.int64)
+        return self._sel.moving_vertices
+
+    @property
+    def free_mask(self) -> np.ndarray:
+        """(n,) bool: the free shape vertices a drag can move, i.e. the edited region
+        less its constraints; what a full-resolution polish may move."""
+        mask = np.zeros(self.mesh.n_vertices, dtype=bool)
+        if self._sel is not None:
+            mask[self._sel.rows] = True
+        return mask
+
+    @property
+    def symmetry(self) -> Mirror | None:
+        """The mirror of a symmetric selection, else None."""
+        return None if self._sel is None else self._sel.mirror
+
+    # ------------------------------------------------------------------ selection
+    def to_cage(self, indices, space: str = "shape", role: str = "selection") -> np.ndarray:
+        """Map a vertex selection to cage vertex indices.
+
+        Shape vertices map to the cage vertices whose nearest shape vertex is
+        selected; a small selection that contains no such vertex maps to the cage
+        vertex with the largest coordinate of each selected shape vertex.
+
+        Parameters
+        ----------
+        indices : (k,) int array of vertex indices, or a boolean mask, in ``space``.
+        space : "shape" or "cage".
+
+        Returns
+        -------
+        (j,) int64 array of sorted unique cage vertex indices.
+        """
+        return self._maps.to_cage(indices, space=space, role=role)
+
+    def shape_roles(self, cage_roles) -> np.ndarray:
+        """Shape vertex roles that select exactly the given cage vertex roles.
+
+        A selection made on the cage (as in the window) given in shape vertices, so
+        that the edit it makes is a shape-space edit that replays the same on this
+        cage: each shape vertex takes the role of the cage vertex it depends on most,
+        and the shape vertex nearest each cage vertex (whose role the cage vertex
+        takes, see :meth:`set_selection`) takes that cage vertex's own role.
+
+        Parameters
+        ----------
+        cage_roles : (c,) int array, -1 fixed, 0 free, g + 1 handle group g.
+
+        Returns
+        -------
+        (n,) int8 shape vertex roles, the same code.
+        """
+        return self._maps.shape_roles(cage_roles)
+
+    def preview_roles(self, roles, *, symmetry=None) -> tuple[np.ndarray, np.ndarray]:
+        """The roles a selection takes once mirrored, without setting it (nothing is
+        factored: a few milliseconds), to draw a selection on both sides as it is made.
+
+        Parameters
+        ----------
+        roles : (n,) int shape vertex roles, -1 fixed, 0 free, g + 1 handle group g
+            (e.g. from :meth:`shape_roles`); groups may be empty.
+        symmetry : None, "x", "y", "z" or (point, normal), as :meth:`set_selection`
+            takes it with ``roi`` (a vertex stays fixed only where its mirror image is fixed too).
+
+        Returns
+        -------
+        vertex_roles : (n,) int8, cage_roles : (c,) int8
+            The same code, mirror images counted in their group; a cage vertex takes
+            the role of its nearest shape vertex.
+
+        Raises
+        ------
+        SelectionError
+            Roles of the wrong length, or a shape not symmetric enough.
+        """
+        r = np.asarray(roles)
+        if r.shape != (self.mesh.n_vertices,) or not np.issubdtype(r.dtype, np.integer):
+            raise SelectionError(f"roles must be {self.mesh.n_vertices:,} integers")
+        r = r.astype(np.int32)
+        mirror = self._mirror(symmetry) if symmetry is not None else None
+        internal, source, _ = mirrored_roles(r, n_groups=int(r.max(initial=0)), mirror=mirror, roi_mode=True)
+        lut = np.array([FIXED, FREE] + [g + 1 for g in source], dtype=np.int8)
+        shape = lut[internal + 1]
+        return shape, shape[self._maps.nearest]
+
+    def mirror(self, symmetry) -> Mirror:
+        """The shape's mirror across a plane ("x", "y", "z" or (point, normal)), as
+        :meth:`set_selection` would use it: check a shape before offering to mirror it.
+
+        Raises
+        ------
+        SelectionError
+            The shape is not symmetric enough across that plane (the message gives its
+            measured asymmetry), or the plane is malformed.
+        """
+        return self._mirror(symmetry)
+
+    def _mirror(self, symmetry) -> Mirror:
+        key = repr(symmetry)
+        m = self._mirrors.get(key)
+        if m is None:
+            m = self._mirrors[key] = Mirror(self.mesh.vertices, symmetry)
+        return m
+
+    def set_selection(
+        self,
+        handle,
+        fixed=None,
+        roi=None,
+        *,
+        space: str = "shape",
+        symmetry=None,
+    ) -> None:
+        """Choose the handle groups and what stays fixed.
+
+        Parameters
+        ----------
+        handle : selection, or a list of selections (one per handle group)
+            Vertices that follow a drag transform. A selection is a boolean mask of
+            length n or a list / range / integer array of indices.
+        fixed : selection, optional
+            Vertices that stay where they are now.
+        roi : selection, optional
+            Alternative to ``fixed``: everything outside ``roi`` and the handles is fixed.
+            With neither, nothing is fixed.
+        space : "shape" (shape vertex indices) or "cage" (cage vertex indices; shape
+            vertices then take the role of the cage vertex they depend on most).
+        symmetry : None, "x", "y", "z" or (point, normal)
+            Mirror the selection across this plane (through the centre of the shape's
+            bounding box for an axis): each handle group's mirror image follows the
+            mirrored transform and the result is symmetric. A shape that is not
+            symmetric across the plane is refused with its measured asymmetry.
+
+        The current pose becomes the reference of the next drags (successive edits
+        compose): fixed vertices keep their current positions, :meth:`drag`
+        transforms are relative to the handles' current positions, and the ARAP
+        energy of the next drags is measured against the current pose, so that an
+        identity drag leaves every vertex where it is and nothing outside the new
+        region moves. :meth:`reset` goes back to the rest pose.
+
+        Raises
+        ------
+        SelectionError
+            A malformed or empty selection, overlapping groups, handle and fixed
+            sharing vertices, or a shape not symmetric enough.
+        """
+        user = user_roles(handle, fixed, roi, space=space, maps=self._maps)
+        mirror = self._mirror(symmetry) if symmetry is not None else None
+        roles = choose_roles(user, mirror=mirror, maps=self._maps)
+        record = self._record_closed()
+        base = self._current_base()
+        before = (self.arap.reference, self.arap.rotations.copy())
+        self.arap.set_reference(base.cage)  # before the factorization: it takes the rotations there
+        try:
+            self.arap.set_constrained(roles.constrained, moving=roles.moving)
+        except ValueError as e:
+            self.arap.reference = before[0]
+            self.arap.rotations[:] = before[1]
+            raise SelectionError(str(e)) from None
+        sel = build_selection(roles, free_cage=self.arap.free, held=self.arap.held, binding=self.M,
+                              blend_idx=self._blend[0] if self.propagation == "residual" else None)
+        self._steps = self._frame_steps(sel, base)
+        self._centers = sel.centers(shape=base.shape, cage=base.cage)
+        self._sel = sel
+        self._transforms = [np.eye(4) for _ in range(sel.n_groups)]
+        self._start_from(base)
+        self._record = record.restarted()
+
+    def _frame_steps(self, sel: Selection, base: BasePose) -> FrameSteps:
+        """The frame steps of ``sel`` measured from ``base`` (factored here, once per selection)."""
+        return build_frame_steps(sel, base, binding=self.M, residual=self._propagated_residual(base),
+                                 propagation=self.propagation, laplacian=self._laplacian, rest=self.mesh.vertices,
+                                 blend=self._blend, cage_edge=self._cage_edge)
+
+    # ------------------------------------------------------------------ the pose an edit starts from
+    def _current_base(self) -> BasePose:
+        """The current pose as the base of the next edit (the base itself when nothing moved)."""
+        return current_base(self._base, moved=self._moved, cage=self.arap.positions, shape=self._out, binding=self.M)
+
+    def _propagated_residual(self, base: BasePose):
+        """What the selection's rows add to M y' from ``base`` (:func:`~hybridedit.deform.base_pose.propagated_residual`)."""
+        return propagated_residual(base, self._blend, propagation=self.propagation)
+
+    @property
+    def _residual(self):
+        """What the rows add to M y' from the current base (:meth:`_propagated_residual`): (d, idx, w),
+        or None for the paper's plain x' = M y'."""
+        return self._propagated_residual(self._base)
+
+    def _prop_rotations(self) -> np.ndarray:
+        """The rotations the residual turns with: the cage's, or none for the linear propagation."""
+        return self._rots if self.propagation == "residual" else self._eye
+
+    def _start_from(self, base: BasePose) -> None:
+        """Make ``base`` the pose the current selection's drags start from (the shape and
+        cage must be in that pose): the energy is measured against it, every rotation
+        restarts at the identity, the transforms at the identity."""
+        self._base = base
+        self._moved = False
+        self.arap.set_reference(base.cage)
+        self._rots[:] = np.eye(3)
+        self._transforms = [np.eye(4) for _ in self._transforms]
+        if self._sel is not None and self._steps.base is not base:  # the same selection, from the new base
+            self._steps = self._steps.measured_from(base, self._propagated_residual(base))
+            self._centers = self._sel.centers(shape=base.shape, cage=base.cage)
+
+    # ------------------------------------------------------------------ deformation
+    def _as_transform(self, group: int, translate, rotate, transform) -> np.ndarray:
+        if transform is not None:
+            if translate is not None or rotate is not None:
+                raise ValueError("give transform, or translate and/or rotate, not both")
+            return check_transform(transform)
+        T = np.eye(4)
+        if rotate is not None:
+            center = self._centers[group]
+            if isinstance(rotate, dict):
+                c = rotate.get("center")
+                T = rigid_transform(axis=rotate.get("axis"), degrees=float(rotate.get("degrees", 0.0)),
+                                    center=center if c is None else c)
+            else:
+                R = rotate.as_matrix() if isinstance(rotate, Rotation) else np.asarray(rotate, dtype=np.float64)
+                if R.shape != (3, 3) or not np.all(np.isfinite(R)) or not np.allclose(R @ R.T, np.eye(3), atol=1e-6) \
+                        or np.linalg.det(R) < 0:
+                    raise ValueError("rotate must be a 3x3 rotation matrix, a scipy Rotation or "
+                                     "{\"axis\": ..., \"degrees\": ..., \"center\": ...}")
+                T[:3, :3] = R
+                T[:3, 3] = center - R @ center
+        if translate is not None:
+            T = rigid_transform(translate=translate) @ T
+        return T
+
+    def _requested_transforms(self, translate, rotate, transform, group, transforms) -> list[np.ndarray]:
+        """Every user group's (4, 4) transform after a :meth:`drag` with these arguments."""
+        n_groups = self._sel.n_groups
+        new = list(self._transforms)
+        if transforms is not None:
+            if translate is not None or rotate is not None or transform is not None:
+                raise ValueError("give transforms, or one group's translate/rotate/transform, not both")
+            for g, T in dict(transforms).items():
+                if not isinstance(g, (int, np.integer)) or not (0 <= int(g) < n_groups):
+                    raise SelectionError(f"no handle group {g!r}; the selection has {n_groups}")
+                new[int(g)] = check_transform(T)
+        else:
+            if not isinstance(group, (int, np.integer)) or not (0 <= int(group) < n_groups):
+                raise SelectionError(f"no handle group {group!r}; the selection has {n_groups}")
+            new[int(group)] = self._as_transform(int(group), translate, rotate, transform)
+        return new
+
+    def drag(
+        self,
+        translate=None,
+        *,
+        rotate=None,
+        transform: np.ndarray | None = None,
+        group: int = 0,
+        transforms: dict | None = None,
+        iterations: int | None = None,
+    ) -> np.ndarray:
+        """One interactive frame: move handle groups and deform (``iterations`` ARAP iterations).
+
+        This is the step a window runs once per mouse event: each call continues the
+        solve from the previous one, so calling it again with the same transform
+        moves the shape closer to the converged pose (tens to hundreds of calls).
+        A script that wants the finished pose calls :meth:`pose` instead.
+
+        Parameters
+        ----------
+        translate : (3,) translation of handle group ``group``, and/or
+        rotate : rotation of that group about its centroid: a (3, 3) matrix, a scipy
+            ``Rotation``, or ``{"axis": (3,), "degrees": a, "center": (3,)}``; or
+        transform : (4, 4) affine transform of that group. All are absolute, relative
+            to the handles' pose when the selection was set.
+        group : int
+            The handle group moved; the others keep their current transforms.
+        transforms : dict {group: (4, 4) transform}, optional
+            Set several groups at once (instead of the above).
+        iterations : ARAP iterations for this call (default ``self.iterations``).
+
+        Returns
+        -------
+        (n, 3) float64 array, the deformed shape: a read-only view of the engine's own
+        array, which the next ``drag`` (and any other call that changes the pose)
+        overwrites; ``.copy()`` it to keep this frame.
+        """
+        sel = self._sel
+        if sel is None:
+            raise SelectionError("set a selection (handle) before dragging")
+        new = self._requested_transforms(translate, rotate, transform, group, transforms)
+        k = self.iterations if iterations is None else int(iterations)
+        if k < 0:
+            raise ValueError(f"iterations must be >= 0, got {k}")
+        t0 = time.perf_counter()
+        base = self._base
+        internal = sel.group_transforms(new)
+        solve_cage(self.arap, cage_targets(base.cage, sel, internal, scale=self._scale), iterations=k)
+        same = len(new) == len(self._transforms) and all(np.array_equal(a, b) for a, b in zip(new, self._transforms))
+        self._record = self._record.after_drag(same_transforms=same, iterations=k)
+        self._transforms = new
+        self._moved = True
+        t1 = time.perf_counter()
+        self._steps.run(Frame(base_shape=base.shape, transforms=internal, cage=self.arap.positions,
+                              cage_rotations=self.arap.rotations, rotations=self._rots,
+                              propagation_rotations=self._prop_rotations(), out=self._out))
+        t2 = time.perf_counter()
+        self.frame_seconds.append(t2 - t0)
+        if len(self.frame_seconds) > FRAME_HISTORY:
+            del self.frame_seconds[: -FRAME_HISTORY // 2]
+        self.frame_breakdown = {**self.arap.last_timings, "propagate_seconds": t2 - t1, "total_seconds": t2 - t0}
+        return self.deformed_vertices
+
+    def reset(self) -> None:
+        """Back to the rest pose (the selection is kept; its drags start from the rest pose)."""
+        self.arap.reset()
+        self._rots[:] = np.eye(3)
+        self._base = self._rest_base
+        self._propagate_all()
+        self._start_from(self._rest_base)
+        self._record = PoseRecord()
+
+    @property
+    def cage_positions(self) -> np.ndarray:
+        """Current cage vertex positions, (c, 3) float64 (a copy)."""
+        return self.arap.positions.copy()
+
+    @property
+    def starts_at_rest(self) -> bool:
+        """The current selection's drags start from the rest pose (then :attr:`edit`,
+        replayed on a fresh editor, gives the current pose)."""
+        return self._base.at_rest
+
+    def set_cage_positions(self, positions: np.ndarray) -> np.ndarray:
+        """Put the cage in a given pose, measured from the rest pose, and update the
+        shape (every vertex follows the cage); the next drags start from that pose.
+
+        Returns the (n, 3) deformed shape.
+        """
+        p = np.asarray(positions, dtype=np.float64)
+        if p.shape != self.arap.positions.shape or not np.all(np.isfinite(p)):
+            raise ValueError(f"cage positions must be finite and {self.arap.positions.shape}")
+        self.arap.reset()
+        self.arap.positions[:] = p
+        self._rots[:] = self.arap.local_step()
+        self._base = self._rest_base
+        self._propagate_all()
+        self._moved = True
+        self._start_from(self._current_base())
+        self._record = PoseRecord.from_outside("the cage was put in a pose by set_cage_positions")
+        return self.deformed_vertices
+
+    def set_pose(self, vertices: np.ndarray, *, cage_positions: np.ndarray | None = None) -> np.ndarray:
+        """Make ``vertices`` the current shape (a polished pose, a pose carried over from
+        another cage of the same shape, ...): the next drags start from it exactly.
+
+        Parameters
+        ----------
+        vertices : (n, 3) float64 shape positions.
+        cage_positions : (c, 3) float64, optional
+            The cage pose that goes with them (e.g. the current one, for a polish of
+            the current pose). By default every cage vertex moves as the shape vertex
+            nearest to it did from the rest pose.
+
+        Returns
+        -------
+        (n, 3) float64 array, the shape (a read-only view that later calls update).
+
+        A pose set here was made outside the editor: :attr:`edit` describes only the
+        steps after it (:attr:`replayable` is False). A polish is given with
+        :meth:`adopt_polish`, another cage's pose with :meth:`carry_pose`: those are
+        recorded.
+
+        Examples
+        --------
+        >>> ed.set_pose(sculpted)  # doctest: +SKIP
+        """
+        self._put_pose(vertices, cage_positions)
+        self._record = PoseRecord.from_outside("the pose was set by set_pose")
+        return self.deformed_vertices
+
+    def _put_pose(self, vertices: np.ndarray, cage_positions: np.ndarray | None) -> None:
+        """Make ``vertices`` (and the cage pose, by default fitted to them) the pose the next drags start from."""
+        V = np.asarray(vertices, dtype=np.float64)
+        if V.shape != self._out.shape or not np.all(np.isfinite(V)):
+            raise ValueError(f"a pose must be finite and {self._out.shape}, got {V.shape}")
+        if cage_positions is None:
+            Y = fit_cage(V, rest_shape=self.mesh.vertices, rest_cage=self.cage.vertices, nearest=self._maps.nearest)
+        else:
+            Y = np.asarray(cage_positions, dtype=np.float64)
+            if Y.shape != self.arap.positions.shape or not np.all(np.isfinite(Y)):
+                raise ValueError(f"cage positions must be finite and {self.arap.positions.shape}")
+        self.arap.positions[:] = Y
+        self._out[:] = V
+        self._moved = True
+        self._start_from(self._current_base())
+
+    def carry_pose(self, other: "HybridEditor") -> np.ndarray:
+        """Take the pose of another editor of the same shape (another cage: a rebuild), exactly,
+        with the steps that made it: :attr:`edit` goes on from them (each step keeps the cage it
+        ran on). Every cage vertex moves as its nearest shape vertex did from the rest pose; the
+        next selection starts from the pose.
+
+        Returns
+        -------
+        (n, 3) float64 array, the shape (a read-only view that later calls update).
+        """
+        if other.mesh.n_vertices != self.mesh.n_vertices or other.mesh.n_faces != self.mesh.n_faces:
+            raise ValueError("carry_pose: the other editor is for another shape")
+        if other._base.at_rest and not other._moved:
+            self.reset()
+            return self.deformed_vertices
+        self._put_pose(other.deformed_vertices, None)
+        self._record = PoseRecord(done=tuple(other._steps_made()), unknown=other._record.unknown)
+        return self.deformed_vertices
+
+    def continue_from_pose(self) -> None:
+        """The current selection's next drags start from the pose as it is (their transforms
+        again at the identity): its drags so far become one step of :attr:`edit`, and the
+        next ones another. (What a polish does, without the polish.)"""
+        if self._sel is None:
+            raise SelectionError("set a selection first")
+        record = self._record_closed()
+        self._put_pose(self._out.copy(), self.arap.positions.copy())
+        self._record = record.restarted(continues=True)
+
+    # ------------------------------------------------------------------ polish
+    def polish_job(self, *, max_iterations: int = POLISH_MAX_ITERATIONS,
+                   tolerance: float = POLISH_TOLERANCE) -> PolishJob:
+        """A full-resolution polish of the current pose's edited region (the selection's free
+        rows), to run anywhere (:meth:`~hybridedit.deform.polish.PolishJob.run`, e.g. in a worker
+        thread) and give back with :meth:`adopt_polish`.
+
+        Raises
+        ------
+        SelectionError
+            No selection is set.
+        """
+        if self._sel is None:
+            raise SelectionError("set a selection first: a polish works on its region")
+        return PolishJob(self._out.copy(), self.free_mask, int(max_iterations), float(tolerance))
+
+    def adopt_polish(self, job: PolishJob, result: PolishResult) -> np.ndarray:
+        """Make a polish of the current pose the pose (the next drags start from it), recorded
+        as the end of the current step with its iteration count, so that :attr:`edit` replays it.
+
+        Raises
+        ------
+        ValueError
+            The pose changed since ``job`` was made (the polish is of a pose that is gone).
+        """
+        if self._sel is None or not np.array_equal(job.start, self._out):
+            raise ValueError("the pose changed since the polish started: its result is not taken")
+        record = self._record_closed(polish=result.iterations)
+        self._put_pose(result.vertices, self.arap.positions.copy())
+        self._record = record.restarted(continues=True)
+        return self.deformed_vertices
+
+    def polish(self, *, iterations: int | None = None, max_iterations: int = POLISH_MAX_ITERATIONS,
+               tolerance: float = POLISH_TOLERANCE) -> PolishResult:
+        """Polish the current pose now and make it the pose (:meth:`polish_job`, run here,
+        :meth:`adopt_polish`).
+
+        Parameters
+        ----------
+        iterations : int, optional
+            Run exactly this many iterations (a replay); otherwise until an iteration moves
+            no vertex by more than ``tolerance`` of the diagonal, at most ``max_iterations``.
+
+        Returns
+        -------
+        PolishResult
+        """
+        if iterations is not None:
+            job = self.polish_job(max_iterations=int(iterations), tolerance=0.0)
+        else:
+            job = self.polish_job(max_iterations=max_iterations, tolerance=tolerance)
+        if self._shape_arap is None:
+            self._shape_arap = ShapeARAP(self.mesh)
+        result = job.run(self._shape_arap)
+        self.adopt_polish(job, result)
+        return result
+
+    def save_state(self) -> EditorState:
+        """A snapshot of the selection and pose, for :meth:`restore_state` (undo)."""
+        return EditorState(self._sel, tuple(T.copy() for T in self._transforms), self.arap.positions.copy(),
+                           self.arap.rotations.copy(), self._rots.copy(), self._out.copy(), self._base,
+                           self._moved, steps=self._steps, centers=self._centers, record=self._record)
+
+    def restore_state(self, state: EditorState) -> np.ndarray:
+        """Go back to a snapshot taken by :meth:`save_state` (the selection, the pose it
+        starts from and the current pose, exactly); returns the (n, 3) shape."""
+        self.arap.reference = state.base.cage
+        if state.selection is not self._sel:
+            sel = state.selection
+            if sel is not None:
+                self.arap.set_constrained(sel.constrained, moving=sel.moving)
+            self._sel = sel
+        self._steps = state.steps
+        self._centers = state.centers
+        self.arap.positions[:] = state.cage_positions
+        self.arap.rotations[:] = state.arap_rotations
+        self._rots[:] = state.rotations
+        self._out[:] = state.shape
+        self._transforms = [T.copy() for T in state.transforms]
+        self._base = state.base
+        self._moved = state.moved
+        self._record = state.record
+        return self.deformed_vertices
+
+    def _propagate_all(self) -> None:
+        """Every shape vertex from the current cage pose and rotations, from the base pose."""
+        propagate_from(self._base, binding=self.M, cage=self.arap.positions, rotations=self._prop_rotations(),
+                       blend=self._blend, propagation=self.propagation, out=self._out)
+
+    # ------------------------------------------------------------------ edits
+    @property
+    def edit(self) -> Edit:
+        """How the current pose was made, as a shape-space :class:`Edit` that :meth:`apply_edit`
+        replays: the current selection and handle transforms, after the steps before it
+        (:attr:`Edit.before`: earlier selections, polishes). Each step records the ARAP
+        iterations run at its transforms when they all ran at them (a settle, or frames at one
+        transform), its polish iterations, and its cage. See :attr:`replayable`.
+
+        Raises
+        ------
+        SelectionError
+            No selection has been set (there is nothing to describe).
+        """
+        steps = self._steps_made(current_if_empty=True)
+        if not steps:
+            raise SelectionError("no selection to describe: set one first")
+        last = steps[-1]
+        return Edit(handles=last.handles, fixed=last.fixed, roi=last.roi, space=last.space, symmetry=last.symmetry,
+                    iterations=last.iterations, polish=last.polish, cage=last.cage, continues=last.continues,
+                    before=steps[:-1], mesh=mesh_fingerprint(self.mesh))
+
+    @property
+    def record(self) -> PoseRecord:
+        """How the current pose was made from the rest pose (:class:`~hybridedit.deform.pose_record.PoseRecord`,
+        read-only): the steps :attr:`edit` describes."""
+        return self._record
+
+    @property
+    def replayable(self) -> bool:
+        """Replaying :attr:`edit` from the rest pose on this cage gives the current pose (no pose
+        was set from outside, and no drag is left unsettled: interactive frames at changing
+        transforms make a pose that depends on their path)."""
+        return self._record.replayable
+
+    def _steps_made(self, current_if_empty: bool = False) -> list[Edit]:
+        """The steps of the record, the current one included when it has done something (or,
+        ``current_if_empty``, when it is a new selection)."""
+        r = self._record
+        steps = list(r.done)
+        if self._sel is not None and (r.dragged or (current_if_empty and not r.continues)):
+            steps.append(self._current_step())
+        return steps
+
+    def _current_step(self, polish: int | None = None) -> Edit:
+        """The current selection and transforms as one step (see :class:`~hybridedit.deform.pose_record.PoseRecord`)."""
+        sel, r = self._sel, self._record
+        roles = sel.user_roles
+        handles = [HandleEdit.from_matrix(np.flatnonzero(roles == g + 1), self._transforms[g], center=self._centers[g])
+                   for g in range(sel.n_groups)]
+        fixed = np.flatnonzero(roles == FIXED)
+        # (the shorter list, but as it was given where a mirror makes them differ: with "roi" a vertex stays
+        # fixed only where its mirror image is fixed too, with "fixed" as listed)
+        as_roi = sel.roi_mode if sel.mirror is not None else fixed.size * 2 > roles.size
+        fixed_kw = {"roi": np.flatnonzero(roles != FIXED)} if as_roi else {"fixed": fixed}
+        size = self.rig.cage_size
+        cage = {"size": int(size) if isinstance(size, (int, np.integer)) else float(size),
+                "vertices": int(self.cage.n_vertices)}
+        return Edit(handles=handles, space="shape", symmetry=None if sel.mirror is None else sel.mirror.spec,
+                    iterations=r.iterations if r.settled else None, polish=polish, cage=cage,
+                    continues=r.continues, **fixed_kw)
+
+    def _record_closed(self, polish: int | None = None) -> PoseRecord:
+        """The record with the current step closed (kept when it did something: a drag or a polish)."""
+        r = self._record
+        if self._sel is None or (not r.dragged and polish is None):
+            return r
+        return r.closed(self._current_step(polish))
+
+    def apply_edit(self, edit: Edit, *, frames: int = 30, iterations: int | None = None,
+                   progress: Progress | None = None, path: str | None = None,
+                   editor_for_cage: Callable[[dict], "HybridEditor"] | None = None) -> np.ndarray:
+        """Replay an edit on the current pose (from the rest pose after :meth:`reset`): each
+        step sets its selection, runs its ARAP iterations at its transforms, then its polish
+        (:func:`hybridedit.deform.replay.replay`, the one replay loop).
+
+        Parameters
+        ----------
+        edit : Edit
+            Its steps (:attr:`Edit.steps`); a version 2 file is one step.
+        frames : int
+            A step that does not record its iterations runs ``frames`` drags of
+            ``iterations`` each (0: the last step's selection is set and nothing is run).
+        iterations : int, optional
+            ARAP iterations a frame (default ``self.iterations``).
+        progress : callable(stage, fraction), optional
+        path : str, optional
+            The edit file's name, for messages.
+        editor_for_cage : callable({"size", "vertices"}) -> HybridEditor, optional
+            An editor of this shape on the cage a step records, for an exact replay of an
+            edit made across cages (a rebuild); without it every step runs on this cage.
+
+        Returns
+        -------
+        (n, 3) float64 array, the deformed shape.
+
+        Raises
+        ------
+        EditFileError
+            The edit was made for another mesh.
+        SelectionError
+            Its selection does not fit this mesh (indices out of range, ...).
+        """
+        from .replay import replay
+
+        return replay(self, edit, frames=frames, iterations=iterations, progress=progress, path=path,
+                      editor_for_cage=editor_for_cage)
+
+    def edit_transforms(self, edit: Edit) -> dict[int, np.ndarray]:
+        """The (4, 4) transform of each of an edit's handle groups, {group: T}; a
+        rotation without a centre turns about the group's centroid (in the edit's
+        space, in the pose the current selection was set at)."""
+        if self._sel is None:
+            raise SelectionError("set the edit's selection first")
+        pts = self._base.shape if edit.space == "shape" else self._base.cage
+        return {g: h.transform(default_center=pts[h.indices].mean(axis=0)) for g, h in enumerate(edit.handles)}
+
+    # ------------------------------------------------------------------ results
+    @property
+    def deformed_vertices(self) -> np.ndarray:
+        """The current deformed shape, (n, 3) float64: a read-only view of the engine's
+        array, which later calls update (``.copy()`` it to keep a pose)."""
+        view = self._out.view()
+        view.flags.writeable = False
+        return view
+
+    @property
+    def deformed(self) -> Mesh:
+        """The current deformed shape as a Mesh (a copy; same faces as the input)."""
+        return Mesh(self._out.copy(), self.mesh.faces, name=self.mesh.name)
+
+    @property
+    def deformed_cage(self) -> Mesh:
+        """The current cage pose as a Mesh (a copy)."""
+        return Mesh(self.arap.positions.copy(), self.cage.faces, name="cage")
+
+    # ------------------------------------------------------------------ scripts: a solved pose, files
+    #: the file this editor was opened from (:meth:`from_file`), which :meth:`save` writes
+    #: back with the current positions; None for an editor built from a bare Mesh
+    document = None
+
+    def pose(self, translate=None, *, rotate=None, transform: np.ndarray | None = None, group: int = 0,
+             transforms: dict | None = None, tolerance: float = 1e-6, max_frames: int = 1000) -> np.ndarray:
+        """Solve an edit to convergence: :meth:`drag` frames at the given transform until a
+        frame moves no vertex by more than ``tolerance`` times the bounding-box diagonal,
+        or ``max_frames`` frames (then a RuntimeWarning says how far the last one moved).
+
+        Takes :meth:`drag`'s transform arguments (absolute, relative to the pose when the
+        selection was set). Calling it again with the same transform returns the same
+        pose (within ``tolerance``).
+
+        Returns
+        -------
+        (n, 3) float64 array, the converged shape (a copy of its own).
+        """
+        if not (tolerance > 0) or int(max_frames) < 1:
+            raise ValueError(f"tolerance must be > 0 and max_frames >= 1, got {tolerance!r}, {max_frames!r}")
+        diagonal = max(self.mesh.bbox_diagonal(), np.finfo(float).tiny)
+        previous = self._out.copy()
+        moved = np.inf
+        for _ in range(int(max_frames)):
+            V = self.drag(translate, rotate=rotate, transform=transform, group=group, transforms=transforms)
+            moved = float(np.abs(V - previous).max(initial=0.0))
+            if moved <= tolerance * diagonal:
+                return V.copy()
+            previous[:] = V
+        import warnings
+
+        warnings.warn(f"pose: not converged after {int(max_frames)} frames (the last moved "
+                      f"{moved / diagonal:.2g} of the diagonal, tolerance {tolerance:g})",
+                      RuntimeWarning, stacklevel=2)
+        return self._out.copy()
+
+    @classmethod
+    def from_file(cls, path, cage_size: int | float = 0.05, *, cache: bool | str | Path = False,
+                  truncation: float = 0.03, progress: Progress | None = None, **options) -> "HybridEditor":
+        """Open a mesh file for editing, keeping everything it holds for :meth:`save`.
+
+        Reads ``path`` with :func:`hybridedit.read_document` (texture coordinates,
+        polygons, materials, colours, ... stay in :attr:`document`), builds the cage
+        and binding as :func:`hybridedit.build_rig` (``cage_size``, ``cache``,
+        ``truncation``) and takes the editor's own ``options`` (``weights``,
+        ``iterations``, ``propagation``). ``progress(stage, fraction)`` hears both.
+        """
+        from ..fileio.meshfiles import read_document
+
+        doc = read_document(path, progress=progress)
+        rig = build_rig(doc.mesh, cage_size=cage_size, cache=cache, truncation=truncation, progress=progress)
+        editor = cls(rig, **options)
+        editor.document = doc
+        return editor
+
+    def save(self, path, *, progress: Progress | None = None) -> list[str]:
+        """Write the current pose to ``path`` atomically (format by extension); returns notes.
+
+        An editor opened with :meth:`from_file` writes everything the file had (texture
+        coordinates, polygons, materials and their images, colours, recomputed normals)
+        with the new positions, through :func:`hybridedit.write_document`. One built
+        from a bare Mesh has only positions and triangles to write; the first note says so.
+        """
+        from ..fileio.document import Document
+        from ..fileio.meshfiles import write_document
+
+        if self.document is None:
+            doc = Document.from_mesh(self.deformed)
+            note = ["no source document (the editor was built from a Mesh): wrote positions and triangles only; "
+                    "open the file with HybridEditor.from_file to keep the rest"]
+        else:
+            doc = self.document.with_vertices(self._out)
+            note = []
+        return note + write_document(path, doc, progress=progress)

@@ -1,0 +1,76 @@
+"""How the current pose was made from the rest pose: the steps an edit file replays.
+
+The editor keeps a :class:`PoseRecord` beside its pose and takes it back with the
+pose on undo (it is part of :class:`~hybridedit.deform.editor.EditorState`). A *step* is
+a selection set on a pose, the ARAP iterations run at its handle transforms, and
+an optional full-resolution polish; the next selection (or the next drag after a
+polish) starts the next step from the pose it left. A step describes the pose it
+makes exactly when every iteration since the selection was set ran at the same
+transforms (a settle, or a script's frames at one transform): then the replay
+runs the same iterations and gets the same pose. Interactive frames at changing
+transforms make a pose that depends on the mouse's path; such a step is *not
+settled*, and its replay settles it instead.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+from ..fileio.editfile import Edit
+
+__all__ = ["PoseRecord"]
+
+
+@dataclass(frozen=True)
+class PoseRecord:
+    """The steps behind a pose (never modified: each change makes a new record).
+
+    Attributes
+    ----------
+    done : tuple of Edit
+        The steps closed before the current selection's start pose, oldest first.
+    dragged : bool
+        A drag ran since the current selection's start pose.
+    iterations : int
+        ARAP iterations run since then.
+    settled : bool
+        Every one of them ran at the current transforms.
+    continues : bool
+        The current selection is the last done step's, continued from its polished pose.
+    unknown : str or None
+        Why the pose cannot be replayed from the rest pose (it was set from outside,
+        e.g. :meth:`~hybridedit.HybridEditor.set_pose`); ``done`` then holds only the
+        steps since. None: it can.
+    """
+
+    done: tuple[Edit, ...] = ()
+    dragged: bool = False
+    iterations: int = 0
+    settled: bool = True
+    continues: bool = False
+    unknown: str | None = None
+
+    def restarted(self, *, continues: bool = False) -> "PoseRecord":
+        """A new step starts from the pose as it is (nothing dragged since)."""
+        return replace(self, dragged=False, iterations=0, settled=True, continues=continues)
+
+    def after_drag(self, *, same_transforms: bool, iterations: int) -> "PoseRecord":
+        """A drag of ``iterations`` ARAP iterations ran (``same_transforms``: at the transforms of the
+        drags before it)."""
+        settled = self.settled and (same_transforms or not self.dragged)
+        return replace(self, dragged=True, iterations=self.iterations + int(iterations), settled=settled)
+
+    def closed(self, step: Edit) -> "PoseRecord":
+        """The current step is done (``step`` describes it); a new one starts where it left off."""
+        return replace(self, done=self.done + (step,)).restarted()
+
+    @classmethod
+    def from_outside(cls, reason: str) -> "PoseRecord":
+        """A pose that no step made: nothing before it can be replayed."""
+        return cls(unknown=reason)
+
+    @property
+    def replayable(self) -> bool:
+        """Replaying :meth:`~hybridedit.HybridEditor.edit` from the rest pose gives the pose
+        (every step settled or polished; none set from outside)."""
+        return self.unknown is None and self.settled and all(s.iterations is not None for s in self.done)

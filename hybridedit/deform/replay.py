@@ -1,0 +1,138 @@
+"""The one replay loop: an edit's steps, in order, on an editor (``hybridedit deform``, the
+window's Load Edit, :meth:`hybridedit.HybridEditor.apply_edit`).
+
+Each step sets its selection on the pose the steps before it made (a step that
+*continues* keeps the selection and starts again from that pose), runs its ARAP
+iterations at its handle transforms (the count it recorded, else ``frames`` x
+``iterations``), then its polish (the recorded count of full-resolution
+iterations). These are the calls the window made, in the same order, so the replay
+of an edit saved in the window is the pose it showed.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Callable
+
+from ..fileio.editfile import Edit, EditFileError, check_mesh
+
+if TYPE_CHECKING:
+    from .editor import HybridEditor
+    from ..binding.rig import Progress
+
+__all__ = ["replay", "cage_of"]
+
+
+def cage_of(editor: "HybridEditor") -> dict:
+    """``{"size": ..., "vertices": ...}``: the cage an editor works on, as a step records it."""
+    size = editor.rig.cage_size
+    return {"size": size if isinstance(size, int) else float(size), "vertices": int(editor.cage.n_vertices)}
+
+
+def _runs_on(step: Edit, current: "HybridEditor", home: "HybridEditor",
+             editor_for_cage: Callable[[dict], "HybridEditor"] | None, made: dict) -> "HybridEditor":
+    """The editor ``step`` runs on: the one of the cage it records (given by ``editor_for_cage``,
+    kept in ``made``), or ``home`` when it records none, it is home's, or no other is to be had."""
+    if editor_for_cage is None or step.cage is None or step.cage == cage_of(home):
+        return home
+    if step.cage == cage_of(current):
+        return current
+    key = (step.cage["size"], step.cage["vertices"])
+    if key not in made:
+        made[key] = editor_for_cage(step.cage)
+    return made[key]
+
+
+def _plan(step: Edit, frames: int, per: int) -> list[int]:
+    """The ARAP iterations of each drag a step runs: its recorded count (in drags of ``per``, as
+    the window's settle ran them in slices: the split does not change the pose), else ``frames``
+    drags of ``per`` each."""
+    if step.iterations is None:
+        return [per] * frames
+    size = max(per, 1)
+    return [min(size, step.iterations - i) for i in range(0, step.iterations, size)]
+
+
+def replay(editor: "HybridEditor", edit: Edit, *, frames: int = 30, iterations: int | None = None,
+           progress: "Progress | None" = None, path: str | None = None,
+           editor_for_cage: Callable[[dict], "HybridEditor"] | None = None):
+    """Replay ``edit`` on ``editor``, from its current pose (call ``editor.reset()`` first
+    to start from the rest pose, as ``hybridedit deform`` does).
+
+    Parameters
+    ----------
+    editor : HybridEditor
+    edit : Edit
+        Its :attr:`~hybridedit.fileio.editfile.Edit.steps`, oldest first.
+    frames : int
+        Drags run by a step that does not record its iterations (``iterations`` each); 0: the
+        last step's selection is set and nothing of it is run.
+    iterations : int, optional
+        ARAP iterations a drag (default ``editor.iterations``).
+    progress : callable(stage, fraction), optional
+    path : str, optional
+        The edit file's name, for messages.
+    editor_for_cage : callable, optional
+        ``editor_for_cage({"size": s, "vertices": c})`` gives an editor of the same shape on
+        that cage: a step that ran on another cage than ``editor``'s runs there, the pose carried
+        over (:meth:`~hybridedit.HybridEditor.carry_pose`), as the window's rebuild carried it.
+
+    Returns
+    -------
+    (n, 3) float64 array, ``editor``'s deformed shape.
+
+    Raises
+    ------
+    EditFileError
+        The edit was made for another mesh, or a step continues a step that is not there.
+    SelectionError
+        A selection does not fit this mesh.
+
+    Examples
+    --------
+    >>> ed.reset(); replay(ed, he.load_edit("pose.json"))  # doctest: +SKIP
+    """
+    if frames < 0:
+        raise ValueError(f"frames must be >= 0, got {frames}")
+    per = editor.iterations if iterations is None else int(iterations)
+    if per < 0:
+        raise ValueError(f"iterations must be >= 0, got {per}")
+    name = path or "<edit>"
+    check_mesh(edit, editor.mesh, name)
+    say = progress or (lambda stage, fraction: None)
+    steps = edit.steps
+    plans = [_plan(s, frames, per) for s in steps]
+    if frames == 0:
+        plans[-1] = []
+    total = max(sum(map(sum, plans)) + len(plans[-1]) + sum(s.polish or 0 for s in steps), 1)
+    done = 0
+    current, made = editor, {}
+    for k, step in enumerate(steps):
+        last = k == len(steps) - 1
+        target = _runs_on(step, current, editor, editor_for_cage, made)
+        if target is not current:
+            target.carry_pose(current)
+            current = target
+        if step.continues:
+            if current.n_groups != len(step.handles):
+                raise EditFileError(f"{name}: step {k + 1} continues a selection of {len(step.handles)} handle "
+                                    f"groups; the one before has {current.n_groups}")
+            if not current.record.continues or current.record.dragged:  # (a polish has started it already)
+                current.continue_from_pose()
+        else:
+            current.set_selection([h.indices for h in step.handles], fixed=step.fixed, roi=step.roi,
+                                  space=step.space, symmetry=step.symmetry)
+        if last and frames == 0:
+            break
+        Ts = current.edit_transforms(step)
+        for chunk in plans[k]:
+            say("deforming", done / total)
+            current.drag(transforms=Ts, iterations=chunk)
+            done += chunk + 1
+        if step.polish is not None:
+            say("polishing", done / total)
+            current.polish(iterations=step.polish)
+            done += step.polish
+    say("deforming", 1.0)
+    if current is not editor:
+        editor.carry_pose(current)
+    return editor.deformed_vertices

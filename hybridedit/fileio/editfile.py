@@ -1,0 +1,530 @@
+"""The JSON edit file: the steps that make a pose, replayable in batch.
+
+Format (version 3)::
+
+    {
+     "format": "hybridedit-edit", "version": 3,
+     "mesh": {"vertices": 43243, "faces": 86482, "topology": "…", "bbox": [...], "centroid": [...]},
+     "steps": [
+      {"cage": {"size": 0.05, "vertices": 2162},   # optional: the cage the step ran on
+       "space": "shape",
+       "roi": [...],                        # or "fixed": [...]; neither: nothing fixed
+       "symmetry": "x",                     # optional: "x" | "y" | "z" | {"point": [...], "normal": [...]}
+       "handles": [{"indices": [...], "translate": [x, y, z],
+                    "rotate": {"axis": [x, y, z], "degrees": a, "center": [x, y, z]}}, ...],
+       "iterations": 60,                    # optional: ARAP iterations at these transforms
+       "polish": 37},                       # optional: full-resolution polish iterations after them
+      {"continues": true,                   # the selection of the step before, from its polished pose
+       "handles": [{"translate": [...], "rotate": {...}}, ...], "iterations": 60},
+      ...
+     ]
+    }
+
+Each step sets its selection on the pose the steps before it made (the rest pose
+for the first), which is the pose its transforms are measured from: successive
+edits compose, as in the window. ``iterations`` is how many ARAP iterations ran at
+the step's transforms (without it, the replayer's frames times iterations);
+``polish`` how many full-resolution iterations followed (a count, never a time, so
+that a replay gives the same pose on any machine). A step that ``continues`` keeps
+the selection of the step before (the window's next drag after a polish) and gives
+only its groups' transforms.
+
+Versions 1 (top-level ``handle``, ``translate`` and ``rotate``) and 2 (one step's
+keys at the top level, with ``handles``) still load, as one step.
+
+``mesh`` fingerprints the mesh the edit was made on (vertex and face counts, a
+hash of the faces, bounding box and centroid); replaying on another mesh is
+refused. Indices are shape vertex indices, or cage vertex indices with
+``"space": "cage"`` (tied to one cage: prefer shape space).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .atomic import atomic_write
+from ..core.transforms import decompose_rigid, rigid_transform
+
+FORMAT = "hybridedit-edit"
+VERSION = 3
+#: Largest edit file read (bytes): indices of a 10M-vertex mesh fit many times over.
+MAX_BYTES = 512 * 1024 * 1024
+
+
+class EditFileError(ValueError):
+    """An edit file that cannot be used; the message names the file and the problem."""
+
+
+@dataclass
+class HandleEdit:
+    """One handle group: its vertices and its transform.
+
+    Attributes
+    ----------
+    indices : (k,) int64 vertex indices
+    translate : (3,) float64, applied after the rotation
+    rotate : None or {"axis": (3,), "degrees": a, "center": (3,) or None}
+    matrix : None or (4, 4) float64, a general affine transform (instead of the two above)
+    """
+
+    indices: np.ndarray
+    translate: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    rotate: dict | None = None
+    matrix: np.ndarray | None = None
+
+    def transform(self, default_center: np.ndarray | None = None) -> np.ndarray:
+        """The (4, 4) transform: rotation about its center, then translation."""
+        if self.matrix is not None:
+            return np.asarray(self.matrix, dtype=np.float64).copy()
+        if self.rotate is None:
+            return rigid_transform(translate=self.translate)
+        center = self.rotate.get("center")
+        return rigid_transform(translate=self.translate, axis=self.rotate["axis"], degrees=self.rotate["degrees"],
+                               center=default_center if center is None else center)
+
+    @classmethod
+    def from_matrix(cls, indices: np.ndarray, T: np.ndarray, *, center: np.ndarray) -> "HandleEdit":
+        """Describe ``T`` as a rotation about ``center`` then a translation (a general
+        affine ``T`` is kept as a matrix)."""
+        T = np.asarray(T, dtype=np.float64)
+        idx = np.asarray(indices, dtype=np.int64)
+        try:
+            translate, rotate = decompose_rigid(T, center)
+        except ValueError:  # not rigid: kept as it is
+            return cls(idx, matrix=T.copy())
+        return cls(idx, translate=translate, rotate=rotate)
+
+    def to_json(self) -> dict:
+        d: dict = {"indices": [int(i) for i in self.indices]}
+        if self.matrix is not None:
+            d["matrix"] = [[float(x) for x in row] for row in self.matrix]
+            return d
+        d["translate"] = [float(x) for x in self.translate]
+        if self.rotate is not None:
+            r = {"axis": [float(x) for x in self.rotate["axis"]], "degrees": float(self.rotate["degrees"])}
+            if self.rotate.get("center") is not None:
+                r["center"] = [float(x) for x in self.rotate["center"]]
+            d["rotate"] = r
+        return d
+
+
+class Edit:
+    """The steps that make a pose: the last step's selection and handle transforms, and
+    the steps before it (:attr:`before`).
+
+    Parameters
+    ----------
+    handle : (k,) int array, optional
+        The one handle group of a single-handle edit (with ``translate`` and ``rotate``).
+    fixed : (j,) int array or None
+        Vertices that stay.
+    roi : (r,) int array or None
+        Alternatively, everything outside it (and the handles) stays.
+    space : "shape" or "cage", what the indices refer to.
+    translate, rotate : the transform of ``handle`` (see :class:`HandleEdit`).
+    handles : list of HandleEdit, optional
+        Several handle groups (instead of ``handle``).
+    symmetry : None, "x", "y", "z" or {"point": (3,), "normal": (3,)}
+    mesh : dict or None
+        Fingerprint of the mesh the edit was made on (:func:`mesh_fingerprint`).
+    iterations : int or None
+        ARAP iterations run at the transforms (None: as many as the replayer runs by default).
+    polish : int or None
+        Full-resolution polish iterations after them (None: no polish).
+    cage : dict or None
+        ``{"size": int count or float fraction, "vertices": c}``: the cage the step ran on.
+    continues : bool
+        The step keeps the selection of the step before it (its handles' indices are
+        that step's), from the pose that step's polish made.
+    before : sequence of Edit
+        The steps before this one, oldest first (their ``mesh`` and ``before`` are unused).
+    """
+
+    def __init__(self, handle=None, fixed=None, roi=None, space: str = "shape", translate=None, rotate=None, *,
+                 handles: list[HandleEdit] | None = None, symmetry=None, mesh: dict | None = None,
+                 iterations: int | None = None, polish: int | None = None, cage: dict | None = None,
+                 continues: bool = False, before=()) -> None:
+        if handles is None:
+            if handle is None:
+                raise ValueError("an edit needs a handle or handles")
+            handles = [HandleEdit(np.asarray(handle, dtype=np.int64),
+                                  np.zeros(3) if translate is None else np.asarray(translate, dtype=np.float64),
+                                  rotate)]
+        elif handle is not None or translate is not None or rotate is not None:
+            raise ValueError("give handles, or handle with translate/rotate, not both")
+        for name, v in (("iterations", iterations), ("polish", polish)):
+            if v is not None and (not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v < 0):
+                raise ValueError(f"{name} must be a count >= 0 or None, got {v!r}")
+        self.handles = list(handles)
+        self.fixed = None if fixed is None else np.asarray(fixed, dtype=np.int64)
+        self.roi = None if roi is None else np.asarray(roi, dtype=np.int64)
+        self.space = space
+        self.symmetry = symmetry
+        self.mesh = mesh
+        self.iterations = None if iterations is None else int(iterations)
+        self.polish = None if polish is None else int(polish)
+        self.cage = cage
+        self.continues = bool(continues)
+        self.before = tuple(before)
+
+    @property
+    def steps(self) -> list["Edit"]:
+        """Every step, oldest first: :attr:`before`, then this one."""
+        return [*self.before, self]
+
+    # the single-handle view of version 1
+    @property
+    def handle(self) -> np.ndarray:
+        """Vertices of handle group 0."""
+        return self.handles[0].indices
+
+    @property
+    def translate(self) -> np.ndarray:
+        return self.handles[0].translate
+
+    @property
+    def rotate(self) -> dict | None:
+        return self.handles[0].rotate
+
+    def transform(self, default_center: np.ndarray | None = None) -> np.ndarray:
+        """The (4, 4) transform of handle group 0."""
+        return self.handles[0].transform(default_center)
+
+    def _step_json(self) -> dict:
+        d: dict = {}
+        if self.cage is not None:
+            d["cage"] = dict(self.cage)
+        if self.continues:
+            d["continues"] = True
+            d["handles"] = [{k: v for k, v in h.to_json().items() if k != "indices"} for h in self.handles]
+        else:
+            d["space"] = self.space
+            if self.fixed is not None:
+                d["fixed"] = [int(i) for i in self.fixed]
+            if self.roi is not None:
+                d["roi"] = [int(i) for i in self.roi]
+            if self.symmetry is not None:
+                d["symmetry"] = _symmetry_json(self.symmetry)
+            d["handles"] = [h.to_json() for h in self.handles]
+        if self.iterations is not None:
+            d["iterations"] = self.iterations
+        if self.polish is not None:
+            d["polish"] = self.polish
+        return d
+
+    def to_json(self) -> dict:
+        d: dict = {"format": FORMAT, "version": VERSION}
+        if self.mesh is not None:
+            d["mesh"] = self.mesh
+        d["steps"] = [step._step_json() for step in self.steps]
+        return d
+
+
+def _symmetry_json(s):
+    """A symmetry as JSON: an axis name, or {"point": [...], "normal": [...]} for a (point, normal) pair."""
+    if isinstance(s, (tuple, list)) and len(s) == 2:
+        return {"point": [float(x) for x in s[0]], "normal": [float(x) for x in s[1]]}
+    return s
+
+
+def mesh_fingerprint(mesh) -> dict:
+    """Vertex and face counts, a hash of the faces, bounding box and centroid of ``mesh``."""
+    v = np.asarray(mesh.vertices, dtype=np.float64)
+    f = np.ascontiguousarray(mesh.faces, dtype="<i8")
+    return {
+        "vertices": int(len(v)),
+        "faces": int(len(f)),
+        "topology": hashlib.sha256(f.tobytes()).hexdigest()[:16],
+        "bbox": [float(x) for x in np.concatenate([v.min(axis=0), v.max(axis=0)])] if len(v) else [],
+        "centroid": [float(x) for x in v.mean(axis=0)] if len(v) else [],
+    }
+
+
+#: Fingerprints agree when bounding box and centroid match to this fraction of the diagonal.
+FINGERPRINT_TOLERANCE = 1e-5
+
+
+def check_mesh(edit: Edit, mesh, path: str) -> None:
+    """Refuse (EditFileError naming ``path``) an edit made for another mesh."""
+    fp = edit.mesh
+    if fp is None:
+        return
+    here = mesh_fingerprint(mesh)
+    if (fp.get("vertices"), fp.get("faces")) != (here["vertices"], here["faces"]):
+        raise EditFileError(
+            f"{path}: made for a mesh of {fp.get('vertices'):,} vertices and {fp.get('faces'):,} faces; "
+            f"this one has {here['vertices']:,} and {here['faces']:,}: refused")
+    if fp.get("topology") != here["topology"]:
+        raise EditFileError(f"{path}: made for another mesh (same size, different faces): refused")
+    try:
+        a = np.asarray(fp.get("bbox", []) + fp.get("centroid", []), dtype=np.float64)
+    except (TypeError, ValueError):
+        raise EditFileError(f"{path}: \"mesh\" fingerprint is malformed") from None
+    b = np.asarray(here["bbox"] + here["centroid"])
+    diag = float(np.linalg.norm(b[3:6] - b[:3])) or 1.0
+    if a.shape != b.shape or not np.all(np.abs(a - b) <= FINGERPRINT_TOLERANCE * diag):
+        raise EditFileError(f"{path}: made for another mesh (same faces, vertices elsewhere): refused")
+
+
+_KEYS_V1 = {"handle", "fixed", "roi", "space", "translate", "rotate"}
+_KEYS_V2 = {"format", "version", "mesh", "space", "fixed", "roi", "symmetry", "handles"}
+_KEYS_V3 = {"format", "version", "mesh", "steps"}
+_STEP_KEYS = {"cage", "space", "fixed", "roi", "symmetry", "handles", "iterations", "polish", "continues"}
+_HANDLE_KEYS = {"indices", "translate", "rotate", "matrix"}
+#: Most steps an edit file may hold (each is a selection and a solve to replay).
+MAX_STEPS = 10000
+
+
+def _is_number(x) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+
+
+def _indices(path: str, key: str, value) -> np.ndarray:
+    if not isinstance(value, list) or not all(isinstance(i, int) and not isinstance(i, bool) for i in value):
+        raise EditFileError(f"{path}: \"{key}\" must be a list of integer vertex indices")
+    if any(i < 0 for i in value):
+        raise EditFileError(f"{path}: \"{key}\" has negative vertex indices")
+    big = next((i for i in value if i >= 2 ** 62), None)
+    if big is not None:
+        raise EditFileError(f"{path}: \"{key}\" has a vertex index far beyond any mesh ({big:.3g})")
+    return np.asarray(value, dtype=np.int64)
+
+
+def _vector(path: str, key: str, value) -> np.ndarray:
+    if not (isinstance(value, list) and len(value) == 3 and all(_is_number(x) for x in value)):
+        raise EditFileError(f"{path}: \"{key}\" must be a list of 3 finite numbers")
+    return np.asarray(value, dtype=np.float64)
+
+
+def _rotate(path: str, key: str, r) -> dict:
+    if not isinstance(r, dict) or "axis" not in r or "degrees" not in r:
+        raise EditFileError(f"{path}: \"{key}\" must be {{\"axis\": [x,y,z], \"degrees\": a, \"center\": [x,y,z]}}")
+    extra = set(r) - {"axis", "degrees", "center"}
+    if extra:
+        raise EditFileError(f"{path}: unknown keys in \"{key}\": {sorted(extra)}")
+    axis = _vector(path, f"{key}.axis", r["axis"])
+    if not np.any(axis):
+        raise EditFileError(f"{path}: \"{key}.axis\" must not be zero")
+    if not _is_number(r["degrees"]):
+        raise EditFileError(f"{path}: \"{key}.degrees\" must be a finite number")
+    center = _vector(path, f"{key}.center", r["center"]) if r.get("center") is not None else None
+    return {"axis": axis, "degrees": float(r["degrees"]), "center": center}
+
+
+def _handle(path: str, k: int, h, inherited: np.ndarray | None = None, prefix: str = "") -> HandleEdit:
+    """Handle group ``k``; with ``inherited`` (a step that continues the one before) its indices are
+    those and the group gives none."""
+    key = f"{prefix}handles[{k}]"
+    if not isinstance(h, dict):
+        raise EditFileError(f"{path}: \"{key}\" must be an object with \"indices\"")
+    extra = set(h) - _HANDLE_KEYS
+    if extra:
+        raise EditFileError(f"{path}: unknown keys in \"{key}\": {sorted(extra)}; allowed: {sorted(_HANDLE_KEYS)}")
+    if inherited is not None:
+        if "indices" in h:
+            raise EditFileError(f"{path}: \"{key}\" gives \"indices\" in a step that continues the one before "
+                                "(it keeps that step's selection)")
+        idx = inherited
+    elif "indices" not in h:
+        raise EditFileError(f"{path}: \"{key}\" has no \"indices\"")
+    else:
+        idx = _indices(path, f"{key}.indices", h["indices"])
+    if idx.size == 0:
+        raise EditFileError(f"{path}: \"{key}.indices\" is empty")
+    if "matrix" in h:
+        if "translate" in h or "rotate" in h:
+            raise EditFileError(f"{path}: \"{key}\": give \"matrix\", or \"translate\"/\"rotate\", not both")
+        m = h["matrix"]
+        ok = isinstance(m, list) and len(m) == 4 and all(
+            isinstance(row, list) and len(row) == 4 and all(_is_number(x) for x in row) for row in m)
+        if not ok or not np.allclose(np.asarray(m, dtype=np.float64)[3], [0, 0, 0, 1]):
+            raise EditFileError(f"{path}: \"{key}.matrix\" must be a 4x4 affine matrix (last row 0 0 0 1)")
+        return HandleEdit(idx, matrix=np.asarray(m, dtype=np.float64))
+    t = _vector(path, f"{key}.translate", h["translate"]) if "translate" in h else np.zeros(3)
+    r = _rotate(path, f"{key}.rotate", h["rotate"]) if "rotate" in h else None
+    return HandleEdit(idx, t, r)
+
+
+def _symmetry(path: str, s):
+    if s is None or s in ("x", "y", "z"):
+        return s
+    if isinstance(s, dict) and set(s) == {"point", "normal"}:
+        p, n = _vector(path, "symmetry.point", s["point"]), _vector(path, "symmetry.normal", s["normal"])
+        if not np.any(n):
+            raise EditFileError(f"{path}: \"symmetry.normal\" must not be zero")
+        return (p, n)
+    raise EditFileError(f"{path}: \"symmetry\" must be \"x\", \"y\", \"z\" or {{\"point\": [...], \"normal\": [...]}}")
+
+
+def _mesh(path: str, m) -> dict:
+    ok = isinstance(m, dict) and all(isinstance(m.get(k), int) and not isinstance(m.get(k), bool)
+                                     for k in ("vertices", "faces")) and isinstance(m.get("topology"), str)
+    if not ok:
+        raise EditFileError(f"{path}: \"mesh\" must hold \"vertices\", \"faces\" and \"topology\" of the mesh")
+    for k in ("bbox", "centroid"):
+        if not (isinstance(m.get(k, []), list) and all(_is_number(x) for x in m.get(k, []))):
+            raise EditFileError(f"{path}: \"mesh.{k}\" must be a list of numbers")
+    return m
+
+
+def _count(path: str, key: str, value) -> int:
+    if not isinstance(value, int) or isinstance(value, bool) or value < 0 or value > 10 ** 9:
+        raise EditFileError(f"{path}: \"{key}\" must be a whole number of iterations (0 to 10^9), got {value!r}")
+    return int(value)
+
+
+def _cage(path: str, key: str, c) -> dict:
+    ok = isinstance(c, dict) and set(c) == {"size", "vertices"} and isinstance(c["vertices"], int) \
+        and not isinstance(c["vertices"], bool) and c["vertices"] >= 4 and _is_number(c["size"]) and c["size"] > 0
+    if not ok:
+        raise EditFileError(f"{path}: \"{key}\" must be {{\"size\": count or fraction, \"vertices\": count}}")
+    size = c["size"]
+    return {"size": size if isinstance(size, int) else float(size), "vertices": int(c["vertices"])}
+
+
+def _selection(path: str, data: dict, prefix: str = "") -> dict:
+    """The selection keys of a step (version 2's top level): fixed or roi, space, symmetry."""
+    if "fixed" in data and "roi" in data:
+        raise EditFileError(f"{path}: {prefix}give \"fixed\" or \"roi\", not both")
+    space = data.get("space", "shape")
+    if space not in ("shape", "cage"):
+        raise EditFileError(f"{path}: {prefix}\"space\" must be \"shape\" or \"cage\", got {space!r}")
+    return {"fixed": _indices(path, f"{prefix}fixed", data["fixed"]) if "fixed" in data else None,
+            "roi": _indices(path, f"{prefix}roi", data["roi"]) if "roi" in data else None,
+            "space": space, "symmetry": _symmetry(path, data.get("symmetry"))}
+
+
+def _step(path: str, k: int, d, previous: Edit | None) -> Edit:
+    """Step ``k`` of a version 3 file (``previous``: the step before it, or None)."""
+    where = f"steps[{k}]."
+    if not isinstance(d, dict):
+        raise EditFileError(f"{path}: \"steps[{k}]\" must be an object (a selection and its handles)")
+    unknown = set(d) - _STEP_KEYS
+    if unknown:
+        raise EditFileError(f"{path}: unknown keys in \"steps[{k}]\": {sorted(unknown)}; allowed: {sorted(_STEP_KEYS)}")
+    continues = d.get("continues", False)
+    if not isinstance(continues, bool):
+        raise EditFileError(f"{path}: \"{where}continues\" must be true or false")
+    hs = d.get("handles")
+    if not isinstance(hs, list) or not hs:
+        raise EditFileError(f"{path}: \"{where}handles\" must be a non-empty list of handle groups")
+    extra = {"iterations": _count(path, where + "iterations", d["iterations"]) if "iterations" in d else None,
+             "polish": _count(path, where + "polish", d["polish"]) if "polish" in d else None,
+             "cage": _cage(path, where + "cage", d["cage"]) if "cage" in d else None}
+    if continues:
+        if previous is None:
+            raise EditFileError(f"{path}: \"steps[0]\" cannot continue a step before it: there is none")
+        given = sorted({"space", "fixed", "roi", "symmetry"} & set(d))
+        if given:
+            raise EditFileError(f"{path}: \"steps[{k}]\" continues the step before (its selection) and gives "
+                                f"{given}: give either")
+        if len(hs) != len(previous.handles):
+            raise EditFileError(f"{path}: \"{where}handles\" has {len(hs)} groups; the step it continues has "
+                                f"{len(previous.handles)}")
+        handles = [_handle(path, g, h, previous.handles[g].indices, where) for g, h in enumerate(hs)]
+        return Edit(handles=handles, fixed=previous.fixed, roi=previous.roi, space=previous.space,
+                    symmetry=previous.symmetry, continues=True, **extra)
+    handles = [_handle(path, g, h, None, where) for g, h in enumerate(hs)]
+    return Edit(handles=handles, **_selection(path, d, where), **extra)
+
+
+def parse_edit(data: object, path: str = "<edit>") -> Edit:
+    """Validate decoded JSON (any version) and build an :class:`Edit`."""
+    if not isinstance(data, dict):
+        raise EditFileError(f"{path}: the edit must be a JSON object")
+    if "steps" in data or data.get("version") == 3:
+        return _parse_v3(data, path)
+    v2 = "handles" in data or "format" in data
+    allowed = _KEYS_V2 if v2 else _KEYS_V1
+    unknown = set(data) - allowed
+    if unknown:
+        raise EditFileError(f"{path}: unknown keys {sorted(unknown)}; allowed: {sorted(allowed)}")
+    if v2:
+        _check_header(data, path)
+        if "handles" not in data:
+            raise EditFileError(f"{path}: missing \"handles\" (a list of handle groups)")
+    elif "handle" not in data:
+        raise EditFileError(f"{path}: missing \"handle\" (a list of vertex indices)")
+    sel = _selection(path, data)
+    if v2:
+        hs = data["handles"]
+        if not isinstance(hs, list) or not hs:
+            raise EditFileError(f"{path}: \"handles\" must be a non-empty list of handle groups")
+        handles = [_handle(path, k, h) for k, h in enumerate(hs)]
+        return Edit(handles=handles, mesh=_mesh(path, data["mesh"]) if "mesh" in data else None, **sel)
+    handle = _indices(path, "handle", data["handle"])
+    if handle.size == 0:
+        raise EditFileError(f"{path}: \"handle\" is empty")
+    translate = _vector(path, "translate", data["translate"]) if "translate" in data else np.zeros(3)
+    rotate = _rotate(path, "rotate", data["rotate"]) if "rotate" in data else None
+    sel.pop("symmetry")
+    return Edit(handle=handle, translate=translate, rotate=rotate, **sel)
+
+
+def _check_header(data: dict, path: str) -> None:
+    if data.get("format", FORMAT) != FORMAT:
+        raise EditFileError(f"{path}: \"format\" must be \"{FORMAT}\"")
+    ver = data.get("version", VERSION)
+    if not isinstance(ver, int) or isinstance(ver, bool) or ver > VERSION or ver < 1:
+        raise EditFileError(f"{path}: edit file version {ver!r} is not one this hybridedit reads (1 to {VERSION})")
+
+
+def _parse_v3(data: dict, path: str) -> Edit:
+    unknown = set(data) - _KEYS_V3
+    if unknown:
+        raise EditFileError(f"{path}: unknown keys {sorted(unknown)}; allowed in version 3: {sorted(_KEYS_V3)}")
+    _check_header(data, path)
+    if data.get("version", VERSION) != 3:
+        raise EditFileError(f"{path}: \"steps\" is a version 3 key; this file says version {data.get('version')}")
+    raw = data.get("steps")
+    if not isinstance(raw, list) or not raw:
+        raise EditFileError(f"{path}: \"steps\" must be a non-empty list of steps")
+    if len(raw) > MAX_STEPS:
+        raise EditFileError(f"{path}: {len(raw):,} steps; more than {MAX_STEPS:,} is refused")
+    steps: list[Edit] = []
+    for k, d in enumerate(raw):
+        steps.append(_step(path, k, d, steps[-1] if steps else None))
+    last = steps[-1]
+    last.before = tuple(steps[:-1])
+    last.mesh = _mesh(path, data["mesh"]) if "mesh" in data else None
+    return last
+
+
+def load_edit(path: str | Path) -> Edit:
+    """Read an edit file; raises :class:`EditFileError` naming the file on any problem."""
+    p = Path(path)
+    try:
+        if p.is_file() and p.stat().st_size > MAX_BYTES:
+            raise EditFileError(f"{p}: the edit file is {p.stat().st_size / 2**20:.0f} MB; "
+                                f"more than {MAX_BYTES // 2**20} MB is refused")
+        text = p.read_text(encoding="utf-8-sig")  # a byte-order mark is text, not an error
+    except FileNotFoundError:
+        raise EditFileError(f"{p}: no such edit file") from None
+    except IsADirectoryError:
+        raise EditFileError(f"{p}: is a folder, not an edit file") from None
+    except UnicodeDecodeError as e:
+        raise EditFileError(f"{p}: not UTF-8 text (byte {e.start}): not an edit file") from None
+    except OSError as e:
+        raise EditFileError(f"{p}: cannot read the edit file ({e.strerror or e})") from None
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as e:
+        raise EditFileError(f"{p}: not valid JSON (line {e.lineno}, column {e.colno}: {e.msg})") from None
+    except RecursionError:
+        raise EditFileError(f"{p}: JSON nested too deeply to be an edit file") from None
+    except ValueError as e:  # e.g. an integer with more digits than Python reads
+        raise EditFileError(f"{p}: not a usable JSON file ({' '.join(str(e).split())})") from None
+    return parse_edit(data, str(p))
+
+
+def save_edit(path: str | Path, edit: Edit) -> None:
+    """Write an edit file atomically."""
+    with atomic_write(Path(path), "w") as fh:
+        json.dump(edit.to_json(), fh, indent=1)
+        fh.write("\n")

@@ -1,0 +1,640 @@
+"""OBJ: every line that is not a position or a normal passes through unchanged.
+
+No library round-trips OBJ exactly, so this reader/writer is ours. Reading keeps
+the file's lines; writing gives them back in order with each moved vertex's
+``v`` line rewritten with the file's own precision (its colour or ``w`` kept; see
+:class:`~hybridedit.fileio.formats.common.TextPrecision`) and each ``vn`` that a moved
+vertex touches recomputed from the deformed surface, grouped as the faces
+reference it (a normal shared by all corners of a vertex stays smooth; corner
+normals split at hard edges stay split; a ``vn`` an exporter shared between
+vertices gets a new line where their normals now differ, and only then are
+those faces' normal indices changed). Faces with their corner counts and
+``v/vt/vn`` indices, ``vt``, ``mtllib``, ``usemtl``, ``o``, ``g``, ``s``,
+comments and every other statement are kept byte for byte.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from collections import Counter
+from operator import itemgetter
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..document import Document, Material, Texturing, grouped_normals, moved_vertices, vertex_normals
+from .common import TextPrecision, _Bad, _indented, _sample_rows, _shortest_rows, _mesh, _fan, _format_rows, _numbers, _snippet, _token_count, _widths, _words
+from .reporting import report, span
+
+_MARK = int(np.iinfo(np.int64).max)  # stands in for each line's "f" while parsing indices
+
+
+
+_V, _VN, _F, _COMMENT, _BLANK, _OTHER = range(6)
+
+
+def _line_kinds(lines: list[bytes]) -> np.ndarray:
+    """The kind of each line (``_V``, ``_VN``, ``_F``, ``_COMMENT``, ``_BLANK`` or ``_OTHER``),
+    (k,) int8, from its first three bytes in one pass (lines start with their statement: the
+    caller strips indented ones)."""
+    head = np.array([line[:3] for line in lines], dtype="S3").view(np.uint8).reshape(-1, 3)
+    ws1 = (head[:, 1] == 32) | (head[:, 1] == 9)
+    ws2 = (head[:, 2] == 32) | (head[:, 2] == 9)
+    kinds = np.full(len(lines), _OTHER, dtype=np.int8)
+    kinds[head[:, 0] == 0] = _BLANK  # an empty line (a NUL byte is refused before)
+    kinds[head[:, 0] == ord("#")] = _COMMENT
+    v = head[:, 0] == ord("v")
+    kinds[v & ws1] = _V
+    kinds[v & (head[:, 1] == ord("n")) & ws2] = _VN
+    kinds[(head[:, 0] == ord("f")) & ws1] = _F
+    return kinds
+
+
+def _pick(lines: list[bytes], rows: np.ndarray) -> list[bytes]:
+    """``[lines[i] for i in rows]``, at C speed."""
+    if len(rows) == 0:
+        return []
+    if len(rows) == 1:
+        return [lines[int(rows[0])]]
+    return list(itemgetter(*rows.tolist())(lines))
+
+
+def _obj_vertices(vlines: list[bytes], line_at: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    """x y z of every "v" line (``vlines``, at 0-based line numbers ``line_at``), (n, 3) float64, and
+    the colours when every line has ``v x y z r g b`` ((n, 3) float64, else None); a ``w`` column
+    is ignored."""
+    widths = _widths(vlines) - 1
+    if widths.size and widths.min() < 3:
+        k = int(np.argmax(widths < 3))
+        raise _Bad(f"line {line_at[k] + 1}: vertex has "
+                   f"{int(widths[k])} coordinates, expected 3 ('{_snippet(vlines[k])}')")
+    if not vlines:
+        return np.zeros((0, 3)), None
+    if widths.min() == widths.max():
+        w = int(widths[0])
+        vals = _numbers(b"\n".join([line[1:] for line in vlines]), np.float64, w * len(vlines))
+        if vals is not None:
+            table = vals.reshape(-1, w)
+            colors = np.ascontiguousarray(table[:, 3:6]) if w == 6 else None
+            return np.ascontiguousarray(table[:, :3]), colors
+    rows = [line.split()[1:4] for line in vlines]
+    try:
+        return np.array(rows).astype(np.float64), None
+    except ValueError:
+        for k, row in enumerate(rows):
+            try:
+                [float(t) for t in row]
+            except ValueError:
+                raise _Bad(f"line {line_at[k] + 1}: cannot read "
+                           f"vertex coordinates '{_snippet(vlines[k])}'") from None
+        raise
+
+
+def _obj_corners(flines: list[bytes], line_at: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Corner count of each "f" line (``flines``, at 0-based line numbers ``line_at``), (p,) int64,
+    and its vertex indices as written (1-based or negative), (sum of counts,) int64; "/t/n" parts
+    are dropped."""
+    joined = b"\n".join(flines)
+    if b"/" in joined:
+        joined = re.sub(rb"/\S*", b"", joined)
+    marked = (b"\n" + joined).replace(b"\nf", b"\n" + str(_MARK).encode())
+    vals = _numbers(marked, np.int64, _token_count(marked))
+    if vals is not None:
+        is_mark = vals == _MARK
+        starts = np.flatnonzero(is_mark)
+        if len(starts) == len(flines):
+            counts = np.diff(np.append(starts, len(vals))) - 1
+            return counts, vals[~is_mark]
+    # slow path, which can name the line that is wrong
+    rows = [line.split()[1:] for line in joined.split(b"\n")] if flines else []
+    counts = _widths([b" ".join(r) for r in rows])
+    flat = [t for r in rows for t in r]
+    try:
+        return counts, (np.array(flat) if flat else np.zeros(0, "S1")).astype(np.int64)
+    except ValueError:
+        for k, row in enumerate(rows):
+            try:
+                [int(t) for t in row]
+            except ValueError:
+                raise _Bad(f"line {line_at[k] + 1}: cannot read "
+                           f"face indices '{_snippet(flines[k])}'") from None
+        raise
+
+
+
+def _resolve(idx: np.ndarray, counts: np.ndarray, before: np.ndarray, f_rows: np.ndarray,
+             what: str) -> np.ndarray:
+    """1-based absolute indices from OBJ's 1-based or negative (relative) ones.
+
+    ``before`` is, for each face line (at 0-based line numbers ``f_rows``), how many ``what``
+    records precede it.
+    """
+    face_of = np.repeat(np.arange(len(counts)), counts)
+    if (idx == 0).any():
+        k = int(face_of[int(np.argmax(idx == 0))])
+        raise _Bad(f"line {f_rows[k] + 1}: face index 0 is "
+                   "invalid (OBJ indices start at 1)")
+    base = np.repeat(np.asarray(before, dtype=np.int64), counts)
+    neg = idx < 0
+    resolved = np.where(neg, base + idx + 1, idx)
+    wrong = neg & (resolved < 1)
+    if wrong.any():
+        at = int(np.argmax(wrong))
+        k = int(face_of[at])
+        raise _Bad(f"line {f_rows[k] + 1}: face index "
+                   f"{int(idx[at])} out of range (only {_words(int(base[at]), what)} "
+                   "defined before this line)")
+    return resolved
+
+
+def _defined_before(kinds: np.ndarray, kind: int, f_rows: np.ndarray) -> np.ndarray:
+    """For each face line (at ``f_rows``), how many lines of ``kind`` come before it, (p,) int64."""
+    return np.cumsum(kinds == kind)[f_rows]
+
+
+def _corner_normal_refs(flines: list[bytes], n_corners: int) -> np.ndarray:
+    """The ``vn`` index as written (1-based or negative; 0 for none) of every corner of the
+    face lines ``flines``."""
+    refs: list[int] = []
+    for line in flines:
+        for tok in line.split()[1:]:
+            parts = tok.split(b"/")
+            refs.append(int(parts[2]) if len(parts) > 2 and parts[2] else 0)
+    out = np.asarray(refs, dtype=np.int64)
+    if len(out) != n_corners:  # cannot happen after _obj_corners succeeded
+        raise _Bad("cannot read the face normal indices")
+    return out
+
+
+_EXTRA_NAMES = {
+    b"vt": "texture coordinates", b"mtllib": "material libraries", b"usemtl": "material references",
+    b"o": "object names", b"g": "group names", b"s": "smoothing groups",
+    b"l": "line elements", b"p": "point elements",
+}
+
+
+@dataclass(eq=False)
+class ObjNative:
+    """What :func:`write` needs to give an OBJ file back (see the module docstring)."""
+
+    lines: list[bytes]  # the file's lines without line ends (continuations joined)
+    newline: bytes
+    final_newline: bool
+    v_lines: np.ndarray  # (n,) line of each vertex
+    vn_lines: np.ndarray  # (k,) line of each normal
+    rest: np.ndarray  # (n, 3) positions as read
+    corner_vn: np.ndarray | None  # (sum of counts,) 0-based normal of each face corner, -1 none
+    counts: np.ndarray  # (p,) corners of each face
+    f_lines: np.ndarray  # (p,) line of each face
+    vn_relative: bool  # some face refers to its normals by negative (relative) indices
+
+
+def read(data: bytes, path: str | None = None) -> Document:
+    """Parse an OBJ file into a :class:`Document` (raises _Bad for a bad file); its texture
+    coordinates and materials are read only when asked for (:meth:`Document.textures`)."""
+    if b"\0" in data:
+        raise _Bad("not a text OBJ file (it contains binary data)")
+    if b"\\" in data:  # line continuations
+        data = re.sub(rb"\\[ \t]*(\r\n|\n|\r)", b" ", data)
+    original = data.splitlines()
+    lines = original
+    if _indented(data):
+        lines = [line.lstrip() for line in lines]  # some lines are indented
+    kinds = _line_kinds(lines)
+    v_lines = np.flatnonzero(kinds == _V)
+    vn_lines = np.flatnonzero(kinds == _VN)
+    f_lines = np.flatnonzero(kinds == _F)
+    # progress between the passes, by their shares of the time (a 2.7M-vertex file)
+    report(0.2)
+    vertices, colors = _obj_vertices(_pick(lines, v_lines), v_lines)
+    report(0.5)
+    nv = len(vertices)
+    flines = _pick(lines, f_lines)
+    counts, idx = _obj_corners(flines, f_lines)
+    report(0.85)
+    if counts.size and counts.min() < 3:
+        k = int(np.argmax(counts < 3))
+        raise _Bad(f"line {f_lines[k] + 1}: face has "
+                   f"{_words(int(counts[k]), 'vertex')}, need at least 3")
+    if idx.size and idx.min() <= 0:
+        idx = _resolve(idx, counts, _defined_before(kinds, _V, f_lines), f_lines, "vertex")
+    if idx.size and idx.max() > nv:
+        at = int(np.argmax(idx > nv))
+        k = int(np.repeat(np.arange(len(counts)), counts)[at])
+        raise _Bad(f"line {f_lines[k] + 1}: face index {int(idx[at])} "
+                   f"out of range (file has {_words(nv, 'vertex')})")
+    flat = idx - 1
+
+    corner_vn = None
+    vn_relative = False
+    if len(vn_lines):
+        refs = _corner_normal_refs(flines, len(flat))
+        vn_relative = bool(refs.min() < 0)
+        if vn_relative:
+            rel = refs < 0
+            resolved = _resolve(np.where(rel, refs, 1), counts,
+                                _defined_before(kinds, _VN, f_lines), f_lines, "normal")
+            refs = np.where(rel, resolved, refs)
+        if refs.max() > len(vn_lines):
+            raise _Bad(f"a face refers to normal {int(refs.max())} but the file has "
+                       f"{len(vn_lines)}")
+        corner_vn = refs - 1  # -1: no normal
+    counter = Counter(line.split(None, 1)[0] for line in _pick(lines, np.flatnonzero(kinds == _OTHER))
+                      if line.strip())
+    extras: dict[str, int] = {}
+    for head, count in counter.items():
+        name = _EXTRA_NAMES.get(head, "other statements")
+        extras[name] = extras.get(name, 0) + count
+    newline = b"\r\n" if b"\r\n" in data[:65536] else (b"\r" if b"\r" in data[:65536] and
+                                                        b"\n" not in data[:65536] else b"\n")
+    native = ObjNative(lines=original, newline=newline, final_newline=data[-1:] in (b"\n", b"\r"),
+                       v_lines=v_lines, vn_lines=vn_lines, rest=vertices, corner_vn=corner_vn,
+                       counts=counts, f_lines=f_lines, vn_relative=vn_relative)
+    rgba = None
+    if colors is not None:
+        rgba = np.column_stack([colors, np.ones(nv)])
+    mesh = _mesh(vertices, _fan(counts, flat))
+    polygons = None if (counts.size and np.all(counts == 3)) else (counts, flat)
+    texturing = None
+    if "texture coordinates" in extras or "material references" in extras:
+        folder = Path(path).parent if path else None
+        texturing = lambda: read_texturing(native, folder)  # noqa: E731 -- read on demand
+    return Document(mesh=mesh, format="obj", native=native, polygons=polygons, colors=rgba,
+                    normals=bool(len(vn_lines)), extras=extras, texturing=texturing)
+
+
+def read_texturing(nat: ObjNative, folder: Path | None) -> Texturing | None:
+    """The ``vt`` coordinates of every face corner, and each face's material (``usemtl``, with
+    ``Kd``, ``d`` and the ``map_Kd`` image of the ``mtllib`` libraries found in ``folder``)."""
+    heads = [(i, line.lstrip()) for i, line in enumerate(nat.lines) if line.lstrip()[:2] in (b"vt", b"us", b"mt")]
+    vt = [(i, w) for i, w in ((i, line.split()) for i, line in heads) if w and w[0] == b"vt"]
+    use = [(i, w) for i, w in ((i, line.split()) for i, line in heads) if w and w[0] == b"usemtl"]
+    libs = [w for _, line in heads for w in [line.split()] if w and w[0] == b"mtllib"]
+    uv = corner_uv = None
+    if vt:
+        uv = np.array([[float(x) for x in (w[1:3] + [b"0"])[:2]] for _, w in vt])
+        refs = []
+        for line in _pick(nat.lines, nat.f_lines):
+            for tok in line.split()[1:]:
+                parts = tok.split(b"/")
+                refs.append(int(parts[1]) if len(parts) > 1 and parts[1] else 0)
+        corner = np.asarray(refs, dtype=np.int64)
+        if corner.size and corner.min() < 0:
+            before = np.searchsorted(np.array([i for i, _ in vt]), nat.f_lines)
+            corner = np.where(corner < 0, np.repeat(before, nat.counts) + corner + 1, corner)
+        corner_uv = np.where((corner >= 1) & (corner <= len(uv)), corner - 1, -1)
+    library = {}
+    for words in libs:
+        for name in words[1:]:
+            library.update(_read_mtl(folder / name.decode("utf-8", "replace")) if folder is not None else {})
+    materials: list[Material] = []
+    face_material = None
+    if use:
+        names = [(b" ".join(w[1:])).decode("utf-8", "replace") for _, w in use]
+        order = list(dict.fromkeys(names))
+        materials = [library.get(name) or Material(name) for name in order]
+        which = np.array([order.index(name) for name in names] + [-1])
+        at = np.searchsorted(np.array([i for i, _ in use]), nat.f_lines) - 1
+        face_material = which[at]  # -1 (the last entry) before the first usemtl
+    if uv is None and not materials:
+        return None
+    return Texturing(uv=uv, corner_uv=corner_uv, materials=materials, face_material=face_material)
+
+
+def _read_mtl(path: Path) -> dict[str, Material]:
+    """The materials of a ``.mtl`` file by name ({} if it cannot be read)."""
+    try:
+        text = path.read_text(encoding="utf-8", errors="replace")
+    except OSError:
+        return {}
+    out: dict[str, Material] = {}
+    current = None
+    for line in text.splitlines():
+        words = line.split()
+        if not words:
+            continue
+        key = words[0].lower()
+        if key == "newmtl":
+            current = out.setdefault(" ".join(words[1:]), Material(" ".join(words[1:])))
+        elif current is None:
+            continue
+        elif key == "kd" and len(words) >= 4:
+            current.color = (*[float(x) for x in words[1:4]], current.color[3])
+        elif key in ("d", "tr") and len(words) >= 2:
+            alpha = float(words[1]) if key == "d" else 1.0 - float(words[1])
+            current.color = (*current.color[:3], alpha)
+        elif key == "map_kd" and len(words) >= 2:
+            image = path.parent / words[-1].replace("\\", "/")
+            if image.is_file():
+                current.image, current.image_name = image.read_bytes(), image.name
+    return out
+
+
+def _normal_line(n: np.ndarray) -> bytes:
+    return b"vn %.7g %.7g %.7g" % tuple(n.tolist())
+
+
+def write(doc: Document) -> bytes:
+    """The OBJ text of ``doc``: its own lines with new positions, or a plain OBJ."""
+    nat = doc.native
+    if not isinstance(nat, ObjNative):
+        return _plain(doc)  # a bare mesh (write_converted for a document from another format)
+    V = doc.mesh.vertices
+    moved = moved_vertices(nat.rest, V)
+    out = list(nat.lines)
+    rows = np.flatnonzero(moved)
+    # progress: the moved vertices' lines, their normals, then joining the text (shares at 2.7M)
+    with span(0.0, 0.6):
+        style = precision(nat) if len(rows) else None
+        for start in range(0, len(rows), _ROWS_PER_REPORT):
+            for i in rows[start:start + _ROWS_PER_REPORT].tolist():
+                li = nat.v_lines[i]
+                tail = out[li].split()[4:]
+                out[li] = b" ".join([b"v", *map(style.text, V[i].tolist()), *tail])
+            report((start + _ROWS_PER_REPORT) / len(rows))
+    if nat.corner_vn is not None and moved.any():
+        _write_normals(doc, nat, V, moved, out)
+    report(0.7)
+    text = nat.newline.join(out)
+    report(1.0)
+    return text + nat.newline if nat.final_newline else text
+
+
+def precision(nat: ObjNative) -> TextPrecision:
+    """How the file writes its ``v`` coordinates (from up to 2,000 of its lines spread over it)."""
+    lines = _pick(nat.lines, nat.v_lines[_sample_rows(len(nat.v_lines))])
+    return TextPrecision.of([t for line in lines for t in line.split()[1:4]])
+
+
+#: moved vertex lines rewritten between two progress reports
+_ROWS_PER_REPORT = 1 << 16
+
+
+#: A recomputed normal closer than this (radians) to its line's keeps the line.
+_SAME_NORMAL = 1e-6
+
+
+def _write_normals(doc: Document, nat: ObjNative, V: np.ndarray, moved: np.ndarray, out: list[bytes]) -> None:
+    """Recompute, in ``out``, the ``vn`` lines that moved vertices touch.
+
+    A normal is recomputed over the corners that share its ``vn`` index at one
+    vertex. Files that share one ``vn`` between vertices (exporters write each
+    distinct normal once: every corner of a flat side shares one) get, where
+    those vertices' normals no longer agree, a new ``vn`` line for each further
+    normal (after the last ``vn`` line, or at the end of a file that refers to
+    normals by relative indices) and those corners are pointed at it.
+    """
+    counts, flat = doc.polygon_lists()
+    n = max(len(V), 1)
+    has = nat.corner_vn >= 0
+    key = np.where(has, nat.corner_vn * n + flat, -1)  # (normal, vertex) of each polygon corner
+    pairs, corner_pair = np.unique(key[has], return_inverse=True)
+    group = np.full(len(key), -1, dtype=np.int64)
+    group[has] = corner_pair
+    tri = doc.mesh.faces
+    tri_group = _fan(counts, group)
+    normals, valid = grouped_normals(V, tri, tri_group, len(pairs))
+    touched_tri = moved[tri].any(axis=1)
+    touched = np.zeros(len(pairs), dtype=bool)
+    g = tri_group[touched_tri].ravel()
+    touched[g[g >= 0]] = True
+    vn_of = pairs // n
+    added: list[bytes] = []
+    repoint = np.full(len(pairs), -1, dtype=np.int64)  # new 0-based vn index of a pair, -1: its own
+    shared = np.bincount(vn_of, minlength=len(nat.vn_lines))[vn_of] > 1
+    for p in np.flatnonzero(~shared & touched & valid).tolist():  # the usual case: a vn at one vertex
+        out[nat.vn_lines[vn_of[p]]] = _normal_line(normals[p])
+    many = np.flatnonzero(shared)
+    many = many[np.argsort(vn_of[many], kind="stable")]
+    starts = np.flatnonzero(np.r_[True, vn_of[many][1:] != vn_of[many][:-1]]) if many.size else []
+    for members in (np.split(many, starts[1:]) if many.size else []):
+        if not touched[members].any():
+            continue
+        k = int(vn_of[members[0]])
+        moving = members[touched[members] & valid[members]]
+        if moving.size == 0:
+            continue
+        if moving.size == members.size:  # all recomputed: the line takes the first one's
+            line_normal = normals[moving[0]]
+            out[nat.vn_lines[k]] = _normal_line(line_normal)
+        else:  # corners elsewhere keep the line as it is
+            line_normal = _parse_normal(out[nat.vn_lines[k]])
+        keep = normals[moving] @ line_normal >= np.cos(_SAME_NORMAL)  # the line's own normal
+        made: dict[tuple, int] = {}  # this vn's further normals (rounded far below the text's digits)
+        for p, key in zip(moving[~keep].tolist(), map(tuple, np.round(normals[moving[~keep]], 9).tolist())):
+            if key not in made:
+                made[key] = len(nat.vn_lines) + len(added)
+                added.append(_normal_line(normals[p]))
+            repoint[p] = made[key]
+    if not added:
+        return
+    corners = np.flatnonzero(has)[repoint[corner_pair] >= 0]
+    new_index = repoint[group[corners]]
+    face_of = np.repeat(np.arange(len(counts)), counts)[corners]  # corners are in face order
+    position = corners - (np.cumsum(counts) - counts)[face_of]  # of the corner in its face
+    cuts = np.flatnonzero(np.diff(face_of)) + 1
+    for f, at, j in zip(face_of[np.r_[0, cuts]].tolist(), np.split(position, cuts), np.split(new_index, cuts)):
+        li = int(nat.f_lines[f])
+        line = out[li]
+        lead = line[: len(line) - len(line.lstrip())]
+        words = line.split()
+        for c, k in zip(at.tolist(), j.tolist()):
+            parts = words[1 + c].split(b"/")
+            parts[2] = b"%d" % (k + 1)
+            words[1 + c] = b"/".join(parts)
+        out[li] = lead + b" ".join(words)
+    at = len(out) if nat.vn_relative else int(nat.vn_lines[-1]) + 1
+    out[at:at] = added
+
+
+def _parse_normal(line: bytes) -> np.ndarray:
+    n = np.array([float(x) for x in line.split()[1:4]])
+    length = np.linalg.norm(n)
+    return n / length if length > 0 else n
+
+
+def write_converted(doc: Document, target: Path) -> bytes:
+    """A plain OBJ of a document read in another format (see :func:`_plain`); its material
+    library is ``target``'s name with ``.mtl`` (:func:`converted_companions`)."""
+    return _plain(doc, target.stem + ".mtl")
+
+
+def _plain(doc: Document, mtl_name: str = "") -> bytes:
+    """A plain OBJ of ``doc``: v (with colours) in their shortest exact form, vt and usemtl when it
+    has texture coordinates and materials, vn per vertex if it had normals, polygons."""
+    mesh = doc.mesh
+    counts, flat = doc.polygon_lists()
+    tex = doc.textures()
+    has_uv = tex is not None and tex.uv is not None and tex.corner_uv is not None
+    has_mtl = tex is not None and bool(tex.materials) and bool(mtl_name)
+    parts = [f"# {mesh.n_vertices} vertices, {len(counts)} faces\n"]
+    if has_mtl:
+        parts.append(f"mtllib {mtl_name}\n")
+    # progress: the rows' shares of the text (a vertex line is about as long as a face line)
+    nv, nf = mesh.n_vertices, len(counts)
+    rows_total = max(nv * (2 if doc.normals else 1) + nf, 1)
+    v_end = nv / rows_total
+    vn_end = v_end + (nv / rows_total if doc.normals else 0.0)
+    with span(0.0, v_end):
+        if doc.colors is not None:
+            parts.append(_shortest_rows("v", mesh.vertices, tail=doc.colors[:, :3]))
+        else:
+            parts.append(_shortest_rows("v", mesh.vertices))
+    if has_uv:
+        parts.append(_shortest_rows("vt", tex.uv))
+    if doc.normals:
+        with span(v_end, vn_end):
+            parts.append(_format_rows("vn %.7g %.7g %.7g\n", vertex_normals(mesh.vertices, mesh.faces)))
+    one = flat + 1
+    columns = [one]
+    if has_uv:
+        columns.append(np.where(tex.corner_uv >= 0, tex.corner_uv + 1, 0))
+    if doc.normals:
+        columns.append(one)
+    corner_fmt = {1: "%d", 2: "%d/%d", 3: "%d/%d/%d"}[len(columns)]
+    if doc.normals and not has_uv:
+        corner_fmt = "%d//%d"
+    table = np.stack(columns, axis=1)  # (corners, 1..3)
+    material = tex.face_material if has_mtl and tex.face_material is not None else np.full(nf, -1)
+    cuts = np.flatnonzero(np.diff(material)) + 1
+    starts = np.cumsum(counts) - counts
+    with span(vn_end, 1.0):
+        for lo, hi in zip(np.r_[0, cuts].tolist(), np.r_[cuts, nf].tolist()):
+            if material[lo] >= 0:
+                parts.append(f"usemtl {tex.materials[material[lo]].name}\n")
+            c = counts[lo:hi]
+            block = table[starts[lo]: starts[hi - 1] + counts[hi - 1]] if hi > lo else table[:0]
+            if np.all(c == c[0]):
+                k = int(c[0])
+                rows = block.reshape(len(c), -1)
+                text = _format_rows("f " + " ".join([corner_fmt] * k) + "\n", rows)
+                if has_uv:  # a corner with no coordinates (index 0) has no vt index
+                    text = text.replace("/0/", "//").replace("/0 ", " ").replace("/0\n", "\n")
+                parts.append(text)
+            else:
+                for s, cc in zip((starts[lo:hi] - starts[lo]).tolist(), c.tolist()):
+                    words = [corner_fmt % tuple(r) for r in block[s: s + cc].tolist()]
+                    line = "f " + " ".join(words) + "\n"
+                    if has_uv:
+                        line = line.replace("/0/", "//").replace("/0 ", " ").replace("/0\n", "\n")
+                    parts.append(line)
+    return "".join(parts).encode("utf-8")
+
+
+def _image_names(materials: list[Material]) -> list[str | None]:
+    """A distinct plain file name for each material's image (None for none)."""
+    names, used = [], set()
+    for k, m in enumerate(materials):
+        if m.image is None:
+            names.append(None)
+            continue
+        base = Path((m.image_name or f"texture_{k}.png").replace("\\", "/")).name or f"texture_{k}.png"
+        name = base if base not in used else f"{k}_{base}"
+        used.add(name)
+        names.append(name)
+    return names
+
+
+def converted_companions(doc: Document, target: Path) -> list[tuple[Path, bytes]]:
+    """The material library (``target``'s name with ``.mtl``) and the texture images of a
+    converted document, to be written beside ``target``."""
+    tex = doc.textures()
+    if tex is None or not tex.materials:
+        return []
+    names = _image_names(tex.materials)
+    lines = [f"# materials of {target.name}"]
+    files = []
+    for m, image in zip(tex.materials, names):
+        r, g, b, a = m.color
+        lines += ["", f"newmtl {m.name}", f"Kd {r:.6g} {g:.6g} {b:.6g}", f"d {a:.6g}"]
+        if image is not None:
+            lines.append(f"map_Kd {image}")
+            files.append((target.parent / image, m.image))
+    mtl = (target.parent / (target.stem + ".mtl"), ("\n".join(lines) + "\n").encode("utf-8"))
+    return [mtl, *files]
+
+
+# --------------------------------------------------------------------------- companions
+
+_MAP_STATEMENTS = {"bump", "disp", "decal", "refl", "norm"}
+
+
+def _material_libraries(doc: Document) -> list[str]:
+    nat = doc.native
+    names: list[str] = []
+    if isinstance(nat, ObjNative):
+        for line in nat.lines:
+            s = line.strip()
+            if s[:7] in (b"mtllib ", b"mtllib\t"):
+                names += [w.decode("utf-8", "replace") for w in s.split()[1:]]
+    return names
+
+
+def _texture_references(mtl: Path) -> list[str]:
+    """Image files a material library refers to (the last word of each map statement)."""
+    refs = []
+    try:
+        text = mtl.read_text(encoding="utf-8", errors="replace")
+    except OSError:
+        return refs
+    for line in text.splitlines():
+        words = line.split()
+        if len(words) >= 2 and (words[0].lower().startswith("map_") or words[0].lower() in _MAP_STATEMENTS):
+            refs.append(words[-1])
+    return refs
+
+
+def _inside(ref: str) -> bool:
+    p = Path(ref.replace("\\", "/"))
+    return not p.is_absolute() and ".." not in p.parts
+
+
+def companions(doc: Document, source: Path | None, target: Path) -> tuple[list[tuple[Path, Path]], list[str]]:
+    """Files an OBJ written to ``target`` refers to and that must travel with it.
+
+    Returns
+    -------
+    copies : list of (from, to) paths
+        Each material library the file names and each image a library names,
+        to be copied into ``target``'s folder at the same relative place, when
+        ``target`` is in another folder than ``source``.
+    notes : list of str
+        References that are not copied (missing, or outside the source folder).
+    """
+    if source is None:
+        return [], []
+    src_dir, dst_dir = source.resolve().parent, target.resolve().parent
+    if src_dir == dst_dir:
+        return [], []
+    copies, notes = [], []
+    for name in _material_libraries(doc):
+        if not _inside(name):
+            notes.append(f"material library {name} is outside the mesh's folder; not copied")
+            continue
+        mtl = src_dir / name
+        if not mtl.is_file():
+            notes.append(f"material library {name} not found next to {source.name}; not copied")
+            continue
+        copies.append((mtl, dst_dir / name))
+        for ref in _texture_references(mtl):
+            img = mtl.parent / ref.replace("\\", "/")
+            if not _inside(ref):
+                if not Path(ref).is_absolute():
+                    notes.append(f"texture {ref} is outside the material's folder; not copied")
+                continue
+            if not img.is_file():
+                notes.append(f"texture {ref} named in {name} not found; not copied")
+                continue
+            copies.append((img, (dst_dir / name).parent / ref.replace("\\", "/")))
+    return copies, notes
+
+
+def same_content(a: Path, b: Path) -> bool:
+    """``b`` exists and holds the same bytes as ``a``."""
+    try:
+        return b.is_file() and os.path.getsize(a) == os.path.getsize(b) and a.read_bytes() == b.read_bytes()
+    except OSError:
+        return False
+

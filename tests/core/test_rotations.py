@@ -1,0 +1,48 @@
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from hybridedit.core.rotations import closest_rotation, closest_rotations
+
+
+def svd_rotation(a):
+    u, s, vt = np.linalg.svd(a)
+    r = u @ vt
+    if np.linalg.det(r) < 0:
+        u[:, 2] *= -1
+        r = u @ vt
+    return r
+
+
+def test_matches_svd_on_general_matrices():
+    rng = np.random.default_rng(1)
+    a = rng.normal(size=(500, 3, 3))  # about half are reflections (det < 0)
+    out = np.empty_like(a)
+    closest_rotations(a, out)
+    ref = np.array([svd_rotation(m) for m in a])
+    assert np.abs(out - ref).max() < 1e-10
+    assert np.allclose(np.linalg.det(out), 1.0)
+
+
+def test_near_rotations_and_scaled_rotations():
+    rng = np.random.default_rng(2)
+    R = Rotation.random(300, random_state=3).as_matrix()
+    a = R @ (np.eye(3) + 0.05 * rng.normal(size=(300, 3, 3))) * 1e-4  # tiny scale must not matter
+    out = np.empty_like(a)
+    closest_rotations(a, out)
+    ref = np.array([svd_rotation(m) for m in a])
+    assert np.abs(out - ref).max() < 1e-12
+    # an exact rotation is its own closest rotation
+    closest_rotations(R.copy(), out)
+    assert np.abs(out - R).max() < 1e-14
+
+
+def test_degenerate_inputs():
+    out = np.empty((3, 3))
+    closest_rotation(np.zeros((3, 3)), out)
+    assert np.allclose(out, np.eye(3))
+    rank1 = np.outer([1.0, 2.0, 3.0], [0.5, -1.0, 2.0])
+    closest_rotation(rank1, out)
+    assert np.allclose(out @ out.T, np.eye(3), atol=1e-12)
+    assert np.isclose(np.linalg.det(out), 1.0)
+    # it still maximizes trace(R^T a) as well as the SVD answer does
+    assert np.trace(out.T @ rank1) >= np.trace(svd_rotation(rank1).T @ rank1) - 1e-12
