@@ -19,7 +19,8 @@ from .deform.selection import SelectionError
 from .fileio.meshfiles import SUPPORTED_EXTENSIONS, MeshFileError, read_document, read_mesh, write_document, write_mesh
 from .core.mesh import MeshError, edge_error_stats, rrms_edge_error
 from .fileio.outpaths import OutputPathError, check_outputs
-from .defaults import POLISH_MAX_ITERATIONS
+from .defaults import CAGE_SIZE, ITERATIONS, POLISH_MAX_ITERATIONS, SETTLE_FRAMES, TRUNCATION
+from .defaults import parse_cage_size as _parse_cage_size
 from .core.progress import SHOW_AFTER_SECONDS, TextProgress
 
 if TYPE_CHECKING:
@@ -42,22 +43,12 @@ class CLIError(Exception):
 
 
 def parse_cage_size(text: str) -> int | float:
-    """'2000' -> 2000 vertices, '0.05' or '5%' -> a fraction of the shape's vertices."""
-    s = text.strip()
+    """'2000' -> 2000 vertices, '0.05' or '5%' -> a fraction of the shape's vertices
+    (:func:`hybridedit.defaults.parse_cage_size`, as argparse takes it)."""
     try:
-        if s.endswith("%"):
-            v: int | float = float(s[:-1]) / 100.0
-        elif s.isdigit():
-            v = int(s)
-        else:
-            v = float(s)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"cage size must be a vertex count, a fraction or a percentage, got {text!r}")
-    if isinstance(v, float) and not (0.0 < v <= 1.0):
-        raise argparse.ArgumentTypeError(f"cage fraction must be in (0, 1], got {text!r}")
-    if isinstance(v, int) and v < 4:
-        raise argparse.ArgumentTypeError(f"a cage needs at least 4 vertices, got {text!r}")
-    return v
+        return _parse_cage_size(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
 
 
 _PROGRESS: list[TextProgress] = []
@@ -115,7 +106,7 @@ def run_deform(args: argparse.Namespace) -> int:
 
     edit = load_edit(args.edit)
     recorded = [s.cage for s in edit.steps if s.cage is not None]
-    cage = args.cage if args.cage is not None else (recorded[-1]["size"] if recorded else 0.05)
+    cage = args.cage if args.cage is not None else (recorded[-1]["size"] if recorded else CAGE_SIZE)
     t_read = time.perf_counter()
     doc = read_document(src, progress=_SlowSteps(say))
     mesh = doc.mesh
@@ -312,8 +303,8 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--cage", type=parse_cage_size, default=None,
                    help="cage vertices (2000) or fraction (0.05 or 5%%); default: the cage the edit was made on "
                         "(its file says), else 5%%")
-    d.add_argument("--iterations", type=int, default=2, help="ARAP iterations per frame (default 2)")
-    d.add_argument("--frames", type=int, default=30,
+    d.add_argument("--iterations", type=int, default=ITERATIONS, help=f"ARAP iterations per frame (default {ITERATIONS})")
+    d.add_argument("--frames", type=int, default=SETTLE_FRAMES,
                    help="frames to run for a step whose file does not record its iterations (default 30; an edit "
                         "saved in the window records them)")
     d.add_argument("--weights", choices=("uniform", "cotangent"), default="cotangent",
@@ -325,7 +316,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "it anyway")
     d.add_argument("--propagation", choices=("residual", "linear"), default="residual",
                    help="residual: exact rest pose, detail rotated with the cage (default); linear: the paper's x' = M y'")
-    d.add_argument("--truncation", type=float, default=0.03, help="coordinate magnitude dropped per vertex (default 0.03)")
+    d.add_argument("--truncation", type=float, default=TRUNCATION,
+                   help=f"coordinate magnitude dropped per vertex (default {TRUNCATION:g})")
     d.add_argument("--stats", help="write timing and quality figures to this JSON file")
     d.add_argument("--force", action="store_true", help="allow overwriting the input mesh")
     d.add_argument("--no-cache", action="store_true", help="do not read or write the cage/binding cache")
@@ -368,7 +360,7 @@ def build_open_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--version", action=_Version, help="print the version and the sparse solver in use, and exit")
     p.add_argument("mesh", nargs="?", help="mesh to open (.obj .ply .stl .off .glb)")
-    p.add_argument("--cage", type=parse_cage_size, default=0.05, help="cage vertices or fraction (default 5%%)")
+    p.add_argument("--cage", type=parse_cage_size, default=CAGE_SIZE, help="cage vertices or fraction (default 5%%)")
     p.add_argument("--screenshot", help="render the scene to this PNG and exit")
     p.add_argument("-o", "--output", help=argparse.SUPPRESS)
     return p

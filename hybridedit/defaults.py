@@ -1,8 +1,70 @@
-"""Settings that several parts of hybridedit share, each written once (no Qt, no numba: cheap to import)."""
+"""Settings that several parts of hybridedit share, each written once, and the one rule for a cage
+size (no Qt, no numba: cheap to import).
+"""
 
 from __future__ import annotations
 
+import numbers
+
+#: The cage size a shape gets unless told otherwise: this fraction of its (own, welded) vertices.
+CAGE_SIZE = 0.05
+#: Fraction of each binding row's coordinate magnitude the truncation drops (the paper's 3%).
+TRUNCATION = 0.03
+#: ARAP iterations a frame (a drag call) runs.
+ITERATIONS = 2
+#: Frames the settle after a drag runs, and ``hybridedit deform`` for a step that records none.
+SETTLE_FRAMES = 30
 #: Most iterations a full-resolution polish runs (the window's polish on release, ``deform --polish``).
 POLISH_MAX_ITERATIONS = 200
 #: A polish has converged when an iteration moves no vertex by more than this fraction of the diagonal.
 POLISH_TOLERANCE = 1e-6
+
+
+def check_cage_size(size) -> int | float:
+    """A cage size as the engine takes it: an int vertex count (at least 4) or a float fraction in
+    (0, 1] of the shape's vertices; anything else is a ValueError saying what was expected.
+
+    Parameters
+    ----------
+    size : int or float
+
+    Returns
+    -------
+    int or float, ``size`` itself (an int for an integral count, a float for a fraction)
+
+    Examples
+    --------
+    >>> check_cage_size(2000), check_cage_size(0.05)
+    (2000, 0.05)
+    """
+    if isinstance(size, bool) or not isinstance(size, numbers.Real):
+        raise ValueError(f"cage size must be a vertex count or a fraction, got {size!r}")
+    if isinstance(size, numbers.Integral):
+        if int(size) < 4:
+            raise ValueError(f"a cage needs at least 4 vertices, asked for {int(size)}")
+        return int(size)
+    if not (0.0 < float(size) <= 1.0):
+        raise ValueError(f"cage fraction must be in (0, 1], got {size!r}")
+    return float(size)
+
+
+def parse_cage_size(text: str) -> int | float:
+    """A cage size written by a user: '2000' (vertices), '0.05' or '5%' (a fraction), checked by
+    :func:`check_cage_size`; a ValueError saying what was expected otherwise.
+
+    Examples
+    --------
+    >>> parse_cage_size("5%"), parse_cage_size("2000")
+    (0.05, 2000)
+    """
+    s = str(text).strip()
+    try:
+        if s.endswith("%"):
+            value: int | float = float(s[:-1]) / 100.0
+        elif s.isdigit():
+            value = int(s)
+        else:
+            value = float(s)
+    except ValueError:
+        raise ValueError(f"cage size must be a vertex count, a fraction or a percentage, got {text!r}") from None
+    return check_cage_size(value)

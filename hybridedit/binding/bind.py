@@ -30,6 +30,7 @@ import numpy as np
 import scipy.sparse as sp
 from numba import njit, prange
 
+from ..defaults import TRUNCATION
 from ..core.mesh import Mesh
 from .mvc_exact import as_points, check_closed, compute_into, n_blocks, prepare_cage
 from .mvc_flat import (
@@ -202,7 +203,7 @@ def _fast_truncated_chunk(plan, fast, ratio, scratch, t, start, stop, counts_buf
     return counts, data, indices
 
 
-def truncate_rows(dense: np.ndarray, truncation: float = 0.03) -> sp.csr_matrix:
+def truncate_rows(dense: np.ndarray, truncation: float = TRUNCATION) -> sp.csr_matrix:
     """Truncate the rows of a dense coordinate matrix (see the module docstring).
 
     Parameters
@@ -235,7 +236,7 @@ def truncate_rows(dense: np.ndarray, truncation: float = 0.03) -> sp.csr_matrix:
 def bind(
     points: np.ndarray,
     cage: Mesh,
-    truncation: float = 0.03,
+    truncation: float = TRUNCATION,
     chunk_size: int | None = None,
     progress: Callable[[float], None] | None = None,
     method: str = "fast",

@@ -18,6 +18,7 @@ from typing import Callable
 import numpy as np
 import scipy.sparse as sp
 
+from ..defaults import CAGE_SIZE, TRUNCATION
 from . import cache as bindcache
 from ..cage.build import cage_and_binding, cage_links
 from ..core.mesh import Mesh
@@ -55,8 +56,8 @@ class Rig:
     notes: tuple[str, ...] = ()
     timings: dict = field(default_factory=dict)
     cache_hit: bool = False
-    cage_size: int | float = 0.05
-    truncation: float = 0.03
+    cage_size: int | float = CAGE_SIZE
+    truncation: float = TRUNCATION
 
     def __post_init__(self) -> None:
         M = sp.csr_matrix(self.M, dtype=np.float64)
@@ -96,10 +97,10 @@ def _check_usable(rig: Rig) -> None:
 def build_rig(
     mesh: Mesh,
     *,
-    cage_size: int | float = 0.05,
+    cage_size: int | float = CAGE_SIZE,
     cage: Mesh | None = None,
     binding: sp.spmatrix | None = None,
-    truncation: float = 0.03,
+    truncation: float = TRUNCATION,
     cache: bool | str | Path = False,
     progress: Progress | None = None,
 ) -> Rig:

@@ -15,35 +15,10 @@ import numpy as np
 import fast_simplification
 
 from ..core.mesh import Mesh
+from ..defaults import CAGE_SIZE, TRUNCATION, check_cage_size
 from .qem import HalfWorker, presimplify, start_worker
 from .qem_worker import AGGRESSIVENESS
 from ..core.topology import check_closed, connected_parts, degenerate_faces, repeats_a_face
-
-
-def cage_vertex_target(n_vertices: int, size: int | float) -> int:
-    """The cage vertex count asked for by ``size``.
-
-    Parameters
-    ----------
-    n_vertices : int
-        Vertex count of the shape.
-    size : int or float
-        An int is a vertex count; a float in (0, 1] is a fraction of ``n_vertices``.
-    """
-    if isinstance(size, (bool, np.bool_)):
-        raise ValueError(f"cage size must be a vertex count or a fraction, got {size!r}")
-    if isinstance(size, (int, np.integer)):
-        target = int(size)
-    else:
-        frac = float(size)
-        if not (0.0 < frac <= 1.0):
-            raise ValueError(f"cage fraction must be in (0, 1], got {size!r}")
-        target = int(round(frac * n_vertices))
-    if target < 4:
-        raise ValueError(f"a cage needs at least 4 vertices, asked for {target}")
-    if target > n_vertices:
-        raise ValueError(f"cage of {target} vertices asked for a shape of only {n_vertices}")
-    return target
 
 
 #: a part whose cage would keep at least this fraction of its vertices is its own cage
@@ -101,7 +76,7 @@ class CageParts:
     kinds: tuple[str, ...]
 
 
-def build_cage(mesh: Mesh, size: int | float = 0.05, notes: list[str] | None = None) -> Mesh:
+def build_cage(mesh: Mesh, size: int | float = CAGE_SIZE, notes: list[str] | None = None) -> Mesh:
     """The cage of ``mesh``: one closed piece per connected part (see :func:`cage_parts`).
 
     Parameters
@@ -121,19 +96,9 @@ def build_cage(mesh: Mesh, size: int | float = 0.05, notes: list[str] | None = N
     return cage_parts(mesh, size, notes=notes).cage
 
 
-def _check_size(size: int | float) -> None:
-    if isinstance(size, (bool, np.bool_)):
-        raise ValueError(f"cage size must be a vertex count or a fraction, got {size!r}")
-    if isinstance(size, (int, np.integer)):
-        if int(size) < 4:
-            raise ValueError(f"a cage needs at least 4 vertices, asked for {int(size)}")
-    elif not (0.0 < float(size) <= 1.0):
-        raise ValueError(f"cage fraction must be in (0, 1], got {size!r}")
-
-
 def cage_parts(
     mesh: Mesh,
-    size: int | float = 0.05,
+    size: int | float = CAGE_SIZE,
     *,
     notes: list[str] | None = None,
     progress: Callable[[float], None] | None = None,
@@ -175,7 +140,7 @@ def cage_parts(
     """
     said: list[str] = [] if notes is None else notes
     say = progress or (lambda fraction: None)
-    _check_size(size)
+    size = check_cage_size(size)
     # a big shape is simplified in halves on two cores: the helper process starts now,
     # to be ready when the repair pass is done (see hybridedit.cage.qem)
     worker = start_worker(mesh.n_faces)
@@ -430,9 +395,9 @@ def shell_pairs(faces: np.ndarray, start: int, count: int) -> np.ndarray:
 
 def cage_and_binding(
     mesh: Mesh,
-    size: int | float = 0.05,
+    size: int | float = CAGE_SIZE,
     *,
-    truncation: float = 0.03,
+    truncation: float = TRUNCATION,
     cage: Mesh | None = None,
     binding=None,
     notes: list[str] | None = None,

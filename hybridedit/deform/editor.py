@@ -23,12 +23,12 @@ import scipy.sparse as sp
 from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
+from ..defaults import CAGE_SIZE, ITERATIONS, SETTLE_FRAMES, TRUNCATION
 from .arap import ARAPSolver, edge_weights, laplacian
 from .base_pose import BasePose, current_base, fit_cage, propagate_from, propagated_residual, rest_base
 from ..binding.bind import dominant_cage_vertex
 from .constraints import FIXED, FREE
 from ..fileio.editfile import Edit, HandleEdit, mesh_fingerprint
-from .frame_steps import MAX_REACH  # noqa: F401 (importable from here, as before the split)
 from .frame_steps import Frame, FrameSteps, build_frame_steps, cage_targets, solve_cage
 from ..core.mesh import Mesh
 from .polish import MAX_ITERATIONS as POLISH_MAX_ITERATIONS
@@ -38,7 +38,6 @@ from .pose_record import PoseRecord
 from .residual import residual_setup
 from ..binding.rig import Progress, Rig, build_rig
 from .selection import SelectionError
-from .selection import SPACES  # noqa: F401 (importable from here, as before the split)
 from .selection import CageMap, Selection, build_selection, choose_roles, mirrored_roles, user_roles
 from .symmetry import Mirror
 from ..core.transforms import check_transform, rigid_transform
@@ -140,13 +139,13 @@ class HybridEditor:
     def __init__(
         self,
         mesh: Mesh | Rig,
-        cage_size: int | float = _Default(0.05),
+        cage_size: int | float = _Default(CAGE_SIZE),
         *,
         cage: Mesh | None = _Default(None),
         binding: sp.spmatrix | None = _Default(None),
-        truncation: float = _Default(0.03),
+        truncation: float = _Default(TRUNCATION),
         weights: str = "cotangent",
-        iterations: int = 2,
+        iterations: int = ITERATIONS,
         progress: Progress | None = _Default(None),
         cache: bool | str | Path = _Default(False),
         propagation: str = "residual",
@@ -861,7 +860,7 @@ class HybridEditor:
             return r
         return r.closed(self._current_step(polish))
 
-    def apply_edit(self, edit: Edit, *, frames: int = 30, iterations: int | None = None,
+    def apply_edit(self, edit: Edit, *, frames: int = SETTLE_FRAMES, iterations: int | None = None,
                    progress: Progress | None = None, path: str | None = None,
                    editor_for_cage: Callable[[dict], "HybridEditor"] | None = None) -> np.ndarray:
         """Replay an edit on the current pose (from the rest pose after :meth:`reset`): each
@@ -966,8 +965,8 @@ class HybridEditor:
         return self._out.copy()
 
     @classmethod
-    def from_file(cls, path, cage_size: int | float = 0.05, *, cache: bool | str | Path = False,
-                  truncation: float = 0.03, progress: Progress | None = None, **options) -> "HybridEditor":
+    def from_file(cls, path, cage_size: int | float = CAGE_SIZE, *, cache: bool | str | Path = False,
+                  truncation: float = TRUNCATION, progress: Progress | None = None, **options) -> "HybridEditor":
         """Open a mesh file for editing, keeping everything it holds for :meth:`save`.
 
         Reads ``path`` with :func:`hybridedit.read_document` (texture coordinates,

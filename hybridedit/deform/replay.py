@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Callable
 
+from ..defaults import SETTLE_FRAMES
 from ..fileio.editfile import Edit, EditFileError, check_mesh
 
 if TYPE_CHECKING:
@@ -52,7 +53,7 @@ def _plan(step: Edit, frames: int, per: int) -> list[int]:
     return [min(size, step.iterations - i) for i in range(0, step.iterations, size)]
 
 
-def replay(editor: "HybridEditor", edit: Edit, *, frames: int = 30, iterations: int | None = None,
+def replay(editor: "HybridEditor", edit: Edit, *, frames: int = SETTLE_FRAMES, iterations: int | None = None,
            progress: "Progress | None" = None, path: str | None = None,
            editor_for_cage: Callable[[dict], "HybridEditor"] | None = None):
     """Replay ``edit`` on ``editor``, from its current pose (call ``editor.reset()`` first

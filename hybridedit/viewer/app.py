@@ -13,6 +13,7 @@ import sys
 import traceback
 from pathlib import Path
 
+from ..defaults import CAGE_SIZE
 from ..deform.editor import HybridEditor
 from ..fileio.meshfiles import read_document
 from ..core.mesh import MeshError
@@ -36,7 +37,7 @@ def _headless_render_window() -> None:
         os.environ["VTK_DEFAULT_OPENGL_WINDOW"] = "vtkEGLRenderWindow"
 
 
-def render_screenshot(path: str | os.PathLike, out: str | os.PathLike, cage: int | float = 0.05,
+def render_screenshot(path: str | os.PathLike, out: str | os.PathLike, cage: int | float = CAGE_SIZE,
                       size: tuple[int, int] = SCREENSHOT_SIZE, show_cage: bool = False) -> int:
     """Render a mesh as the window first shows it, off-screen, to a PNG; returns the exit status.
 
@@ -136,7 +137,7 @@ def _install_excepthook(window):
 
 
 def main(path: str | os.PathLike | None = None, screenshot: str | os.PathLike | None = None,
-         cage: int | float = 0.05) -> int:
+         cage: int | float = CAGE_SIZE) -> int:
     """Open the editor window on ``path`` (or render a screenshot); returns the exit status."""
     if screenshot:
         if path is None:

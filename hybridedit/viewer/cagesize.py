@@ -15,10 +15,11 @@ from typing import Callable
 
 import numpy as np
 from qtpy import QtWidgets
+from ..defaults import CAGE_SIZE
 
 PERCENT, VERTICES = 0, 1
 
-DEFAULT_SIZE = 0.05
+DEFAULT_SIZE = CAGE_SIZE
 """The cage size a shape starts from: 5 % of its vertices."""
 
 MAX_SHARE = 0.5

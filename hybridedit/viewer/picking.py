@@ -54,18 +54,6 @@ def unproject(x: float, y: float, z_ndc: float, composite: np.ndarray, size: tup
     return w[:3] / w[3]
 
 
-def unproject_many(display: np.ndarray, composite: np.ndarray, size: tuple[int, int]) -> np.ndarray:
-    """World points at display pixels and NDC depths (k, 3) (x, y, z_ndc); :func:`unproject` for many points."""
-    d = np.asarray(display, dtype=np.float64).reshape(-1, 3)
-    ndc = np.empty((len(d), 4))
-    ndc[:, 0] = 2.0 * d[:, 0] / size[0] - 1.0
-    ndc[:, 1] = 2.0 * d[:, 1] / size[1] - 1.0
-    ndc[:, 2] = d[:, 2]
-    ndc[:, 3] = 1.0
-    w = ndc @ np.linalg.inv(np.asarray(composite, dtype=np.float64)).T
-    return w[:, :3] / w[:, 3:4]
-
-
 def visible_points(display: np.ndarray, in_front: np.ndarray, depth: np.ndarray, origin: tuple[int, int],
                    composite: np.ndarray, size: tuple[int, int], tolerance: float, radius: int = 1) -> np.ndarray:
     """Which projected points are in sight: not hidden behind the surface of a rendered depth buffer.

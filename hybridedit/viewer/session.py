@@ -36,6 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..defaults import CAGE_SIZE, ITERATIONS, SETTLE_FRAMES
 from ..binding.bind import dominant_cage_vertex
 from ..fileio.editfile import Edit
 from ..deform.editor import HybridEditor, SelectionError
@@ -66,7 +67,7 @@ class Session:
         message gives the measured asymmetry).
     """
 
-    def __init__(self, editor: HybridEditor, path: Path | None = None, cage_size: int | float = 0.05,
+    def __init__(self, editor: HybridEditor, path: Path | None = None, cage_size: int | float = CAGE_SIZE,
                  roi: np.ndarray | None = None, handle: np.ndarray | None = None,
                  symmetry: str | None = None) -> None:
         self.editor = editor
@@ -107,8 +108,8 @@ class Session:
         self.up_axis = "+Y"
         self.shape_key: str | None = None
         self.settle_on_release = True
-        self.settle_frames = 30
-        self.settle_iterations = 2
+        self.settle_frames = SETTLE_FRAMES
+        self.settle_iterations = ITERATIONS
         self.last_frame_seconds = 0.0
         #: the polished pose on display ((n, 3), given to the engine), or None since the last change
         self.polished: np.ndarray | None = None

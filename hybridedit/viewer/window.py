@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Callable
 import numpy as np
 from qtpy import QtCore, QtGui, QtWidgets
 
+from ..defaults import CAGE_SIZE
 from ..deform.editor import SelectionError
 from ..core.up_axis import AXES, remember_up_axis, shape_key
 from .building import BuildJobs
@@ -75,7 +76,7 @@ class MainWindow(QtWidgets.QMainWindow):
     modified : the pose on display is not saved (shown as ``*`` in the title).
     """
 
-    def __init__(self, cage_size: int | float = 0.05) -> None:
+    def __init__(self, cage_size: int | float = CAGE_SIZE) -> None:
         super().__init__()
         self.session: Session | None = None
         self.last_error: str | None = None

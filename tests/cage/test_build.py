@@ -3,7 +3,7 @@ import pytest
 import trimesh
 from scipy.spatial import cKDTree
 
-from hybridedit.cage.build import build_cage, cage_vertex_target, clean_surface
+from hybridedit.cage.build import build_cage, clean_surface
 from hybridedit.core.mesh import Mesh, MeshError
 
 from shapes import bumpy_blob
@@ -45,16 +45,24 @@ def test_zero_area_faces_are_dropped():
     assert out.n_faces == 1
 
 
-def test_bad_sizes(blob):
-    with pytest.raises(ValueError, match="at least 4"):
-        cage_vertex_target(100, 2)
-    with pytest.raises(ValueError, match="only"):
-        cage_vertex_target(100, 500)
-    with pytest.raises(ValueError, match="fraction"):
-        cage_vertex_target(100, 1.5)
-    with pytest.raises(ValueError):
-        cage_vertex_target(100, True)
-    assert cage_vertex_target(1000, 0.05) == 50
+def test_a_cage_size_is_checked_by_one_rule_wherever_it_comes_from(blob):
+    """The engine, the command line and the window's box read a size by the same rule (defaults)."""
+    import argparse
+
+    from hybridedit.cli import parse_cage_size
+    from hybridedit.defaults import check_cage_size
+
+    for bad, words in ((2, "at least 4"), (1.5, "fraction"), (0.0, "fraction"), (True, "count or a fraction"),
+                       ("5%", "count or a fraction")):
+        with pytest.raises(ValueError, match=words):
+            check_cage_size(bad)
+        with pytest.raises(ValueError, match=words):
+            build_cage(blob, bad)
+    for text, want in (("5%", 0.05), ("2000", 2000), ("0.25", 0.25)):
+        assert parse_cage_size(text) == want and type(parse_cage_size(text)) is type(want)
+    for text in ("3", "150%", "many"):
+        with pytest.raises(argparse.ArgumentTypeError):
+            parse_cage_size(text)
 
 
 # ------------------------------------------------------------------ repairs (hybridedit.core.repair)

@@ -1,11 +1,9 @@
 import numpy as np
 import pytest
 import scipy.sparse as sp
-from scipy.spatial.transform import Rotation
 
 from hybridedit.deform.arap import ARAPSolver, edge_weights, laplacian
 from hybridedit.core.linsolve import SPDSolver, cholmod_available
-from hybridedit.core.mesh import Mesh
 from hybridedit.core.transforms import apply_transform, rigid_transform
 
 from shapes import bumpy_blob, icosphere

@@ -10,7 +10,7 @@ from hybridedit.viewer import gizmo as gz
 from hybridedit.viewer.history import History, Snapshot
 from hybridedit.viewer.picking import (
     ADD, FIXED, FREE, HANDLE, REMOVE, REPLACE, brush_hits, combine, fixed_mask, nearest_hit, op_from_modifiers,
-    project_points, rectangle_hits, stroke_hits, unproject, unproject_many, vertex_states, visible_points,
+    project_points, rectangle_hits, stroke_hits, unproject, vertex_states, visible_points,
 )
 
 
@@ -117,8 +117,6 @@ def test_visible_points_against_a_depth_buffer():
     # a depth image of part of the view: pixels are counted from its origin
     inside = (disp[:, 0] >= 200) & (disp[:, 0] < 400) & (disp[:, 1] >= 100) & (disp[:, 1] < 400)
     assert vis(image=depth[100:400, 200:400], origin=(200, 100)) == (np.array(vis()) & inside).tolist()
-    # unproject_many is unproject for many points
-    assert np.allclose(unproject_many(disp[:7], C, size), pts[:7], atol=1e-9)
 
 
 def test_a_click_takes_the_nearest_point():

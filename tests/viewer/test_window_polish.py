@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import time
 
 import numpy as np
 from qtpy import QtCore
@@ -123,11 +122,9 @@ def test_a_new_drag_or_undo_cancels_a_running_polish(qtbot, win):
     assert running.isRunning()
     # pressing on the handle starts a new drag: the polish stops after its current iteration
     a = handle_point(w)
-    t0 = time.perf_counter()
     qtbot.mousePress(w.view, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier, a)
     assert running.cancel_requested
     qtbot.waitUntil(lambda: w.polisher.worker is None, timeout=5000)
-    assert time.perf_counter() - t0 < 5.0
     assert w.polished is None and w.last_polish is None  # the result was dropped
     for k in range(1, 4):
         qtbot.mouseMove(w.view, a + QtCore.QPoint(0, -10 * k))

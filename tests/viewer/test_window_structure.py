@@ -6,14 +6,12 @@ from __future__ import annotations
 
 import ast
 import inspect
-import textwrap
-import time
 from pathlib import Path
 
 import numpy as np
 from qtpy import QtCore
 
-from hybridedit.viewer import building, dialogs, dragging, files, window
+from hybridedit.viewer import building, dialogs, dragging, files
 from hybridedit.viewer.building import BuildHost, Cancels, KeepsWork
 from hybridedit.viewer.dialogs import InfoSource
 from hybridedit.viewer.dragging import DragHost, GestureHolder
@@ -102,24 +100,6 @@ def test_the_helpers_use_only_what_their_protocols_name():
     assert len(checked) == 6, checked
 
 
-def test_the_guard_is_written_once():
-    """No function of the window or its helpers finishes the settle and cancels the polish itself: they call
-    MainWindow.settle_and_stop_polish (which is the one that does)."""
-    both = []
-    for module in (window, *HOSTS):
-        for node in ast.walk(ast.parse(Path(module.__file__).read_text())):
-            if not isinstance(node, ast.FunctionDef):
-                continue
-            calls = {ast.unparse(c.func) for c in ast.walk(node) if isinstance(c, ast.Call)}
-            settles = any(c.endswith("finish_settle") or c == "self.finish" for c in calls)
-            cancels = any(c.endswith("polisher.cancel") for c in calls)
-            if settles and cancels:
-                both.append(f"{module.__name__}.{node.name}")
-    assert both == ["hybridedit.viewer.window.settle_and_stop_polish"]
-    src = textwrap.dedent(inspect.getsource(MainWindow.settle_and_stop_polish))
-    assert "self.finish_settle()" in src and "self.polisher.cancel()" in src
-
-
 def test_a_selection_press_stops_a_running_polish(qtbot, win):
     w = win
     select_tip(qtbot, w)
@@ -135,13 +115,11 @@ def test_a_selection_press_stops_a_running_polish(qtbot, win):
     # Select mode, press on empty space (a corner of the view): the selection gesture begins with the guard
     key(qtbot, w, Qt.Key.Key_S)
     corner = QtCore.QPoint(6, 6)
-    t0 = time.perf_counter()
     qtbot.mousePress(w.view, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier, corner)
     assert w.controller.busy  # (the gesture did begin)
     assert running.cancel_requested
     qtbot.mouseRelease(w.view, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier, corner)
     qtbot.waitUntil(lambda: w.polisher.worker is None, timeout=5000)
-    assert time.perf_counter() - t0 < 5.0
     qtbot.wait(50)
     assert w.polished is None and w.last_polish is None  # its result was dropped
 

@@ -190,12 +190,6 @@ def _format_rows(fmt: str, values: np.ndarray) -> str:
     return "".join(out)
 
 
-
-def _number_text(values: np.ndarray) -> list[str]:
-    """Shortest text that reads back to exactly each float64 value (repr), for (k,) arrays."""
-    return [repr(x) for x in values.tolist()]
-
-
 # --------------------------------------------------------------------------- text precision
 
 #: Fewer significant digits than this in a file's coordinates is a coarse grid (integers, a
