@@ -217,6 +217,8 @@ class ARAPSolver:
     weights : "uniform" or "cotangent"
     backend : linear solver backend, see :class:`~hybridedit.core.linsolve.SPDSolver`.
 
+    Notes
+    -----
     Use :meth:`set_constrained` once per selection (it factors the Laplacian of
     the free vertices), then :meth:`solve` as often as wanted: each call runs
     local/global iterations warm-started from the current positions.
@@ -285,6 +287,8 @@ class ARAPSolver:
             rotations that can change (of free and moving vertices and their
             neighbours), so a frame costs in proportion to the edited region.
 
+        Notes
+        -----
         A connected part of the mesh (edges and links) with no constrained vertex
         would have an undetermined position: its vertices are held where they are
         (listed in :attr:`held`, constrained like fixed vertices).

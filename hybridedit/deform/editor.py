@@ -412,18 +412,20 @@ class HybridEditor:
             mirrored transform and the result is symmetric. A shape that is not
             symmetric across the plane is refused with its measured asymmetry.
 
+        Raises
+        ------
+        SelectionError
+            A malformed or empty selection, overlapping groups, handle and fixed
+            sharing vertices, or a shape not symmetric enough.
+
+        Notes
+        -----
         The current pose becomes the reference of the next drags (successive edits
         compose): fixed vertices keep their current positions, :meth:`drag`
         transforms are relative to the handles' current positions, and the ARAP
         energy of the next drags is measured against the current pose, so that an
         identity drag leaves every vertex where it is and nothing outside the new
         region moves. :meth:`reset` goes back to the rest pose.
-
-        Raises
-        ------
-        SelectionError
-            A malformed or empty selection, overlapping groups, handle and fixed
-            sharing vertices, or a shape not symmetric enough.
         """
         user = user_roles(handle, fixed, roi, space=space, maps=self._maps)
         mirror = self._mirror(symmetry) if symmetry is not None else None
