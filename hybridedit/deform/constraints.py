@@ -16,8 +16,8 @@ correction (the smoothest field that equals the correction on the seam and
 vanishes on the vertices that do not move), so the surface stays smooth across
 the seam.
 
-Roles are small integers, the same for shape and cage vertices:
-``-1`` fixed, ``0`` free, ``k + 1`` handle group ``k``.
+Roles are those of :mod:`hybridedit.deform.roles`: ``-1`` fixed, ``0`` free,
+``k + 1`` handle group ``k``.
 """
 
 from __future__ import annotations
@@ -29,9 +29,6 @@ import scipy.sparse as sp
 from numba import njit, prange
 
 from ..core.linsolve import SPDSolver
-
-FIXED = -1
-FREE = 0
 
 
 def _bounded(L: sp.csr_matrix, free: np.ndarray) -> np.ndarray:

@@ -27,7 +27,7 @@ from ..defaults import CAGE_SIZE, ITERATIONS, SETTLE_FRAMES, TRUNCATION
 from .arap import ARAPSolver, edge_weights, laplacian
 from .base_pose import BasePose, current_base, fit_cage, propagate_from, propagated_residual, rest_base
 from ..binding.bind import dominant_cage_vertex
-from .constraints import FIXED, FREE
+from .roles import FIXED, FREE
 from ..fileio.editfile import Edit, HandleEdit, mesh_fingerprint
 from .frame_steps import Frame, FrameSteps, build_frame_steps, cage_targets, solve_cage
 from ..core.mesh import Mesh
@@ -249,6 +249,14 @@ class HybridEditor:
         if self._sel is None:
             return np.zeros(self.mesh.n_vertices, dtype=np.int8)
         return self._sel.public(self._sel.roles)
+
+    @property
+    def dominant_cage_vertex(self) -> np.ndarray:
+        """(n,) int64, read-only: the cage vertex each shape vertex depends on most (the largest
+        magnitude in its row of the binding), the cage vertex that stands for it in a selection."""
+        v = self._maps.dominant.view()
+        v.flags.writeable = False
+        return v
 
     @property
     def cage_roles(self) -> np.ndarray:

@@ -32,7 +32,7 @@ import scipy.sparse as sp
 
 from typing import TYPE_CHECKING
 
-from .constraints import FIXED, FREE
+from .roles import FIXED, FREE
 
 if TYPE_CHECKING:  # (annotations only: symmetry.py reads SelectionError from here)
     from .symmetry import Mirror

@@ -202,10 +202,10 @@ class Document:
         >>> doc.fan_triangles(np.array([10, 11, 12, 13])).tolist()
         [[10, 11, 12], [10, 12, 13]]
         """
-        from .formats.common import _fan  # (the exchange package imports this module)
+        from .formats.common import fan_triangles  # (the exchange package imports this module)
 
         counts, flat = self.polygon_lists()
-        return _fan(counts, flat if corners is None else corners)
+        return fan_triangles(counts, flat if corners is None else corners)
 
 
 def moved_vertices(rest: np.ndarray, current: np.ndarray) -> np.ndarray:

@@ -37,7 +37,6 @@ from pathlib import Path
 import numpy as np
 
 from ..defaults import CAGE_SIZE, ITERATIONS, SETTLE_FRAMES
-from ..binding.bind import dominant_cage_vertex
 from ..fileio.editfile import Edit
 from ..deform.editor import HybridEditor, SelectionError
 from ..core.mesh import Mesh, rrms_edge_error
@@ -75,7 +74,7 @@ class Session:
         self.path = Path(path) if path is not None else None
         self.cage_size = cage_size
         self.metrics = ShapeMetrics(self.mesh.vertices, self.mesh.faces)
-        self.dominant = dominant_cage_vertex(editor.M)
+        self.dominant = editor.dominant_cage_vertex
         c = editor.cage.n_vertices
         self.roi = np.zeros(c, dtype=bool) if roi is None else np.asarray(roi, dtype=bool).copy()
         #: handle group of each cage vertex: 0 none, g + 1 in group g
@@ -362,7 +361,7 @@ class Session:
         if editor.mesh.n_vertices != self.mesh.n_vertices:
             raise ValueError("the new engine is for another shape")
         self.editor = editor
-        self.dominant = dominant_cage_vertex(editor.M)
+        self.dominant = editor.dominant_cage_vertex
         if cage_size is not None:
             self.cage_size = cage_size
         self._engine_masks = self._preview_cache = None

@@ -7,7 +7,8 @@ from hybridedit import build_rig
 from hybridedit.deform.arap import ARAPSolver, edge_weights, laplacian
 from hybridedit.deform.base_pose import current_base, propagated_residual, rest_base
 from hybridedit.binding.bind import dominant_cage_vertex
-from hybridedit.deform.constraints import FIXED, RegionStep, SeamSpread
+from hybridedit.deform.constraints import RegionStep, SeamSpread
+from hybridedit.deform.roles import FIXED
 from hybridedit.deform.frame_steps import (MAX_REACH, AverageMirror, Frame, RegionSolver, RegionStepSolver, SeamSpreadSolver,
                                     build_frame_steps, cage_targets, solve_cage)
 from hybridedit.deform.residual import residual_setup

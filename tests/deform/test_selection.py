@@ -7,7 +7,7 @@ import pytest
 from hybridedit import build_rig
 from hybridedit.deform.arap import ARAPSolver
 from hybridedit.binding.bind import dominant_cage_vertex
-from hybridedit.deform.constraints import FIXED, FREE
+from hybridedit.deform.roles import FIXED, FREE
 from hybridedit.deform.residual import residual_setup
 from hybridedit.deform.selection import SelectionError, as_groups, as_indices
 from hybridedit.deform.selection import (CageMap, build_selection, choose_roles, mirrored_roles, rows_that_can_move,

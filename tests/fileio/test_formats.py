@@ -266,13 +266,13 @@ def spot_in_every_format(spot: Path, tmp_path: Path) -> dict[str, Path]:
 
 def _corner_uvs(doc) -> np.ndarray | None:
     """The texture coordinates of the engine's triangle corners, (m, 3, 2), or None."""
-    from hybridedit.fileio.formats.common import _fan
+    from hybridedit.fileio.formats.common import fan_triangles
 
     tex = doc.textures()
     if tex is None or tex.uv is None:
         return None
     counts, _ = doc.polygon_lists()
-    corner = _fan(counts, np.arange(len(tex.corner_uv)))
+    corner = fan_triangles(counts, np.arange(len(tex.corner_uv)))
     return tex.uv[tex.corner_uv[corner]]
 
 

@@ -726,7 +726,7 @@ def test_atomic_write_rejects_other_modes(tmp_path: Path) -> None:
 
 
 def test_helpers_fan_and_weld() -> None:
-    tri = common._fan(np.array([3, 5, 4]), np.arange(12))
+    tri = common.fan_triangles(np.array([3, 5, 4]), np.arange(12))
     assert tri.tolist() == [[0, 1, 2], [3, 4, 5], [3, 5, 6], [3, 6, 7], [8, 9, 10], [8, 10, 11]]
     pts = np.array([[1, 0, 0], [0, 0, 0], [1, 0, 0], [-0.0, 0, 0], [2, 0, 0], [1, 0, 0.0]])
     v, f = common._weld(pts)

@@ -43,7 +43,7 @@ def _snippet(line: bytes, limit: int = 60) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
-def _fan(counts: np.ndarray, flat: np.ndarray) -> np.ndarray:
+def fan_triangles(counts: np.ndarray, flat: np.ndarray) -> np.ndarray:
     """Fan-triangulate polygons.
 
     Parameters

@@ -26,7 +26,7 @@ import numpy as np
 import pygltflib
 
 from ..document import Document, Material, Texturing, grouped_normals, moved_vertices, vertex_normals
-from .common import _Bad, _fan, _mesh
+from .common import _Bad, fan_triangles, _mesh
 
 __all__ = ["GlbNative", "read", "write"]
 
@@ -322,7 +322,7 @@ def _plain(doc: Document) -> bytes:
         source, uv, corner = tex.vertex_split(mesh.n_vertices, flat)
     else:
         source, uv, corner = np.arange(mesh.n_vertices), None, flat
-    triangles = _fan(counts, corner)  # in the engine's triangle order
+    triangles = fan_triangles(counts, corner)  # in the engine's triangle order
     materials = tex.materials if tex is not None else []
     face_material = np.full(len(counts), -1, dtype=np.int64)
     if materials and tex.face_material is not None:

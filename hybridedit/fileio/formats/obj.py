@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from ..document import Document, Material, Texturing, grouped_normals, moved_vertices, vertex_normals
-from .common import TextPrecision, _Bad, _indented, _sample_rows, _shortest_rows, _mesh, _fan, _format_rows, _numbers, _snippet, _token_count, _widths, _words
+from .common import TextPrecision, _Bad, _indented, _sample_rows, _shortest_rows, _mesh, fan_triangles, _format_rows, _numbers, _snippet, _token_count, _widths, _words
 from .reporting import report, span
 
 _MARK = int(np.iinfo(np.int64).max)  # stands in for each line's "f" while parsing indices
@@ -255,7 +255,7 @@ def read(data: bytes, path: str | None = None) -> Document:
     rgba = None
     if colors is not None:
         rgba = np.column_stack([colors, np.ones(nv)])
-    mesh = _mesh(vertices, _fan(counts, flat))
+    mesh = _mesh(vertices, fan_triangles(counts, flat))
     polygons = None if (counts.size and np.all(counts == 3)) else (counts, flat)
     texturing = None
     if "texture coordinates" in extras or "material references" in extras:
@@ -394,7 +394,7 @@ def _write_normals(doc: Document, nat: ObjNative, V: np.ndarray, moved: np.ndarr
     group = np.full(len(key), -1, dtype=np.int64)
     group[has] = corner_pair
     tri = doc.mesh.faces
-    tri_group = _fan(counts, group)
+    tri_group = fan_triangles(counts, group)
     normals, valid = grouped_normals(V, tri, tri_group, len(pairs))
     touched_tri = moved[tri].any(axis=1)
     touched = np.zeros(len(pairs), dtype=bool)

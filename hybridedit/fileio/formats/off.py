@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..document import Document, grouped_normals, moved_vertices, vertex_normals
-from .common import TextPrecision, _Bad, _sample_rows, _mesh, _fan, _format_rows, _numbers, _snippet, _truncated, _widths, _words
+from .common import TextPrecision, _Bad, _sample_rows, _mesh, fan_triangles, _format_rows, _numbers, _snippet, _truncated, _widths, _words
 
 __all__ = ["OffNative", "read", "write"]
 
@@ -171,7 +171,7 @@ def _document(original: list[bytes], data: bytes, kind: str, vertices: np.ndarra
     native = OffNative(lines=original, newline=newline, final_newline=data[-1:] in (b"\n", b"\r"),
                        v_lines=v_lines, normal_columns=has_n, rest=vertices)
     polygons = None if (counts.size and np.all(counts == 3)) else (counts, flat)
-    return Document(mesh=_mesh(vertices, _fan(counts, flat)), format="off", native=native,
+    return Document(mesh=_mesh(vertices, fan_triangles(counts, flat)), format="off", native=native,
                     polygons=polygons, colors=colors, normals=has_n, extras=extras)
 
 

@@ -27,7 +27,7 @@ import numpy as np
 import plyfile
 
 from ..document import Document, Material, Texturing, grouped_normals, moved_vertices, vertex_normals
-from .common import TextPrecision, _Bad, _mesh, _fan, _sample_rows, _truncated, _words
+from .common import TextPrecision, _Bad, _mesh, fan_triangles, _sample_rows, _truncated, _words
 
 __all__ = ["PlyNative", "read", "write"]
 
@@ -222,7 +222,7 @@ def read(path: str, data: bytes) -> Document:
             raise _Bad(f"face {k} has {_words(int(counts[k]), 'vertex')}, need at least 3"
                        + ("" if ply.text else " (the header's element counts may be wrong)"))
         flat = flat.astype(np.int64)
-        parts.append(_fan(counts, flat))
+        parts.append(fan_triangles(counts, flat))
         if not np.all(counts == 3):
             polygons = (counts, flat)
     strips = _element(ply, "tristrips")

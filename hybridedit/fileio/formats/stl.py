@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..document import Document, moved_vertices
-from .common import _Bad, _fan, _mesh, _snippet, _weld, _words
+from .common import _Bad, fan_triangles, _mesh, _snippet, _weld, _words
 
 __all__ = ["StlNative", "read", "write"]
 
@@ -71,7 +71,7 @@ def _read_stl_ascii(data: bytes) -> tuple[np.ndarray, np.ndarray]:
         if counts.min() < 3:
             k = int(np.argmax(counts < 3))
             raise _Bad(f"facet {k} has {_words(int(counts[k]), 'vertex')}, need at least 3")
-    corners = _fan(counts, np.arange(len(vpos)))
+    corners = fan_triangles(counts, np.arange(len(vpos)))
     return _weld(points[corners.reshape(-1)])
 
 
