@@ -30,7 +30,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from hybridedit import HybridEditor  # noqa: E402
-from hybridedit.fileio.document import vertex_normals  # noqa: E402
+from hybridedit.core.normals import vertex_normals  # noqa: E402
 from hybridedit.fileio.meshfiles import read_document, write_document, write_mesh  # noqa: E402
 
 SHARED = ROOT.parent / "shared" / "meshes"

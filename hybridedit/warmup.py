@@ -124,7 +124,10 @@ def record_compiles() -> Iterator[list]:
 
 @contextlib.contextmanager
 def parallel_everywhere() -> Iterator[None]:
-    """Set every ``PARALLEL*`` size threshold of the kernel modules to 0 (restored after)."""
+    """Set every size threshold to 0 (restored after): :func:`hybridedit.core.parallel.all_parallel`,
+    and the ``PARALLEL*`` constants of the kernel modules that still keep their own."""
+    from .core.parallel import all_parallel
+
     saved = []
     for name in kernel_modules():
         mod = sys.modules.get(name) or importlib.import_module(name)
@@ -133,7 +136,8 @@ def parallel_everywhere() -> Iterator[None]:
                 saved.append((mod, attr, value))
                 setattr(mod, attr, 0)
     try:
-        yield
+        with all_parallel():
+            yield
     finally:
         for mod, attr, value in saved:
             setattr(mod, attr, value)

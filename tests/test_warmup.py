@@ -53,7 +53,8 @@ def test_nothing_compiles_after_the_warmup(tmp_path):
 def test_every_entry_kernel_is_found():
     names = warmup.entry_kernels()
     assert "hybridedit.deform.propagate._csr_times_xyz_parallel" in names
-    assert "hybridedit.viewer.regional._vertex_normals_serial" in names
+    assert "hybridedit.core.normals._gather_serial" in names
+    assert "hybridedit.core.normals.accumulate_corners" in names
     assert "hybridedit.deform.propagate._row" not in names  # inlined into the entry kernels
     assert all(not m.startswith("hybridedit.viewer.") or m == "hybridedit.viewer.regional"
                for m in warmup.kernel_modules())

@@ -65,7 +65,7 @@ class SeamSpread:
     --------
     >>> L = sp.csr_matrix(np.array([[1.0, -1, 0], [-1, 2, -1], [0, -1, 1]]))
     >>> s = SeamSpread(L, np.array([1]), np.array([0]))
-    >>> s.correction(np.array([[2.0, 0, 0]])).round(6).tolist()  # halfway to the far end
+    >>> (s.correction(np.array([[2.0, 0, 0]])).round(6) + 0.0).tolist()  # halfway to the far end
     [[1.0, 0.0, 0.0]]
     """
 

@@ -8,8 +8,9 @@ inventory of everything else (texture coordinates, materials, custom
 properties, ...) so that a conversion can name what the target cannot hold.
 
 Normals are never carried over from the file: writers recompute them from the
-deformed surface with :func:`grouped_normals`, keeping the file's own grouping
-(one normal per vertex stays smooth; normals split at hard edges stay split).
+deformed surface with :func:`hybridedit.core.normals.grouped_normals` (the rule the window shades
+with), keeping the file's own grouping (one normal per vertex stays smooth; normals split at hard
+edges stay split).
 """
 
 from __future__ import annotations
@@ -21,8 +22,9 @@ from typing import Any
 import numpy as np
 
 from ..core.mesh import Mesh
+from ..core.normals import grouped_normals, vertex_normals  # noqa: F401  (the writers' normals; see below)
 
-__all__ = ["Document", "Material", "Texturing", "grouped_normals", "moved_vertices", "vertex_normals"]
+__all__ = ["Document", "Material", "Texturing", "moved_vertices"]
 
 
 @dataclass(eq=False)
@@ -211,57 +213,3 @@ class Document:
 def moved_vertices(rest: np.ndarray, current: np.ndarray) -> np.ndarray:
     """(n,) bool: the rows of ``current`` that differ from ``rest`` (both (n, 3))."""
     return np.any(rest != current, axis=1)
-
-
-def _corner_weighted_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """Unit face normal of each triangle times the angle at each corner, (m, 3, 3)."""
-    p = vertices[triangles]  # (m, 3, 3)
-    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-    length = np.linalg.norm(n, axis=1, keepdims=True)
-    n = np.divide(n, length, out=np.zeros_like(n), where=length > 0)
-    angles = np.empty(triangles.shape)
-    for c in range(3):
-        a = p[:, (c + 1) % 3] - p[:, c]
-        b = p[:, (c + 2) % 3] - p[:, c]
-        cos = np.einsum("ij,ij->i", a, b)
-        sin = np.linalg.norm(np.cross(a, b), axis=1)
-        angles[:, c] = np.arctan2(sin, cos)
-    return n[:, None, :] * angles[:, :, None]
-
-
-def grouped_normals(vertices: np.ndarray, triangles: np.ndarray, groups: np.ndarray,
-                    n_groups: int) -> tuple[np.ndarray, np.ndarray]:
-    """Angle-weighted normals of groups of triangle corners.
-
-    Parameters
-    ----------
-    vertices : (n, 3) float64 array
-    triangles : (m, 3) int64 array
-    groups : (m, 3) int64 array
-        The group (e.g. the OBJ ``vn`` index) of each corner; -1 for none.
-    n_groups : int
-
-    Returns
-    -------
-    normals : (n_groups, 3) float64 array
-        Unit normals; zero rows where ``valid`` is False.
-    valid : (n_groups,) bool array
-        The group has corners with a nonzero summed normal.
-    """
-    w = _corner_weighted_normals(vertices, triangles).reshape(-1, 3)
-    g = groups.reshape(-1)
-    keep = g >= 0
-    out = np.zeros((n_groups, 3))
-    for axis in range(3):
-        out[:, axis] = np.bincount(g[keep], weights=w[keep, axis], minlength=n_groups)
-    length = np.linalg.norm(out, axis=1)
-    valid = length > 1e-300
-    out[valid] /= length[valid, None]
-    out[~valid] = 0.0
-    return out, valid
-
-
-def vertex_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """Angle-weighted unit vertex normals, (n, 3) float64 (zero for unused vertices)."""
-    normals, _ = grouped_normals(vertices, triangles, triangles, len(vertices))
-    return normals

@@ -3,11 +3,13 @@
 During a drag only the shape vertices the engine can move change
 (``moving``); everything the window derives from the pose changes only near
 them. :class:`ShapeMetrics` holds the index sets for one selection and the compiled
-kernels update, in place (in parallel from :data:`PARALLEL_MIN` items, except the
-region's normals, which add each face to its corners in one serial pass):
+kernels update, in place (in parallel from the ``"window"`` size of
+:data:`hybridedit.core.parallel.THRESHOLDS`, except the region's normals, which add each
+face to its corners in one serial pass):
 
 - the points written into the float32 VTK buffer (the moving rows only),
-- the vertex normals (vertices of the faces that touch a moving vertex),
+- the vertex normals (vertices of the faces that touch a moving vertex), by the rule files are
+  saved with (:mod:`hybridedit.core.normals`),
 - the relative RMS edge-length error (the terms of edges that touch a moving
   vertex; the others are summed once per selection),
 - the stretch map (endpoints of those edges).
@@ -27,14 +29,8 @@ import numpy as np
 from numba import njit, prange
 
 from ..core.mesh import unique_edges
-
-
-PARALLEL_MIN = 50_000
-"""Items (rows, faces, vertices, edges) from which a kernel runs its parallel variant. During a drag
-these kernels run on the window's frame thread, which gives them every core only while the window
-waits for the frame and one thread while the frame runs beside the render (see
-:mod:`hybridedit.viewer.framethread`): a parallel region beside the software rasterizer waits for
-its slowest thread (the 173K armadillo's region normals: 31 ms in parallel there, about 2 ms serial)."""
+from ..core.normals import accumulate_corners, face_terms, write_unit_rows, write_vertex_normals
+from ..core.parallel import pick
 
 
 @njit(cache=True, inline="always")
@@ -89,57 +85,6 @@ def copy_rows(src: np.ndarray, rows: np.ndarray, dst: np.ndarray, at: np.ndarray
     _copy_rows_serial(src, np.asarray(rows, dtype=np.int64), dst, np.asarray(at, dtype=np.int64))
 
 
-@njit(cache=True, inline="always")
-def _face_normal(V, F, f, fn):
-    i, j, k = F[f, 0], F[f, 1], F[f, 2]
-    ax, ay, az = V[j, 0] - V[i, 0], V[j, 1] - V[i, 1], V[j, 2] - V[i, 2]
-    bx, by, bz = V[k, 0] - V[i, 0], V[k, 1] - V[i, 1], V[k, 2] - V[i, 2]
-    fn[f, 0] = ay * bz - az * by
-    fn[f, 1] = az * bx - ax * bz
-    fn[f, 2] = ax * by - ay * bx
-
-
-@njit(cache=True)
-def _face_normals_serial(V, F, faces, fn):
-    for t in range(faces.shape[0]):
-        _face_normal(V, F, faces[t], fn)
-
-
-@njit(cache=True, parallel=True)
-def _face_normals_parallel(V, F, faces, fn):
-    for t in prange(faces.shape[0]):
-        _face_normal(V, F, faces[t], fn)
-
-
-@njit(cache=True, inline="always")
-def _vertex_normal(fn, vf_ptr, vf_idx, v, out):
-    nx = 0.0
-    ny = 0.0
-    nz = 0.0
-    for p in range(vf_ptr[v], vf_ptr[v + 1]):
-        f = vf_idx[p]
-        nx += fn[f, 0]
-        ny += fn[f, 1]
-        nz += fn[f, 2]
-    L = np.sqrt(nx * nx + ny * ny + nz * nz)
-    if L > 0.0:
-        out[v, 0], out[v, 1], out[v, 2] = nx / L, ny / L, nz / L
-    else:
-        out[v, 0], out[v, 1], out[v, 2] = 0.0, 0.0, 0.0
-
-
-@njit(cache=True)
-def _vertex_normals_serial(fn, vf_ptr, vf_idx, verts, out):
-    for t in range(verts.shape[0]):
-        _vertex_normal(fn, vf_ptr, vf_idx, verts[t], out)
-
-
-@njit(cache=True, parallel=True)
-def _vertex_normals_parallel(fn, vf_ptr, vf_idx, verts, out):
-    for t in prange(verts.shape[0]):
-        _vertex_normal(fn, vf_ptr, vf_idx, verts[t], out)
-
-
 @njit(cache=True)
 def _gather(V, rows, P):
     """P[t] = V[rows[t]]: the region's positions, compact and in order."""
@@ -148,39 +93,6 @@ def _gather(V, rows, P):
         P[t, 0] = V[r, 0]
         P[t, 1] = V[r, 1]
         P[t, 2] = V[r, 2]
-
-
-@njit(cache=True)
-def _region_normals(P, faces, targets, rows, acc, out):
-    """Unit vertex normals of the compact region: the area-weighted normal of every face of ``faces``
-    ((f, 3) indices into P) added to its three corners in ``acc``, then ``out[rows[t]]`` = the
-    normalised ``acc[targets[t]]`` (vertices all of whose faces are in ``faces``)."""
-    acc[:, :] = 0.0
-    for f in range(faces.shape[0]):
-        i, j, k = faces[f, 0], faces[f, 1], faces[f, 2]
-        ax, ay, az = P[j, 0] - P[i, 0], P[j, 1] - P[i, 1], P[j, 2] - P[i, 2]
-        bx, by, bz = P[k, 0] - P[i, 0], P[k, 1] - P[i, 1], P[k, 2] - P[i, 2]
-        nx = ay * bz - az * by
-        ny = az * bx - ax * bz
-        nz = ax * by - ay * bx
-        acc[i, 0] += nx
-        acc[i, 1] += ny
-        acc[i, 2] += nz
-        acc[j, 0] += nx
-        acc[j, 1] += ny
-        acc[j, 2] += nz
-        acc[k, 0] += nx
-        acc[k, 1] += ny
-        acc[k, 2] += nz
-    for t in range(targets.shape[0]):
-        a, v = targets[t], rows[t]
-        nx, ny, nz = acc[a, 0], acc[a, 1], acc[a, 2]
-        L = np.sqrt(nx * nx + ny * ny + nz * nz)
-        if L > 0.0:
-            s = 1.0 / L
-            out[v, 0], out[v, 1], out[v, 2] = nx * s, ny * s, nz * s
-        else:
-            out[v, 0], out[v, 1], out[v, 2] = 0.0, 0.0, 0.0
 
 
 @njit(cache=True, inline="always")
@@ -237,7 +149,7 @@ def _stretch_parallel(terms, ve_ptr, ve_idx, verts, out):
 
 
 def _pick(serial, parallel, items: np.ndarray):
-    return parallel if items.shape[0] >= PARALLEL_MIN else serial
+    return pick("window", serial, parallel, items.shape[0])
 
 
 def _incidence(items: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -303,7 +215,7 @@ class ShapeMetrics:
         self.all_faces = np.arange(len(self.faces), dtype=np.int64)
         self.terms = np.zeros(len(self.edges))
         self.total = 0.0
-        self.face_normals = np.zeros((len(self.faces), 3))  # area-weighted (the whole-shape normals' buffer)
+        self.face_terms = np.zeros((len(self.faces), 6))  # unit normals and corner angles (whole-shape updates)
         self.set_moving(None)
 
     def set_moving(self, moving: np.ndarray | None) -> None:
@@ -339,17 +251,18 @@ class ShapeMetrics:
         return box[0], box[1]
 
     def write_normals(self, V: np.ndarray, out: np.ndarray, *, everything: bool = False) -> None:
-        """Vertex normals of V (area-weighted, unit) into ``out`` (n, 3) where the moving region changes them
-        (every vertex with ``everything`` or when nothing restricts the updates)."""
+        """Vertex normals of V (:mod:`hybridedit.core.normals`: angle-weighted, unit, the ones files are
+        saved with) into ``out`` (n, 3) where the moving region changes them (every vertex with
+        ``everything`` or when nothing restricts the updates)."""
         c = self._compact
         if everything or c is None:
-            faces, verts = self.all_faces, self.all_vertices
-            _pick(_face_normals_serial, _face_normals_parallel, faces)(V, self.faces, faces, self.face_normals)
-            _pick(_vertex_normals_serial, _vertex_normals_parallel, verts)(
-                self.face_normals, self.vf_ptr, self.vf_idx, verts, out)
+            face_terms(V, self.faces, self.all_faces, self.face_terms)
+            write_vertex_normals(self.faces, self.face_terms, self.vf_ptr, self.vf_idx, self.all_vertices, out)
             return
         _gather(V, c.vertices, c.P)
-        _region_normals(c.P, c.faces, c.targets, self.normal_vertices, c.acc, out)
+        c.acc[:] = 0.0
+        accumulate_corners(c.P, c.faces, c.faces, c.acc)
+        write_unit_rows(c.acc, c.targets, self.normal_vertices, out)
 
     def update_error(self, V: np.ndarray, *, everything: bool = False) -> float:
         """The relative RMS edge-length error of V in percent (as :func:`hybridedit.core.mesh.rrms_edge_error`).
@@ -378,18 +291,3 @@ class ShapeMetrics:
         terms of the last :meth:`update_error` (call it first with the same pose)."""
         verts = self.all_vertices if everything else self.stretch_vertices
         _pick(_stretch_serial, _stretch_parallel, verts)(self.terms, self.ve_ptr, self.ve_idx, verts, out)
-
-
-def vertex_normals(V: np.ndarray, faces: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
-    """Area-weighted unit vertex normals of a whole (small) mesh, (n, 3), into ``out`` when given."""
-    V = np.ascontiguousarray(V, dtype=np.float64)
-    F = np.ascontiguousarray(faces, dtype=np.int64)
-    ptr, idx = _incidence(F, len(V))
-    if out is None:
-        out = np.empty((len(V), 3))
-    fn = np.empty((len(F), 3))
-    all_faces = np.arange(len(F), dtype=np.int64)
-    _pick(_face_normals_serial, _face_normals_parallel, all_faces)(V, F, all_faces, fn)
-    verts = np.arange(len(V), dtype=np.int64)
-    _pick(_vertex_normals_serial, _vertex_normals_parallel, verts)(fn, ptr, idx, verts, out)
-    return out

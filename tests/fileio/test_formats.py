@@ -12,7 +12,7 @@ import pytest
 import trimesh
 
 from hybridedit import HybridEditor
-from hybridedit.fileio.document import vertex_normals
+from hybridedit.core.normals import vertex_normals
 from hybridedit.fileio.meshfiles import read_document, read_mesh, write_document
 
 from shapes import SHARED_MESHES, bumpy_blob, icosphere
