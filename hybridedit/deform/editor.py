@@ -21,7 +21,6 @@ from typing import Callable
 import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
-from scipy.spatial.transform import Rotation
 
 from ..defaults import CAGE_SIZE, ITERATIONS, SETTLE_FRAMES, TRUNCATION
 from .arap import ARAPSolver, edge_weights, laplacian
@@ -40,7 +39,7 @@ from ..binding.rig import Progress, Rig, build_rig
 from .selection import SelectionError
 from .selection import CageMap, Selection, build_selection, choose_roles, mirrored_roles, user_roles
 from .symmetry import Mirror
-from ..core.transforms import check_transform, rigid_transform
+from .transform_arguments import requested_transforms
 
 __all__ = ["HybridEditor", "SelectionError", "EditorState"]
 
@@ -496,47 +495,6 @@ class HybridEditor:
             self._centers = self._sel.centers(shape=base.shape, cage=base.cage)
 
     # ------------------------------------------------------------------ deformation
-    def _as_transform(self, group: int, translate, rotate, transform) -> np.ndarray:
-        if transform is not None:
-            if translate is not None or rotate is not None:
-                raise ValueError("give transform, or translate and/or rotate, not both")
-            return check_transform(transform)
-        T = np.eye(4)
-        if rotate is not None:
-            center = self._centers[group]
-            if isinstance(rotate, dict):
-                c = rotate.get("center")
-                T = rigid_transform(axis=rotate.get("axis"), degrees=float(rotate.get("degrees", 0.0)),
-                                    center=center if c is None else c)
-            else:
-                R = rotate.as_matrix() if isinstance(rotate, Rotation) else np.asarray(rotate, dtype=np.float64)
-                if R.shape != (3, 3) or not np.all(np.isfinite(R)) or not np.allclose(R @ R.T, np.eye(3), atol=1e-6) \
-                        or np.linalg.det(R) < 0:
-                    raise ValueError("rotate must be a 3x3 rotation matrix, a scipy Rotation or "
-                                     "{\"axis\": ..., \"degrees\": ..., \"center\": ...}")
-                T[:3, :3] = R
-                T[:3, 3] = center - R @ center
-        if translate is not None:
-            T = rigid_transform(translate=translate) @ T
-        return T
-
-    def _requested_transforms(self, translate, rotate, transform, group, transforms) -> list[np.ndarray]:
-        """Every user group's (4, 4) transform after a :meth:`drag` with these arguments."""
-        n_groups = self._sel.n_groups
-        new = list(self._transforms)
-        if transforms is not None:
-            if translate is not None or rotate is not None or transform is not None:
-                raise ValueError("give transforms, or one group's translate/rotate/transform, not both")
-            for g, T in dict(transforms).items():
-                if not isinstance(g, (int, np.integer)) or not (0 <= int(g) < n_groups):
-                    raise SelectionError(f"no handle group {g!r}; the selection has {n_groups}")
-                new[int(g)] = check_transform(T)
-        else:
-            if not isinstance(group, (int, np.integer)) or not (0 <= int(group) < n_groups):
-                raise SelectionError(f"no handle group {group!r}; the selection has {n_groups}")
-            new[int(group)] = self._as_transform(int(group), translate, rotate, transform)
-        return new
-
     def drag(
         self,
         translate=None,
@@ -576,7 +534,8 @@ class HybridEditor:
         sel = self._sel
         if sel is None:
             raise SelectionError("set a selection (handle) before dragging")
-        new = self._requested_transforms(translate, rotate, transform, group, transforms)
+        new = requested_transforms(self._transforms, self._centers, translate=translate, rotate=rotate,
+                                   transform=transform, group=group, transforms=transforms)
         k = self.iterations if iterations is None else int(iterations)
         if k < 0:
             raise ValueError(f"iterations must be >= 0, got {k}")
