@@ -36,6 +36,7 @@ from .polish import PolishJob, PolishResult, ShapeARAP
 from .pose_record import PoseRecord
 from .residual import residual_setup
 from ..binding.rig import Progress, Rig, build_rig
+from .rig_arguments import BuildDefault, rig_from
 from .selection import SelectionError
 from .selection import CageMap, Selection, build_selection, choose_roles, mirrored_roles, user_roles
 from .symmetry import Mirror
@@ -63,19 +64,6 @@ class EditorState:
     steps: FrameSteps | None = None  # the selection's frame steps, measured from ``base``
     centers: tuple[np.ndarray, ...] = ()  # the default rotation centre of each handle group
     record: PoseRecord = PoseRecord()  # how the pose was made (what :attr:`HybridEditor.edit` replays)
-
-
-class _Default:
-    """A build option's default (shown as its value in the signature), told apart from the same value
-    given explicitly: :class:`HybridEditor` refuses build options given with a ready :class:`Rig`."""
-
-    __slots__ = ("value",)
-
-    def __init__(self, value) -> None:
-        self.value = value
-
-    def __repr__(self) -> str:
-        return repr(self.value)
 
 
 class HybridEditor:
@@ -138,27 +126,19 @@ class HybridEditor:
     def __init__(
         self,
         mesh: Mesh | Rig,
-        cage_size: int | float = _Default(CAGE_SIZE),
+        cage_size: int | float = BuildDefault(CAGE_SIZE),
         *,
-        cage: Mesh | None = _Default(None),
-        binding: sp.spmatrix | None = _Default(None),
-        truncation: float = _Default(TRUNCATION),
+        cage: Mesh | None = BuildDefault(None),
+        binding: sp.spmatrix | None = BuildDefault(None),
+        truncation: float = BuildDefault(TRUNCATION),
         weights: str = "cotangent",
         iterations: int = ITERATIONS,
-        progress: Progress | None = _Default(None),
-        cache: bool | str | Path = _Default(False),
+        progress: Progress | None = BuildDefault(None),
+        cache: bool | str | Path = BuildDefault(False),
         propagation: str = "residual",
     ) -> None:
-        build = dict(cage_size=cage_size, cage=cage, binding=binding, truncation=truncation, cache=cache,
-                     progress=progress)
-        if isinstance(mesh, Rig):
-            given = [k for k, v in build.items() if not isinstance(v, _Default)]
-            if given:
-                raise ValueError(f"{', '.join(given)} cannot be given with a Rig (it is built already); "
-                                 "pass them to build_rig, or pass the Mesh")
-            rig = mesh
-        else:
-            rig = build_rig(mesh, **{k: v.value if isinstance(v, _Default) else v for k, v in build.items()})
+        rig = rig_from(mesh, cage_size=cage_size, cage=cage, binding=binding, truncation=truncation, cache=cache,
+                       progress=progress)
         if propagation not in PROPAGATIONS:
             raise ValueError(f"propagation must be one of {PROPAGATIONS}, got {propagation!r}")
         #: the cage and binding this editor works on (see :func:`hybridedit.build_rig`)
