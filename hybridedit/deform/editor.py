@@ -14,7 +14,6 @@ stage is its own module:
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
@@ -28,6 +27,7 @@ from .base_pose import BasePose, current_base, fit_cage, propagate_from, propaga
 from ..binding.bind import dominant_cage_vertex
 from .roles import FIXED, FREE
 from ..fileio.editfile import Edit, HandleEdit, mesh_fingerprint
+from .editor_state import EditorState, StateSnapshots
 from .frame_steps import Frame, FrameSteps, build_frame_steps, cage_targets, solve_cage
 from ..core.mesh import Mesh
 from .polish import MAX_ITERATIONS as POLISH_MAX_ITERATIONS
@@ -49,24 +49,7 @@ FRAME_HISTORY = 10000
 PROPAGATIONS = ("residual", "linear")
 
 
-@dataclass(frozen=True)
-class EditorState:
-    """A snapshot of an editor's selection and pose (see :meth:`HybridEditor.save_state`)."""
-
-    selection: Selection | None
-    transforms: tuple[np.ndarray, ...]
-    cage_positions: np.ndarray
-    arap_rotations: np.ndarray
-    rotations: np.ndarray
-    shape: np.ndarray
-    base: BasePose
-    moved: bool
-    steps: FrameSteps | None = None  # the selection's frame steps, measured from ``base``
-    centers: tuple[np.ndarray, ...] = ()  # the default rotation centre of each handle group
-    record: PoseRecord = PoseRecord()  # how the pose was made (what :attr:`HybridEditor.edit` replays)
-
-
-class HybridEditor:
+class HybridEditor(StateSnapshots):
     """Interactive hybrid mesh editing of one shape.
 
     Takes a :class:`~hybridedit.binding.rig.Rig` (cage + binding, see :func:`hybridedit.build_rig`),
@@ -707,33 +690,6 @@ class HybridEditor:
         result = job.run(self._shape_arap)
         self.adopt_polish(job, result)
         return result
-
-    def save_state(self) -> EditorState:
-        """A snapshot of the selection and pose, for :meth:`restore_state` (undo)."""
-        return EditorState(self._sel, tuple(T.copy() for T in self._transforms), self.arap.positions.copy(),
-                           self.arap.rotations.copy(), self._rots.copy(), self._out.copy(), self._base,
-                           self._moved, steps=self._steps, centers=self._centers, record=self._record)
-
-    def restore_state(self, state: EditorState) -> np.ndarray:
-        """Go back to a snapshot taken by :meth:`save_state` (the selection, the pose it
-        starts from and the current pose, exactly); returns the (n, 3) shape."""
-        self.arap.reference = state.base.cage
-        if state.selection is not self._sel:
-            sel = state.selection
-            if sel is not None:
-                self.arap.set_constrained(sel.constrained, moving=sel.moving)
-            self._sel = sel
-        self._steps = state.steps
-        self._centers = state.centers
-        self.arap.positions[:] = state.cage_positions
-        self.arap.rotations[:] = state.arap_rotations
-        self._rots[:] = state.rotations
-        self._out[:] = state.shape
-        self._transforms = [T.copy() for T in state.transforms]
-        self._base = state.base
-        self._moved = state.moved
-        self._record = state.record
-        return self.deformed_vertices
 
     def _propagate_all(self) -> None:
         """Every shape vertex from the current cage pose and rotations, from the base pose."""

@@ -115,23 +115,6 @@ def test_reset_and_cage_positions(ed):
     assert m.faces is ed.mesh.faces or np.array_equal(m.faces, ed.mesh.faces)
 
 
-def test_save_and_restore_state_bring_back_selection_and_pose(ed):
-    a, b = ends(ed.mesh)
-    ed.set_selection(b, fixed=a)
-    x = ed.deformed_vertices.copy()  # the pose the constraints refer to
-    ed.drag(translate=(0, 0.5, 0))
-    state = ed.save_state()
-    shape = ed.deformed_vertices.copy()
-    ed.set_selection(a, roi=np.arange(ed.mesh.n_vertices // 2))
-    ed.drag(translate=(0.3, 0, 0))
-    ed.restore_state(state)
-    assert np.array_equal(ed.deformed_vertices, shape)
-    assert np.allclose(ed.transform[:3, 3], [0, 0.5, 0])
-    ed.drag(translate=(0, 0.6, 0))  # continues from the restored selection: constraints exact
-    assert np.abs(ed.deformed_vertices[a] - x[a]).max() == 0.0
-    assert np.allclose(ed.deformed_vertices[b], x[b] + [0, 0.6, 0], atol=1e-12)
-
-
 def test_selection_errors(ed):
     a, b = ends(ed.mesh)
     with pytest.raises(SelectionError, match="empty"):
