@@ -25,7 +25,7 @@ from ..defaults import CAGE_SIZE, ITERATIONS, SETTLE_FRAMES, TRUNCATION
 from .arap import ARAPSolver, edge_weights, laplacian
 from .base_pose import BasePose, current_base, fit_cage, propagate_from, propagated_residual, rest_base
 from ..binding.bind import dominant_cage_vertex
-from .roles import FIXED, FREE
+from .roles import FIXED
 from ..fileio.editfile import Edit, HandleEdit, mesh_fingerprint
 from .editor_state import EditorState, StateSnapshots
 from .frame_steps import Frame, FrameSteps, build_frame_steps, cage_targets, solve_cage
@@ -37,8 +37,9 @@ from .pose_record import PoseRecord
 from .residual import residual_setup
 from ..binding.rig import Progress, Rig, build_rig
 from .rig_arguments import BuildDefault, rig_from
+from .role_queries import RoleQueries
 from .selection import SelectionError
-from .selection import CageMap, Selection, build_selection, choose_roles, mirrored_roles, user_roles
+from .selection import CageMap, Selection, build_selection, choose_roles, user_roles
 from .symmetry import Mirror
 from .transform_arguments import requested_transforms
 
@@ -49,7 +50,7 @@ FRAME_HISTORY = 10000
 PROPAGATIONS = ("residual", "linear")
 
 
-class HybridEditor(StateSnapshots):
+class HybridEditor(RoleQueries, StateSnapshots):
     """Interactive hybrid mesh editing of one shape.
 
     Takes a :class:`~hybridedit.binding.rig.Rig` (cage + binding, see :func:`hybridedit.build_rig`),
@@ -189,11 +190,6 @@ class HybridEditor(StateSnapshots):
         return self.arap.edges.copy()
 
     @property
-    def n_groups(self) -> int:
-        """Number of handle groups of the selection (0 before one is set)."""
-        return 0 if self._sel is None else self._sel.n_groups
-
-    @property
     def transforms(self) -> list[np.ndarray]:
         """Current (4, 4) transform of each handle group, relative to the pose when
         the selection was set (copies)."""
@@ -204,155 +200,7 @@ class HybridEditor(StateSnapshots):
         """The transform of handle group 0 (identity before a selection is set)."""
         return self._transforms[0].copy() if self._transforms else np.eye(4)
 
-    @property
-    def vertex_roles(self) -> np.ndarray:
-        """(n,) int8 role of each shape vertex: -1 fixed, 0 free, g + 1 in handle group g
-        (mirror images count in their group). This is what is held exactly."""
-        if self._sel is None:
-            return np.zeros(self.mesh.n_vertices, dtype=np.int8)
-        return self._sel.public(self._sel.roles)
-
-    @property
-    def dominant_cage_vertex(self) -> np.ndarray:
-        """(n,) int64, read-only: the cage vertex each shape vertex depends on most (the largest
-        magnitude in its row of the binding), the cage vertex that stands for it in a selection."""
-        v = self._maps.dominant.view()
-        v.flags.writeable = False
-        return v
-
-    @property
-    def cage_roles(self) -> np.ndarray:
-        """(c,) int8 role of each cage vertex, as :attr:`vertex_roles`; cage parts
-        with no constraint, held still, count as fixed."""
-        if self._sel is None:
-            return np.zeros(self.cage.n_vertices, dtype=np.int8)
-        return self._sel.public_cage_roles
-
-    @property
-    def handle(self) -> np.ndarray:
-        """(h,) int64 cage vertices that follow a handle transform (all groups)."""
-        if self._sel is None:
-            return np.zeros(0, dtype=np.int64)
-        return self._sel.moving.copy()
-
-    @property
-    def fixed(self) -> np.ndarray:
-        """(f,) int64 cage vertices held where they are (fixed, and parts held still)."""
-        if self._sel is None:
-            return np.zeros(0, dtype=np.int64)
-        return np.flatnonzero(self.cage_roles == FIXED).astype(np.int64)
-
-    @property
-    def moving_vertices(self) -> np.ndarray:
-        """(k,) int64 sorted shape vertices a drag can move: the edited region
-        (free vertices bound to moving cage vertices, and the handles)."""
-        if self._sel is None:
-            return np.zeros(0, dtype=np.int64)
-        return self._sel.moving_vertices
-
-    @property
-    def free_mask(self) -> np.ndarray:
-        """(n,) bool: the free shape vertices a drag can move, i.e. the edited region
-        less its constraints; what a full-resolution polish may move."""
-        mask = np.zeros(self.mesh.n_vertices, dtype=bool)
-        if self._sel is not None:
-            mask[self._sel.rows] = True
-        return mask
-
-    @property
-    def symmetry(self) -> Mirror | None:
-        """The mirror of a symmetric selection, else None."""
-        return None if self._sel is None else self._sel.mirror
-
     # ------------------------------------------------------------------ selection
-    def to_cage(self, indices, space: str = "shape", role: str = "selection") -> np.ndarray:
-        """Map a vertex selection to cage vertex indices.
-
-        Shape vertices map to the cage vertices whose nearest shape vertex is
-        selected; a small selection that contains no such vertex maps to the cage
-        vertex with the largest coordinate of each selected shape vertex.
-
-        Parameters
-        ----------
-        indices : (k,) int array of vertex indices, or a boolean mask, in ``space``.
-        space : "shape" or "cage".
-
-        Returns
-        -------
-        (j,) int64 array of sorted unique cage vertex indices.
-        """
-        return self._maps.to_cage(indices, space=space, role=role)
-
-    def shape_roles(self, cage_roles) -> np.ndarray:
-        """Shape vertex roles that select exactly the given cage vertex roles.
-
-        A selection made on the cage (as in the window) given in shape vertices, so
-        that the edit it makes is a shape-space edit that replays the same on this
-        cage: each shape vertex takes the role of the cage vertex it depends on most,
-        and the shape vertex nearest each cage vertex (whose role the cage vertex
-        takes, see :meth:`set_selection`) takes that cage vertex's own role.
-
-        Parameters
-        ----------
-        cage_roles : (c,) int array, -1 fixed, 0 free, g + 1 handle group g.
-
-        Returns
-        -------
-        (n,) int8 shape vertex roles, the same code.
-        """
-        return self._maps.shape_roles(cage_roles)
-
-    def preview_roles(self, roles, *, symmetry=None) -> tuple[np.ndarray, np.ndarray]:
-        """The roles a selection takes once mirrored, without setting it (nothing is
-        factored: a few milliseconds), to draw a selection on both sides as it is made.
-
-        Parameters
-        ----------
-        roles : (n,) int shape vertex roles, -1 fixed, 0 free, g + 1 handle group g
-            (e.g. from :meth:`shape_roles`); groups may be empty.
-        symmetry : None, "x", "y", "z" or (point, normal), as :meth:`set_selection`
-            takes it with ``roi`` (a vertex stays fixed only where its mirror image is fixed too).
-
-        Returns
-        -------
-        vertex_roles : (n,) int8, cage_roles : (c,) int8
-            The same code, mirror images counted in their group; a cage vertex takes
-            the role of its nearest shape vertex.
-
-        Raises
-        ------
-        SelectionError
-            Roles of the wrong length, or a shape not symmetric enough.
-        """
-        r = np.asarray(roles)
-        if r.shape != (self.mesh.n_vertices,) or not np.issubdtype(r.dtype, np.integer):
-            raise SelectionError(f"roles must be {self.mesh.n_vertices:,} integers")
-        r = r.astype(np.int32)
-        mirror = self._mirror(symmetry) if symmetry is not None else None
-        internal, source, _ = mirrored_roles(r, n_groups=int(r.max(initial=0)), mirror=mirror, roi_mode=True)
-        lut = np.array([FIXED, FREE] + [g + 1 for g in source], dtype=np.int8)
-        shape = lut[internal + 1]
-        return shape, shape[self._maps.nearest]
-
-    def mirror(self, symmetry) -> Mirror:
-        """The shape's mirror across a plane ("x", "y", "z" or (point, normal)), as
-        :meth:`set_selection` would use it: check a shape before offering to mirror it.
-
-        Raises
-        ------
-        SelectionError
-            The shape is not symmetric enough across that plane (the message gives its
-            measured asymmetry), or the plane is malformed.
-        """
-        return self._mirror(symmetry)
-
-    def _mirror(self, symmetry) -> Mirror:
-        key = repr(symmetry)
-        m = self._mirrors.get(key)
-        if m is None:
-            m = self._mirrors[key] = Mirror(self.mesh.vertices, symmetry)
-        return m
-
     def set_selection(
         self,
         handle,

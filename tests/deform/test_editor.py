@@ -808,16 +808,3 @@ def test_five_successive_edits_do_not_pile_up_distortion(ellipsoid):
     assert np.allclose(V5[hand], V1[hand], atol=1e-9)  # the handle is where one edit puts it
     assert e5 < 1.25 * e1, (e5, e1)  # (13.4% against 11.9% here)
     assert np.abs(V5 - V1).max() < 0.08 * ellipsoid.bbox_diagonal()  # (4.8% here)
-
-
-def test_dominant_cage_vertex_is_each_rows_largest_weight_and_read_only(ed):
-    dom = ed.dominant_cage_vertex
-    M = abs(ed.M).tocsr()
-    assert dom.shape == (ed.mesh.n_vertices,)
-    assert np.array_equal(dom, np.asarray(M.argmax(axis=1)).ravel())
-    with pytest.raises(ValueError):
-        dom[0] = 1
-    # a cage-space selection gives each shape vertex the role of its dominant cage vertex
-    ed.reset()
-    ed.set_selection(handle=[0], roi=np.arange(ed.cage.n_vertices), space="cage")
-    assert np.array_equal(ed.vertex_roles, ed.cage_roles[dom])
