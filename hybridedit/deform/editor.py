@@ -24,6 +24,7 @@ from ..defaults import CAGE_SIZE, ITERATIONS, TRUNCATION
 from .arap import ARAPSolver, edge_weights, laplacian
 from .base_pose import BasePose, current_base, fit_cage, propagate_from, propagated_residual, rest_base
 from ..binding.bind import dominant_cage_vertex
+from .editor_files import EditorFiles
 from .editor_state import EditorState, StateSnapshots
 from .frame_steps import Frame, FrameSteps, build_frame_steps, cage_targets, solve_cage
 from ..core.mesh import Mesh
@@ -33,7 +34,7 @@ from .polish import PolishJob, PolishResult, ShapeARAP
 from .pose_record import PoseRecord
 from .recorded_edits import RecordedEdits
 from .residual import residual_setup
-from ..binding.rig import Progress, Rig, build_rig
+from ..binding.rig import Progress, Rig
 from .rig_arguments import BuildDefault, rig_from
 from .role_queries import RoleQueries
 from .selection import SelectionError
@@ -48,7 +49,7 @@ FRAME_HISTORY = 10000
 PROPAGATIONS = ("residual", "linear")
 
 
-class HybridEditor(RoleQueries, StateSnapshots, RecordedEdits):
+class HybridEditor(RoleQueries, StateSnapshots, RecordedEdits, EditorFiles):
     """Interactive hybrid mesh editing of one shape.
 
     Takes a :class:`~hybridedit.binding.rig.Rig` (cage + binding, see :func:`hybridedit.build_rig`),
@@ -561,11 +562,7 @@ class HybridEditor(RoleQueries, StateSnapshots, RecordedEdits):
         """The current cage pose as a Mesh (a copy)."""
         return Mesh(self.arap.positions.copy(), self.cage.faces, name="cage")
 
-    # ------------------------------------------------------------------ scripts: a solved pose, files
-    #: the file this editor was opened from (:meth:`from_file`), which :meth:`save` writes
-    #: back with the current positions; None for an editor built from a bare Mesh
-    document = None
-
+    # ------------------------------------------------------------------ scripts: a solved pose
     def pose(self, translate=None, *, rotate=None, transform: np.ndarray | None = None, group: int = 0,
              transforms: dict | None = None, tolerance: float = 1e-6, max_frames: int = 1000) -> np.ndarray:
         """Solve an edit to convergence: :meth:`drag` frames at the given transform until a
@@ -597,42 +594,3 @@ class HybridEditor(RoleQueries, StateSnapshots, RecordedEdits):
                       f"{moved / diagonal:.2g} of the diagonal, tolerance {tolerance:g})",
                       RuntimeWarning, stacklevel=2)
         return self._out.copy()
-
-    @classmethod
-    def from_file(cls, path, cage_size: int | float = CAGE_SIZE, *, cache: bool | str | Path = False,
-                  truncation: float = TRUNCATION, progress: Progress | None = None, **options) -> "HybridEditor":
-        """Open a mesh file for editing, keeping everything it holds for :meth:`save`.
-
-        Reads ``path`` with :func:`hybridedit.read_document` (texture coordinates,
-        polygons, materials, colours, ... stay in :attr:`document`), builds the cage
-        and binding as :func:`hybridedit.build_rig` (``cage_size``, ``cache``,
-        ``truncation``) and takes the editor's own ``options`` (``weights``,
-        ``iterations``, ``propagation``). ``progress(stage, fraction)`` hears both.
-        """
-        from ..fileio.meshfiles import read_document
-
-        doc = read_document(path, progress=progress)
-        rig = build_rig(doc.mesh, cage_size=cage_size, cache=cache, truncation=truncation, progress=progress)
-        editor = cls(rig, **options)
-        editor.document = doc
-        return editor
-
-    def save(self, path, *, progress: Progress | None = None) -> list[str]:
-        """Write the current pose to ``path`` atomically (format by extension); returns notes.
-
-        An editor opened with :meth:`from_file` writes everything the file had (texture
-        coordinates, polygons, materials and their images, colours, recomputed normals)
-        with the new positions, through :func:`hybridedit.write_document`. One built
-        from a bare Mesh has only positions and triangles to write; the first note says so.
-        """
-        from ..fileio.document import Document
-        from ..fileio.meshfiles import write_document
-
-        if self.document is None:
-            doc = Document.from_mesh(self.deformed)
-            note = ["no source document (the editor was built from a Mesh): wrote positions and triangles only; "
-                    "open the file with HybridEditor.from_file to keep the rest"]
-        else:
-            doc = self.document.with_vertices(self._out)
-            note = []
-        return note + write_document(path, doc, progress=progress)

@@ -761,18 +761,6 @@ def test_a_mesh_editor_honours_its_build_options(blob):
     assert abs(ed.cage.n_vertices - 120) <= 6 and ed.truncation == 0.05
 
 
-def test_save_without_a_document_writes_positions_and_faces_with_a_note(blob_rig, blob, tmp_path):
-    from hybridedit.fileio.meshfiles import read_mesh
-
-    ed = HybridEditor(blob_rig)
-    assert ed.document is None
-    P = ed.pose(**arm_edit(ed, blob))
-    notes = ed.save(tmp_path / "posed.ply")
-    assert len(notes) == 1 and "no source document" in notes[0]
-    back = read_mesh(tmp_path / "posed.ply")
-    assert np.array_equal(back.vertices, P) and np.array_equal(back.faces, blob.faces)
-
-
 @pytest.mark.parametrize("shape", ["ellipsoid", "blob"])
 def test_identity_after_reselection_holds_on_other_meshes_and_groups(shape, ellipsoid, blob):
     mesh = ellipsoid if shape == "ellipsoid" else blob
