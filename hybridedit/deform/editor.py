@@ -1,14 +1,20 @@
 """HybridEditor: cage + binding + cage ARAP + propagation, the engine's front door.
 
-The editor holds the state of an editing session and runs its pipeline; each
-stage is its own module:
+The editor holds the state of an editing session and runs its pipeline (a selection,
+its drags, the polish, poses set from outside); each stage is its own module:
 
 - :mod:`hybridedit.deform.selection`: a selection's roles on the shape and the cage
   (with mirror images), the rows a drag can move, the seam;
 - :mod:`hybridedit.deform.base_pose`: the pose the next edit starts from (successive
   edits compose) and the shape propagated from it;
 - :mod:`hybridedit.deform.frame_steps`: one frame, from the cage's ARAP targets to the
-  exactly placed, region-solved, mirror-averaged shape.
+  exactly placed, region-solved, mirror-averaged shape;
+- :mod:`hybridedit.deform.transform_arguments`: a drag's arguments as 4x4 transforms.
+
+Its other methods are in the parts it is made of, one job each: ``role_queries`` (the
+roles a selection gives each vertex), ``editor_state`` (snapshots, for undo),
+``recorded_edits`` (the pose as an edit, an edit replayed), ``editor_files`` (a mesh
+file opened, the pose saved into it); ``rig_arguments`` gives it its rig.
 """
 
 from __future__ import annotations
@@ -20,25 +26,24 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
+from ..binding.bind import dominant_cage_vertex
+from ..binding.rig import Progress, Rig
+from ..core.mesh import Mesh
 from ..defaults import CAGE_SIZE, ITERATIONS, TRUNCATION
 from .arap import ARAPSolver, edge_weights, laplacian
 from .base_pose import BasePose, current_base, fit_cage, propagate_from, propagated_residual, rest_base
-from ..binding.bind import dominant_cage_vertex
 from .editor_files import EditorFiles
 from .editor_state import EditorState, StateSnapshots
 from .frame_steps import Frame, FrameSteps, build_frame_steps, cage_targets, solve_cage
-from ..core.mesh import Mesh
 from .polish import MAX_ITERATIONS as POLISH_MAX_ITERATIONS
 from .polish import TOLERANCE as POLISH_TOLERANCE
 from .polish import PolishJob, PolishResult, ShapeARAP
 from .pose_record import PoseRecord
 from .recorded_edits import RecordedEdits
 from .residual import residual_setup
-from ..binding.rig import Progress, Rig
 from .rig_arguments import BuildDefault, rig_from
 from .role_queries import RoleQueries
-from .selection import SelectionError
-from .selection import CageMap, Selection, build_selection, choose_roles, user_roles
+from .selection import CageMap, Selection, SelectionError, build_selection, choose_roles, user_roles
 from .symmetry import Mirror
 from .transform_arguments import requested_transforms
 
