@@ -89,8 +89,41 @@ class _SlowSteps:
 
 
 def run_deform(args: argparse.Namespace) -> int:
+    """``hybridedit deform``: replay an edit file on a mesh, polish if asked, write the result (and
+    ``--stats``), saying each step on stderr."""
     say = _progress(args.quiet)
     src, dst = Path(args.input), Path(args.output)
+    _check_deform_arguments(args, src, dst)
+    t_start = time.perf_counter()
+    from .deform.editor import HybridEditor  # the compiled engine loads after the cheap checks
+    from .binding.rig import build_rig
+
+    edit = load_edit(args.edit)
+    cage = _cage_size(args, edit)
+    doc = _read_input(src, say)
+    mesh = doc.mesh
+    options = dict(weights=args.weights, iterations=args.iterations, propagation=args.propagation)
+
+    def editor_on(size: int | float) -> "HybridEditor":
+        rig = build_rig(mesh, cage_size=size, truncation=args.truncation, cache=not args.no_cache, progress=say)
+        return HybridEditor(rig, **options)
+
+    ed = editor_on(cage)
+    _say_rig(ed, src, say)
+    for note in _replay_notes(edit, ed, explicit_cage=args.cage is not None):
+        print(f"hybridedit: note: {Path(args.edit).name}: {note}", file=sys.stderr, flush=True)
+    V = _replay(ed, edit, args, editor_on, say)
+    before_polish = V.copy() if args.polish is not None else None
+    polished = _polish_if_asked(ed, edit, args, say)
+    if polished is not None:
+        V = ed.deformed_vertices
+    _write_output(dst, doc, V, say)
+    _give_stats(args, _deform_stats(args, src, dst, mesh, ed, edit, V, t_start, polished, before_polish))
+    return 0
+
+
+def _check_deform_arguments(args: argparse.Namespace, src: Path, dst: Path) -> None:
+    """The checks that need no file read: the output paths, and the numbers (CLIError)."""
     check_outputs({"-o": (dst, SUPPORTED_EXTENSIONS), "--stats": (args.stats, (".json",))},
                   inputs={"input": src, "edit": args.edit},
                   may_overwrite=("-o",) if args.force else ())
@@ -100,24 +133,25 @@ def run_deform(args: argparse.Namespace) -> int:
         raise CLIError(f"--frames must be >= 1, got {args.frames}")
     if args.polish is not None and args.polish < 1:
         raise CLIError(f"--polish must be a number of iterations >= 1, got {args.polish}")
-    t_start = time.perf_counter()
-    from .deform.editor import HybridEditor  # the compiled engine loads after the cheap checks
-    from .binding.rig import build_rig
 
-    edit = load_edit(args.edit)
+
+def _cage_size(args: argparse.Namespace, edit) -> int | float:
+    """The cage to build: --cage, else the size the edit's last step with a cage records, else the default."""
     recorded = [s.cage for s in edit.steps if s.cage is not None]
-    cage = args.cage if args.cage is not None else (recorded[-1]["size"] if recorded else CAGE_SIZE)
+    return args.cage if args.cage is not None else (recorded[-1]["size"] if recorded else CAGE_SIZE)
+
+
+def _read_input(src: Path, say):
+    """The input mesh file as a Document, with its summary line."""
     t_read = time.perf_counter()
     doc = read_document(src, progress=_SlowSteps(say))
     mesh = doc.mesh
     say(f"read {src.name}: {mesh.n_vertices} vertices, {mesh.n_faces} faces ({time.perf_counter() - t_read:.2f} s)")
-    options = dict(weights=args.weights, iterations=args.iterations, propagation=args.propagation)
+    return doc
 
-    def editor_on(size: int | float) -> "HybridEditor":
-        rig = build_rig(mesh, cage_size=size, truncation=args.truncation, cache=not args.no_cache, progress=say)
-        return HybridEditor(rig, **options)
 
-    ed = editor_on(cage)
+def _say_rig(ed: "HybridEditor", src: Path, say) -> None:
+    """The cage and binding built (or read from the cache), and the notes of their building."""
     say(
         f"cage {ed.cage.n_vertices} vertices ({ed.timings['cage_seconds']:.2f} s"
         f"{', from the cache' if ed.cache_hit else ''}), "
@@ -125,8 +159,11 @@ def run_deform(args: argparse.Namespace) -> int:
     )
     for note in ed.notes:
         print(f"hybridedit: note: {src.name}: {note}", file=sys.stderr, flush=True)
-    for note in _replay_notes(edit, ed, explicit_cage=args.cage is not None):
-        print(f"hybridedit: note: {Path(args.edit).name}: {note}", file=sys.stderr, flush=True)
+
+
+def _replay(ed: "HybridEditor", edit, args: argparse.Namespace, editor_on, say) -> np.ndarray:
+    """The edit replayed from the rest pose (each step on the cage it records, unless --cage says
+    one cage); the deformed shape, checked finite."""
     other_cages = None if args.cage is not None else (lambda c: editor_on(c["size"]))
     steps = len(edit.steps)
     say(f"deforming: {steps} step{'s' if steps > 1 else ''}" if steps > 1 or edit.iterations is not None
@@ -140,19 +177,33 @@ def run_deform(args: argparse.Namespace) -> int:
         raise CLIError(f"{args.edit}: {_one_line(e)}") from None
     if not np.all(np.isfinite(V)):
         raise CLIError("the deformation produced non-finite positions; the edit is too extreme")
-    before_polish = V.copy() if args.polish is not None else None
-    polished = None
-    if args.polish is not None:
-        if edit.polish is not None:
-            print(f"hybridedit: note: {Path(args.edit).name}: its last step records its polish "
-                  f"({edit.polish} iterations), replayed as recorded; --polish adds none", file=sys.stderr)
-        else:
-            polished = _polish(ed, args.polish, say)
-            V = ed.deformed_vertices
+    return V
+
+
+def _polish_if_asked(ed: "HybridEditor", edit, args: argparse.Namespace, say):
+    """--polish, unless the edit's last step records its own polish (a note says so): its
+    PolishResult, or None."""
+    if args.polish is None:
+        return None
+    if edit.polish is not None:
+        print(f"hybridedit: note: {Path(args.edit).name}: its last step records its polish "
+              f"({edit.polish} iterations), replayed as recorded; --polish adds none", file=sys.stderr)
+        return None
+    return _polish(ed, args.polish, say)
+
+
+def _write_output(dst: Path, doc, V: np.ndarray, say) -> None:
+    """The input document with the deformed positions, written to ``dst``, with its notes."""
     t_write = time.perf_counter()
     for note in write_document(dst, doc.with_vertices(V), progress=_SlowSteps(say)):
         print(f"hybridedit: note: {dst.name}: {note}", file=sys.stderr, flush=True)
     say(f"wrote {dst} ({time.perf_counter() - t_write:.2f} s)")
+
+
+def _deform_stats(args: argparse.Namespace, src: Path, dst: Path, mesh, ed: "HybridEditor", edit, V: np.ndarray,
+                  t_start: float, polished=None, before_polish: np.ndarray | None = None) -> dict:
+    """The figures of a deform run (what --stats writes): sizes, times, settings, edge errors, and
+    the polish's (``polished``, its PolishResult, from the pose ``before_polish``)."""
     frame_ms = np.asarray(ed.frame_seconds) * 1e3
     edges = mesh.edges()
     rrms, max_stretch = edge_error_stats(mesh.vertices, V, edges)
@@ -190,6 +241,11 @@ def run_deform(args: argparse.Namespace) -> int:
             polish_stopped=polished.stopped,
             rrms_edge_error_before_polish_percent=rrms_edge_error(mesh.vertices, before_polish, edges),
         )
+    return stats
+
+
+def _give_stats(args: argparse.Namespace, stats: dict) -> None:
+    """--stats's JSON file, and (unless --quiet) the main figures on stderr."""
     if args.stats:
         with atomic_write(Path(args.stats), "w") as fh:
             json.dump(stats, fh, indent=1)
@@ -201,7 +257,6 @@ def run_deform(args: argparse.Namespace) -> int:
                 continue
             v = stats[k]
             print(f"  {k:24s} {v:.4g}" if isinstance(v, float) else f"  {k:24s} {v}", file=sys.stderr)
-    return 0
 
 
 def _replay_notes(edit, ed: "HybridEditor", *, explicit_cage: bool) -> list[str]:

@@ -1,46 +1,51 @@
 """HybridEditor: cage + binding + cage ARAP + propagation, the engine's front door.
 
-The editor holds the state of an editing session and runs its pipeline; each
-stage is its own module:
+The editor holds the state of an editing session and runs its pipeline (a selection,
+its drags, the polish, poses set from outside); each stage is its own module:
 
 - :mod:`hybridedit.deform.selection`: a selection's roles on the shape and the cage
   (with mirror images), the rows a drag can move, the seam;
 - :mod:`hybridedit.deform.base_pose`: the pose the next edit starts from (successive
   edits compose) and the shape propagated from it;
 - :mod:`hybridedit.deform.frame_steps`: one frame, from the cage's ARAP targets to the
-  exactly placed, region-solved, mirror-averaged shape.
+  exactly placed, region-solved, mirror-averaged shape;
+- :mod:`hybridedit.deform.transform_arguments`: a drag's arguments as 4x4 transforms.
+
+Its other methods are in the parts it is made of, one job each: ``role_queries`` (the
+roles a selection gives each vertex), ``editor_state`` (snapshots, for undo),
+``recorded_edits`` (the pose as an edit, an edit replayed), ``editor_files`` (a mesh
+file opened, the pose saved into it); ``rig_arguments`` gives it its rig.
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
-from scipy.spatial.transform import Rotation
 
-from ..defaults import CAGE_SIZE, ITERATIONS, SETTLE_FRAMES, TRUNCATION
+from ..binding.bind import dominant_cage_vertex
+from ..binding.rig import Progress, Rig
+from ..core.mesh import Mesh
+from ..defaults import CAGE_SIZE, ITERATIONS, TRUNCATION
 from .arap import ARAPSolver, edge_weights, laplacian
 from .base_pose import BasePose, current_base, fit_cage, propagate_from, propagated_residual, rest_base
-from ..binding.bind import dominant_cage_vertex
-from .roles import FIXED, FREE
-from ..fileio.editfile import Edit, HandleEdit, mesh_fingerprint
+from .editor_files import EditorFiles
+from .editor_state import EditorState, StateSnapshots
 from .frame_steps import Frame, FrameSteps, build_frame_steps, cage_targets, solve_cage
-from ..core.mesh import Mesh
 from .polish import MAX_ITERATIONS as POLISH_MAX_ITERATIONS
 from .polish import TOLERANCE as POLISH_TOLERANCE
 from .polish import PolishJob, PolishResult, ShapeARAP
 from .pose_record import PoseRecord
+from .recorded_edits import RecordedEdits
 from .residual import residual_setup
-from ..binding.rig import Progress, Rig, build_rig
-from .selection import SelectionError
-from .selection import CageMap, Selection, build_selection, choose_roles, mirrored_roles, user_roles
+from .rig_arguments import BuildDefault, rig_from
+from .role_queries import RoleQueries
+from .selection import CageMap, Selection, SelectionError, build_selection, choose_roles, user_roles
 from .symmetry import Mirror
-from ..core.transforms import check_transform, rigid_transform
+from .transform_arguments import requested_transforms
 
 __all__ = ["HybridEditor", "SelectionError", "EditorState"]
 
@@ -49,37 +54,7 @@ FRAME_HISTORY = 10000
 PROPAGATIONS = ("residual", "linear")
 
 
-@dataclass(frozen=True)
-class EditorState:
-    """A snapshot of an editor's selection and pose (see :meth:`HybridEditor.save_state`)."""
-
-    selection: Selection | None
-    transforms: tuple[np.ndarray, ...]
-    cage_positions: np.ndarray
-    arap_rotations: np.ndarray
-    rotations: np.ndarray
-    shape: np.ndarray
-    base: BasePose
-    moved: bool
-    steps: FrameSteps | None = None  # the selection's frame steps, measured from ``base``
-    centers: tuple[np.ndarray, ...] = ()  # the default rotation centre of each handle group
-    record: PoseRecord = PoseRecord()  # how the pose was made (what :attr:`HybridEditor.edit` replays)
-
-
-class _Default:
-    """A build option's default (shown as its value in the signature), told apart from the same value
-    given explicitly: :class:`HybridEditor` refuses build options given with a ready :class:`Rig`."""
-
-    __slots__ = ("value",)
-
-    def __init__(self, value) -> None:
-        self.value = value
-
-    def __repr__(self) -> str:
-        return repr(self.value)
-
-
-class HybridEditor:
+class HybridEditor(RoleQueries, StateSnapshots, RecordedEdits, EditorFiles):
     """Interactive hybrid mesh editing of one shape.
 
     Takes a :class:`~hybridedit.binding.rig.Rig` (cage + binding, see :func:`hybridedit.build_rig`),
@@ -139,27 +114,19 @@ class HybridEditor:
     def __init__(
         self,
         mesh: Mesh | Rig,
-        cage_size: int | float = _Default(CAGE_SIZE),
+        cage_size: int | float = BuildDefault(CAGE_SIZE),
         *,
-        cage: Mesh | None = _Default(None),
-        binding: sp.spmatrix | None = _Default(None),
-        truncation: float = _Default(TRUNCATION),
+        cage: Mesh | None = BuildDefault(None),
+        binding: sp.spmatrix | None = BuildDefault(None),
+        truncation: float = BuildDefault(TRUNCATION),
         weights: str = "cotangent",
         iterations: int = ITERATIONS,
-        progress: Progress | None = _Default(None),
-        cache: bool | str | Path = _Default(False),
+        progress: Progress | None = BuildDefault(None),
+        cache: bool | str | Path = BuildDefault(False),
         propagation: str = "residual",
     ) -> None:
-        build = dict(cage_size=cage_size, cage=cage, binding=binding, truncation=truncation, cache=cache,
-                     progress=progress)
-        if isinstance(mesh, Rig):
-            given = [k for k, v in build.items() if not isinstance(v, _Default)]
-            if given:
-                raise ValueError(f"{', '.join(given)} cannot be given with a Rig (it is built already); "
-                                 "pass them to build_rig, or pass the Mesh")
-            rig = mesh
-        else:
-            rig = build_rig(mesh, **{k: v.value if isinstance(v, _Default) else v for k, v in build.items()})
+        rig = rig_from(mesh, cage_size=cage_size, cage=cage, binding=binding, truncation=truncation, cache=cache,
+                       progress=progress)
         if propagation not in PROPAGATIONS:
             raise ValueError(f"propagation must be one of {PROPAGATIONS}, got {propagation!r}")
         #: the cage and binding this editor works on (see :func:`hybridedit.build_rig`)
@@ -227,11 +194,6 @@ class HybridEditor:
         return self.arap.edges.copy()
 
     @property
-    def n_groups(self) -> int:
-        """Number of handle groups of the selection (0 before one is set)."""
-        return 0 if self._sel is None else self._sel.n_groups
-
-    @property
     def transforms(self) -> list[np.ndarray]:
         """Current (4, 4) transform of each handle group, relative to the pose when
         the selection was set (copies)."""
@@ -242,155 +204,7 @@ class HybridEditor:
         """The transform of handle group 0 (identity before a selection is set)."""
         return self._transforms[0].copy() if self._transforms else np.eye(4)
 
-    @property
-    def vertex_roles(self) -> np.ndarray:
-        """(n,) int8 role of each shape vertex: -1 fixed, 0 free, g + 1 in handle group g
-        (mirror images count in their group). This is what is held exactly."""
-        if self._sel is None:
-            return np.zeros(self.mesh.n_vertices, dtype=np.int8)
-        return self._sel.public(self._sel.roles)
-
-    @property
-    def dominant_cage_vertex(self) -> np.ndarray:
-        """(n,) int64, read-only: the cage vertex each shape vertex depends on most (the largest
-        magnitude in its row of the binding), the cage vertex that stands for it in a selection."""
-        v = self._maps.dominant.view()
-        v.flags.writeable = False
-        return v
-
-    @property
-    def cage_roles(self) -> np.ndarray:
-        """(c,) int8 role of each cage vertex, as :attr:`vertex_roles`; cage parts
-        with no constraint, held still, count as fixed."""
-        if self._sel is None:
-            return np.zeros(self.cage.n_vertices, dtype=np.int8)
-        return self._sel.public_cage_roles
-
-    @property
-    def handle(self) -> np.ndarray:
-        """(h,) int64 cage vertices that follow a handle transform (all groups)."""
-        if self._sel is None:
-            return np.zeros(0, dtype=np.int64)
-        return self._sel.moving.copy()
-
-    @property
-    def fixed(self) -> np.ndarray:
-        """(f,) int64 cage vertices held where they are (fixed, and parts held still)."""
-        if self._sel is None:
-            return np.zeros(0, dtype=np.int64)
-        return np.flatnonzero(self.cage_roles == FIXED).astype(np.int64)
-
-    @property
-    def moving_vertices(self) -> np.ndarray:
-        """(k,) int64 sorted shape vertices a drag can move: the edited region
-        (free vertices bound to moving cage vertices, and the handles)."""
-        if self._sel is None:
-            return np.zeros(0, dtype=np.int64)
-        return self._sel.moving_vertices
-
-    @property
-    def free_mask(self) -> np.ndarray:
-        """(n,) bool: the free shape vertices a drag can move, i.e. the edited region
-        less its constraints; what a full-resolution polish may move."""
-        mask = np.zeros(self.mesh.n_vertices, dtype=bool)
-        if self._sel is not None:
-            mask[self._sel.rows] = True
-        return mask
-
-    @property
-    def symmetry(self) -> Mirror | None:
-        """The mirror of a symmetric selection, else None."""
-        return None if self._sel is None else self._sel.mirror
-
     # ------------------------------------------------------------------ selection
-    def to_cage(self, indices, space: str = "shape", role: str = "selection") -> np.ndarray:
-        """Map a vertex selection to cage vertex indices.
-
-        Shape vertices map to the cage vertices whose nearest shape vertex is
-        selected; a small selection that contains no such vertex maps to the cage
-        vertex with the largest coordinate of each selected shape vertex.
-
-        Parameters
-        ----------
-        indices : (k,) int array of vertex indices, or a boolean mask, in ``space``.
-        space : "shape" or "cage".
-
-        Returns
-        -------
-        (j,) int64 array of sorted unique cage vertex indices.
-        """
-        return self._maps.to_cage(indices, space=space, role=role)
-
-    def shape_roles(self, cage_roles) -> np.ndarray:
-        """Shape vertex roles that select exactly the given cage vertex roles.
-
-        A selection made on the cage (as in the window) given in shape vertices, so
-        that the edit it makes is a shape-space edit that replays the same on this
-        cage: each shape vertex takes the role of the cage vertex it depends on most,
-        and the shape vertex nearest each cage vertex (whose role the cage vertex
-        takes, see :meth:`set_selection`) takes that cage vertex's own role.
-
-        Parameters
-        ----------
-        cage_roles : (c,) int array, -1 fixed, 0 free, g + 1 handle group g.
-
-        Returns
-        -------
-        (n,) int8 shape vertex roles, the same code.
-        """
-        return self._maps.shape_roles(cage_roles)
-
-    def preview_roles(self, roles, *, symmetry=None) -> tuple[np.ndarray, np.ndarray]:
-        """The roles a selection takes once mirrored, without setting it (nothing is
-        factored: a few milliseconds), to draw a selection on both sides as it is made.
-
-        Parameters
-        ----------
-        roles : (n,) int shape vertex roles, -1 fixed, 0 free, g + 1 handle group g
-            (e.g. from :meth:`shape_roles`); groups may be empty.
-        symmetry : None, "x", "y", "z" or (point, normal), as :meth:`set_selection`
-            takes it with ``roi`` (a vertex stays fixed only where its mirror image is fixed too).
-
-        Returns
-        -------
-        vertex_roles : (n,) int8, cage_roles : (c,) int8
-            The same code, mirror images counted in their group; a cage vertex takes
-            the role of its nearest shape vertex.
-
-        Raises
-        ------
-        SelectionError
-            Roles of the wrong length, or a shape not symmetric enough.
-        """
-        r = np.asarray(roles)
-        if r.shape != (self.mesh.n_vertices,) or not np.issubdtype(r.dtype, np.integer):
-            raise SelectionError(f"roles must be {self.mesh.n_vertices:,} integers")
-        r = r.astype(np.int32)
-        mirror = self._mirror(symmetry) if symmetry is not None else None
-        internal, source, _ = mirrored_roles(r, n_groups=int(r.max(initial=0)), mirror=mirror, roi_mode=True)
-        lut = np.array([FIXED, FREE] + [g + 1 for g in source], dtype=np.int8)
-        shape = lut[internal + 1]
-        return shape, shape[self._maps.nearest]
-
-    def mirror(self, symmetry) -> Mirror:
-        """The shape's mirror across a plane ("x", "y", "z" or (point, normal)), as
-        :meth:`set_selection` would use it: check a shape before offering to mirror it.
-
-        Raises
-        ------
-        SelectionError
-            The shape is not symmetric enough across that plane (the message gives its
-            measured asymmetry), or the plane is malformed.
-        """
-        return self._mirror(symmetry)
-
-    def _mirror(self, symmetry) -> Mirror:
-        key = repr(symmetry)
-        m = self._mirrors.get(key)
-        if m is None:
-            m = self._mirrors[key] = Mirror(self.mesh.vertices, symmetry)
-        return m
-
     def set_selection(
         self,
         handle,
@@ -496,47 +310,6 @@ class HybridEditor:
             self._centers = self._sel.centers(shape=base.shape, cage=base.cage)
 
     # ------------------------------------------------------------------ deformation
-    def _as_transform(self, group: int, translate, rotate, transform) -> np.ndarray:
-        if transform is not None:
-            if translate is not None or rotate is not None:
-                raise ValueError("give transform, or translate and/or rotate, not both")
-            return check_transform(transform)
-        T = np.eye(4)
-        if rotate is not None:
-            center = self._centers[group]
-            if isinstance(rotate, dict):
-                c = rotate.get("center")
-                T = rigid_transform(axis=rotate.get("axis"), degrees=float(rotate.get("degrees", 0.0)),
-                                    center=center if c is None else c)
-            else:
-                R = rotate.as_matrix() if isinstance(rotate, Rotation) else np.asarray(rotate, dtype=np.float64)
-                if R.shape != (3, 3) or not np.all(np.isfinite(R)) or not np.allclose(R @ R.T, np.eye(3), atol=1e-6) \
-                        or np.linalg.det(R) < 0:
-                    raise ValueError("rotate must be a 3x3 rotation matrix, a scipy Rotation or "
-                                     "{\"axis\": ..., \"degrees\": ..., \"center\": ...}")
-                T[:3, :3] = R
-                T[:3, 3] = center - R @ center
-        if translate is not None:
-            T = rigid_transform(translate=translate) @ T
-        return T
-
-    def _requested_transforms(self, translate, rotate, transform, group, transforms) -> list[np.ndarray]:
-        """Every user group's (4, 4) transform after a :meth:`drag` with these arguments."""
-        n_groups = self._sel.n_groups
-        new = list(self._transforms)
-        if transforms is not None:
-            if translate is not None or rotate is not None or transform is not None:
-                raise ValueError("give transforms, or one group's translate/rotate/transform, not both")
-            for g, T in dict(transforms).items():
-                if not isinstance(g, (int, np.integer)) or not (0 <= int(g) < n_groups):
-                    raise SelectionError(f"no handle group {g!r}; the selection has {n_groups}")
-                new[int(g)] = check_transform(T)
-        else:
-            if not isinstance(group, (int, np.integer)) or not (0 <= int(group) < n_groups):
-                raise SelectionError(f"no handle group {group!r}; the selection has {n_groups}")
-            new[int(group)] = self._as_transform(int(group), translate, rotate, transform)
-        return new
-
     def drag(
         self,
         translate=None,
@@ -576,7 +349,8 @@ class HybridEditor:
         sel = self._sel
         if sel is None:
             raise SelectionError("set a selection (handle) before dragging")
-        new = self._requested_transforms(translate, rotate, transform, group, transforms)
+        new = requested_transforms(self._transforms, self._centers, translate=translate, rotate=rotate,
+                                   transform=transform, group=group, transforms=transforms)
         k = self.iterations if iterations is None else int(iterations)
         if k < 0:
             raise ValueError(f"iterations must be >= 0, got {k}")
@@ -769,154 +543,10 @@ class HybridEditor:
         self.adopt_polish(job, result)
         return result
 
-    def save_state(self) -> EditorState:
-        """A snapshot of the selection and pose, for :meth:`restore_state` (undo)."""
-        return EditorState(self._sel, tuple(T.copy() for T in self._transforms), self.arap.positions.copy(),
-                           self.arap.rotations.copy(), self._rots.copy(), self._out.copy(), self._base,
-                           self._moved, steps=self._steps, centers=self._centers, record=self._record)
-
-    def restore_state(self, state: EditorState) -> np.ndarray:
-        """Go back to a snapshot taken by :meth:`save_state` (the selection, the pose it
-        starts from and the current pose, exactly); returns the (n, 3) shape."""
-        self.arap.reference = state.base.cage
-        if state.selection is not self._sel:
-            sel = state.selection
-            if sel is not None:
-                self.arap.set_constrained(sel.constrained, moving=sel.moving)
-            self._sel = sel
-        self._steps = state.steps
-        self._centers = state.centers
-        self.arap.positions[:] = state.cage_positions
-        self.arap.rotations[:] = state.arap_rotations
-        self._rots[:] = state.rotations
-        self._out[:] = state.shape
-        self._transforms = [T.copy() for T in state.transforms]
-        self._base = state.base
-        self._moved = state.moved
-        self._record = state.record
-        return self.deformed_vertices
-
     def _propagate_all(self) -> None:
         """Every shape vertex from the current cage pose and rotations, from the base pose."""
         propagate_from(self._base, binding=self.M, cage=self.arap.positions, rotations=self._prop_rotations(),
                        blend=self._blend, propagation=self.propagation, out=self._out)
-
-    # ------------------------------------------------------------------ edits
-    @property
-    def edit(self) -> Edit:
-        """How the current pose was made, as a shape-space :class:`Edit` that :meth:`apply_edit`
-        replays: the current selection and handle transforms, after the steps before it
-        (:attr:`Edit.before`: earlier selections, polishes). Each step records the ARAP
-        iterations run at its transforms when they all ran at them (a settle, or frames at one
-        transform), its polish iterations, and its cage. See :attr:`replayable`.
-
-        Raises
-        ------
-        SelectionError
-            No selection has been set (there is nothing to describe).
-        """
-        steps = self._steps_made(current_if_empty=True)
-        if not steps:
-            raise SelectionError("no selection to describe: set one first")
-        last = steps[-1]
-        return Edit(handles=last.handles, fixed=last.fixed, roi=last.roi, space=last.space, symmetry=last.symmetry,
-                    iterations=last.iterations, polish=last.polish, cage=last.cage, continues=last.continues,
-                    before=steps[:-1], mesh=mesh_fingerprint(self.mesh))
-
-    @property
-    def record(self) -> PoseRecord:
-        """How the current pose was made from the rest pose (:class:`~hybridedit.deform.pose_record.PoseRecord`,
-        read-only): the steps :attr:`edit` describes."""
-        return self._record
-
-    @property
-    def replayable(self) -> bool:
-        """Replaying :attr:`edit` from the rest pose on this cage gives the current pose (no pose
-        was set from outside, and no drag is left unsettled: interactive frames at changing
-        transforms make a pose that depends on their path)."""
-        return self._record.replayable
-
-    def _steps_made(self, current_if_empty: bool = False) -> list[Edit]:
-        """The steps of the record, the current one included when it has done something (or,
-        ``current_if_empty``, when it is a new selection)."""
-        r = self._record
-        steps = list(r.done)
-        if self._sel is not None and (r.dragged or (current_if_empty and not r.continues)):
-            steps.append(self._current_step())
-        return steps
-
-    def _current_step(self, polish: int | None = None) -> Edit:
-        """The current selection and transforms as one step (see :class:`~hybridedit.deform.pose_record.PoseRecord`)."""
-        sel, r = self._sel, self._record
-        roles = sel.user_roles
-        handles = [HandleEdit.from_matrix(np.flatnonzero(roles == g + 1), self._transforms[g], center=self._centers[g])
-                   for g in range(sel.n_groups)]
-        fixed = np.flatnonzero(roles == FIXED)
-        # (the shorter list, but as it was given where a mirror makes them differ: with "roi" a vertex stays
-        # fixed only where its mirror image is fixed too, with "fixed" as listed)
-        as_roi = sel.roi_mode if sel.mirror is not None else fixed.size * 2 > roles.size
-        fixed_kw = {"roi": np.flatnonzero(roles != FIXED)} if as_roi else {"fixed": fixed}
-        size = self.rig.cage_size
-        cage = {"size": int(size) if isinstance(size, (int, np.integer)) else float(size),
-                "vertices": int(self.cage.n_vertices)}
-        return Edit(handles=handles, space="shape", symmetry=None if sel.mirror is None else sel.mirror.spec,
-                    iterations=r.iterations if r.settled else None, polish=polish, cage=cage,
-                    continues=r.continues, **fixed_kw)
-
-    def _record_closed(self, polish: int | None = None) -> PoseRecord:
-        """The record with the current step closed (kept when it did something: a drag or a polish)."""
-        r = self._record
-        if self._sel is None or (not r.dragged and polish is None):
-            return r
-        return r.closed(self._current_step(polish))
-
-    def apply_edit(self, edit: Edit, *, frames: int = SETTLE_FRAMES, iterations: int | None = None,
-                   progress: Progress | None = None, path: str | None = None,
-                   editor_for_cage: Callable[[dict], "HybridEditor"] | None = None) -> np.ndarray:
-        """Replay an edit on the current pose (from the rest pose after :meth:`reset`): each
-        step sets its selection, runs its ARAP iterations at its transforms, then its polish
-        (:func:`hybridedit.deform.replay.replay`, the one replay loop).
-
-        Parameters
-        ----------
-        edit : Edit
-            Its steps (:attr:`Edit.steps`); a version 2 file is one step.
-        frames : int
-            A step that does not record its iterations runs ``frames`` drags of
-            ``iterations`` each (0: the last step's selection is set and nothing is run).
-        iterations : int, optional
-            ARAP iterations a frame (default ``self.iterations``).
-        progress : callable(stage, fraction), optional
-        path : str, optional
-            The edit file's name, for messages.
-        editor_for_cage : callable({"size", "vertices"}) -> HybridEditor, optional
-            An editor of this shape on the cage a step records, for an exact replay of an
-            edit made across cages (a rebuild); without it every step runs on this cage.
-
-        Returns
-        -------
-        (n, 3) float64 array, the deformed shape.
-
-        Raises
-        ------
-        EditFileError
-            The edit was made for another mesh.
-        SelectionError
-            Its selection does not fit this mesh (indices out of range, ...).
-        """
-        from .replay import replay
-
-        return replay(self, edit, frames=frames, iterations=iterations, progress=progress, path=path,
-                      editor_for_cage=editor_for_cage)
-
-    def edit_transforms(self, edit: Edit) -> dict[int, np.ndarray]:
-        """The (4, 4) transform of each of an edit's handle groups, {group: T}; a
-        rotation without a centre turns about the group's centroid (in the edit's
-        space, in the pose the current selection was set at)."""
-        if self._sel is None:
-            raise SelectionError("set the edit's selection first")
-        pts = self._base.shape if edit.space == "shape" else self._base.cage
-        return {g: h.transform(default_center=pts[h.indices].mean(axis=0)) for g, h in enumerate(edit.handles)}
 
     # ------------------------------------------------------------------ results
     @property
@@ -937,11 +567,7 @@ class HybridEditor:
         """The current cage pose as a Mesh (a copy)."""
         return Mesh(self.arap.positions.copy(), self.cage.faces, name="cage")
 
-    # ------------------------------------------------------------------ scripts: a solved pose, files
-    #: the file this editor was opened from (:meth:`from_file`), which :meth:`save` writes
-    #: back with the current positions; None for an editor built from a bare Mesh
-    document = None
-
+    # ------------------------------------------------------------------ scripts: a solved pose
     def pose(self, translate=None, *, rotate=None, transform: np.ndarray | None = None, group: int = 0,
              transforms: dict | None = None, tolerance: float = 1e-6, max_frames: int = 1000) -> np.ndarray:
         """Solve an edit to convergence: :meth:`drag` frames at the given transform until a
@@ -973,42 +599,3 @@ class HybridEditor:
                       f"{moved / diagonal:.2g} of the diagonal, tolerance {tolerance:g})",
                       RuntimeWarning, stacklevel=2)
         return self._out.copy()
-
-    @classmethod
-    def from_file(cls, path, cage_size: int | float = CAGE_SIZE, *, cache: bool | str | Path = False,
-                  truncation: float = TRUNCATION, progress: Progress | None = None, **options) -> "HybridEditor":
-        """Open a mesh file for editing, keeping everything it holds for :meth:`save`.
-
-        Reads ``path`` with :func:`hybridedit.read_document` (texture coordinates,
-        polygons, materials, colours, ... stay in :attr:`document`), builds the cage
-        and binding as :func:`hybridedit.build_rig` (``cage_size``, ``cache``,
-        ``truncation``) and takes the editor's own ``options`` (``weights``,
-        ``iterations``, ``propagation``). ``progress(stage, fraction)`` hears both.
-        """
-        from ..fileio.meshfiles import read_document
-
-        doc = read_document(path, progress=progress)
-        rig = build_rig(doc.mesh, cage_size=cage_size, cache=cache, truncation=truncation, progress=progress)
-        editor = cls(rig, **options)
-        editor.document = doc
-        return editor
-
-    def save(self, path, *, progress: Progress | None = None) -> list[str]:
-        """Write the current pose to ``path`` atomically (format by extension); returns notes.
-
-        An editor opened with :meth:`from_file` writes everything the file had (texture
-        coordinates, polygons, materials and their images, colours, recomputed normals)
-        with the new positions, through :func:`hybridedit.write_document`. One built
-        from a bare Mesh has only positions and triangles to write; the first note says so.
-        """
-        from ..fileio.document import Document
-        from ..fileio.meshfiles import write_document
-
-        if self.document is None:
-            doc = Document.from_mesh(self.deformed)
-            note = ["no source document (the editor was built from a Mesh): wrote positions and triangles only; "
-                    "open the file with HybridEditor.from_file to keep the rest"]
-        else:
-            doc = self.document.with_vertices(self._out)
-            note = []
-        return note + write_document(path, doc, progress=progress)

@@ -1,7 +1,7 @@
 """How the current pose was made from the rest pose: the steps an edit file replays.
 
 The editor keeps a :class:`PoseRecord` beside its pose and takes it back with the
-pose on undo (it is part of :class:`~hybridedit.deform.editor.EditorState`). A *step* is
+pose on undo (it is part of :class:`~hybridedit.deform.editor_state.EditorState`). A *step* is
 a selection set on a pose, the ARAP iterations run at its handle transforms, and
 an optional full-resolution polish; the next selection (or the next drag after a
 polish) starts the next step from the pose it left. A step describes the pose it

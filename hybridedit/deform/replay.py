@@ -11,6 +11,7 @@ of an edit saved in the window is the pose it showed.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable
 
 from ..defaults import SETTLE_FRAMES
@@ -101,39 +102,67 @@ def replay(editor: "HybridEditor", edit: Edit, *, frames: int = SETTLE_FRAMES, i
     check_mesh(edit, editor.mesh, name)
     say = progress or (lambda stage, fraction: None)
     steps = edit.steps
-    plans = [_plan(s, frames, per) for s in steps]
-    if frames == 0:
-        plans[-1] = []
-    total = max(sum(map(sum, plans)) + len(plans[-1]) + sum(s.polish or 0 for s in steps), 1)
-    done = 0
+    plans = _plans(steps, frames, per)
+    work = _Work(total=max(sum(map(sum, plans)) + len(plans[-1]) + sum(s.polish or 0 for s in steps), 1), say=say)
     current, made = editor, {}
     for k, step in enumerate(steps):
-        last = k == len(steps) - 1
         target = _runs_on(step, current, editor, editor_for_cage, made)
         if target is not current:
             target.carry_pose(current)
             current = target
-        if step.continues:
-            if current.n_groups != len(step.handles):
-                raise EditFileError(f"{name}: step {k + 1} continues a selection of {len(step.handles)} handle "
-                                    f"groups; the one before has {current.n_groups}")
-            if not current.record.continues or current.record.dragged:  # (a polish has started it already)
-                current.continue_from_pose()
-        else:
-            current.set_selection([h.indices for h in step.handles], fixed=step.fixed, roi=step.roi,
-                                  space=step.space, symmetry=step.symmetry)
-        if last and frames == 0:
+        _select(current, step, k, name)
+        if k == len(steps) - 1 and frames == 0:
             break
-        Ts = current.edit_transforms(step)
-        for chunk in plans[k]:
-            say("deforming", done / total)
-            current.drag(transforms=Ts, iterations=chunk)
-            done += chunk + 1
-        if step.polish is not None:
-            say("polishing", done / total)
-            current.polish(iterations=step.polish)
-            done += step.polish
+        _run(current, step, plans[k], work)
     say("deforming", 1.0)
     if current is not editor:
         editor.carry_pose(current)
     return editor.deformed_vertices
+
+
+def _plans(steps: list[Edit], frames: int, per: int) -> list[list[int]]:
+    """Each step's :func:`_plan`; with ``frames`` 0, nothing of the last step is run."""
+    plans = [_plan(s, frames, per) for s in steps]
+    if frames == 0:
+        plans[-1] = []
+    return plans
+
+
+@dataclass
+class _Work:
+    """How far a replay is: ``done`` of ``total`` units (an ARAP iteration, a drag, a polish
+    iteration), told to ``say``."""
+
+    total: int
+    say: "Progress"
+    done: int = 0
+
+    def tell(self, stage: str, units: int) -> None:
+        """Say ``stage`` at the fraction done so far, then count ``units`` more as done."""
+        self.say(stage, self.done / self.total)
+        self.done += units
+
+
+def _select(current: "HybridEditor", step: Edit, k: int, name: str) -> None:
+    """Set the selection of ``step`` (the ``k``-th, 0 first) on ``current``, or for a step that
+    *continues*, start again from the pose with the selection there."""
+    if step.continues:
+        if current.n_groups != len(step.handles):
+            raise EditFileError(f"{name}: step {k + 1} continues a selection of {len(step.handles)} handle "
+                                f"groups; the one before has {current.n_groups}")
+        if not current.record.continues or current.record.dragged:  # (a polish has started it already)
+            current.continue_from_pose()
+    else:
+        current.set_selection([h.indices for h in step.handles], fixed=step.fixed, roi=step.roi,
+                              space=step.space, symmetry=step.symmetry)
+
+
+def _run(current: "HybridEditor", step: Edit, plan: list[int], work: _Work) -> None:
+    """The drags of ``plan`` at the transforms of ``step``, then its polish."""
+    Ts = current.edit_transforms(step)
+    for chunk in plan:
+        work.tell("deforming", chunk + 1)
+        current.drag(transforms=Ts, iterations=chunk)
+    if step.polish is not None:
+        work.tell("polishing", step.polish)
+        current.polish(iterations=step.polish)

@@ -115,23 +115,6 @@ def test_reset_and_cage_positions(ed):
     assert m.faces is ed.mesh.faces or np.array_equal(m.faces, ed.mesh.faces)
 
 
-def test_save_and_restore_state_bring_back_selection_and_pose(ed):
-    a, b = ends(ed.mesh)
-    ed.set_selection(b, fixed=a)
-    x = ed.deformed_vertices.copy()  # the pose the constraints refer to
-    ed.drag(translate=(0, 0.5, 0))
-    state = ed.save_state()
-    shape = ed.deformed_vertices.copy()
-    ed.set_selection(a, roi=np.arange(ed.mesh.n_vertices // 2))
-    ed.drag(translate=(0.3, 0, 0))
-    ed.restore_state(state)
-    assert np.array_equal(ed.deformed_vertices, shape)
-    assert np.allclose(ed.transform[:3, 3], [0, 0.5, 0])
-    ed.drag(translate=(0, 0.6, 0))  # continues from the restored selection: constraints exact
-    assert np.abs(ed.deformed_vertices[a] - x[a]).max() == 0.0
-    assert np.allclose(ed.deformed_vertices[b], x[b] + [0, 0.6, 0], atol=1e-12)
-
-
 def test_selection_errors(ed):
     a, b = ends(ed.mesh)
     with pytest.raises(SelectionError, match="empty"):
@@ -778,18 +761,6 @@ def test_a_mesh_editor_honours_its_build_options(blob):
     assert abs(ed.cage.n_vertices - 120) <= 6 and ed.truncation == 0.05
 
 
-def test_save_without_a_document_writes_positions_and_faces_with_a_note(blob_rig, blob, tmp_path):
-    from hybridedit.fileio.meshfiles import read_mesh
-
-    ed = HybridEditor(blob_rig)
-    assert ed.document is None
-    P = ed.pose(**arm_edit(ed, blob))
-    notes = ed.save(tmp_path / "posed.ply")
-    assert len(notes) == 1 and "no source document" in notes[0]
-    back = read_mesh(tmp_path / "posed.ply")
-    assert np.array_equal(back.vertices, P) and np.array_equal(back.faces, blob.faces)
-
-
 @pytest.mark.parametrize("shape", ["ellipsoid", "blob"])
 def test_identity_after_reselection_holds_on_other_meshes_and_groups(shape, ellipsoid, blob):
     mesh = ellipsoid if shape == "ellipsoid" else blob
@@ -825,16 +796,3 @@ def test_five_successive_edits_do_not_pile_up_distortion(ellipsoid):
     assert np.allclose(V5[hand], V1[hand], atol=1e-9)  # the handle is where one edit puts it
     assert e5 < 1.25 * e1, (e5, e1)  # (13.4% against 11.9% here)
     assert np.abs(V5 - V1).max() < 0.08 * ellipsoid.bbox_diagonal()  # (4.8% here)
-
-
-def test_dominant_cage_vertex_is_each_rows_largest_weight_and_read_only(ed):
-    dom = ed.dominant_cage_vertex
-    M = abs(ed.M).tocsr()
-    assert dom.shape == (ed.mesh.n_vertices,)
-    assert np.array_equal(dom, np.asarray(M.argmax(axis=1)).ravel())
-    with pytest.raises(ValueError):
-        dom[0] = 1
-    # a cage-space selection gives each shape vertex the role of its dominant cage vertex
-    ed.reset()
-    ed.set_selection(handle=[0], roi=np.arange(ed.cage.n_vertices), space="cage")
-    assert np.array_equal(ed.vertex_roles, ed.cage_roles[dom])

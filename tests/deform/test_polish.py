@@ -70,6 +70,44 @@ def test_a_polish_is_the_same_however_often_its_set_up_is_reused(posed):
     assert np.array_equal(a, b) and np.array_equal(a, c)
 
 
+def test_two_polish_jobs_share_no_state(posed):
+    """Each polish thread has its own set-up (the window's worker, a script's polish): one job's
+    set-up, region, timing or result is never another's, run one after the other or at once, and
+    preparing writes nothing on the class (no estimate or cache shared by every instance)."""
+    import threading
+
+    from hybridedit.deform.polish import PolishJob
+
+    shape, ed, V = posed
+    free_a = ed.free_mask
+    free_b = free_a.copy()
+    free_b[np.flatnonzero(free_a)[::2]] = False  # another region: half of the first one held
+    jobs = [PolishJob(V.copy(), free_a, 15, 0.0), PolishJob(V * 1.01, free_b, 9, 0.0)]
+    before = dict(vars(ShapeARAP))
+    alone = [job.run(ShapeARAP(shape)).vertices for job in jobs]
+    sets = [ShapeARAP(shape), ShapeARAP(shape)]
+    results = [None, None]
+    start = threading.Barrier(2)
+
+    def run(k):
+        start.wait()
+        results[k] = jobs[k].run(sets[k])
+
+    threads = [threading.Thread(target=run, args=(k,)) for k in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert dict(vars(ShapeARAP)) == before  # nothing was set on the class
+    for k in range(2):
+        assert np.array_equal(results[k].vertices, alone[k])
+        assert sets[k].prepared_for(jobs[k].free) and not sets[k].prepared_for(jobs[1 - k].free)
+    assert results[0].iterations == 15 and results[1].iterations == 9
+    assert sets[0].solver is not sets[1].solver and not np.array_equal(sets[0].region, sets[1].region)
+    for name in ("solver", "region", "setup_seconds", "_free_key"):
+        assert name in vars(sets[0]) and name in vars(sets[1])  # each instance's own
+
+
 def test_polish_of_the_rest_pose_is_the_rest_pose(posed):
     shape, ed, _ = posed
     sa = ShapeARAP(shape)

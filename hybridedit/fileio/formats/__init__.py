@@ -251,15 +251,33 @@ def write_document(path: str | os.PathLike[str], doc: Document, *,
     tell = None if progress is None else (lambda fraction: progress(step, fraction))
     if tell is not None:
         tell(0.0)
+    payload, beside = _file_bytes(fmt, doc, same, Path(p), name, tell)
+    made = _new_companions(beside, notes)
+    copies = _obj_copies(doc, Path(p), notes) if same and ext == ".obj" else []
+    _write_files(p, payload, copies, made)
+    if tell is not None:
+        tell(1.0)
+    return notes
+
+
+def _file_bytes(fmt: Format, doc: Document, same: bool, target: Path, name: str,
+                tell) -> tuple[bytes, list[tuple[Path, bytes]]]:
+    """The file's bytes (the document's own structure in its own format, else a conversion) and
+    the companion files a conversion needs beside ``target``; nothing is written yet."""
     try:
         with reporting(tell), span(0.0, 0.9):  # making the file's bytes; then writing them
-            payload = fmt.write(doc) if same else fmt.convert(replace(doc, native=None), Path(p))
-        beside = [] if same else fmt.companions(doc, Path(p))
+            payload = fmt.write(doc) if same else fmt.convert(replace(doc, native=None), target)
+        beside = [] if same else fmt.companions(doc, target)
     except (_Bad, MeshError) as exc:
         raise MeshFileError(f"{name}: {exc}") from None
-    copies: list[tuple[Path, Path]] = []
+    return payload, beside
+
+
+def _new_companions(beside: list[tuple[Path, bytes]], notes: list[str]) -> list[tuple[Path, bytes]]:
+    """Of a converted document's material library and images, those to write: not there yet (an
+    existing file is kept, with a note in ``notes`` when it differs or is a folder)."""
     made: list[tuple[Path, bytes]] = []
-    for dst, content in beside:  # a converted document's material library and images
+    for dst, content in beside:
         if dst.is_dir():
             notes.append(f"{dst.name} not written: {dst} is a folder")
         elif dst.exists() and dst.read_bytes() != content:
@@ -267,18 +285,31 @@ def write_document(path: str | os.PathLike[str], doc: Document, *,
                          "makes, and an existing file is never replaced (the output refers to it)")
         elif not dst.exists():
             made.append((dst, content))
-    if same and ext == ".obj":
-        found, more = obj.companions(doc, doc.path, Path(p))
-        notes += more
-        for src, dst in found:  # decided before anything is written
-            if dst.is_dir():
-                notes.append(f"{src.name} not copied: {dst} is a folder")
-            elif dst.exists() and not obj.same_content(src, dst):
-                notes.append(f"{dst} kept as it is: it differs from {src}, and an existing file is "
-                             "never replaced by a copy (the output refers to it; copy it by hand if needed)")
-            elif not dst.exists():
-                copies.append((src, dst))
-    with atomic_write(p, "wb") as f:
+    return made
+
+
+def _obj_copies(doc: Document, target: Path, notes: list[str]) -> list[tuple[Path, Path]]:
+    """The (source, destination) copies of the files an OBJ refers to that an OBJ written to
+    ``target`` needs beside it; decided before anything is written (an existing file is kept,
+    with a note in ``notes`` when it differs or is a folder)."""
+    copies: list[tuple[Path, Path]] = []
+    found, more = obj.companions(doc, doc.path, target)
+    notes += more
+    for src, dst in found:
+        if dst.is_dir():
+            notes.append(f"{src.name} not copied: {dst} is a folder")
+        elif dst.exists() and not obj.same_content(src, dst):
+            notes.append(f"{dst} kept as it is: it differs from {src}, and an existing file is "
+                         "never replaced by a copy (the output refers to it; copy it by hand if needed)")
+        elif not dst.exists():
+            copies.append((src, dst))
+    return copies
+
+
+def _write_files(path: str, payload: bytes, copies: list[tuple[Path, Path]],
+                 made: list[tuple[Path, bytes]]) -> None:
+    """The file, then the copies it refers to, then the companions made for it, each atomically."""
+    with atomic_write(path, "wb") as f:
         f.write(payload)
     for src, dst in copies:
         dst.parent.mkdir(parents=True, exist_ok=True)
@@ -287,9 +318,6 @@ def write_document(path: str | os.PathLike[str], doc: Document, *,
     for dst, content in made:
         with atomic_write(dst, "wb") as f:
             f.write(content)
-    if tell is not None:
-        tell(1.0)
-    return notes
 
 
 def write_mesh_like(path: str | os.PathLike[str], mesh: Mesh,

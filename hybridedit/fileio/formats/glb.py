@@ -20,7 +20,7 @@ are there for a conversion to OBJ or PLY.
 from __future__ import annotations
 
 import copy
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import pygltflib
@@ -122,6 +122,32 @@ def _placed_meshes(gltf: pygltflib.GLTF2) -> list[tuple[int, np.ndarray]]:
 
 def read(path: str, data: bytes) -> Document:
     """Read a .glb into a :class:`Document` (raises _Bad for a bad file)."""
+    gltf = _load(data)
+    blob = gltf.binary_blob() or b""
+    prims = _triangle_primitives(gltf, blob)
+    if not prims.slots:
+        raise _Bad("file has no triangle meshes")
+    P = np.concatenate(prims.points)
+    file_tri = np.concatenate(prims.tris)
+    welded, inverse = _weld_map(P)
+    faces = inverse[file_tri]
+    group = _normal_groups(np.concatenate(prims.normals), inverse)
+    uv = sum(1 for s in gltf.meshes for p in s.primitives if p.attributes.TEXCOORD_0 is not None)
+    extras = _extras(gltf, uv, prims.skipped)
+    rgba = _engine_colors(prims, welded, inverse)
+    native = GlbNative(gltf=gltf, slots=prims.slots, file_vertex=inverse, rest=welded,
+                       normal_group=group.reshape(-1), n_groups=int(group.max()) + 1,
+                       file_triangles=file_tri)
+    texturing = None
+    if uv or gltf.materials:
+        sizes, uvs, materials = [len(p) for p in prims.points], prims.uvs, prims.materials  # (not all of prims)
+        texturing = lambda: _texturing(gltf, blob, uvs, sizes, file_tri, materials)  # noqa: E731
+    return Document(mesh=_mesh(welded, faces), format="glb", native=native, colors=rgba,
+                    normals=any(s.normal is not None for s in prims.slots), extras=extras, texturing=texturing)
+
+
+def _load(data: bytes) -> pygltflib.GLTF2:
+    """The file's glTF, or _Bad."""
     if data[:4] != b"glTF":
         raise _Bad("not a glTF binary file (it does not start with 'glTF')")
     try:
@@ -130,52 +156,78 @@ def read(path: str, data: bytes) -> Document:
         raise _Bad(f"not a valid glTF binary file ({type(exc).__name__}: {exc})") from None
     if gltf is None:
         raise _Bad("not a valid glTF binary file (no JSON chunk)")
-    blob = gltf.binary_blob() or b""
-    slots, points, normals, tris, colors, uvs, prim_material = [], [], [], [], [], [], []
-    first = 0
-    skipped = 0
+    return gltf
+
+
+@dataclass
+class _Primitives:
+    """The triangle primitives of a scene, in world space, one entry each in file vertex order."""
+
+    slots: list[_Slot] = field(default_factory=list)
+    points: list[np.ndarray] = field(default_factory=list)  # (k, 3) world positions
+    normals: list[np.ndarray] = field(default_factory=list)  # (k, 3) world normals (0 where none)
+    tris: list[np.ndarray] = field(default_factory=list)  # (t, 3) file vertex indices over all primitives
+    colors: list[np.ndarray | None] = field(default_factory=list)  # (k, 4) RGBA, None where none
+    uvs: list[int | None] = field(default_factory=list)  # TEXCOORD_0 accessor
+    materials: list[tuple[int, int]] = field(default_factory=list)  # (triangles, material or -1)
+    skipped: int = 0  # primitives that are not triangles with positions
+    first: int = 0  # file vertices so far
+
+
+def _triangle_primitives(gltf: pygltflib.GLTF2, blob: bytes) -> _Primitives:
+    """Every triangle primitive of every mesh the scene places, in world space."""
+    found = _Primitives()
     for mesh_index, world in _placed_meshes(gltf):
         for prim in gltf.meshes[mesh_index].primitives:
             mode = _TRIANGLES if prim.mode is None else prim.mode
             if mode != _TRIANGLES or prim.attributes.POSITION is None:
-                skipped += 1
+                found.skipped += 1
                 continue
-            local = _read_accessor(gltf, blob, prim.attributes.POSITION).astype(np.float64)
-            if local.shape[1] != 3:
-                raise _Bad("POSITION must be 3 floats a vertex")
-            idx = (np.arange(len(local)) if prim.indices is None
-                   else _read_accessor(gltf, blob, prim.indices).reshape(-1).astype(np.int64))
-            if len(idx) % 3 or (idx.size and idx.max() >= len(local)):
-                raise _Bad(f"mesh {mesh_index}: indices are not triangles of its vertices")
-            pts = local @ world[:3, :3].T + world[:3, 3]
-            nrm_index = prim.attributes.NORMAL
-            if nrm_index is not None:
-                nrm = _read_accessor(gltf, blob, nrm_index).astype(np.float64)
-                nrm = nrm @ np.linalg.inv(world[:3, :3])  # (M^-T n) as rows
-            else:
-                nrm = np.zeros_like(pts)
-            slots.append(_Slot(prim.attributes.POSITION, nrm_index, world, first))
-            colors.append(None if prim.attributes.COLOR_0 is None
-                          else _rgba(_read_accessor(gltf, blob, prim.attributes.COLOR_0), len(local)))
-            uvs.append(prim.attributes.TEXCOORD_0)
-            prim_material.append((len(idx) // 3, -1 if prim.material is None else prim.material))
-            points.append(pts)
-            normals.append(nrm)
-            tris.append(idx.reshape(-1, 3) + first)
-            first += len(local)
-    if not slots:
-        raise _Bad("file has no triangle meshes")
-    P = np.concatenate(points)
-    file_tri = np.concatenate(tris)
-    welded, inverse = _weld_map(P)
-    faces = inverse[file_tri]
-    N = np.concatenate(normals)
+            _add_primitive(found, gltf, blob, mesh_index, world, prim)
+    return found
+
+
+def _add_primitive(found: _Primitives, gltf: pygltflib.GLTF2, blob: bytes, mesh_index: int, world: np.ndarray,
+                   prim: pygltflib.Primitive) -> None:
+    """One triangle primitive of mesh ``mesh_index``, placed by ``world``, added to ``found``."""
+    local = _read_accessor(gltf, blob, prim.attributes.POSITION).astype(np.float64)
+    if local.shape[1] != 3:
+        raise _Bad("POSITION must be 3 floats a vertex")
+    idx = (np.arange(len(local)) if prim.indices is None
+           else _read_accessor(gltf, blob, prim.indices).reshape(-1).astype(np.int64))
+    if len(idx) % 3 or (idx.size and idx.max() >= len(local)):
+        raise _Bad(f"mesh {mesh_index}: indices are not triangles of its vertices")
+    pts = local @ world[:3, :3].T + world[:3, 3]
+    nrm_index = prim.attributes.NORMAL
+    if nrm_index is not None:
+        nrm = _read_accessor(gltf, blob, nrm_index).astype(np.float64)
+        nrm = nrm @ np.linalg.inv(world[:3, :3])  # (M^-T n) as rows
+    else:
+        nrm = np.zeros_like(pts)
+    found.slots.append(_Slot(prim.attributes.POSITION, nrm_index, world, found.first))
+    found.colors.append(None if prim.attributes.COLOR_0 is None
+                        else _rgba(_read_accessor(gltf, blob, prim.attributes.COLOR_0), len(local)))
+    found.uvs.append(prim.attributes.TEXCOORD_0)
+    found.materials.append((len(idx) // 3, -1 if prim.material is None else prim.material))
+    found.points.append(pts)
+    found.normals.append(nrm)
+    found.tris.append(idx.reshape(-1, 3) + found.first)
+    found.first += len(local)
+
+
+def _normal_groups(N: np.ndarray, inverse: np.ndarray) -> np.ndarray:
+    """The normal group of each file vertex: its engine vertex and its normal's direction (3 decimals)."""
     length = np.linalg.norm(N, axis=1, keepdims=True)
     unit = np.round(np.divide(N, length, out=np.zeros_like(N), where=length > 0), 3)
     key = np.column_stack([inverse.astype(np.float64), unit])
     _, group = np.unique(key, axis=0, return_inverse=True)
+    return group
+
+
+def _extras(gltf: pygltflib.GLTF2, uv: int, skipped: int) -> dict[str, int]:
+    """What the file holds besides the surface, as a document's inventory (``uv``: primitives
+    with texture coordinates, ``skipped``: primitives not read)."""
     extras: dict[str, int] = {}
-    uv = sum(1 for s in gltf.meshes for p in s.primitives if p.attributes.TEXCOORD_0 is not None)
     if uv:
         extras["primitives with texture coordinates"] = uv
     if gltf.materials:
@@ -188,21 +240,18 @@ def read(path: str, data: bytes) -> Document:
                or (m.pbrMetallicRoughness and m.pbrMetallicRoughness.metallicRoughnessTexture))
     if maps:
         extras["materials' maps besides the base colour (normal, occlusion, emissive, metallic-roughness)"] = maps
-    rgba = None
-    if any(c is not None for c in colors):  # per engine vertex: its first file vertex's (white where none)
-        file_rgba = np.concatenate([np.ones((len(p), 4)) if c is None else c for c, p in zip(colors, points)])
-        first_of = np.full(len(welded), len(inverse), dtype=np.int64)
-        np.minimum.at(first_of, inverse, np.arange(len(inverse)))
-        rgba = file_rgba[first_of]
-    native = GlbNative(gltf=gltf, slots=slots, file_vertex=inverse, rest=welded,
-                       normal_group=group.reshape(-1), n_groups=int(group.max()) + 1,
-                       file_triangles=file_tri)
-    texturing = None
-    if uv or gltf.materials:
-        sizes = [len(p) for p in points]
-        texturing = lambda: _texturing(gltf, blob, uvs, sizes, file_tri, prim_material)  # noqa: E731
-    return Document(mesh=_mesh(welded, faces), format="glb", native=native, colors=rgba,
-                    normals=any(s.normal is not None for s in slots), extras=extras, texturing=texturing)
+    return extras
+
+
+def _engine_colors(prims: _Primitives, welded: np.ndarray, inverse: np.ndarray) -> np.ndarray | None:
+    """(n, 4) RGBA per engine vertex: its first file vertex's (white where a primitive has none);
+    None when no primitive has colours."""
+    if not any(c is not None for c in prims.colors):
+        return None
+    file_rgba = np.concatenate([np.ones((len(p), 4)) if c is None else c for c, p in zip(prims.colors, prims.points)])
+    first_of = np.full(len(welded), len(inverse), dtype=np.int64)
+    np.minimum.at(first_of, inverse, np.arange(len(inverse)))
+    return file_rgba[first_of]
 
 
 def _texturing(gltf: pygltflib.GLTF2, blob: bytes, uvs: list[int | None], sizes: list[int],

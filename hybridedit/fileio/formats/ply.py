@@ -200,6 +200,30 @@ def read(path: str, data: bytes) -> Document:
         ply = _read_plydata(path)
     except plyfile.PlyParseError as exc:
         raise _Bad(_plain_message(exc)) from None
+    vertex, names = _vertex_element(ply)
+    with np.errstate(all="ignore"):
+        vertices = np.column_stack([vertex.data[a].astype(np.float64) for a in "xyz"]) \
+            if vertex.count else np.zeros((0, 3))
+    faces, polygons = _faces(ply)
+    colors = _colors(vertex, names)
+    vertex_uv = next((pair for pair in _VERTEX_UV if all(a in names for a in pair)), ())
+    face = _element(ply, "face")
+    strips = _element(ply, "tristrips")
+    polygons_kept = strips is None or not strips.count
+    face_uv = bool(face is not None and face.count and polygons_kept and "texcoord" in
+                   [p.name for p in face.properties])
+    extras, files = _extras(ply, vertex, names, vertex_uv, face if face_uv else None)
+    texturing = None
+    if vertex_uv or face_uv or files:
+        texturing = lambda: _texturing(ply, path, vertex_uv, face_uv, files, polygons, faces)  # noqa: E731
+    return Document(mesh=_mesh(vertices, faces), format="ply",
+                    native=PlyNative(data=ply, rest=vertices, raw=data if ply.text else None), polygons=polygons,
+                    colors=colors, normals=all(n in names for n in ("nx", "ny", "nz")),
+                    extras=extras, texturing=texturing)
+
+
+def _vertex_element(ply: plyfile.PlyData) -> tuple[plyfile.PlyElement, list[str]]:
+    """The ``vertex`` element and its property names, checked to have ``x y z`` numbers."""
     vertex = _element(ply, "vertex")
     if vertex is None:
         raise _Bad("PLY header has no 'vertex' element")
@@ -209,9 +233,12 @@ def read(path: str, data: bytes) -> Document:
             raise _Bad(f"PLY vertex element has no '{axis}' property")
         if isinstance(vertex.ply_property(axis), plyfile.PlyListProperty):
             raise _Bad(f"PLY vertex property '{axis}' is a list, expected a number")
-    with np.errstate(all="ignore"):
-        vertices = np.column_stack([vertex.data[a].astype(np.float64) for a in "xyz"]) \
-            if vertex.count else np.zeros((0, 3))
+    return vertex, names
+
+
+def _faces(ply: plyfile.PlyData) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
+    """(m, 3) int64 triangles of the ``face`` polygons (fanned) and ``tristrips``, and the polygons
+    (counts, flat indices) to carry over: None when all are triangles or there are strips."""
     parts = [np.zeros((0, 3), dtype=np.int64)]
     polygons = None
     face = _element(ply, "face")
@@ -235,23 +262,31 @@ def read(path: str, data: bytes) -> Document:
             flat[flat == np.iinfo(code).max] = -1
         parts.append(_strip_triangles(counts, flat))
         polygons = None  # strips have no polygons to carry over
-    faces = np.concatenate(parts)
-    colors = None
-    if all(c in names for c in _COLOR[:3]):
-        cols = [vertex.data[c] for c in _COLOR if c in names]
-        table = np.column_stack(cols).astype(np.float64)
-        if np.dtype(vertex.data["red"].dtype).kind in "ui":
-            table /= 255.0
-        colors = table if table.shape[1] == 4 else np.column_stack([table, np.ones(len(table))])
-    vertex_uv = next((pair for pair in _VERTEX_UV if all(a in names for a in pair)), ())
+    return np.concatenate(parts), polygons
+
+
+def _colors(vertex: plyfile.PlyElement, names: list[str]) -> np.ndarray | None:
+    """(n, 4) float64 RGBA in [0, 1] from ``red green blue [alpha]`` (integers out of 255), or None."""
+    if not all(c in names for c in _COLOR[:3]):
+        return None
+    cols = [vertex.data[c] for c in _COLOR if c in names]
+    table = np.column_stack(cols).astype(np.float64)
+    if np.dtype(vertex.data["red"].dtype).kind in "ui":
+        table /= 255.0
+    return table if table.shape[1] == 4 else np.column_stack([table, np.ones(len(table))])
+
+
+def _extras(ply: plyfile.PlyData, vertex: plyfile.PlyElement, names: list[str], vertex_uv: tuple[str, ...],
+            uv_faces: plyfile.PlyElement | None) -> tuple[dict[str, int], list[str]]:
+    """What the file holds besides the surface, as a document's inventory, and the ``TextureFile``
+    images its comments name (``vertex_uv``: the vertex properties of texture coordinates, if any;
+    ``uv_faces``: the face element, when its ``texcoord`` lists are the texture coordinates)."""
+    face_uv = uv_faces is not None
     standard = {"x", "y", "z", "nx", "ny", "nz", *_COLOR, *vertex_uv}
     extras: dict[str, int] = {}
     custom = [n for n in names if n not in standard]
     if custom:
         extras["custom vertex properties (" + ", ".join(custom) + ")"] = vertex.count
-    polygons_kept = strips is None or not strips.count
-    face_uv = bool(face is not None and face.count and polygons_kept and "texcoord" in
-                   [p.name for p in face.properties])
     for el in ply.elements:
         if el.name not in ("vertex", "face"):
             extras[f"'{el.name}' records"] = el.count
@@ -261,20 +296,14 @@ def read(path: str, data: bytes) -> Document:
             if other:
                 extras["custom face properties (" + ", ".join(other) + ")"] = el.count
     if vertex_uv or face_uv:
-        extras["texture coordinates"] = vertex.count if vertex_uv else face.count
+        extras["texture coordinates"] = vertex.count if vertex_uv else uv_faces.count
     files = [c.split(None, 1)[1].strip() for c in ply.comments
              if c.split(None, 1)[:1] == ["TextureFile"] and len(c.split(None, 1)) == 2]
     if files:
         extras["texture files"] = len(files)
     if len(ply.comments) - len(files) + len(ply.obj_info):
         extras["header comments"] = len(ply.comments) - len(files) + len(ply.obj_info)
-    texturing = None
-    if vertex_uv or face_uv or files:
-        texturing = lambda: _texturing(ply, path, vertex_uv, face_uv, files, polygons, faces)  # noqa: E731
-    return Document(mesh=_mesh(vertices, faces), format="ply",
-                    native=PlyNative(data=ply, rest=vertices, raw=data if ply.text else None), polygons=polygons,
-                    colors=colors, normals=all(n in names for n in ("nx", "ny", "nz")), extras=extras,
-                    texturing=texturing)
+    return extras, files
 
 
 def _texturing(ply: plyfile.PlyData, path: str, vertex_uv: tuple[str, str], face_uv: bool,

@@ -1,0 +1,34 @@
+"""Snapshots of an editor's selection and pose, and going back to them (hybridedit.deform.editor_state)."""
+
+import numpy as np
+import pytest
+
+from hybridedit import HybridEditor
+
+
+@pytest.fixture(scope="module")
+def ed(blob):
+    return HybridEditor(blob, cage_size=300, propagation="linear")
+
+
+def ends(mesh, frac=0.2):
+    x = mesh.vertices[:, 0]
+    span = x.max() - x.min()
+    return np.flatnonzero(x < x.min() + frac * span), np.flatnonzero(x > x.max() - frac * span)
+
+
+def test_save_and_restore_state_bring_back_selection_and_pose(ed):
+    a, b = ends(ed.mesh)
+    ed.set_selection(b, fixed=a)
+    x = ed.deformed_vertices.copy()  # the pose the constraints refer to
+    ed.drag(translate=(0, 0.5, 0))
+    state = ed.save_state()
+    shape = ed.deformed_vertices.copy()
+    ed.set_selection(a, roi=np.arange(ed.mesh.n_vertices // 2))
+    ed.drag(translate=(0.3, 0, 0))
+    ed.restore_state(state)
+    assert np.array_equal(ed.deformed_vertices, shape)
+    assert np.allclose(ed.transform[:3, 3], [0, 0.5, 0])
+    ed.drag(translate=(0, 0.6, 0))  # continues from the restored selection: constraints exact
+    assert np.abs(ed.deformed_vertices[a] - x[a]).max() == 0.0
+    assert np.allclose(ed.deformed_vertices[b], x[b] + [0, 0.6, 0], atol=1e-12)
