@@ -108,7 +108,7 @@ def main(argv=None) -> int:
         jump = np.abs(ed.drag(translate=(0.0, 0.0, 0.0)) - before).max() / diag
         with Timer() as t:
             for _ in range(frames):
-                V = ed.drag(transform=T)
+                ed.drag(transform=T)
         if args.polish:
             ed.polish()
         err = rrms_edge_error(mesh.vertices, ed.deformed_vertices, edges)

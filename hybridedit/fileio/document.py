@@ -22,7 +22,6 @@ from typing import Any
 import numpy as np
 
 from ..core.mesh import Mesh
-from ..core.normals import grouped_normals, vertex_normals  # noqa: F401  (the writers' normals; see below)
 
 __all__ = ["Document", "Material", "Texturing", "moved_vertices"]
 

@@ -25,7 +25,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import pygltflib
 
-from ..document import Document, Material, Texturing, grouped_normals, moved_vertices, vertex_normals
+from ..document import Document, Material, Texturing, moved_vertices
+from ...core.normals import grouped_normals, vertex_normals
 from .common import _Bad, fan_triangles, _mesh
 
 __all__ = ["GlbNative", "read", "write"]

@@ -24,7 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..document import Document, Material, Texturing, grouped_normals, moved_vertices, vertex_normals
+from ..document import Document, Material, Texturing, moved_vertices
+from ...core.normals import grouped_normals, vertex_normals
 from .common import TextPrecision, _Bad, _indented, _sample_rows, _shortest_rows, _mesh, fan_triangles, _format_rows, _numbers, _snippet, _token_count, _widths, _words
 from .reporting import report, span
 

@@ -13,7 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..document import Document, grouped_normals, moved_vertices, vertex_normals
+from ..document import Document, moved_vertices
+from ...core.normals import grouped_normals, vertex_normals
 from .common import TextPrecision, _Bad, _sample_rows, _mesh, fan_triangles, _format_rows, _numbers, _snippet, _truncated, _widths, _words
 
 __all__ = ["OffNative", "read", "write"]

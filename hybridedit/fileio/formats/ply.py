@@ -26,7 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 import plyfile
 
-from ..document import Document, Material, Texturing, grouped_normals, moved_vertices, vertex_normals
+from ..document import Document, Material, Texturing, moved_vertices
+from ...core.normals import grouped_normals, vertex_normals
 from .common import TextPrecision, _Bad, _mesh, fan_triangles, _sample_rows, _truncated, _words
 
 __all__ = ["PlyNative", "read", "write"]
