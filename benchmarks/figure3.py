@@ -16,7 +16,6 @@ from __future__ import annotations
 import argparse
 import sys
 
-
 from common import REPO, armadillo, armadillo_21k, machine
 from table1 import full_constraints, run_hybrid
 
