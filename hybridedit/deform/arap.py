@@ -9,6 +9,7 @@ import scipy.sparse as sp
 from numba import njit, prange
 
 from ..core.linsolve import SPDSolver
+from ..core.parallel import pick
 from ..core.mesh import unique_edges
 from ..core.rotations import closest_rotation
 from ..core.topology import edge_index
@@ -84,12 +85,6 @@ def laplacian(n: int, edges: np.ndarray, weights: np.ndarray) -> sp.csr_matrix:
     return (D - W).tocsr()
 
 
-#: Below this many vertices the per-vertex kernels run on one thread: starting
-#: the thread pool costs more than the work (and far more on a busy machine).
-#: A vertex's rotation (a 3x3 polar decomposition) is work enough that two threads
-#: win from about a thousand: the local step of a 2,163-vertex cage 0.61 -> 0.33 ms,
-#: of an 8,650-vertex one 2.6 -> 1.3 ms a frame (2 cores).
-PARALLEL_MIN = 1000
 
 
 @njit(cache=True, inline="always")
@@ -141,10 +136,8 @@ def _local_step_parallel(rest, cur, indptr, indices, wts, rots, rows):
 
 def _local_step(rest, cur, indptr, indices, wts, rots, rows):
     """Rotations R_i of the vertices ``rows`` (the ARAP local step), into ``rots`` (n, 3, 3)."""
-    if rows.shape[0] >= PARALLEL_MIN:
-        _local_step_parallel(rest, cur, indptr, indices, wts, rots, rows)
-    else:
-        _local_step_serial(rest, cur, indptr, indices, wts, rots, rows)
+    pick("rotations", _local_step_serial, _local_step_parallel, rows.shape[0])(rest, cur, indptr, indices, wts, rots,
+                                                                             rows)
 
 
 @njit(cache=True, inline="always")
@@ -185,10 +178,7 @@ def _rhs_parallel(rest, indptr, indices, wts, rots, rows, out):
 
 def _rhs(rest, indptr, indices, wts, rots, rows, out):
     """The global step's right-hand side for the vertices ``rows``, into ``out``."""
-    if rows.shape[0] >= PARALLEL_MIN:
-        _rhs_parallel(rest, indptr, indices, wts, rots, rows, out)
-    else:
-        _rhs_serial(rest, indptr, indices, wts, rots, rows, out)
+    pick("rotations", _rhs_serial, _rhs_parallel, rows.shape[0])(rest, indptr, indices, wts, rots, rows, out)
 
 
 @njit(cache=True, parallel=True)

@@ -29,6 +29,7 @@ import scipy.sparse as sp
 from numba import njit, prange
 
 from ..core.linsolve import SPDSolver
+from ..core.parallel import pick
 
 
 def _bounded(L: sp.csr_matrix, free: np.ndarray) -> np.ndarray:
@@ -91,12 +92,6 @@ class SeamSpread:
         return out
 
 
-#: Below this many vertices the region step's right-hand side pass (rotation blend, then the ARAP
-#: right-hand side) runs on one thread. The canonical edit's region at 43K (3.3K vertices) takes
-#: 0.1 ms on one thread, at 173K (5.9K) 0.26 ms against 0.21 ms on two; at 690K (12K) two threads
-#: take it from 0.37 to 0.20 ms. On a busy machine a parallel pass can wait milliseconds for its
-#: second thread, so it is kept for regions where it clearly pays.
-PARALLEL_MIN = 8000
 
 
 @njit(cache=True, inline="always")
@@ -188,10 +183,7 @@ def region_rhs(idx, w, cage_rots, rots, free_local, indptr, indices, he, s, cptr
     b : (f, 3) output (any memory order): sum_j w_ij/2 (R_i + R_j)(p_i - p_j) + sum_{j boundary} w_ij x_j.
     """
     args = (idx, w, cage_rots, rots, free_local, indptr, indices, he, s, cptr, cidx, cw, x, b)
-    if rots.shape[0] >= PARALLEL_MIN:
-        _region_rhs_parallel(*args)
-    else:
-        _region_rhs_serial(*args)
+    pick("region_step", _region_rhs_serial, _region_rhs_parallel, rots.shape[0])(*args)
 
 
 @njit(cache=True)
@@ -223,19 +215,12 @@ def _place_parallel(rows, source, T, out):
         _place_one(rows[r], source, T, out)
 
 
-#: Constrained vertices placed on one thread below this many (the rows lie scattered through
-#: the shape: two threads wait on memory side by side; the 52K handle rows of the canonical edit
-#: at 690K 0.22-0.9 ms -> 0.1-0.46 ms, depending on what the caches hold).
-PARALLEL_PLACE_MIN = 20000
 
 
 def place(rows, source, T, out):
     """out[i] = T applied to source[i] for i in rows ((4, 4) affine T): the exact
     position of constrained vertices, in one pass."""
-    if rows.shape[0] >= PARALLEL_PLACE_MIN:
-        _place_parallel(rows, source, T, out)
-    else:
-        _place_serial(rows, source, T, out)
+    pick("place", _place_serial, _place_parallel, rows.shape[0])(rows, source, T, out)
 
 
 #: A free region up to this many vertices is solved whole every frame; a larger one

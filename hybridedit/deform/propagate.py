@@ -6,9 +6,7 @@ import numpy as np
 import scipy.sparse as sp
 from numba import njit, prange
 
-
-#: Below this many rows the product runs on one thread (thread start-up costs more).
-PARALLEL_MIN_ROWS = 20000
+from ..core.parallel import pick
 
 _ALL_ROWS: dict[int, np.ndarray] = {}
 
@@ -78,8 +76,6 @@ def propagate(
         out = np.empty((M.shape[0], 3))
     rows = all_rows(M.shape[0]) if rows is None else rows
     dest = rows if dest is None else dest
-    if rows.shape[0] >= PARALLEL_MIN_ROWS:
-        _csr_times_xyz_parallel(M.indptr, M.indices, M.data, y, out, rows, dest)
-    else:
-        _csr_times_xyz_serial(M.indptr, M.indices, M.data, y, out, rows, dest)
+    pick("propagate", _csr_times_xyz_serial, _csr_times_xyz_parallel, rows.shape[0])(M.indptr, M.indices, M.data, y,
+                                                                                      out, rows, dest)
     return out

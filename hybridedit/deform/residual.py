@@ -23,7 +23,8 @@ import numpy as np
 import scipy.sparse as sp
 from numba import njit, prange
 
-from .propagate import PARALLEL_MIN_ROWS, all_rows, propagate
+from ..core.parallel import pick
+from .propagate import all_rows, propagate
 from .propagate import _row as _linear_row
 
 #: Cage rotations blended per shape vertex.
@@ -139,10 +140,7 @@ def propagate_with_residual(
     rows = all_rows(M.shape[0]) if rows is None else rows
     dest = rows if dest is None else dest
     args = (M.indptr, M.indices, M.data, y, rotations, idx, w, d, out, rows, dest)
-    if rows.shape[0] >= PARALLEL_MIN_ROWS:
-        _parallel(*args)
-    else:
-        _serial(*args)
+    pick("propagate", _serial, _parallel, rows.shape[0])(*args)
     return out
 
 

@@ -2,6 +2,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
+from hybridedit.core.parallel import THRESHOLDS
 from hybridedit.deform.arap import edge_weights, laplacian
 from hybridedit.deform.constraints import SeamSpread
 
@@ -127,7 +128,7 @@ def test_the_region_step_is_the_arap_global_step_with_blended_rotations(monkeypa
     import hybridedit.deform.constraints as C
 
     if parallel:
-        monkeypatch.setattr(C, "PARALLEL_MIN", 0)
+        monkeypatch.setitem(THRESHOLDS, "region_step", 0)
     v, L, free, idx, w, cage_rots, x = _region_problem()
     step = C.RegionStep(v, L, free, idx, w)
     assert step.free.tolist() == free.tolist()  # one part, bounded by the rest of the sphere
@@ -145,7 +146,7 @@ def test_the_region_right_hand_side_kernel_matches_numpy(monkeypatch):
     v, L, free, idx, w, cage_rots, x = _region_problem(seed=3)
     step = C.RegionStep(v, L, free, idx, w)
     for threshold in (10**9, 0):  # the serial kernel, then the parallel one
-        monkeypatch.setattr(C, "PARALLEL_MIN", threshold)
+        monkeypatch.setitem(THRESHOLDS, "region_step", threshold)
         b = np.full((step.free.size, 3), np.nan, order="F")
         C.region_rhs(step._idx, step._w, cage_rots, step._rots, step._free_local, *step._E, step._he,
                      step._s, *step._C, x, b)
@@ -187,7 +188,7 @@ def test_place_is_the_affine_map_of_its_rows(monkeypatch, threshold):
     import hybridedit.deform.constraints as C
     from hybridedit.core.transforms import rigid_transform
 
-    monkeypatch.setattr(C, "PARALLEL_PLACE_MIN", threshold)
+    monkeypatch.setitem(THRESHOLDS, "place", threshold)
     rng = np.random.default_rng(2)
     source = rng.standard_normal((500, 3))
     out = rng.standard_normal((500, 3))
