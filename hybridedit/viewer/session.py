@@ -40,12 +40,15 @@ from ..defaults import CAGE_SIZE, ITERATIONS, SETTLE_FRAMES
 from ..fileio.editfile import Edit
 from ..deform.editor import HybridEditor, SelectionError
 from ..core.mesh import Mesh, rrms_edge_error
+from ..deform.roles import FIXED, group, handle as handle_role, is_handle
 from .history import History, Snapshot
 from .regional import ShapeMetrics
-from .picking import FIXED, FREE as FREE_STATE, HANDLE as HANDLE_STATE, combine, vertex_states
+from .picking import combine, selection_roles
 
 ROI, HANDLE = "roi", "handle"
 TARGETS = (ROI, HANDLE)
+NO_GROUP = 0
+"""``handle_group`` of a cage vertex in no handle group."""
 
 
 class Session:
@@ -77,8 +80,8 @@ class Session:
         self.dominant = editor.dominant_cage_vertex
         c = editor.cage.n_vertices
         self.roi = np.zeros(c, dtype=bool) if roi is None else np.asarray(roi, dtype=bool).copy()
-        #: handle group of each cage vertex: 0 none, g + 1 in group g
-        self.handle_group = np.zeros(c, dtype=np.int8)
+        #: the role of the handle group each cage vertex is in (``roles.handle(g)``), else NO_GROUP
+        self.handle_group = np.full(c, NO_GROUP, dtype=np.int8)
         self.n_groups = 1
         self.active = 0  # the handle group that selections and drags act on
         #: transform of each handle group since the selection was applied
@@ -137,7 +140,7 @@ class Session:
     @property
     def handle(self) -> np.ndarray:
         """(c,) bool: the cage vertices of the active handle group."""
-        return self.handle_group == self.active + 1
+        return self.handle_group == handle_role(self.active)
 
     @handle.setter
     def handle(self, mask) -> None:
@@ -145,14 +148,14 @@ class Session:
         if m.shape != self.handle_group.shape:
             raise ValueError(f"a handle mask must have {len(self.handle_group)} entries (the cage vertex count)")
         g = self.handle_group.copy()
-        g[g == self.active + 1] = 0
-        g[m] = self.active + 1  # a vertex belongs to one group: the active one takes it
+        g[g == handle_role(self.active)] = NO_GROUP
+        g[m] = handle_role(self.active)  # a vertex belongs to one group: the active one takes it
         self.handle_group = g
 
     @property
     def all_handles(self) -> np.ndarray:
         """(c,) bool: the cage vertices of every handle group."""
-        return self.handle_group > 0
+        return is_handle(self.handle_group)
 
     @property
     def transform(self) -> np.ndarray:
@@ -217,24 +220,20 @@ class Session:
         self.finish_settle()
         return self.editor.replayable
 
-    def states(self) -> np.ndarray:
-        """Per cage vertex FIXED / FREE / HANDLE (see :mod:`.picking`): the engine's cage roles
-        once it has the selection, else the masks; mirror images included in both cases."""
+    def cage_roles(self) -> np.ndarray:
+        """(c,) int8 role of each cage vertex (:mod:`hybridedit.deform.roles`): the engine's cage roles
+        once it has the selection, else the masks'; mirror images included in both cases."""
         if self._engine_masks == self._mask_key() and (self.roi.any() or self.all_handles.any()):
             roles = self.editor.cage_roles
         elif self.symmetry is not None and (self.roi.any() or self.all_handles.any()):
             roles = self._preview()[1]  # the mirrored selection, drawn on both sides as it is made
         else:
-            st = vertex_states(self.roi, self.all_handles)
-            h = self.all_handles
-            st[h] = HANDLE_STATE + self.handle_group[h] - 1  # one state (colour) per handle group
-            return st
-        return np.where(roles > 0, HANDLE_STATE + roles - 1, np.where(roles == 0, FREE_STATE, FIXED)).astype(np.int8)
+            return selection_roles(self.roi, self.handle_group)  # one role (colour) per handle group
+        return roles.astype(np.int8)
 
     def _engine_shape_roles(self) -> np.ndarray:
         """(n,) the shape-space roles the engine is given for the current masks (see ``_give_engine_selection``)."""
-        cage_roles = np.where(self.handle_group > 0, self.handle_group, np.where(self.roi, 0, -1))
-        return self.editor.shape_roles(cage_roles)
+        return self.editor.shape_roles(selection_roles(self.roi, self.handle_group))
 
     def _preview(self) -> tuple[np.ndarray, np.ndarray]:
         """(shape roles, cage roles) the engine will take for the current masks and mirror (cached)."""
@@ -249,7 +248,7 @@ class Session:
         return self.metrics.edges
 
     def shape_roles(self) -> np.ndarray:
-        """Per shape vertex: -1 held fixed, 0 free, g + 1 in handle group g ((n,) int8); all 0 with no selection.
+        """(n,) int8 role of each shape vertex (:mod:`hybridedit.deform.roles`); all FREE with no selection.
 
         Once the engine has the selection these are its roles (what it holds exactly); before,
         what it will hold (:meth:`~hybridedit.HybridEditor.preview_roles`, mirror images included).
@@ -264,12 +263,12 @@ class Session:
         """{handle group: cage points of the group that share a cage edge with a held (fixed) point}: with
         no free point between them, a drag stretches those edges and tears the shape there (the front of a
         limb taken as handle, its back left fixed). Mirror images count in their group; empty when none."""
-        st = self.states()
+        r = self.cage_roles()
         e = self.editor.cage_edges
-        touching = np.zeros(len(st), dtype=bool)
+        touching = np.zeros(len(r), dtype=bool)
         for x, y in ((e[:, 0], e[:, 1]), (e[:, 1], e[:, 0])):
-            touching[x[(st[x] >= HANDLE_STATE) & (st[y] == FIXED)]] = True
-        return {int(g - HANDLE_STATE): int(np.count_nonzero(touching & (st == g))) for g in np.unique(st[touching])}
+            touching[x[is_handle(r[x]) & (r[y] == FIXED)]] = True
+        return {int(group(g)): int(np.count_nonzero(touching & (r == g))) for g in np.unique(r[touching])}
 
     def moving_vertices(self) -> np.ndarray | None:
         """The shape vertices a drag of the applied selection can move, (k,) int64 (None: no selection)."""
@@ -387,9 +386,9 @@ class Session:
         c = editor.cage.n_vertices
         self.roi = np.zeros(c, dtype=bool)
         self.roi[editor.to_cage(roi_s, "shape")] = True
-        self.handle_group = np.zeros(c, dtype=np.int8)
+        self.handle_group = np.full(c, NO_GROUP, dtype=np.int8)
         for g in range(self.n_groups):
-            self.handle_group[editor.to_cage(np.flatnonzero(groups_s == g + 1), "shape")] = g + 1
+            self.handle_group[editor.to_cage(np.flatnonzero(groups_s == handle_role(g)), "shape")] = handle_role(g)
         self._anchor = None
         self._identity_transforms()
         if posed:
@@ -454,7 +453,7 @@ class Session:
         if not self.roi.any() and not self.all_handles.any():
             return False
         self.roi = np.zeros(self.n_cage, dtype=bool)
-        self.handle_group = np.zeros(self.n_cage, dtype=np.int8)
+        self.handle_group = np.full(self.n_cage, NO_GROUP, dtype=np.int8)
         self.n_groups, self.active = 1, 0
         self._identity_transforms()
         self._selection_changed("clear selection")
@@ -494,12 +493,12 @@ class Session:
 
     def _compact_groups(self) -> None:
         """Drop empty handle groups (the engine numbers groups 0..G-1, all non-empty)."""
-        used = [g for g in range(self.n_groups) if np.any(self.handle_group == g + 1)]
+        used = [g for g in range(self.n_groups) if np.any(self.handle_group == handle_role(g))]
         if len(used) == self.n_groups:
             return
-        lut = np.zeros(self.n_groups + 1, dtype=np.int8)
+        lut = np.full(handle_role(self.n_groups), NO_GROUP, dtype=np.int8)  # old role -> new role
         for k, g in enumerate(used):
-            lut[g + 1] = k + 1
+            lut[handle_role(g)] = handle_role(k)
         self.handle_group = lut[self.handle_group]
         self.active = used.index(self.active) if self.active in used else 0
         self.transforms = [self.transforms[g] for g in used] or [np.eye(4)]
@@ -511,8 +510,8 @@ class Session:
         # given in shape vertices (the cage picks exactly, see HybridEditor.shape_roles), so that the edit
         # file it saves replays with ``hybridedit deform`` to the same vertices
         roles = self._engine_shape_roles()
-        handles = [np.flatnonzero(roles == g + 1) for g in range(self.n_groups)]
-        self.editor.set_selection(handles, roi=np.flatnonzero(roles >= 0), symmetry=self.symmetry)
+        handles = [np.flatnonzero(roles == handle_role(g)) for g in range(self.n_groups)]
+        self.editor.set_selection(handles, roi=np.flatnonzero(roles != FIXED), symmetry=self.symmetry)
         self._engine_masks = self._mask_key()
 
     def apply_selection(self) -> None:
@@ -679,8 +678,8 @@ class Session:
         self.editor.reset()
         self.editor.apply_edit(edit, frames=0, path=path)
         roles = self.editor.cage_roles
-        self.roi = roles >= 0
-        self.handle_group = np.maximum(roles, 0).astype(np.int8)
+        self.roi = roles != FIXED
+        self.handle_group = np.where(is_handle(roles), roles, NO_GROUP).astype(np.int8)
         Ts = self.editor.edit_transforms(edit)
         self.n_groups = max(len(Ts), 1)
         self.active = 0

@@ -22,6 +22,7 @@ from qtpy import QtCore, QtGui, QtWidgets
 from ..defaults import CAGE_SIZE
 from ..deform.editor import SelectionError
 from ..core.up_axis import AXES, remember_up_axis, shape_key
+from ..deform.roles import FREE, handle as handle_role
 from .building import BuildJobs
 from .cagesize import CageSizeControl
 from .dialogs import InfoDialogs
@@ -30,7 +31,7 @@ from .dragging import DragFrames
 from .framethread import FrameThread
 from .interaction import BRUSH, CAMERA, DRAG, RECTANGLE, SELECT, ViewController
 from .polishing import PolishScheduler
-from .scene import STATE_COLORS, VIEWS, Scene, state_rows
+from .scene import ROLE_COLOR_NAMES, ROLE_COLORS, VIEWS, Scene, role_rows
 from .session import HANDLE, ROI, Session
 from .statusfield import MessageLine, StatusField, StatusRow
 from .view import View
@@ -446,7 +447,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.target = target
         self.actions_["target_roi" if target == ROI else "target_handle"].setChecked(True)
         active = self.session.active if self.session is not None else 0
-        rgb = STATE_COLORS[1] if target == ROI else STATE_COLORS[state_rows(2 + active)]
+        rgb = ROLE_COLORS[role_rows(FREE if target == ROI else handle_role(active))]
         self.controller.target_color = QtGui.QColor(int(rgb[0]), int(rgb[1]), int(rgb[2]))
 
     def _set_tool(self, tool: str) -> None:
@@ -515,9 +516,9 @@ class MainWindow(QtWidgets.QMainWindow):
                      if on else "Mirror off")
 
     def _group_name(self) -> str:
+        """The active group in words: "handle group 2 of 3 (magenta)"."""
         s = self.session
-        names = ("orange", "magenta", "cyan", "yellow", "violet", "brown")
-        return f"handle group {s.active + 1} of {s.n_groups} ({names[int(state_rows(2 + s.active)) - 2]})"
+        return f"handle group {s.active + 1} of {s.n_groups} ({ROLE_COLOR_NAMES[role_rows(handle_role(s.active))]})"
 
     @guarded
     def new_group(self) -> None:
@@ -711,7 +712,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self._generation = s.generation
         self.set_cage_size(s.cage_size, of_shape=True)
         self.scene.up_axis = s.up_axis
-        self.scene.load(s.metrics, s.shown_positions, s.cage_positions, s.editor.cage.faces, s.states(),
+        self.scene.load(s.metrics, s.shown_positions, s.cage_positions, s.editor.cage.faces, s.cage_roles(),
                         s.shape_roles(), look=s.look, mode=s.look_mode)
         s.look_mode = self.scene.look_mode
         self.scene.gizmo.place(s.handle_centroid())
@@ -890,7 +891,7 @@ class MainWindow(QtWidgets.QMainWindow):
         s = self.session
         if s is None:
             return
-        self.scene.update_states(s.states(), s.shape_roles())
+        self.scene.update_roles(s.cage_roles(), s.shape_roles())
         self.scene.gizmo.place(s.handle_centroid())
         self._update_labels()
         self.view.request_render()
