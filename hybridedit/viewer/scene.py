@@ -303,11 +303,20 @@ class Scene:
         self.clear()
         self.metrics = metrics
         V = np.ascontiguousarray(shape_vertices, dtype=np.float64)
-        faces = metrics.faces
+        self._build_shape(V, shape_roles, look, mode)
+        cage = self._build_wireframe(cage_vertices, cage_faces)
+        self._build_points(cage, cage_vertices, cage_faces, cage_roles)
+        lo, hi = V.min(axis=0), V.max(axis=0)
+        self.gizmo.build(0.12 * float(np.linalg.norm(hi - lo)))
+        self.set_cage_visible(self.cage_visible)
+        self.set_stretch_visible(self.stretch_visible)
+
+    def _build_shape(self, V: np.ndarray, shape_roles: np.ndarray, look, mode: str | None) -> None:
+        """The full-mesh buffers of the shape V (n, 3) and the parts that draw it (:meth:`load`)."""
         shape = pv.PolyData()
         shape.points = V.astype(np.float32)
         normals = np.zeros((len(V), 3), dtype=np.float32)
-        metrics.write_normals(V, normals, everything=True)
+        self.metrics.write_normals(V, normals, everything=True)
         shape.point_data["Normals"] = normals
         shape.point_data["stretch"] = np.zeros(len(V), dtype=np.float32)
         # the full-mesh buffers the window writes (float32, in place); the parts draw copies of them
@@ -319,13 +328,21 @@ class Scene:
         self.look = look
         if mode is None:
             mode = look.default_mode if look is not None else "plain"
-        self.parts = ShapeParts(self.renderer, faces, len(V), shape_tint, self.stretch_lut, look=look, mode=mode)
-        self.parts.stretch_visible = self.stretch_visible
+        self.parts = self._make_parts(mode)
         self._shape_roles = np.asarray(shape_roles).copy()
         self.parts.set_roles(shape_roles, self.points32, self.normals32, self.stretch32)
         self._shape_bounds = self._next_bounds = _bounds(self.points32)
         self._still_bounds = None
 
+    def _make_parts(self, mode: str) -> ShapeParts:
+        """The shape's parts drawn in ``mode``, with no role split yet (:meth:`ShapeParts.set_roles`)."""
+        parts = ShapeParts(self.renderer, self.metrics.faces, len(self.points32), shape_tint, self.stretch_lut,
+                           look=self.look, mode=mode)
+        parts.stretch_visible = self.stretch_visible
+        return parts
+
+    def _build_wireframe(self, cage_vertices: np.ndarray, cage_faces: np.ndarray) -> pv.PolyData:
+        """The cage's edges, drawn depth-tested and faintly on top (:meth:`load`); returns their polydata."""
         edges = unique_edges(cage_faces)
         P = np.asarray(cage_vertices, dtype=np.float64).astype(np.float32)
         #: median cage edge length: how far from the surface cage points lie is a fraction of it
@@ -342,11 +359,16 @@ class Scene:
         self.overlay.AddActor(ghost)
         self.cage_front, self.cage_ghost = front, ghost
         self._actors.append(front)
+        self._overlay_actors.append(ghost)
+        return cage
 
+    def _build_points(self, cage: pv.PolyData, cage_vertices: np.ndarray, cage_faces: np.ndarray,
+                      cage_roles: np.ndarray) -> None:
+        """The cage points, coloured by role, on the wireframe's point buffer (:meth:`load`)."""
         pts = pv.PolyData()
         pts.SetPoints(cage.GetPoints())  # one cage pose buffer for the wireframe and the points
         self._cage_points32 = cage.points  # (a view of it, written in place)
-        rgba = np.full((len(P), 4), 255, dtype=np.uint8)
+        rgba = np.full((cage.n_points, 4), 255, dtype=np.uint8)
         rgba[:, :3] = ROLE_COLORS[role_rows(cage_roles)]
         pts.point_data["role"] = rgba
         pts.point_data.active_scalars_name = "role"
@@ -359,7 +381,7 @@ class Scene:
         self._cage_normals = None
         self._cage_bounds = _bounds(self._cage_pos)
         self._cage_roles = np.asarray(cage_roles, dtype=np.int64).copy()
-        self._near = np.zeros(len(P), dtype=bool)
+        self._near = np.zeros(cage.n_points, dtype=bool)
         self._shown_points = np.zeros(0, dtype=np.int64)
         self.points_poly = pts
         pmapper = pv.DataSetMapper(pts)
@@ -372,13 +394,8 @@ class Scene:
         pactor.SetPickable(False)
         self.overlay.AddActor(pactor)
         self.points_actor = pactor
-        self._overlay_actors += [ghost, pactor]
+        self._overlay_actors.append(pactor)
         self._update_point_cells()
-
-        lo, hi = V.min(axis=0), V.max(axis=0)
-        self.gizmo.build(0.12 * float(np.linalg.norm(hi - lo)))
-        self.set_cage_visible(self.cage_visible)
-        self.set_stretch_visible(self.stretch_visible)
 
     @staticmethod
     def _line_actor(poly: pv.PolyData, opacity: float, width: float) -> pv.Actor:
@@ -501,11 +518,9 @@ class Scene:
         """Draw the shape with its texture, its file's colours, or plain (a mode it has)."""
         if self.parts is None or mode not in self.look_modes() or mode == self.parts.mode:
             return
-        changed = self.parts._changed
+        changed = self.parts.changed
         self.parts.remove()
-        self.parts = ShapeParts(self.renderer, self.metrics.faces, len(self.points32), shape_tint, self.stretch_lut,
-                                look=self.look, mode=mode)
-        self.parts.stretch_visible = self.stretch_visible
+        self.parts = self._make_parts(mode)
         self.parts.set_changed(changed)
         self.parts.set_roles(self._shape_roles, self.points32, self.normals32, self.stretch32)
 

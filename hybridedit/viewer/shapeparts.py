@@ -185,6 +185,12 @@ class ShapeParts:
         self.stretch_visible = False
         self._changed: np.ndarray | None = None
 
+    @property
+    def changed(self) -> np.ndarray | None:
+        """The (k,) sorted global rows a frame rewrites, as :meth:`set_changed` was last given them
+        (None: all of them)."""
+        return self._changed
+
     def _texture(self, m: int):
         """The VTK texture of material ``m`` (made once), or None."""
         if m < 0 or self.look.materials[m].image is None:

@@ -124,6 +124,11 @@ def test_seams_move_together_and_show_no_crease(tmp_path):
     assert not np.any(np.isnan(normals))  # the same normal on both sides of the seam: no crease
     seam = np.unique(sc.look.source[m.n_vertices:])
     assert np.all(np.abs(np.linalg.norm(normals[seam], axis=1) - 1.0) < 1e-3)
+    # another look: its parts rewrite the same rows in a frame
+    changed = sc.parts.changed
+    assert changed is not None and len(changed) < m.n_vertices
+    sc.set_look_mode("plain")
+    assert sc.look_mode == "plain" and np.array_equal(sc.parts.changed, changed)
 
 
 @pytest.mark.parametrize("fmt", ["obj", "glb"])

@@ -62,7 +62,9 @@ def test_a_frame_copies_only_the_changed_rows():
     V, F = _sphere()
     parts, normals, _ = _parts(V, F, _roles(V))
     changed = np.flatnonzero(V[:, 0] > 0.0)
+    assert parts.changed is None  # (all rows)
     parts.set_changed(changed)
+    assert np.array_equal(parts.changed, changed)
     moved = V.copy()
     moved[changed] += np.float32(0.25)
     moved[~np.isin(np.arange(len(V)), changed)] += np.float32(9.0)  # not copied: must not show
