@@ -32,7 +32,8 @@ from .framethread import FrameThread
 from .interaction import BRUSH, CAMERA, DRAG, RECTANGLE, SELECT, ViewController
 from .polishing import PolishScheduler
 from .scene import ROLE_COLOR_NAMES, ROLE_COLORS, VIEWS, Scene, role_rows
-from .session import HANDLE, ROI, Session
+from .selectionstate import HANDLE, ROI
+from .session import Session
 from .statusfield import MessageLine, StatusField, StatusRow
 from .view import View
 from .worker import BuildResult, BuildWorker, PolishOutcome
