@@ -5,7 +5,7 @@ name in the status bar (its number and colour).
 from __future__ import annotations
 
 from ..deform.roles import handle as handle_role
-from .scene import ROLE_COLOR_NAMES, role_rows
+from .palette import ROLE_COLOR_NAMES, role_rows
 from .selectionstate import HANDLE
 from .statusbar import guarded
 

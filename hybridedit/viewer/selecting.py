@@ -10,7 +10,7 @@ from qtpy import QtGui
 
 from ..deform.editor import SelectionError
 from ..deform.roles import FREE, handle as handle_role
-from .scene import ROLE_COLORS, role_rows
+from .palette import ROLE_COLORS, role_rows
 from .selectionstate import ROI
 from .statusbar import guarded
 

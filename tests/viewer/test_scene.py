@@ -6,7 +6,7 @@ import numpy as np
 from qtpy import QtCore
 
 from hybridedit.deform.roles import FIXED
-from hybridedit.viewer.scene import SHAPE_COLOR
+from hybridedit.viewer.palette import SHAPE_COLOR
 from test_window import key, projected, to_widget, win  # noqa: F401 (fixture)
 
 Qt = QtCore.Qt

@@ -6,7 +6,7 @@ import numpy as np
 import trimesh
 from vtkmodules.vtkRenderingCore import vtkRenderer
 
-from hybridedit.viewer.scene import SHAPE_COLOR, shape_tint, stretch_lookup_table
+from hybridedit.viewer.palette import SHAPE_COLOR, shape_tint, stretch_lookup_table
 from hybridedit.viewer.shapeparts import ShapeParts, face_roles
 
 
