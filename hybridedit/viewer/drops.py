@@ -13,6 +13,8 @@ class DropsMixin:
     ``open_path`` or to ``files.load_edit_from``."""
 
     def dragEnterEvent(self, ev: QtGui.QDragEnterEvent) -> None:  # noqa: N802
+        """A file dragged over the window is taken when it is one local mesh or edit file
+        (:func:`~.files.dropped_path`)."""
         if dropped_path(ev.mimeData()) is not None:
             ev.acceptProposedAction()
         else:
@@ -24,6 +26,7 @@ class DropsMixin:
 
     @guarded
     def dropEvent(self, ev: QtGui.QDropEvent) -> None:  # noqa: N802
+        """A dropped file: an edit file (.json) is loaded, anything else opened as a mesh."""
         p = dropped_path(ev.mimeData())
         if p is None:
             ev.ignore()

@@ -37,6 +37,7 @@ class PosingMixin:
 
     # ------------------------------------------------------------------ drags (called by the view controller)
     def begin_drag(self) -> bool:
+        """A drag gesture begins (:meth:`~.dragging.DragFrames.begin`); False: nothing to drag (said why)."""
         return self.dragging.begin()
 
     def drag(self, D: np.ndarray) -> None:
@@ -44,6 +45,7 @@ class PosingMixin:
         self.dragging.move(D)
 
     def end_drag(self) -> None:
+        """The button was released: the settle in slices when it is on, then :meth:`after_drag`."""
         self.dragging.end()
 
     @property

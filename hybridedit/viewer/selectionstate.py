@@ -70,6 +70,7 @@ class SelectionState:
     # ------------------------------------------------------------------ masks
     @property
     def n_cage(self) -> int:
+        """The cage's vertex count (the masks' length)."""
         return self.editor.cage.n_vertices
 
     @property
@@ -171,6 +172,7 @@ class SelectionState:
         return self.set_mask(target, combine(self.mask(target), hits, op))
 
     def clear(self, target: str) -> bool:
+        """Empty the ROI or the active handle group; returns False when it was empty."""
         return self.set_mask(target, np.zeros(self.n_cage, dtype=bool), f"clear {target}")
 
     def clear_all(self) -> bool:
@@ -186,9 +188,11 @@ class SelectionState:
         return True
 
     def invert(self, target: str) -> bool:
+        """Invert the ROI or the active handle group (one undo step)."""
         return self.set_mask(target, ~self.mask(target), f"invert {target}")
 
     def select_all(self, target: str) -> bool:
+        """Every cage vertex into the ROI or the active handle group; returns False when all were."""
         return self.set_mask(target, np.ones(self.n_cage, dtype=bool), f"select all {target}")
 
     # ------------------------------------------------------------------ gestures (one undo step each)

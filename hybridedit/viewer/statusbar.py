@@ -97,6 +97,7 @@ class StatusBarMixin:
             self.log.appendPlainText(f"{time.strftime('%H:%M:%S')}  {text}")
 
     def current_message(self) -> str:
+        """The message on show in the status bar (whole, also where it is cut on screen)."""
         return self.message_label.text()
 
     def clear_message(self) -> None:

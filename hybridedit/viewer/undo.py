@@ -20,6 +20,7 @@ class UndoMixin:
 
     @guarded
     def undo(self) -> None:
+        """Edit ▸ Undo: the session one step back (a selection, a drag, a polish, a rebuild, ...)."""
         if self.session is None or self.controller.busy:
             return
         self.settle_and_stop_polish()
@@ -31,6 +32,7 @@ class UndoMixin:
 
     @guarded
     def redo(self) -> None:
+        """Edit ▸ Redo."""
         if self.session is None or self.controller.busy:
             return
         self.settle_and_stop_polish()
@@ -42,6 +44,7 @@ class UndoMixin:
 
     @guarded
     def reset_pose(self) -> None:
+        """Edit ▸ Reset Pose: back to the rest pose, the selection kept (one undo step)."""
         if self.session is None or self.controller.busy:
             return
         self.settle_and_stop_polish()

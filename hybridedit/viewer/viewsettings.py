@@ -69,6 +69,7 @@ class ViewSettingsMixin:
 
     # ------------------------------------------------------------------ the camera
     def reset_camera(self) -> None:
+        """View ▸ Frame Shape: the whole shape in sight, from the front, slightly turned."""
         self.scene.reset_camera()
         self.view.request_render()
 

@@ -128,6 +128,8 @@ class MainWindow(ActionsMixin, StatusBarMixin, SelectingMixin, HandleGroupsMixin
 
     # ================================================================== closing
     def closeEvent(self, ev: QtGui.QCloseEvent) -> None:  # noqa: N802
+        """Quit, unless the unsaved-pose question is cancelled (:meth:`~.files.FileActions.keep_work`);
+        the drag frames, the polish and the build end first."""
         if not self.files.keep_work("quitting"):
             ev.ignore()
             return
