@@ -55,7 +55,7 @@ def run(mesh_path: Path, cage, size: tuple[int, int], seconds: float, look: str 
     from qtpy import QtCore, QtGui, QtWidgets
 
     from hybridedit.viewer.interaction import DRAG
-    from hybridedit.viewer.session import HANDLE, ROI
+    from hybridedit.viewer.selectionstate import HANDLE, ROI
     from hybridedit.viewer.window import MainWindow
 
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication([])

@@ -14,7 +14,8 @@ class Snapshot:
     Attributes
     ----------
     roi : (c,) bool mask over the cage vertices.
-    handle : (c,) int8 handle group of each cage vertex (0 none, g + 1 group g).
+    handle : (c,) int8 the session's ``handle_group``: the role of the handle group each cage vertex
+        is in (``roles.handle(g)``), or 0 (:data:`~.selectionstate.NO_GROUP`).
     positions : (c, 3) cage vertex positions.
     transform : (G, 4, 4) transform of each handle group since the selection was applied.
     anchor : (c, 3) cage pose when the selection was applied, or None when the

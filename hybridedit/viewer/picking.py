@@ -12,11 +12,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..deform.roles import FIXED, FREE, is_handle
+
 REPLACE, ADD, REMOVE = "replace", "add", "remove"
 OPS = (REPLACE, ADD, REMOVE)
-
-FIXED, FREE, HANDLE = 0, 1, 2
-"""Cage vertex states: outside the ROI, inside the ROI, in the handle."""
 
 
 def project_points(points: np.ndarray, composite: np.ndarray, size: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
@@ -225,12 +224,29 @@ def combine(current: np.ndarray, hits: np.ndarray, op: str) -> np.ndarray:
     return cur & ~h
 
 
-def vertex_states(roi: np.ndarray, handle: np.ndarray) -> np.ndarray:
-    """Per cage vertex: HANDLE if in the handle, else FREE if in the ROI, else FIXED (int8)."""
-    s = np.full(len(roi), FIXED, dtype=np.int8)
-    s[np.asarray(roi, dtype=bool)] = FREE
-    s[np.asarray(handle, dtype=bool)] = HANDLE
-    return s
+def selection_roles(roi: np.ndarray, handle_group: np.ndarray) -> np.ndarray:
+    """Per cage vertex role (:mod:`hybridedit.deform.roles`) of a selection given as masks.
+
+    Parameters
+    ----------
+    roi : (c,) bool, the region of interest.
+    handle_group : (c,) int, the role of the handle group each vertex is in (``roles.handle(g)``),
+        anything else (0) for none; or a (c,) bool handle mask, which is handle group 0.
+
+    Returns
+    -------
+    (c,) int8: the handle group's role where there is one, else FREE in the ROI, else FIXED.
+
+    Examples
+    --------
+    >>> selection_roles(np.array([1, 1, 0, 0], bool), np.array([0, 2, 0, 1])).tolist()
+    [0, 2, -1, 1]
+    """
+    g = np.asarray(handle_group)
+    r = np.where(np.asarray(roi, dtype=bool), FREE, FIXED).astype(np.int8)
+    h = is_handle(g.astype(np.int64))
+    r[h] = g[h]
+    return r
 
 
 def fixed_mask(roi: np.ndarray, handle: np.ndarray) -> np.ndarray:

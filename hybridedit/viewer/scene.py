@@ -9,7 +9,8 @@ What is drawn: the shape, tinted blue where it is held fixed and orange where
 it is a handle (the faces whose vertices share one of the engine's vertex roles;
 one plain-coloured actor per role, :mod:`.shapeparts`); cage points only where
 they help (the ROI and the handle, and all points near the cursor in Select
-mode); the cage wireframe on request (View > Show Cage Wireframe).
+mode); the cage wireframe on request (View > Show Cage Wireframe). The colours
+are :mod:`.palette`'s.
 
 Layers: the shape and the depth-tested cage wireframe are drawn in the main
 renderer; a second renderer on layer 1 (same camera, cleared depth) draws on
@@ -23,74 +24,17 @@ import time
 
 import numpy as np
 import pyvista as pv
-from vtkmodules.vtkCommonCore import vtkLookupTable
-from vtkmodules.vtkRenderingAnnotation import vtkScalarBarActor
 from vtkmodules.vtkRenderingCore import vtkRenderer
 
 from ..core.mesh import unique_edges
+from ..deform.roles import FIXED
 from .gizmo import RING_RATIO, Gizmo
+from .palette import (
+    BACKGROUND, CAGE_COLOR, POINT_ALPHA, ROLE_COLORS, SHAPE_COLOR, role_rows, shape_tint, stretch_colour_bar,
+    stretch_lookup_table,
+)
 from .regional import ShapeMetrics
-from .picking import FIXED as FIXED_STATE
 from .shapeparts import ShapeParts
-
-BACKGROUND = (0.78, 0.80, 0.84)
-"""One colour: a gradient background is a full-window shading pass that cost about 20 ms a frame
-with software OpenGL (benchmarks/window_fps.py, creature: overhead 1.30 -> 1.08)."""
-SHAPE_COLOR = np.array([226, 210, 184], dtype=np.float64)
-CAGE_COLOR = (0.0, 0.55, 0.62)
-STATE_COLORS = np.array([
-    [40, 95, 220],   # FIXED: blue
-    [60, 190, 70],   # FREE (in the ROI): green
-    [255, 115, 20],  # HANDLE (group 1): orange
-    [225, 40, 160],  # handle group 2: magenta
-    [0, 190, 210],   # handle group 3: cyan
-    [240, 200, 0],   # handle group 4: yellow
-    [150, 70, 230],  # handle group 5: violet
-    [150, 90, 40],   # handle group 6: brown
-], dtype=np.uint8)
-"""Cage point colour per state: FIXED, FREE, then one per handle group (repeating after the last)."""
-
-
-def state_rows(states: np.ndarray) -> np.ndarray:
-    """Row of :data:`STATE_COLORS` for each state (handle groups past the table repeat its colours)."""
-    s = np.asarray(states, dtype=np.int64)
-    n = len(STATE_COLORS) - 2
-    return np.where(s >= 2, 2 + (s - 2) % n, s)
-
-FIXED_TINT = (np.array([70, 110, 200], dtype=np.float64), 0.45)
-HANDLE_TINT = 0.65
-"""Colour and strength of the tint of the shape's fixed vertices, and the strength of the handle
-groups' tint (in their point colour); free vertices keep the shape colour."""
-POINT_ALPHA = np.array([[170, 30], [255, 70], [255, 70]], dtype=np.uint8)
-"""Cage point opacity (rows FIXED, FREE, any handle group), facing / facing away from the camera."""
-STRETCH_MAX = 20.0
-"""Top of the stretch map's colour scale, in percent of relative edge-length change (clipped above)."""
-
-
-def stretch_lookup_table(top: float = STRETCH_MAX) -> vtkLookupTable:
-    """Blue (no stretch) through green and yellow to red (``top`` percent or more)."""
-    lut = vtkLookupTable()
-    lut.SetNumberOfTableValues(256)
-    lut.SetHueRange(0.66, 0.0)
-    lut.SetSaturationRange(0.85, 0.85)
-    lut.SetValueRange(0.95, 0.95)
-    lut.SetTableRange(0.0, top)
-    lut.Build()
-    return lut
-
-
-def shape_tint(roles: np.ndarray) -> np.ndarray:
-    """Per shape vertex RGB (uint8) for its role: -1 fixed (blue tint), 0 free (the shape colour),
-    g + 1 in handle group g (the group's colour: orange, magenta, cyan, ...)."""
-    r = np.asarray(roles)
-    rgb = np.empty((len(r), 3))
-    rgb[:] = SHAPE_COLOR
-    colour, w = FIXED_TINT
-    rgb[r < 0] = (1.0 - w) * SHAPE_COLOR + w * colour
-    h = r > 0
-    group_colour = STATE_COLORS[state_rows(r[h].astype(np.int64) + 1)].astype(np.float64)
-    rgb[h] = (1.0 - HANDLE_TINT) * SHAPE_COLOR + HANDLE_TINT * group_colour
-    return np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
 
 
 def _bounds(P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -165,7 +109,7 @@ class Scene:
         self.shape: pv.PolyData | None = None
         self.parts: ShapeParts | None = None
         self.look = None  # what the file says the shape looks like (.look.Look), or None
-        self._roles = np.zeros(0, dtype=np.int8)
+        self._shape_roles = np.zeros(0, dtype=np.int8)
         self._shape_bounds = self._next_bounds = _bounds(np.zeros((0, 3)))
         self._still_bounds: tuple[np.ndarray, np.ndarray] | None = None  # the vertices a drag leaves
         self.cage_poly: pv.PolyData | None = None
@@ -177,7 +121,7 @@ class Scene:
         self._cage_pos = np.zeros((0, 3))
         self._cage_bounds: tuple[np.ndarray, np.ndarray] | None = None
         self._cage_normals: np.ndarray | None = None
-        self._states = np.zeros(0, dtype=np.int64)
+        self._cage_roles = np.zeros(0, dtype=np.int64)
         self._actors: list = []
         self._overlay_actors: list = []
         self.cage_visible = False
@@ -187,31 +131,8 @@ class Scene:
         self._shown_points = np.zeros(0, dtype=np.int64)
         self.stretch_visible = False
         self.stretch_lut = stretch_lookup_table()
-        bar = vtkScalarBarActor()
-        bar.SetLookupTable(self.stretch_lut)
-        bar.SetTitle("stretch %")
-        bar.SetNumberOfLabels(5)
-        bar.SetLabelFormat("%.0f")
-        # text at fixed sizes (VTK would scale the title to the bar's width: unreadable, and the labels up)
-        bar.UnconstrainedFontSizeOn()
-        bar.SetVerticalTitleSeparation(10)
-        bar.SetTextPad(4)
-        bar.SetBarRatio(0.35)
-        bar.SetMaximumWidthInPixels(80)
-        bar.SetMaximumHeightInPixels(320)
-        bar.SetPosition(0.9, 0.08)
-        bar.SetWidth(0.08)
-        bar.SetHeight(0.45)
-        for tp, size in ((bar.GetTitleTextProperty(), 15), (bar.GetLabelTextProperty(), 13)):
-            tp.SetColor(0.1, 0.1, 0.12)
-            tp.SetShadow(False)
-            tp.SetItalic(False)
-            tp.SetBold(False)
-            tp.SetFontSize(size)
-        bar.SetVisibility(False)
-        bar.SetPickable(False)
-        self.stretch_bar = bar
-        self.overlay.AddViewProp(bar)
+        self.stretch_bar = stretch_colour_bar(self.stretch_lut)
+        self.overlay.AddViewProp(self.stretch_bar)
 
     # ------------------------------------------------------------------ building
     def clear(self) -> None:
@@ -254,7 +175,7 @@ class Scene:
         self.reset_camera()
 
     def load(self, metrics: ShapeMetrics, shape_vertices: np.ndarray, cage_vertices: np.ndarray,
-             cage_faces: np.ndarray, states: np.ndarray, roles: np.ndarray, *, look=None,
+             cage_faces: np.ndarray, cage_roles: np.ndarray, shape_roles: np.ndarray, *, look=None,
              mode: str | None = None) -> None:
         """Build the actors for a shape and its cage (replacing any previous ones).
 
@@ -263,19 +184,28 @@ class Scene:
         metrics : the shape's :class:`~.regional.ShapeMetrics` (faces, and what a drag moves).
         shape_vertices : (n, 3) current shape.
         cage_vertices : (c, 3) current cage pose; cage_faces : (k, 3).
-        states : (c,) cage vertex states (FIXED / FREE / HANDLE).
-        roles : (n,) shape vertex roles (-1 fixed, 0 free, g + 1 handle group g).
+        cage_roles : (c,) cage vertex roles; shape_roles : (n,) shape vertex roles
+            (:mod:`hybridedit.deform.roles`: FIXED, FREE, a handle group's).
         look : :class:`~.look.Look` or None, what the file says the shape looks like.
         mode : "texture", "colors" or "plain"; default: what the file has (the look's default).
         """
         self.clear()
         self.metrics = metrics
         V = np.ascontiguousarray(shape_vertices, dtype=np.float64)
-        faces = metrics.faces
+        self._build_shape(V, shape_roles, look, mode)
+        cage = self._build_wireframe(cage_vertices, cage_faces)
+        self._build_points(cage, cage_vertices, cage_faces, cage_roles)
+        lo, hi = V.min(axis=0), V.max(axis=0)
+        self.gizmo.build(0.12 * float(np.linalg.norm(hi - lo)))
+        self.set_cage_visible(self.cage_visible)
+        self.set_stretch_visible(self.stretch_visible)
+
+    def _build_shape(self, V: np.ndarray, shape_roles: np.ndarray, look, mode: str | None) -> None:
+        """The full-mesh buffers of the shape V (n, 3) and the parts that draw it (:meth:`load`)."""
         shape = pv.PolyData()
         shape.points = V.astype(np.float32)
         normals = np.zeros((len(V), 3), dtype=np.float32)
-        metrics.write_normals(V, normals, everything=True)
+        self.metrics.write_normals(V, normals, everything=True)
         shape.point_data["Normals"] = normals
         shape.point_data["stretch"] = np.zeros(len(V), dtype=np.float32)
         # the full-mesh buffers the window writes (float32, in place); the parts draw copies of them
@@ -287,13 +217,21 @@ class Scene:
         self.look = look
         if mode is None:
             mode = look.default_mode if look is not None else "plain"
-        self.parts = ShapeParts(self.renderer, faces, len(V), shape_tint, self.stretch_lut, look=look, mode=mode)
-        self.parts.stretch_visible = self.stretch_visible
-        self._roles = np.asarray(roles).copy()
-        self.parts.set_roles(roles, self.points32, self.normals32, self.stretch32)
+        self.parts = self._make_parts(mode)
+        self._shape_roles = np.asarray(shape_roles).copy()
+        self.parts.set_roles(shape_roles, self.points32, self.normals32, self.stretch32)
         self._shape_bounds = self._next_bounds = _bounds(self.points32)
         self._still_bounds = None
 
+    def _make_parts(self, mode: str) -> ShapeParts:
+        """The shape's parts drawn in ``mode``, with no role split yet (:meth:`ShapeParts.set_roles`)."""
+        parts = ShapeParts(self.renderer, self.metrics.faces, len(self.points32), shape_tint, self.stretch_lut,
+                           look=self.look, mode=mode)
+        parts.stretch_visible = self.stretch_visible
+        return parts
+
+    def _build_wireframe(self, cage_vertices: np.ndarray, cage_faces: np.ndarray) -> pv.PolyData:
+        """The cage's edges, drawn depth-tested and faintly on top (:meth:`load`); returns their polydata."""
         edges = unique_edges(cage_faces)
         P = np.asarray(cage_vertices, dtype=np.float64).astype(np.float32)
         #: median cage edge length: how far from the surface cage points lie is a fraction of it
@@ -310,15 +248,20 @@ class Scene:
         self.overlay.AddActor(ghost)
         self.cage_front, self.cage_ghost = front, ghost
         self._actors.append(front)
+        self._overlay_actors.append(ghost)
+        return cage
 
+    def _build_points(self, cage: pv.PolyData, cage_vertices: np.ndarray, cage_faces: np.ndarray,
+                      cage_roles: np.ndarray) -> None:
+        """The cage points, coloured by role, on the wireframe's point buffer (:meth:`load`)."""
         pts = pv.PolyData()
         pts.SetPoints(cage.GetPoints())  # one cage pose buffer for the wireframe and the points
         self._cage_points32 = cage.points  # (a view of it, written in place)
-        rgba = np.full((len(P), 4), 255, dtype=np.uint8)
-        rgba[:, :3] = STATE_COLORS[state_rows(states)]
-        pts.point_data["state"] = rgba
-        pts.point_data.active_scalars_name = "state"
-        self._rgba = pts.point_data["state"]  # (a view of the drawn colours, written in place)
+        rgba = np.full((cage.n_points, 4), 255, dtype=np.uint8)
+        rgba[:, :3] = ROLE_COLORS[role_rows(cage_roles)]
+        pts.point_data["role"] = rgba
+        pts.point_data.active_scalars_name = "role"
+        self._rgba = pts.point_data["role"]  # (a view of the drawn colours, written in place)
         self._cage_faces = np.ascontiguousarray(cage_faces, dtype=np.int64)
         self._cage_pos = np.asarray(cage_vertices, dtype=np.float64).copy()
         self._cage_metrics = ShapeMetrics(self._cage_pos, self._cage_faces)  # (its vertex-face incidence)
@@ -326,8 +269,8 @@ class Scene:
         self._cage_metrics_frames = ShapeMetrics(self._cage_pos, self._cage_faces)
         self._cage_normals = None
         self._cage_bounds = _bounds(self._cage_pos)
-        self._states = np.asarray(states, dtype=np.int64).copy()
-        self._near = np.zeros(len(P), dtype=bool)
+        self._cage_roles = np.asarray(cage_roles, dtype=np.int64).copy()
+        self._near = np.zeros(cage.n_points, dtype=bool)
         self._shown_points = np.zeros(0, dtype=np.int64)
         self.points_poly = pts
         pmapper = pv.DataSetMapper(pts)
@@ -340,13 +283,8 @@ class Scene:
         pactor.SetPickable(False)
         self.overlay.AddActor(pactor)
         self.points_actor = pactor
-        self._overlay_actors += [ghost, pactor]
+        self._overlay_actors.append(pactor)
         self._update_point_cells()
-
-        lo, hi = V.min(axis=0), V.max(axis=0)
-        self.gizmo.build(0.12 * float(np.linalg.norm(hi - lo)))
-        self.set_cage_visible(self.cage_visible)
-        self.set_stretch_visible(self.stretch_visible)
 
     @staticmethod
     def _line_actor(poly: pv.PolyData, opacity: float, width: float) -> pv.Actor:
@@ -367,7 +305,7 @@ class Scene:
         return self._shown_points
 
     def _update_point_cells(self) -> None:
-        show = np.flatnonzero((self._states != FIXED_STATE) | self._near)
+        show = np.flatnonzero((self._cage_roles != FIXED) | self._near)
         if np.array_equal(show, self._shown_points) and self.points_poly.n_verts == len(show):
             return
         self._shown_points = show
@@ -377,7 +315,7 @@ class Scene:
         """Also draw the cage points of the (c,) mask ``near`` (None: none); True when that changed."""
         if self.points_poly is None:
             return False
-        m = np.zeros(len(self._states), dtype=bool) if near is None else np.asarray(near, dtype=bool)
+        m = np.zeros(len(self._cage_roles), dtype=bool) if near is None else np.asarray(near, dtype=bool)
         if np.array_equal(m, self._near):
             return False
         self._near = m
@@ -445,17 +383,16 @@ class Scene:
         self._cage_pos[:] = P
         self._cage_normals, self._cage_bounds = (None, None) if geometry is None else geometry
 
-    def update_states(self, states: np.ndarray, roles: np.ndarray) -> None:
-        """New selection: recolour the cage points ((c,) states) and the shape tint ((n,) roles)."""
+    def update_roles(self, cage_roles: np.ndarray, shape_roles: np.ndarray) -> None:
+        """New selection: recolour the cage points by their (c,) roles and tint the shape by its (n,) roles."""
         if self.shape is None:
             return
-        s = np.asarray(states)
-        self._states = s.astype(np.int64)
-        self._rgba[:, :3] = STATE_COLORS[state_rows(s)]
-        _array_modified(self.points_poly, "state")
+        self._cage_roles = np.asarray(cage_roles).astype(np.int64)
+        self._rgba[:, :3] = ROLE_COLORS[role_rows(self._cage_roles)]
+        _array_modified(self.points_poly, "role")
         self._update_point_cells()
-        self._roles = np.asarray(roles).copy()
-        self.parts.set_roles(roles, self.points32, self.normals32, self.stretch32)
+        self._shape_roles = np.asarray(shape_roles).copy()
+        self.parts.set_roles(shape_roles, self.points32, self.normals32, self.stretch32)
 
     @property
     def look_mode(self) -> str:
@@ -470,13 +407,11 @@ class Scene:
         """Draw the shape with its texture, its file's colours, or plain (a mode it has)."""
         if self.parts is None or mode not in self.look_modes() or mode == self.parts.mode:
             return
-        changed = self.parts._changed
+        changed = self.parts.changed
         self.parts.remove()
-        self.parts = ShapeParts(self.renderer, self.metrics.faces, len(self.points32), shape_tint, self.stretch_lut,
-                                look=self.look, mode=mode)
-        self.parts.stretch_visible = self.stretch_visible
+        self.parts = self._make_parts(mode)
         self.parts.set_changed(changed)
-        self.parts.set_roles(self._roles, self.points32, self.normals32, self.stretch32)
+        self.parts.set_roles(self._shape_roles, self.points32, self.normals32, self.stretch32)
 
     def stretch_modified(self) -> None:
         """The stretch buffer (:attr:`stretch32`) was written."""
@@ -565,10 +500,10 @@ class Scene:
             facing = normals @ -np.asarray(cam.GetDirectionOfProjection()) > 0
         else:
             facing = np.einsum("ij,ij->i", normals, np.asarray(cam.GetPosition()) - self._cage_pos[shown]) > 0
-        alpha = POINT_ALPHA[np.minimum(self._states[shown], 2), np.where(facing, 0, 1)]
+        alpha = POINT_ALPHA[role_rows(self._cage_roles[shown], len(POINT_ALPHA)), np.where(facing, 0, 1)]
         if not np.array_equal(self._rgba[shown, 3], alpha):  # (only the drawn points' opacity matters)
             self._rgba[shown, 3] = alpha
-            _array_modified(self.points_poly, "state")
+            _array_modified(self.points_poly, "role")
 
     def _fit_clipping(self) -> None:
         """Clipping range covering everything drawn: the shape, the cage and the gizmo (the overlay

@@ -1,12 +1,13 @@
 """The editing state of one loaded shape, on top of :class:`hybridedit.deform.editor.HybridEditor`.
 
-No Qt here: the window turns user actions into calls on a :class:`Session`.
+No Qt here: the window turns user actions into calls on a :class:`Session`. The
+selection (the ROI and handle-group masks, the gestures that change them, the roles
+they give) is :class:`~.selectionstate.SelectionState`, which the session builds on;
+here are the engine, the pose, drags and their settle, polish, undo, rebuilds and
+edit files.
 
 Vocabulary
 ----------
-selection masks
-    ``roi`` and ``handle`` are boolean masks over the cage vertices. Fixed =
-    outside the ROI and not in the handle.
 applying a selection
     The engine takes a selection with ``set_selection``; that pose becomes the
     *anchor* and the handle transform restarts at the identity. The window
@@ -40,15 +41,13 @@ from ..defaults import CAGE_SIZE, ITERATIONS, SETTLE_FRAMES
 from ..fileio.editfile import Edit
 from ..deform.editor import HybridEditor, SelectionError
 from ..core.mesh import Mesh, rrms_edge_error
+from ..deform.roles import FIXED, handle as handle_role, is_handle
 from .history import History, Snapshot
 from .regional import ShapeMetrics
-from .picking import FIXED, FREE as FREE_STATE, HANDLE as HANDLE_STATE, combine, vertex_states
-
-ROI, HANDLE = "roi", "handle"
-TARGETS = (ROI, HANDLE)
+from .selectionstate import NO_GROUP, SelectionState
 
 
-class Session:
+class Session(SelectionState):
     """One shape being edited: engine, selection, handle transform and undo history.
 
     Parameters
@@ -75,30 +74,15 @@ class Session:
         self.cage_size = cage_size
         self.metrics = ShapeMetrics(self.mesh.vertices, self.mesh.faces)
         self.dominant = editor.dominant_cage_vertex
-        c = editor.cage.n_vertices
-        self.roi = np.zeros(c, dtype=bool) if roi is None else np.asarray(roi, dtype=bool).copy()
-        #: handle group of each cage vertex: 0 none, g + 1 in group g
-        self.handle_group = np.zeros(c, dtype=np.int8)
-        self.n_groups = 1
-        self.active = 0  # the handle group that selections and drags act on
+        self._init_selection(editor.cage.n_vertices, roi, handle, symmetry)
         #: transform of each handle group since the selection was applied
         self.transforms: list[np.ndarray] = [np.eye(4)]
-        if handle is not None:
-            self.handle = handle
-        if self.roi.shape != (c,):
-            raise ValueError(f"selection masks must have {c} entries (the cage vertex count)")
-        self._stroke: tuple[str, np.ndarray] | None = None
         self._settle_left = 0
         self._settle_label: str | None = None
         self._bases: list[np.ndarray] = [np.eye(4)]
         self._anchor: np.ndarray | None = None
         self._anchor_state = None  # the engine's state a settle starts from (the selection applied, or polished)
         self._anchor_bases: list[np.ndarray] = [np.eye(4)]
-        self._engine_masks: tuple | None = None
-        self._preview_cache: tuple | None = None
-        if symmetry is not None:
-            editor.mirror(symmetry)  # a shape too asymmetric is refused now, not at the first drag
-        self.symmetry: str | None = symmetry  # mirror the selection across this axis's mid-plane
         #: what the file says the shape looks like (:class:`~.look.Look`: textures, colours), or None
         self.look = None
         #: how the shape is drawn ("texture", "colors", "plain"); None: what the file has
@@ -119,10 +103,6 @@ class Session:
 
     # ------------------------------------------------------------------ state
     @property
-    def n_cage(self) -> int:
-        return self.editor.cage.n_vertices
-
-    @property
     def cage_positions(self) -> np.ndarray:
         """Current cage pose, (c, 3) (a copy; completes a settle under way)."""
         self.finish_settle()
@@ -133,26 +113,6 @@ class Session:
         """Current deformed shape, (n, 3) (a view the engine updates; completes a settle under way)."""
         self.finish_settle()
         return self.editor.deformed_vertices
-
-    @property
-    def handle(self) -> np.ndarray:
-        """(c,) bool: the cage vertices of the active handle group."""
-        return self.handle_group == self.active + 1
-
-    @handle.setter
-    def handle(self, mask) -> None:
-        m = np.asarray(mask, dtype=bool)
-        if m.shape != self.handle_group.shape:
-            raise ValueError(f"a handle mask must have {len(self.handle_group)} entries (the cage vertex count)")
-        g = self.handle_group.copy()
-        g[g == self.active + 1] = 0
-        g[m] = self.active + 1  # a vertex belongs to one group: the active one takes it
-        self.handle_group = g
-
-    @property
-    def all_handles(self) -> np.ndarray:
-        """(c,) bool: the cage vertices of every handle group."""
-        return self.handle_group > 0
 
     @property
     def transform(self) -> np.ndarray:
@@ -182,24 +142,6 @@ class Session:
         return {g: T if g >= len(bases) or np.array_equal(bases[g], np.eye(4)) else T @ np.linalg.inv(bases[g])
                 for g, T in Ts.items()}
 
-    def new_group(self) -> bool:
-        """Start a new, empty handle group and make it the active one (False: the active one is empty)."""
-        self.finish_settle()
-        if not self.handle.any():
-            return False
-        self.n_groups += 1
-        self.active = self.n_groups - 1
-        self.transforms = list(self.transforms) + [np.eye(4)]
-        self._bases = list(self._bases) + [np.eye(4)]
-        self._push("new handle group")
-        return True
-
-    def next_group(self) -> int:
-        """Make the next handle group the active one (cycling); returns its index."""
-        self.finish_settle()
-        self.active = (self.active + 1) % self.n_groups
-        return self.active
-
     @property
     def shown_positions(self) -> np.ndarray:
         """The pose on display and saved, (n, 3): the engine's (a polish is given to it)."""
@@ -217,59 +159,10 @@ class Session:
         self.finish_settle()
         return self.editor.replayable
 
-    def states(self) -> np.ndarray:
-        """Per cage vertex FIXED / FREE / HANDLE (see :mod:`.picking`): the engine's cage roles
-        once it has the selection, else the masks; mirror images included in both cases."""
-        if self._engine_masks == self._mask_key() and (self.roi.any() or self.all_handles.any()):
-            roles = self.editor.cage_roles
-        elif self.symmetry is not None and (self.roi.any() or self.all_handles.any()):
-            roles = self._preview()[1]  # the mirrored selection, drawn on both sides as it is made
-        else:
-            st = vertex_states(self.roi, self.all_handles)
-            h = self.all_handles
-            st[h] = HANDLE_STATE + self.handle_group[h] - 1  # one state (colour) per handle group
-            return st
-        return np.where(roles > 0, HANDLE_STATE + roles - 1, np.where(roles == 0, FREE_STATE, FIXED)).astype(np.int8)
-
-    def _engine_shape_roles(self) -> np.ndarray:
-        """(n,) the shape-space roles the engine is given for the current masks (see ``_give_engine_selection``)."""
-        cage_roles = np.where(self.handle_group > 0, self.handle_group, np.where(self.roi, 0, -1))
-        return self.editor.shape_roles(cage_roles)
-
-    def _preview(self) -> tuple[np.ndarray, np.ndarray]:
-        """(shape roles, cage roles) the engine will take for the current masks and mirror (cached)."""
-        key = self._mask_key()
-        if self._preview_cache is None or self._preview_cache[0] != key:
-            self._preview_cache = (key, self.editor.preview_roles(self._engine_shape_roles(), symmetry=self.symmetry))
-        return self._preview_cache[1]
-
     @property
     def edges(self) -> np.ndarray:
         """(e, 2) unique edges of the shape."""
         return self.metrics.edges
-
-    def shape_roles(self) -> np.ndarray:
-        """Per shape vertex: -1 held fixed, 0 free, g + 1 in handle group g ((n,) int8); all 0 with no selection.
-
-        Once the engine has the selection these are its roles (what it holds exactly); before,
-        what it will hold (:meth:`~hybridedit.HybridEditor.preview_roles`, mirror images included).
-        """
-        if not self.roi.any() and not self.all_handles.any():
-            return np.zeros(self.mesh.n_vertices, dtype=np.int8)
-        if self._engine_masks == self._mask_key():
-            return self.editor.vertex_roles
-        return self._preview()[0]
-
-    def tearing(self) -> dict[int, int]:
-        """{handle group: cage points of the group that share a cage edge with a held (fixed) point}: with
-        no free point between them, a drag stretches those edges and tears the shape there (the front of a
-        limb taken as handle, its back left fixed). Mirror images count in their group; empty when none."""
-        st = self.states()
-        e = self.editor.cage_edges
-        touching = np.zeros(len(st), dtype=bool)
-        for x, y in ((e[:, 0], e[:, 1]), (e[:, 1], e[:, 0])):
-            touching[x[(st[x] >= HANDLE_STATE) & (st[y] == FIXED)]] = True
-        return {int(g - HANDLE_STATE): int(np.count_nonzero(touching & (st == g))) for g in np.unique(st[touching])}
 
     def moving_vertices(self) -> np.ndarray | None:
         """The shape vertices a drag of the applied selection can move, (k,) int64 (None: no selection)."""
@@ -387,9 +280,9 @@ class Session:
         c = editor.cage.n_vertices
         self.roi = np.zeros(c, dtype=bool)
         self.roi[editor.to_cage(roi_s, "shape")] = True
-        self.handle_group = np.zeros(c, dtype=np.int8)
+        self.handle_group = np.full(c, NO_GROUP, dtype=np.int8)
         for g in range(self.n_groups):
-            self.handle_group[editor.to_cage(np.flatnonzero(groups_s == g + 1), "shape")] = g + 1
+            self.handle_group[editor.to_cage(np.flatnonzero(groups_s == handle_role(g)), "shape")] = handle_role(g)
         self._anchor = None
         self._identity_transforms()
         if posed:
@@ -399,120 +292,22 @@ class Session:
         self._push("rebuild cage")
         return "the pose was carried over to the new cage as it is; the next drag starts from it" if posed else None
 
-    # ------------------------------------------------------------------ selection
-    def _mask_key(self) -> tuple:
-        return (np.packbits(self.roi).tobytes(), self.handle_group.tobytes(), self.symmetry)
-
-    def set_symmetry(self, axis: str | None) -> None:
-        """Mirror the selection across the shape's mid-plane normal to ``axis`` ("x", "y", "z"), or not (None).
-
-        Applied with the next drag. A shape that is not symmetric enough is refused now
-        (a SelectionError with its measured asymmetry), and nothing changes."""
-        if axis not in (None, "x", "y", "z"):
-            raise ValueError(f"symmetry must be None, 'x', 'y' or 'z', got {axis!r}")
-        if axis is not None:
-            self.editor.mirror(axis)  # raises SelectionError for a shape too asymmetric
-        if axis != self.symmetry:
-            self.symmetry = axis
-            self._selection_changed(f"mirror {axis.upper()}" if axis else "no mirror")
-
+    # ------------------------------------------------------------------ selection and the engine
     def _selection_changed(self, label: str) -> None:
-        if self._anchor is not None and self._engine_masks != self._mask_key():
+        """The masks changed (:class:`~.selectionstate.SelectionState`): one undo step; a selection given
+        to the engine before is no longer the one dragged next."""
+        if self._anchor is not None and not self._engine_has_masks():
             self._anchor = None
             self._identity_transforms()
         self._push(label)
-
-    def mask(self, target: str) -> np.ndarray:
-        if target not in TARGETS:
-            raise ValueError(f"target must be one of {TARGETS}, got {target!r}")
-        return self.roi if target == ROI else self.handle
-
-    def set_mask(self, target: str, mask: np.ndarray, label: str | None = None) -> bool:
-        """Replace the ROI or handle mask; returns False when nothing changed."""
-        new = np.asarray(mask, dtype=bool).copy()
-        if new.shape != (self.n_cage,):
-            raise ValueError(f"a {target} mask must have {self.n_cage} entries")
-        if np.array_equal(new, self.mask(target)):
-            return False
-        if target == ROI:
-            self.roi = new
-        else:
-            self.handle = new
-        self._selection_changed(label or f"select {'ROI' if target == ROI else 'handle'}")
-        return True
-
-    def select(self, target: str, hits: np.ndarray, op: str) -> bool:
-        """Apply hit-tested cage vertices to the ROI or the handle (replace / add / remove)."""
-        return self.set_mask(target, combine(self.mask(target), hits, op))
-
-    def clear(self, target: str) -> bool:
-        return self.set_mask(target, np.zeros(self.n_cage, dtype=bool), f"clear {target}")
-
-    def clear_all(self) -> bool:
-        """Empty the ROI and every handle group, back to one (empty) handle group, as one undo step;
-        returns False when there was nothing to clear."""
-        if not self.roi.any() and not self.all_handles.any():
-            return False
-        self.roi = np.zeros(self.n_cage, dtype=bool)
-        self.handle_group = np.zeros(self.n_cage, dtype=np.int8)
-        self.n_groups, self.active = 1, 0
-        self._identity_transforms()
-        self._selection_changed("clear selection")
-        return True
-
-    def invert(self, target: str) -> bool:
-        return self.set_mask(target, ~self.mask(target), f"invert {target}")
-
-    def select_all(self, target: str) -> bool:
-        return self.set_mask(target, np.ones(self.n_cage, dtype=bool), f"select all {target}")
-
-    def begin_stroke(self, target: str) -> None:
-        """Start a selection gesture on ``target``: :meth:`stroke` changes the mask
-        without recording; :meth:`end_stroke` records the whole gesture as one undo step."""
-        self._stroke = (target, self.mask(target).copy())
-
-    def stroke(self, hits: np.ndarray, op: str) -> None:
-        if self._stroke is None:
-            raise RuntimeError("begin_stroke first")
-        target = self._stroke[0]
-        new = combine(self.mask(target), hits, op)
-        if target == ROI:
-            self.roi = new
-        else:
-            self.handle = new
-
-    def end_stroke(self) -> bool:
-        """Finish the gesture; returns True when the selection changed."""
-        if self._stroke is None:
-            return False
-        target, before = self._stroke
-        self._stroke = None
-        if np.array_equal(before, self.mask(target)):
-            return False
-        self._selection_changed(f"select {'ROI' if target == ROI else 'handle'}")
-        return True
-
-    def _compact_groups(self) -> None:
-        """Drop empty handle groups (the engine numbers groups 0..G-1, all non-empty)."""
-        used = [g for g in range(self.n_groups) if np.any(self.handle_group == g + 1)]
-        if len(used) == self.n_groups:
-            return
-        lut = np.zeros(self.n_groups + 1, dtype=np.int8)
-        for k, g in enumerate(used):
-            lut[g + 1] = k + 1
-        self.handle_group = lut[self.handle_group]
-        self.active = used.index(self.active) if self.active in used else 0
-        self.transforms = [self.transforms[g] for g in used] or [np.eye(4)]
-        self._bases = [self._bases[g] if g < len(self._bases) else np.eye(4) for g in used] or [np.eye(4)]
-        self.n_groups = max(len(used), 1)
 
     def _give_engine_selection(self) -> None:
         self._compact_groups()
         # given in shape vertices (the cage picks exactly, see HybridEditor.shape_roles), so that the edit
         # file it saves replays with ``hybridedit deform`` to the same vertices
         roles = self._engine_shape_roles()
-        handles = [np.flatnonzero(roles == g + 1) for g in range(self.n_groups)]
-        self.editor.set_selection(handles, roi=np.flatnonzero(roles >= 0), symmetry=self.symmetry)
+        handles = [np.flatnonzero(roles == handle_role(g)) for g in range(self.n_groups)]
+        self.editor.set_selection(handles, roi=np.flatnonzero(roles != FIXED), symmetry=self.symmetry)
         self._engine_masks = self._mask_key()
 
     def apply_selection(self) -> None:
@@ -568,7 +363,7 @@ class Session:
         """Start a drag gesture: applies a changed selection; returns the current handle transform."""
         self.finish_settle()
         self.polished = None  # a drag starts from the engine's pose
-        if self._anchor is None or self._engine_masks != self._mask_key():
+        if self._anchor is None or not self._engine_has_masks():
             self.apply_selection()
         return self.transform.copy()
 
@@ -669,7 +464,7 @@ class Session:
         self.finish_settle()
         if not self.all_handles.any() and not self.is_posed():
             raise SelectionError("The handle is empty: there is nothing to save. Select a handle first.")
-        if self.all_handles.any() and (self._anchor is None or self._engine_masks != self._mask_key()):
+        if self.all_handles.any() and (self._anchor is None or not self._engine_has_masks()):
             self.apply_selection()  # the selection as it is now, not dragged yet
         return self.editor.edit
 
@@ -679,8 +474,8 @@ class Session:
         self.editor.reset()
         self.editor.apply_edit(edit, frames=0, path=path)
         roles = self.editor.cage_roles
-        self.roi = roles >= 0
-        self.handle_group = np.maximum(roles, 0).astype(np.int8)
+        self.roi = roles != FIXED
+        self.handle_group = np.where(is_handle(roles), roles, NO_GROUP).astype(np.int8)
         Ts = self.editor.edit_transforms(edit)
         self.n_groups = max(len(Ts), 1)
         self.active = 0

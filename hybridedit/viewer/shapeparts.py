@@ -23,6 +23,7 @@ import numpy as np
 import pyvista as pv
 from vtkmodules.vtkRenderingCore import vtkPolyDataMapper
 
+from ..deform.roles import FIXED, FREE
 from .regional import copy_rows
 
 DISABLE_SHIFT_SCALE = 0
@@ -30,12 +31,12 @@ DISABLE_SHIFT_SCALE = 0
 
 
 def face_roles(faces: np.ndarray, roles: np.ndarray) -> np.ndarray:
-    """The part each face is drawn in: its vertices' common role, or 0 (free) when they differ.
+    """The part each face is drawn in: its vertices' common role, or FREE when they differ.
 
     Parameters
     ----------
     faces : (m, 3) int triangles.
-    roles : (n,) int vertex roles: -1 fixed, 0 free, g + 1 in handle group g.
+    roles : (n,) int vertex roles (:mod:`hybridedit.deform.roles`: FIXED, FREE, or handle group g's g + 1).
 
     Returns
     -------
@@ -48,7 +49,7 @@ def face_roles(faces: np.ndarray, roles: np.ndarray) -> np.ndarray:
     """
     r = np.asarray(roles, dtype=np.int64)[np.asarray(faces)]
     same = (r[:, 0] == r[:, 1]) & (r[:, 1] == r[:, 2])
-    return np.where(same, r[:, 0], 0)
+    return np.where(same, r[:, 0], FREE)
 
 
 #: How much of a role's tint shows on a texture or on the file's colours (the rest is the asset's own):
@@ -184,6 +185,12 @@ class ShapeParts:
         self.stretch_visible = False
         self._changed: np.ndarray | None = None
 
+    @property
+    def changed(self) -> np.ndarray | None:
+        """The (k,) sorted global rows a frame rewrites, as :meth:`set_changed` was last given them
+        (None: all of them)."""
+        return self._changed
+
     def _texture(self, m: int):
         """The VTK texture of material ``m`` (made once), or None."""
         if m < 0 or self.look.materials[m].image is None:
@@ -208,7 +215,8 @@ class ShapeParts:
             faces, source, material = self.faces, None, np.full(len(self.faces), -1, dtype=np.int64)
             fr = face_roles(faces, roles)
         self.remove()
-        key = (fr + 1) * (len(look.materials) + 1 if look is not None else 1) + (material + 1)
+        # one part per role and material: roles from FIXED up, materials from -1 (none) up
+        key = (fr - FIXED) * (len(look.materials) + 1 if look is not None else 1) + (material + 1)
         for k in np.unique(key).tolist():
             rows = np.flatnonzero(key == k)
             role, m = int(fr[rows[0]]), int(material[rows[0]])

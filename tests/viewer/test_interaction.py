@@ -8,6 +8,7 @@ import pytest
 import trimesh
 from qtpy import QtCore
 
+from hybridedit.deform.roles import FIXED, FREE
 from hybridedit.viewer import interaction
 from hybridedit.viewer.interaction import BRUSH, CAMERA, SELECT, ViewController
 from hybridedit.viewer.regional import ShapeMetrics
@@ -87,7 +88,7 @@ def rig(qtbot):
     view.show()
     qtbot.waitExposed(view)
     scene = Scene(view.plotter)
-    scene.load(ShapeMetrics(V, F), V, P, CF, np.zeros(len(P), dtype=np.int8), np.zeros(len(V), dtype=np.int8))
+    scene.load(ShapeMetrics(V, F), V, P, CF, np.full(len(P), FIXED, dtype=np.int8), np.full(len(V), FREE, dtype=np.int8))
     scene.reset_camera(tilted=False)
     win = Window(P, CF)
     ctl = ViewController(view, scene, win)

@@ -10,6 +10,7 @@ import pyvista as pv
 
 import hybridedit as he
 from hybridedit.core.mesh import Mesh
+from hybridedit.deform.roles import FIXED, FREE
 from hybridedit.viewer.look import look_of
 from hybridedit.viewer.regional import ShapeMetrics
 from hybridedit.viewer.scene import Scene
@@ -64,8 +65,8 @@ def render(path, mode=None, roles=None, size=(400, 400)):
     pl = pv.Plotter(off_screen=True, window_size=size)
     sc = Scene(pl)
     met = ShapeMetrics(m.vertices, m.faces)
-    r = np.zeros(m.n_vertices, np.int8) if roles is None else roles
-    sc.load(met, m.vertices, m.vertices[:3], np.array([[0, 1, 2]]), np.zeros(3, np.int8), r, look=look, mode=mode)
+    r = np.full(m.n_vertices, FREE, np.int8) if roles is None else roles
+    sc.load(met, m.vertices, m.vertices[:3], np.array([[0, 1, 2]]), np.full(3, FIXED, np.int8), r, look=look, mode=mode)
     sc.reset_camera(tilted=False)
     img = np.asarray(pl.screenshot(return_img=True))[..., :3].astype(int)
     pl.close()
@@ -123,6 +124,11 @@ def test_seams_move_together_and_show_no_crease(tmp_path):
     assert not np.any(np.isnan(normals))  # the same normal on both sides of the seam: no crease
     seam = np.unique(sc.look.source[m.n_vertices:])
     assert np.all(np.abs(np.linalg.norm(normals[seam], axis=1) - 1.0) < 1e-3)
+    # another look: its parts rewrite the same rows in a frame
+    changed = sc.parts.changed
+    assert changed is not None and len(changed) < m.n_vertices
+    sc.set_look_mode("plain")
+    assert sc.look_mode == "plain" and np.array_equal(sc.parts.changed, changed)
 
 
 @pytest.mark.parametrize("fmt", ["obj", "glb"])
@@ -144,7 +150,7 @@ def test_a_texture_is_shown_on_the_model(tmp_path, fmt):
 def test_the_selection_tint_leaves_the_texture_readable(tmp_path):
     path = uv_sphere_obj(tmp_path)
     doc = he.read_document(path)
-    roles = np.where(doc.mesh.vertices[:, 0] < 0.0, -1, 0).astype(np.int8)  # the left half held
+    roles = np.where(doc.mesh.vertices[:, 0] < 0.0, FIXED, FREE).astype(np.int8)  # the left half held
     img, sc, _ = render(path, roles=roles)
     h, w, _ = img.shape
     left, right = img[:, : w // 2], img[:, w // 2:]

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 from qtpy import QtCore
 
-from hybridedit.viewer.scene import SHAPE_COLOR
+from hybridedit.deform.roles import FIXED
+from hybridedit.viewer.palette import SHAPE_COLOR
 from test_window import key, projected, to_widget, win  # noqa: F401 (fixture)
 
 Qt = QtCore.Qt
@@ -22,7 +23,7 @@ def test_cage_points_only_where_they_help(qtbot, win):
     s.set_mask("handle", P[:, 0] > 1.4)
     w._refresh_selection()
     shown = set(w.scene.shown_points.tolist())
-    assert shown == set(np.flatnonzero(s.states() != 0).tolist())  # the ROI and the handle
+    assert shown == set(np.flatnonzero(s.cage_roles() != FIXED).tolist())  # the ROI and the handle
     assert w.scene.points_poly.n_verts == len(shown)
     # the fixed region is a tint on the shape, the free region keeps the shape's colour, the handle orange
     # (a face takes its vertices' common role; faces between roles keep the shape's colour)

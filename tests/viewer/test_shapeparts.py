@@ -6,7 +6,7 @@ import numpy as np
 import trimesh
 from vtkmodules.vtkRenderingCore import vtkRenderer
 
-from hybridedit.viewer.scene import SHAPE_COLOR, shape_tint, stretch_lookup_table
+from hybridedit.viewer.palette import SHAPE_COLOR, shape_tint, stretch_lookup_table
 from hybridedit.viewer.shapeparts import ShapeParts, face_roles
 
 
@@ -62,7 +62,9 @@ def test_a_frame_copies_only_the_changed_rows():
     V, F = _sphere()
     parts, normals, _ = _parts(V, F, _roles(V))
     changed = np.flatnonzero(V[:, 0] > 0.0)
+    assert parts.changed is None  # (all rows)
     parts.set_changed(changed)
+    assert np.array_equal(parts.changed, changed)
     moved = V.copy()
     moved[changed] += np.float32(0.25)
     moved[~np.isin(np.arange(len(V)), changed)] += np.float32(9.0)  # not copied: must not show

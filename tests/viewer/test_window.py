@@ -295,7 +295,7 @@ def test_brush_modifiers_clear_invert(qtbot, win):
     key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
     assert np.array_equal(s.roi, before)
     # the colours follow: cage points and shape tint
-    cols = np.asarray(w.scene.points_poly.point_data["state"])
+    cols = np.asarray(w.scene.points_poly.point_data["role"])
     assert not np.array_equal(cols[i_left], cols[i_right])
     assert "brush" in w.controller.tool
 

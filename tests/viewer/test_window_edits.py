@@ -123,11 +123,11 @@ def test_mirror_x_drag_equals_the_deform_replay_of_its_edit(qtbot, win, capsule_
     s.apply_selection()
     w._refresh_selection()
     # the mirrored selection is drawn on both sides: the engine's roles, mirror images included
-    from hybridedit.viewer.picking import FIXED, HANDLE
+    from hybridedit.deform.roles import FIXED, is_handle
 
-    st = s.states()
+    st = s.cage_roles()
     far = st[P[:, 0] < -1.45]  # (the cage is not itself symmetric: the mirror maps through the shape)
-    assert np.mean(far >= HANDLE) > 0.8 and not np.any(far == FIXED)
+    assert np.mean(is_handle(far)) > 0.8 and not np.any(far == FIXED)
     assert not np.any(st[(P[:, 0] < -0.3) & (P[:, 0] > -1.3)] == FIXED)  # the mirrored region is free
     drag_handle(qtbot, w, 80)
     V = s.shape_positions.copy()
@@ -175,13 +175,13 @@ def test_a_mirrored_selection_is_drawn_on_both_sides_as_it_is_made(qtbot, win, c
     P = s.cage_positions
     select(w, P[:, 0] > 0.0, P[:, 0] > 1.4)  # one side only; nothing applied to the engine yet
     assert not s.applied
-    from hybridedit.viewer.picking import FIXED, HANDLE
+    from hybridedit.deform.roles import FIXED, is_handle
 
-    st = s.states()
+    st = s.cage_roles()
     far = st[P[:, 0] < -1.45]
-    assert np.mean(far >= HANDLE) > 0.8 and not np.any(far == FIXED)
+    assert np.mean(is_handle(far)) > 0.8 and not np.any(far == FIXED)
     roles = s.shape_roles()
     assert np.count_nonzero(roles[s.mesh.vertices[:, 0] < -1.5] == 1) > 0  # the tint covers the mirror image
     # what is drawn before the drag is what the engine takes at the drag
     s.apply_selection()
-    assert np.array_equal(s.states(), st) and np.array_equal(s.shape_roles(), roles)
+    assert np.array_equal(s.cage_roles(), st) and np.array_equal(s.shape_roles(), roles)

@@ -7,7 +7,8 @@ import json
 import numpy as np
 from qtpy import QtCore
 
-from hybridedit.viewer.scene import STATE_COLORS
+from hybridedit.deform.roles import handle
+from hybridedit.viewer.palette import ROLE_COLORS, role_rows
 from test_window import key, mouse_drag, projected, settled, to_widget, win  # noqa: F401 (fixture)
 
 Qt = QtCore.Qt
@@ -34,8 +35,10 @@ def test_two_handle_groups_move_independently(qtbot, win, tmp_path):
     w._refresh_selection()
     assert np.all(s.handle_group[P[:, 0] > 1.4] == 1) and np.all(s.handle_group[P[:, 0] < -1.4] == 2)
     # each group its own colour, on the cage points and on the shape
-    rgba = np.asarray(w.scene.points_poly.point_data["state"])[:, :3]
-    assert np.all(rgba[P[:, 0] > 1.4] == STATE_COLORS[2]) and np.all(rgba[P[:, 0] < -1.4] == STATE_COLORS[3])
+    rgba = np.asarray(w.scene.points_poly.point_data["role"])[:, :3]
+    first, second = ROLE_COLORS[role_rows(handle(0))], ROLE_COLORS[role_rows(handle(1))]
+    assert not np.array_equal(first, second)
+    assert np.all(rgba[P[:, 0] > 1.4] == first) and np.all(rgba[P[:, 0] < -1.4] == second)
     key(qtbot, w, Qt.Key.Key_D)
     # drag group 2 (the left end) up: the right end stays
     drag_active(qtbot, w, -60)
