@@ -187,7 +187,7 @@ def _edit_session(mesh, say: Progress, label: str) -> None:
     from . import HybridEditor, rigid_transform
     from .binding.bind import bind
     from .deform.polish import ShapeARAP, polish
-    from .viewer.regional import ShapeMetrics, copy_rows
+    from .core.region_metrics import ShapeMetrics, copy_rows
 
     say(f"{label}: cage and binding", 0.0)
     ed = HybridEditor(mesh, 0.1, cache=False)

@@ -32,3 +32,19 @@ def bumpy_blob(subdivisions: int = 4) -> Mesh:
     v[:, 0] *= 2.0  # elongate along x: two "limbs" to bend
     v[:, 1] += 0.3 * np.cos(1.5 * v[:, 0])  # and bend it, so it is not convex
     return Mesh(v, s.faces, name="blob")
+
+
+def capsule_blob(subdivisions: int = 4):
+    """A closed, bumpy capsule about 4 long along X, 2.5K vertices at subdivision 4."""
+    import trimesh
+
+    from hybridedit.core.mesh import Mesh
+
+    s = trimesh.creation.icosphere(subdivisions=subdivisions, radius=1.0)
+    v = np.asarray(s.vertices).copy()
+    x, y, z = v.T
+    r = 1.0 + 0.06 * np.sin(6 * x) * np.cos(4 * y) + 0.04 * np.sin(9 * z)
+    v *= r[:, None]
+    v[:, 0] *= 2.0
+    v[:, 1] += 0.15 * np.cos(1.2 * v[:, 0])
+    return Mesh(v, np.asarray(s.faces), name="blob")

@@ -33,7 +33,6 @@ dragging      : a drag's frames (frame thread to screen) and the settle after a 
 framethread   : the thread that computes a drag's frames beside the render
 building      : building the cage and binding in the background: progress, cancel, the result's message
 polishing     : scheduling the polish on release in background threads
-regional      : compiled per-frame kernels (points, normals, edge error, stretch) for the moving region
 frames        : where a frame's time goes (engine, normals, VTK update, render, compose)
 xvfb          : a private virtual X server for tests and benchmarks
 worker        : the QThread that reads a mesh and builds the cage and binding

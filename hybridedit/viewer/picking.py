@@ -247,8 +247,3 @@ def selection_roles(roi: np.ndarray, handle_group: np.ndarray) -> np.ndarray:
     h = is_handle(g.astype(np.int64))
     r[h] = g[h]
     return r
-
-
-def fixed_mask(roi: np.ndarray, handle: np.ndarray) -> np.ndarray:
-    """Cage vertices that stay: outside the ROI and not in the handle."""
-    return ~np.asarray(roi, dtype=bool) & ~np.asarray(handle, dtype=bool)

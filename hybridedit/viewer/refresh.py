@@ -67,7 +67,7 @@ class RefreshMixin:
         """Edge error (status bar) and, when shown, the stretch map of the shape on display.
 
         During a drag only the edges of the moving region are measured again
-        (:class:`~.regional.ShapeMetrics`); after any other change, every edge.
+        (:class:`~hybridedit.core.region_metrics.ShapeMetrics`); after any other change, every edge.
         """
         s = self.session
         if s is None:

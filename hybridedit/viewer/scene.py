@@ -3,7 +3,7 @@
 Works on any pyvista plotter (the window's ``QtInteractor`` or an off-screen
 ``pyvista.Plotter`` for screenshots). The actors are built once per loaded
 shape; every frame only rewrites the moving part of their point arrays in
-place (:mod:`.regional`).
+place (:mod:`hybridedit.core.region_metrics`).
 
 What is drawn: the shape, tinted blue where it is held fixed and orange where
 it is a handle (the faces whose vertices share one of the engine's vertex roles;
@@ -33,7 +33,7 @@ from .palette import (
     BACKGROUND, CAGE_COLOR, POINT_ALPHA, ROLE_COLORS, SHAPE_COLOR, role_rows, shape_tint, stretch_colour_bar,
     stretch_lookup_table,
 )
-from .regional import ShapeMetrics
+from ..core.region_metrics import ShapeMetrics
 from .shapeparts import ShapeParts
 
 
@@ -181,7 +181,7 @@ class Scene:
 
         Parameters
         ----------
-        metrics : the shape's :class:`~.regional.ShapeMetrics` (faces, and what a drag moves).
+        metrics : the shape's :class:`~hybridedit.core.region_metrics.ShapeMetrics` (faces, and what a drag moves).
         shape_vertices : (n, 3) current shape.
         cage_vertices : (c, 3) current cage pose; cage_faces : (k, 3).
         cage_roles : (c,) cage vertex roles; shape_roles : (n,) shape vertex roles

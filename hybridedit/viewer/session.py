@@ -43,7 +43,7 @@ from ..deform.editor import HybridEditor, SelectionError
 from ..core.mesh import Mesh, rrms_edge_error
 from ..deform.roles import FIXED, handle as handle_role, is_handle
 from .history import History, Snapshot
-from .regional import ShapeMetrics
+from ..core.region_metrics import ShapeMetrics
 from .selectionstate import NO_GROUP, SelectionState
 
 

@@ -9,10 +9,11 @@ import os
 import sys
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from hybridedit.viewer.xvfb import ensure_display
+
+from shapes import capsule_blob
 
 _XVFB = ensure_display("1280x1024x24") if sys.platform.startswith("linux") else None
 _XVFB_PROBLEM = _XVFB.problem if _XVFB is not None else ""
@@ -43,22 +44,6 @@ def _display() -> None:
 
 
 # ---------------------------------------------------------------------------- test shapes
-
-
-def capsule_blob(subdivisions: int = 4):
-    """A closed, bumpy capsule about 4 long along X, 2.5K vertices at subdivision 4."""
-    import trimesh
-
-    from hybridedit.core.mesh import Mesh
-
-    s = trimesh.creation.icosphere(subdivisions=subdivisions, radius=1.0)
-    v = np.asarray(s.vertices).copy()
-    x, y, z = v.T
-    r = 1.0 + 0.06 * np.sin(6 * x) * np.cos(4 * y) + 0.04 * np.sin(9 * z)
-    v *= r[:, None]
-    v[:, 0] *= 2.0
-    v[:, 1] += 0.15 * np.cos(1.2 * v[:, 0])
-    return Mesh(v, np.asarray(s.faces), name="blob")
 
 
 @pytest.fixture(scope="session")

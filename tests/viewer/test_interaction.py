@@ -11,7 +11,7 @@ from qtpy import QtCore
 from hybridedit.deform.roles import FIXED, FREE
 from hybridedit.viewer import interaction
 from hybridedit.viewer.interaction import BRUSH, CAMERA, SELECT, ViewController
-from hybridedit.viewer.regional import ShapeMetrics
+from hybridedit.core.region_metrics import ShapeMetrics
 from hybridedit.viewer.scene import Scene
 from hybridedit.viewer.picking import REPLACE, combine, project_points
 from hybridedit.viewer.view import View

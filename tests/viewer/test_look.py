@@ -12,7 +12,7 @@ import hybridedit as he
 from hybridedit.core.mesh import Mesh
 from hybridedit.deform.roles import FIXED, FREE
 from hybridedit.viewer.look import look_of
-from hybridedit.viewer.regional import ShapeMetrics
+from hybridedit.core.region_metrics import ShapeMetrics
 from hybridedit.viewer.scene import Scene
 
 CHECKER_A = (230, 40, 40)  # red squares

@@ -10,7 +10,7 @@ from hybridedit.deform.roles import FIXED, FREE, handle as handle_role
 from hybridedit.viewer import gizmo as gz
 from hybridedit.viewer.history import History, Snapshot
 from hybridedit.viewer.picking import (
-    ADD, REMOVE, REPLACE, brush_hits, combine, fixed_mask, nearest_hit, op_from_modifiers, project_points,
+    ADD, REMOVE, REPLACE, brush_hits, combine, nearest_hit, op_from_modifiers, project_points,
     rectangle_hits, selection_roles, stroke_hits, unproject, visible_points,
 )
 
@@ -130,13 +130,12 @@ def test_a_click_takes_the_nearest_point():
     assert not nearest_hit(disp, front, (100.0, 100.0), 12.0).any()  # nothing near: nothing taken
 
 
-def test_selection_roles_and_fixed():
+def test_selection_roles():
     roi = np.array([True, True, False, False])
     handle = np.array([False, True, False, True])
     assert selection_roles(roi, handle).tolist() == [FREE, handle_role(0), FIXED, handle_role(0)]
     groups = np.array([0, handle_role(1), 0, handle_role(0)], dtype=np.int8)  # (the session's handle_group)
     assert selection_roles(roi, groups).tolist() == [FREE, handle_role(1), FIXED, handle_role(0)]
-    assert fixed_mask(roi, handle).tolist() == [False, False, True, False]
 
 
 def test_gizmo_drag_math_follows_the_mouse():

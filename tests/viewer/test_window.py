@@ -25,7 +25,7 @@ Qt = QtCore.Qt
 # ---------------------------------------------------------------------------- helpers
 
 
-def wait_loaded(qtbot, w: MainWindow, timeout: int = 60000) -> None:
+def wait_loaded(qtbot, w: MainWindow, timeout: int = 180000) -> None:
     qtbot.waitUntil(lambda: w.worker is None and w.session is not None, timeout=timeout)
 
 
@@ -39,8 +39,13 @@ def win(qtbot, blob_file) -> MainWindow:
     w.activateWindow()
     qtbot.waitActive(w)  # window shortcuts need the active window
     w.view.setFocus()
-    assert w.open_path(blob_file)
-    wait_loaded(qtbot, w)
+    try:
+        assert w.open_path(blob_file)
+        wait_loaded(qtbot, w)
+    except BaseException:  # no window left open to confuse the next test
+        w.set_modified(False)
+        w.close()
+        raise
     w.scene.reset_camera(tilted=False)
     w.view.request_render()
     qtbot.wait(30)
@@ -488,14 +493,20 @@ def test_launcher_opens_the_default_mesh_and_exits_zero(qapp, blob_file, monkeyp
     """`hybridedit` with no argument opens cli.DEFAULT_MESH in the window; closing it returns 0."""
     monkeypatch.setattr(cli, "DEFAULT_MESH", blob_file)
     seen = {}
+    before = set(map(id, QtWidgets.QApplication.topLevelWidgets()))  # (a window a failed test left open)
+    deadline = time.monotonic() + 180
 
     def check():
         wins = [w for w in QtWidgets.QApplication.topLevelWidgets()
-                if isinstance(w, MainWindow) and w.isVisible()]
+                if isinstance(w, MainWindow) and w.isVisible() and id(w) not in before]
         if wins and wins[0].session is not None and wins[0].worker is None:
             seen["vertices"] = wins[0].session.mesh.n_vertices
             seen["title"] = wins[0].windowTitle()
             wins[0].close()
+        elif time.monotonic() > deadline:  # never hang the suite: close it and fail below
+            seen["timed out"] = True
+            for w in wins:
+                w.close()
         else:
             QtCore.QTimer.singleShot(50, check)
 

@@ -10,7 +10,14 @@ import pytest
 from hybridedit.core.mesh import edge_stretch, rrms_edge_error, vertex_stretch
 from hybridedit.core.normals import vertex_normals
 from hybridedit.core.parallel import all_parallel
-from hybridedit.viewer.regional import ShapeMetrics
+from hybridedit.core.region_metrics import ShapeMetrics
+
+from shapes import capsule_blob
+
+
+@pytest.fixture(scope="module")
+def make_blob():
+    return capsule_blob
 
 
 def reference_normals(V, F):

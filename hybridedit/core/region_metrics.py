@@ -1,4 +1,4 @@
-"""Per-frame work of the window restricted to the region a drag can move (compiled kernels).
+"""What a view of a deforming shape needs each frame, for the region a drag can move (compiled kernels).
 
 During a drag only the shape vertices the engine can move change
 (``moving``); everything the window derives from the pose changes only near
@@ -20,7 +20,8 @@ edges numbered within it (made once per selection). Reading them scattered
 through the whole shape missed the cache at every step: at 173K vertices with a
 30% region, 11 ms a frame for the normals serially, 4.6 ms from the copy.
 
-No Qt or VTK here, so :mod:`hybridedit.warmup` compiles these kernels too.
+Pure compute (the window in :mod:`hybridedit.viewer` draws with it), so :mod:`hybridedit.warmup`
+compiles these kernels with the engine's.
 """
 
 from __future__ import annotations
