@@ -32,7 +32,8 @@ from numba import njit, prange
 
 from ..defaults import TRUNCATION
 from ..core.mesh import Mesh
-from .mvc_exact import as_points, check_closed, compute_into, n_blocks, prepare_cage
+from ..core.topology import check_closed
+from .mvc_exact import as_points, compute_into, n_blocks, prepare_cage
 from .mvc_flat import (
     FAR_RATIO,
     LANES,

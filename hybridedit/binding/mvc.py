@@ -18,11 +18,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.topology import check_closed
 from .mvc_exact import (
     CageData,
     as_points,
     atan2_pos_array,
-    check_closed,
     compute_into,
     prepare_cage,
 )
@@ -37,7 +37,7 @@ from .mvc_flat import (
 )
 
 __all__ = ["CageData", "FastCageData", "prepare_cage", "prepare_fast_cage",
-           "mean_value_coordinates", "check_closed", "plan_fast", "compute_fast_sorted",
+           "mean_value_coordinates", "plan_fast", "compute_fast_sorted",
            "atan2_pos_array", "FAR_RATIO", "LANES"]
 
 

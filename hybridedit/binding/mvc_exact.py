@@ -57,7 +57,7 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-__all__ = ["CageData", "prepare_cage", "check_closed", "compute_into", "as_points", "morton_order",
+__all__ = ["CageData", "prepare_cage", "compute_into", "as_points", "morton_order",
            "n_blocks", "exact_face", "exact_face_lanes_py", "compile_exact_face_lanes",
            "near_block",
            "tolerances"]
@@ -138,37 +138,6 @@ class CageData:
     @property
     def n_edges(self) -> int:
         return int(self.edges.shape[0])
-
-
-def check_closed(faces: np.ndarray) -> None:
-    """Raise ``ValueError`` unless the triangles form a closed, oriented surface.
-
-    Closed here means that every undirected edge is used as often in one
-    direction as in the other, which is what makes the mean value
-    coordinates reproduce linear functions (non-manifold edges are fine as long
-    as they balance).
-    """
-    f = np.asarray(faces, dtype=np.int64)
-    if f.size == 0:
-        raise ValueError("the cage has no faces")
-    a = np.concatenate([f[:, 0], f[:, 1], f[:, 2]])
-    b = np.concatenate([f[:, 1], f[:, 2], f[:, 0]])
-    lo = np.minimum(a, b)
-    hi = np.maximum(a, b)
-    if np.any(lo == hi):
-        raise ValueError("the cage has a face with a repeated vertex index")
-    key = lo * (int(f.max()) + 1) + hi
-    sign = np.where(a < b, 1, -1)
-    uniq, inv = np.unique(key, return_inverse=True)
-    balance = np.bincount(inv.ravel(), weights=sign, minlength=len(uniq))
-    bad = np.flatnonzero(balance != 0)
-    if bad.size:
-        k = int(uniq[bad[0]])
-        n = int(f.max()) + 1
-        raise ValueError(
-            f"the cage is not a closed, consistently oriented surface: {bad.size} edge(s) "
-            f"are unbalanced, e.g. edge ({k // n}, {k % n})"
-        )
 
 
 def morton_order(points: np.ndarray) -> np.ndarray:

@@ -67,7 +67,7 @@ def test_a_cage_size_is_checked_by_one_rule_wherever_it_comes_from(blob):
 
 # ------------------------------------------------------------------ repairs (hybridedit.core.repair)
 
-from hybridedit.binding.mvc import check_closed  # noqa: E402
+from hybridedit.core.topology import check_closed  # noqa: E402
 from hybridedit.core.repair import box_cage, cage_source, close_holes  # noqa: E402
 
 
