@@ -33,7 +33,8 @@ from numba import njit, prange
 from ..defaults import TRUNCATION
 from ..core.mesh import Mesh
 from ..core.topology import check_closed
-from .mvc_exact import as_points, compute_into, n_blocks, prepare_cage
+from .mvc_cage import prepare_cage
+from .mvc_exact import as_points, compute_into, n_blocks
 from .mvc_flat import (
     FAR_RATIO,
     LANES,

@@ -18,15 +18,8 @@ from numba import njit, prange, types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-from .mvc_exact import (
-    CageData,
-    exact_face,
-    compile_exact_face_lanes,
-    morton_order,
-    near_block,
-    prepare_cage,
-    tolerances,
-)
+from .mvc_cage import CageData, morton_order, prepare_cage
+from .mvc_faces import compile_exact_face_lanes, exact_face, near_block, tolerances
 from .truncation import truncate_row_sparse
 
 __all__ = ["FastCageData", "FastPlan", "prepare_fast_cage", "plan_fast", "fast_scratch",

@@ -61,7 +61,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, prange
 
-from .mvc_exact import compile_exact_face_lanes
+from .mvc_faces import compile_exact_face_lanes
 from .mvc_flat import (
     LANES,
     FastCageData,
