@@ -33,19 +33,11 @@ from numba import njit, prange
 from ..defaults import TRUNCATION
 from ..core.mesh import Mesh
 from ..core.topology import check_closed
-from .mvc_cage import prepare_cage
 from .mvc_exact import as_points, compute_into, n_blocks
-from .mvc_flat import (
-    FAR_RATIO,
-    LANES,
-    check_far_ratio,
-    compute_fast_sorted,
-    compute_fast_truncated,
-    fast_scratch,
-    plan_fast,
-    prepare_fast_cage,
-)
-from .mvc_tree import THETA, compute_tree_truncated, prepare_tree_cage, tree_scratch
+from .mvc_flat import FAR_RATIO, check_far_ratio, compute_fast_sorted, compute_fast_truncated, fast_scratch
+from .mvc_layout import LANES, plan_fast, prepare_cage, prepare_fast_cage
+from .mvc_tree import THETA, compute_tree_truncated, tree_scratch
+from .tree_cage import prepare_tree_cage
 from .truncation import MAX_ROW, MIN_KEPT_SUM, cap_rows, check_truncation, truncate_row
 
 __all__ = ["bind", "truncate_rows", "dominant_cage_vertex", "MIN_KEPT_SUM", "METHODS"]

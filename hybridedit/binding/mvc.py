@@ -10,7 +10,7 @@ closed triangular meshes" (SIGGRAPH 2005), computed by one of three kernels:
 * :mod:`hybridedit.binding.mvc_tree`: for truncated bindings, a hierarchy over the
   cage that accounts for far clusters of cage vertices in aggregate.
 
-They share the cage's layout (:mod:`hybridedit.binding.mvc_cage`) and the per-face pieces
+They share the layout of the cage and the points (:mod:`hybridedit.binding.mvc_layout`) and the per-face pieces
 (:mod:`hybridedit.binding.mvc_faces`: the arctangent, one face's exact weights, the
 on-cage cases). Which coordinates a binding keeps is decided in :mod:`hybridedit.binding.truncation`.
 This module holds the one public entry point for whole (un-truncated) rows.
@@ -21,18 +21,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.topology import check_closed
-from .mvc_cage import CageData, prepare_cage
 from .mvc_exact import as_points, compute_into
 from .mvc_faces import atan2_pos_array
-from .mvc_flat import (
-    FAR_RATIO,
-    LANES,
-    FastCageData,
-    check_far_ratio,
-    compute_fast_sorted,
-    plan_fast,
-    prepare_fast_cage,
-)
+from .mvc_flat import FAR_RATIO, check_far_ratio, compute_fast_sorted
+from .mvc_layout import LANES, CageData, FastCageData, plan_fast, prepare_cage, prepare_fast_cage
 
 __all__ = ["CageData", "FastCageData", "prepare_cage", "prepare_fast_cage",
            "mean_value_coordinates", "plan_fast", "compute_fast_sorted",

@@ -47,7 +47,7 @@ Implementation notes
   nothing (its contribution vanishes in the limit); a face seen at a grazing
   angle from outside its triangle is dropped as well (see ``_near_faces`` in
   :mod:`hybridedit.binding.mvc_faces`, which holds what the three kernels share;
-  the cage's layout is :mod:`hybridedit.binding.mvc_cage`).
+  the cage's layout is :mod:`hybridedit.binding.mvc_layout`).
 """
 
 from __future__ import annotations
@@ -58,7 +58,7 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from .mvc_cage import CageData
+from .mvc_layout import CageData
 from .mvc_faces import NEAR_EPS, PLANE_EPS, VERTEX_EPS, _R_MAX, _atan2_pos, _near_faces, _plane_pass
 
 __all__ = ["compute_into", "as_points", "n_blocks"]
