@@ -44,7 +44,7 @@ Progress = Callable[[str, float], None]
 
 
 def kernel_modules() -> list[str]:
-    """Names of the hybridedit modules that define numba kernels (found from their source)."""
+    """Names of the hybridedit modules that define numba kernels or intrinsics (found from their source)."""
     names = []
     for info in pkgutil.walk_packages([str(PACKAGE_DIR)], prefix="hybridedit."):
         if info.ispkg:
@@ -54,7 +54,8 @@ def kernel_modules() -> list[str]:
             text = path.read_text(encoding="utf-8")
         except OSError:
             continue
-        if any(mark in text for mark in ("@njit", "@numba.njit", "@jit", "@numba.jit")):
+        # (@intrinsic: hand-written IR the kernels compile in, so that its edits change the stamp too)
+        if any(mark in text for mark in ("@njit", "@numba.njit", "@jit", "@numba.jit", "@intrinsic")):
             names.append(info.name)
     return sorted(names)
 
