@@ -9,10 +9,10 @@ never ran for this code (a plain ``pip install``), and says so on screen.
 It compiles by running the real public pipeline on small generated shapes:
 cage (with its repair pass on a shape that needs one), binding (fast and
 exact), both propagations, ARAP drags, polish, edit replay and the window's
-own per-frame kernels. Several kernels switch to a parallel variant above a
-size threshold (module constants named ``PARALLEL*``, e.g. ``PARALLEL_MIN``,
-``PARALLEL_FACES``); the pipeline runs a second time with those thresholds at
-zero so the parallel variants compile as well. :func:`uncovered` then lists any kernel the pipeline did not reach,
+own per-frame kernels. Several kernels switch to a parallel twin above a
+size threshold (the one table :data:`hybridedit.core.parallel.THRESHOLDS`); the
+pipeline runs a second time with every threshold at zero so the parallel twins
+compile as well. :func:`uncovered` then lists any kernel the pipeline did not reach,
 so a new kernel cannot be forgotten silently.
 
 No Qt or VTK is imported.
@@ -44,7 +44,7 @@ Progress = Callable[[str, float], None]
 
 
 def kernel_modules() -> list[str]:
-    """Names of the hybridedit modules that define numba kernels (found from their source)."""
+    """Names of the hybridedit modules that define numba kernels or intrinsics (found from their source)."""
     names = []
     for info in pkgutil.walk_packages([str(PACKAGE_DIR)], prefix="hybridedit."):
         if info.ispkg:
@@ -54,7 +54,8 @@ def kernel_modules() -> list[str]:
             text = path.read_text(encoding="utf-8")
         except OSError:
             continue
-        if any(mark in text for mark in ("@njit", "@numba.njit", "@jit", "@numba.jit")):
+        # (@intrinsic: hand-written IR the kernels compile in, so that its edits change the stamp too)
+        if any(mark in text for mark in ("@njit", "@numba.njit", "@jit", "@numba.jit", "@intrinsic")):
             names.append(info.name)
     return sorted(names)
 
@@ -124,23 +125,11 @@ def record_compiles() -> Iterator[list]:
 
 @contextlib.contextmanager
 def parallel_everywhere() -> Iterator[None]:
-    """Set every size threshold to 0 (restored after): :func:`hybridedit.core.parallel.all_parallel`,
-    and the ``PARALLEL*`` constants of the kernel modules that still keep their own."""
+    """Every kernel takes its parallel twin inside the block: :func:`hybridedit.core.parallel.all_parallel`."""
     from .core.parallel import all_parallel
 
-    saved = []
-    for name in kernel_modules():
-        mod = sys.modules.get(name) or importlib.import_module(name)
-        for attr, value in list(vars(mod).items()):
-            if attr.startswith("PARALLEL") and isinstance(value, int) and not isinstance(value, bool):
-                saved.append((mod, attr, value))
-                setattr(mod, attr, 0)
-    try:
-        with all_parallel():
-            yield
-    finally:
-        for mod, attr, value in saved:
-            setattr(mod, attr, value)
+    with all_parallel():
+        yield
 
 
 # ---------------------------------------------------------------------------- the shapes

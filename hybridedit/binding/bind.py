@@ -32,18 +32,12 @@ from numba import njit, prange
 
 from ..defaults import TRUNCATION
 from ..core.mesh import Mesh
-from .mvc_exact import as_points, check_closed, compute_into, n_blocks, prepare_cage
-from .mvc_flat import (
-    FAR_RATIO,
-    LANES,
-    check_far_ratio,
-    compute_fast_sorted,
-    compute_fast_truncated,
-    fast_scratch,
-    plan_fast,
-    prepare_fast_cage,
-)
-from .mvc_tree import THETA, compute_tree_truncated, prepare_tree_cage, tree_scratch
+from ..core.topology import check_closed
+from .mvc_exact import as_points, compute_into, n_blocks
+from .mvc_flat import FAR_RATIO, check_far_ratio, compute_fast_sorted, compute_fast_truncated, fast_scratch
+from .mvc_layout import LANES, plan_fast, prepare_cage, prepare_fast_cage
+from .mvc_tree import THETA, compute_tree_truncated, tree_scratch
+from .tree_cage import prepare_tree_cage
 from .truncation import MAX_ROW, MIN_KEPT_SUM, cap_rows, check_truncation, truncate_row
 
 __all__ = ["bind", "truncate_rows", "dominant_cage_vertex", "MIN_KEPT_SUM", "METHODS"]
@@ -306,88 +300,120 @@ def bind(
     ratio = check_far_ratio(far_ratio)
     c = cage.n_vertices
     n = p.shape[0]
-    flat_kind = method in ("fast", "flat")
-    tree = method == "fast" and t > 0.0  # hierarchical, truncated as made
-    sparse = method == "flat" and t > 0.0  # every face per point, truncated as made
-    cap = min(c, SPARSE_ROW_CAP)
-    if chunk_size is None:
-        if sparse or tree:
-            chunk = max(1, CHUNK_BYTES // (12 * cap))
-        else:
-            chunk = max(1, CHUNK_BYTES // (8 * c))
-        if flat_kind:
-            # Whole batches of the fast kernels (a batch split between two
-            # chunks would be computed twice).
-            chunk = max(LANES, chunk - chunk % LANES)
-    else:
-        if isinstance(chunk_size, (bool, np.bool_)) or int(chunk_size) != chunk_size or chunk_size < 1:
-            raise ValueError(f"chunk_size must be a positive integer, got {chunk_size!r}")
-        chunk = int(chunk_size)
-    if method == "exact":
-        data = prepare_cage(cage.vertices, cage.faces)
-        check_closed(data.faces)
-    else:
-        fast = prepare_fast_cage(cage.vertices, cage.faces)
-        check_closed(fast.exact.faces)
+    chunk = _chunk_rows(chunk_size, method, t, c)
+    rows = _Rows(p, cage, method, t, ratio)
     if n == 0:
         return sp.csr_matrix((0, c))
     chunk = min(chunk, n)
-    if flat_kind:
-        plan = plan_fast(p, fast)
-        row_of = plan.order  # chunks run over the points in the plan's order
-        n_workers = min(-(-chunk // LANES) + 1, 4 * numba.get_num_threads())
-    if flat_kind and not tree:
-        scratch = fast_scratch(fast, n_workers)
-    if tree:
-        hier = prepare_tree_cage(fast)
-        tscratch = tree_scratch(hier, n_workers)
-        flat_scratch: dict = {}
-    if sparse or tree:
-        counts_buf = np.empty(chunk, dtype=np.int64)
-        cols_buf = np.empty((chunk, cap), dtype=np.int32)
-        vals_buf = np.empty((chunk, cap))
-    else:
-        buf = np.empty((chunk, c))
+    rows.allocate(chunk)
     parts = []
     if progress is not None:
         progress(0.0)
     for start in range(0, n, chunk):
         stop = min(n, start + chunk)
-        if method == "exact":
-            view = buf[: stop - start]
-            compute_into(p[start:stop], data, view)
-            counts, vals, cols = _truncate_into_csr_parts(view, t)
-        elif tree:
-            counts, vals, cols = _tree_chunk(plan, hier, ratio, tscratch, t, start, stop,
-                                             counts_buf, cols_buf, vals_buf, p, flat_scratch)
-        elif not sparse:
-            # Rows kept whole: restore their exact linear precision (see
-            # hybridedit.binding.mvc_flat). When truncating, that correction (~1e-5
-            # of a row) is far below what the truncation drops and is skipped.
-            view = buf[: stop - start]
-            compute_fast_sorted(plan, fast, start, stop, view, ratio, correct=True, scratch=scratch)
-            counts, vals, cols = _truncate_into_csr_parts(view, t, fast.inv_perm)
-        else:
-            counts, vals, cols = _fast_truncated_chunk(
-                plan, fast, ratio, scratch, t, start, stop, counts_buf, cols_buf, vals_buf)
-        if counts.size and counts.min() < 0:
-            bad = start + int(np.flatnonzero(counts < 0)[0])
-            if flat_kind:
-                bad = int(row_of[bad])
-            raise ValueError(
-                f"mean value coordinates of point {bad} ({p[bad].tolist()}) are not finite; "
-                "is the cage degenerate?"
-            )
-        parts.append((counts, vals, cols))
+        parts.append(rows.chunk(start, stop))
         if progress is not None:
             progress(stop / n)
     M = _assemble(parts, n, c)
-    if flat_kind:
-        M = M[np.argsort(row_of)]
+    if rows.row_of is not None:
+        M = M[np.argsort(rows.row_of)]
         M.has_sorted_indices = True
     if t > 0.0 and max_row is not None:
         M = cap_rows(M, int(max_row))
     return M
+
+
+def _chunk_rows(chunk_size: int | None, method: str, t: float, c: int) -> int:
+    """Points per chunk: ``chunk_size`` checked, or by default what keeps a chunk's buffers near
+    :data:`CHUNK_BYTES` (whole batches of the fast kernels)."""
+    if chunk_size is not None:
+        if isinstance(chunk_size, (bool, np.bool_)) or int(chunk_size) != chunk_size or chunk_size < 1:
+            raise ValueError(f"chunk_size must be a positive integer, got {chunk_size!r}")
+        return int(chunk_size)
+    if t > 0.0 and method in ("fast", "flat"):  # truncated as made: sparse buffers
+        chunk = max(1, CHUNK_BYTES // (12 * min(c, SPARSE_ROW_CAP)))
+    else:
+        chunk = max(1, CHUNK_BYTES // (8 * c))
+    if method in ("fast", "flat"):
+        # Whole batches of the fast kernels (a batch split between two
+        # chunks would be computed twice).
+        chunk = max(LANES, chunk - chunk % LANES)
+    return chunk
+
+
+class _Rows:
+    """The truncated rows of ``points`` by one method, chunk by chunk: the cage prepared (and
+    checked closed) for the method's kernel, and the kernel's work arrays.
+
+    ``row_of`` is None, or for the fast kernels the point of each position (chunks run over the
+    points in the plan's order, :attr:`hybridedit.binding.mvc_layout.FastPlan.order`).
+    """
+
+    def __init__(self, p: np.ndarray, cage: Mesh, method: str, t: float, ratio: float) -> None:
+        self.p, self.method, self.t, self.ratio = p, method, t, ratio
+        self.flat_kind = method in ("fast", "flat")
+        self.tree = method == "fast" and t > 0.0  # hierarchical, truncated as made
+        self.sparse = method == "flat" and t > 0.0  # every face per point, truncated as made
+        self.row_of = None
+        if method == "exact":
+            self.data = prepare_cage(cage.vertices, cage.faces)
+            check_closed(self.data.faces)
+        else:
+            self.fast = prepare_fast_cage(cage.vertices, cage.faces)
+            check_closed(self.fast.exact.faces)
+
+    def allocate(self, chunk: int) -> None:
+        """The plan of the fast kernels and the work arrays for chunks of ``chunk`` points."""
+        c = self.data.n_vertices if self.method == "exact" else self.fast.n_vertices
+        if self.flat_kind:
+            self.plan = plan_fast(self.p, self.fast)
+            self.row_of = self.plan.order
+            n_workers = min(-(-chunk // LANES) + 1, 4 * numba.get_num_threads())
+        if self.flat_kind and not self.tree:
+            self.scratch = fast_scratch(self.fast, n_workers)
+        if self.tree:
+            self.hier = prepare_tree_cage(self.fast)
+            self.tscratch = tree_scratch(self.hier, n_workers)
+            self.flat_scratch: dict = {}
+        if self.sparse or self.tree:
+            cap = min(c, SPARSE_ROW_CAP)
+            self.counts_buf = np.empty(chunk, dtype=np.int64)
+            self.cols_buf = np.empty((chunk, cap), dtype=np.int32)
+            self.vals_buf = np.empty((chunk, cap))
+        else:
+            self.buf = np.empty((chunk, c))
+
+    def chunk(self, start: int, stop: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(counts, data, indices) of positions [start, stop); ValueError for a row not finite."""
+        t, ratio = self.t, self.ratio
+        if self.method == "exact":
+            view = self.buf[: stop - start]
+            compute_into(self.p[start:stop], self.data, view)
+            counts, vals, cols = _truncate_into_csr_parts(view, t)
+        elif self.tree:
+            counts, vals, cols = _tree_chunk(self.plan, self.hier, ratio, self.tscratch, t, start, stop,
+                                             self.counts_buf, self.cols_buf, self.vals_buf, self.p,
+                                             self.flat_scratch)
+        elif not self.sparse:
+            # Rows kept whole: restore their exact linear precision (see
+            # hybridedit.binding.mvc_flat). When truncating, that correction (~1e-5
+            # of a row) is far below what the truncation drops and is skipped.
+            view = self.buf[: stop - start]
+            compute_fast_sorted(self.plan, self.fast, start, stop, view, ratio, correct=True,
+                                scratch=self.scratch)
+            counts, vals, cols = _truncate_into_csr_parts(view, t, self.fast.inv_perm)
+        else:
+            counts, vals, cols = _fast_truncated_chunk(self.plan, self.fast, ratio, self.scratch, t, start,
+                                                       stop, self.counts_buf, self.cols_buf, self.vals_buf)
+        if counts.size and counts.min() < 0:
+            bad = start + int(np.flatnonzero(counts < 0)[0])
+            if self.row_of is not None:
+                bad = int(self.row_of[bad])
+            raise ValueError(
+                f"mean value coordinates of point {bad} ({self.p[bad].tolist()}) are not finite; "
+                "is the cage degenerate?"
+            )
+        return counts, vals, cols
 
 
 def _tree_chunk(plan, hier, ratio, scratch, t, start, stop, counts_buf, cols_buf, vals_buf, p,

@@ -98,7 +98,7 @@ def _path(folder: Path, key: str) -> Path:
 
 def load(folder: Path, key: str, mesh: Mesh) -> tuple[Mesh, sp.csr_matrix, list[str], np.ndarray] | None:
     """The cached (cage, M, notes, links) for ``key``, or None when absent or not valid (``links``: the
-    cage's extra ARAP edges, :func:`hybridedit.cage.build.cage_links`, (k, 2) int64).
+    cage's extra ARAP edges, :func:`hybridedit.cage.links.cage_links`, (k, 2) int64).
 
     An entry that fails any check (unreadable, another key, a checksum that does
     not match its payload, written by other library versions, wrong shapes, a
@@ -177,7 +177,7 @@ def store(folder: Path, key: str, cage: Mesh, M: sp.csr_matrix, notes: list[str]
     not given: they take a while on a cage of many pieces) under ``key``, with the payload's checksum
     and the writing versions; returns the file, or None if it cannot be written."""
     if links is None:
-        from ..cage.build import cage_links
+        from ..cage.links import cage_links
 
         links = cage_links(cage)
     M = sp.csr_matrix(M)

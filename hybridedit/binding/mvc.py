@@ -10,7 +10,9 @@ closed triangular meshes" (SIGGRAPH 2005), computed by one of three kernels:
 * :mod:`hybridedit.binding.mvc_tree`: for truncated bindings, a hierarchy over the
   cage that accounts for far clusters of cage vertices in aggregate.
 
-Which coordinates a binding keeps is decided in :mod:`hybridedit.binding.truncation`.
+They share the layout of the cage and the points (:mod:`hybridedit.binding.mvc_layout`) and the per-face pieces
+(:mod:`hybridedit.binding.mvc_faces`: the arctangent, one face's exact weights, the
+on-cage cases). Which coordinates a binding keeps is decided in :mod:`hybridedit.binding.truncation`.
 This module holds the one public entry point for whole (un-truncated) rows.
 """
 
@@ -18,26 +20,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from .mvc_exact import (
-    CageData,
-    as_points,
-    atan2_pos_array,
-    check_closed,
-    compute_into,
-    prepare_cage,
-)
-from .mvc_flat import (
-    FAR_RATIO,
-    LANES,
-    FastCageData,
-    check_far_ratio,
-    compute_fast_sorted,
-    plan_fast,
-    prepare_fast_cage,
-)
+from ..core.topology import check_closed
+from .mvc_exact import as_points, compute_into
+from .mvc_faces import atan2_pos_array
+from .mvc_flat import FAR_RATIO, check_far_ratio, compute_fast_sorted
+from .mvc_layout import LANES, CageData, FastCageData, plan_fast, prepare_cage, prepare_fast_cage
 
 __all__ = ["CageData", "FastCageData", "prepare_cage", "prepare_fast_cage",
-           "mean_value_coordinates", "check_closed", "plan_fast", "compute_fast_sorted",
+           "mean_value_coordinates", "plan_fast", "compute_fast_sorted",
            "atan2_pos_array", "FAR_RATIO", "LANES"]
 
 
@@ -54,8 +44,8 @@ def mean_value_coordinates(points: np.ndarray, cage_vertices: np.ndarray,
         A closed, consistently oriented triangle surface (either orientation).
     method : "exact" or "fast"
         "exact" evaluates every face exactly; "fast" integrates faces farther
-        than ``far_ratio`` times their size by quadrature (see the section
-        "Fast method" of this module), within about 1e-5 of the row's
+        than ``far_ratio`` times their size by quadrature (see
+        :mod:`hybridedit.binding.mvc_flat`), within about 1e-5 of the row's
         magnitude of the exact coordinates at the default ratio.
     far_ratio : float >= 1
         Only for "fast" (``inf`` makes it exact).

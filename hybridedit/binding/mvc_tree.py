@@ -56,343 +56,25 @@ like ``log c`` (a few hundred leaves and nodes), not like ``c``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 from numba import njit, prange
 
-from .mvc_exact import compile_exact_face_lanes
-from .mvc_flat import (
-    LANES,
-    FastCageData,
-    far_rows,
-    fast_destinations,
-    fast_tolerances,
-    g_row,
-)
+from .lane_ir import far_rows, g_row
+from .mvc_faces import compile_exact_face_lanes, tolerances
+from .mvc_layout import LANES, fast_destinations
+from .tree_cage import TreeCage
 from .truncation import TOO_WIDE, UNDECIDED, keep_row, store_kept
 
-__all__ = ["TreeCage", "prepare_tree_cage", "compute_tree_truncated", "tree_scratch", "THETA",
-           "LEAF_SIZE", "MAX_OPEN"]
+__all__ = ["compute_tree_truncated", "tree_scratch", "THETA", "MAX_OPEN"]
 
-#: Vertices per leaf of the hierarchy.
-LEAF_SIZE = 2
 #: Largest ratio of a node's radius to its distance from a batch for which
 #: the node is aggregated.
 THETA = 0.3
 #: Most cage vertices a batch may open (more: its rows are undecided).
 MAX_OPEN = 4096
-#: Node moments: M0 (3), M1 (9, row-major: a then b), w = 2 v1 + v2 (3)
-#: with v1_c = sum_a M2[a, a, c], v2_a = sum_b M2[a, b, b], and the
-#: symmetric M2[a] (6 each: xx xy xz yy yz zz).
-N_MOM = 33
 
 exact_face_lanes = compile_exact_face_lanes()
-
-
-@dataclass(frozen=True)
-class TreeCage:
-    """The hierarchy over a fast cage's vertices (built by :func:`prepare_tree_cage`).
-
-    Vertex ids are the fast cage's internal ones (``fast.perm``).
-
-    Attributes
-    ----------
-    fast : FastCageData
-    star_ptr, star_faces : (c + 1,), (3 f,) int64
-        Faces (kernel order) around each vertex.
-    order : (c,) int64
-        Vertices in tree order: node ``k`` holds ``order[lo[k]:hi[k]]``.
-    lo, hi, left, right : (nn,) int64
-        Node ranges and children (``left = -1`` for a leaf). Node 0 is the root.
-    geo : (nn, 9) float64
-        Centre, radius, unit mean normal, normal cone half-angle and the
-        largest star area of the node's vertices.
-    mom : (nn, N_MOM) float64
-        Moments about the centre (see ``N_MOM``).
-    aux : (nn, 11) float64
-        Vertex count, then with ``a_j`` the vector area of vertex j's hat
-        function and ``y_j`` its position from the centre: ``sum a a^T``
-        (xx xy xz yy yz zz), ``sum (a . y) a`` and ``sum (a . y)^2``.
-    """
-
-    fast: FastCageData
-    star_ptr: np.ndarray
-    star_faces: np.ndarray
-    order: np.ndarray
-    lo: np.ndarray
-    hi: np.ndarray
-    left: np.ndarray
-    right: np.ndarray
-    geo: np.ndarray
-    mom: np.ndarray
-    aux: np.ndarray
-
-    @property
-    def n_nodes(self) -> int:
-        return int(self.lo.shape[0])
-
-
-@njit(cache=True, error_model="numpy")
-def _build_nodes(pos, leaf_size):
-    """Median split on the longest axis; returns (order, lo, hi, left, right)."""
-    c = pos.shape[0]
-    order = np.arange(c)
-    cap = 4 * (c // max(1, leaf_size) + 2) + 1  # leaves hold more than leaf_size / 2
-    lo = np.empty(cap, dtype=np.int64)
-    hi = np.empty(cap, dtype=np.int64)
-    left = np.full(cap, -1, dtype=np.int64)
-    right = np.full(cap, -1, dtype=np.int64)
-    lo[0] = 0
-    hi[0] = c
-    nn = 1
-    stack = np.empty(cap, dtype=np.int64)
-    stack[0] = 0
-    sp = 1
-    while sp > 0:
-        sp -= 1
-        k = stack[sp]
-        a = lo[k]
-        b = hi[k]
-        if b - a <= leaf_size:
-            continue
-        mn = np.full(3, np.inf)
-        mx = np.full(3, -np.inf)
-        for t in range(a, b):
-            for d in range(3):
-                v = pos[order[t], d]
-                mn[d] = min(mn[d], v)
-                mx[d] = max(mx[d], v)
-        ax = 0
-        for d in range(1, 3):
-            if mx[d] - mn[d] > mx[ax] - mn[ax]:
-                ax = d
-        sub = order[a:b].copy()
-        srt = np.argsort(pos[sub, ax], kind="mergesort")
-        for t in range(b - a):
-            order[a + t] = sub[srt[t]]
-        m = (a + b) // 2
-        left[k] = nn
-        right[k] = nn + 1
-        lo[nn] = a
-        hi[nn] = m
-        lo[nn + 1] = m
-        hi[nn + 1] = b
-        stack[sp] = nn
-        stack[sp + 1] = nn + 1
-        sp += 2
-        nn += 2
-    return order, lo[:nn], hi[:nn], left[:nn], right[:nn]
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def _shift_add(dst, src, sx, sy, sz):
-    """dst += moments ``src`` (a 39-vector: M0, M1 (9), M2 (27)) moved by s = C_old - C_new."""
-    s = (sx, sy, sz)
-    for a in range(3):
-        dst[a] += src[a]
-    for a in range(3):
-        for b in range(3):
-            dst[3 + 3 * a + b] += src[3 + 3 * a + b] + src[a] * s[b]
-    for a in range(3):
-        for b in range(3):
-            for cc in range(3):
-                dst[12 + 9 * a + 3 * b + cc] += (src[12 + 9 * a + 3 * b + cc]
-                                                 + src[3 + 3 * a + b] * s[cc]
-                                                 + src[3 + 3 * a + cc] * s[b]
-                                                 + src[a] * s[b] * s[cc])
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def _unit(x, y, z):
-    """(x, y, z) scaled to length 1, and its length (a zero vector stays zero)."""
-    n = math.sqrt(x * x + y * y + z * z)
-    if n > 0.0:
-        return x / n, y / n, z / n, n
-    return x, y, z, n
-
-
-@njit(cache=True, error_model="numpy")
-def _node_data(verts, vmom, star_ptr, star_faces, faces, star_area, order, lo, hi, left, right):
-    """Bottom-up geometry and moments of every node (children after parents in the arrays)."""
-    nn = lo.shape[0]
-    geo = np.zeros((nn, 9))
-    full = np.zeros((nn, 39))
-    for k in range(nn - 1, -1, -1):
-        if left[k] < 0:
-            # Sphere around the vertices of the stars.
-            mn = np.full(3, np.inf)
-            mx = np.full(3, -np.inf)
-            for t in range(lo[k], hi[k]):
-                j = order[t]
-                for q in range(star_ptr[j], star_ptr[j + 1]):
-                    f = star_faces[q]
-                    for m in range(3):
-                        for d in range(3):
-                            v = verts[faces[f, m], d]
-                            mn[d] = min(mn[d], v)
-                            mx[d] = max(mx[d], v)
-            cx = 0.5 * (mn[0] + mx[0])
-            cy = 0.5 * (mn[1] + mx[1])
-            cz = 0.5 * (mn[2] + mx[2])
-            r = 0.0
-            amax = 0.0
-            for t in range(lo[k], hi[k]):
-                j = order[t]
-                amax = max(amax, star_area[j])
-                for q in range(star_ptr[j], star_ptr[j + 1]):
-                    f = star_faces[q]
-                    for m in range(3):
-                        i = faces[f, m]
-                        dd = math.sqrt((verts[i, 0] - cx) ** 2 + (verts[i, 1] - cy) ** 2
-                                       + (verts[i, 2] - cz) ** 2)
-                        r = max(r, dd)
-                _shift_add(full[k], vmom[j], verts[j, 0] - cx, verts[j, 1] - cy, verts[j, 2] - cz)
-            # Cone of the vertices' normals (their hat functions' vector areas).
-            nx = 0.0
-            ny = 0.0
-            nz = 0.0
-            for t in range(lo[k], hi[k]):
-                j = order[t]
-                nx += vmom[j, 0]
-                ny += vmom[j, 1]
-                nz += vmom[j, 2]
-            nx, ny, nz, nl = _unit(nx, ny, nz)
-            alpha = math.pi
-            if nl > 0.0:
-                alpha = 0.0
-                for t in range(lo[k], hi[k]):
-                    j = order[t]
-                    vl = math.sqrt(vmom[j, 0] ** 2 + vmom[j, 1] ** 2 + vmom[j, 2] ** 2)
-                    if vl > 0.0:
-                        cs = (nx * vmom[j, 0] + ny * vmom[j, 1] + nz * vmom[j, 2]) / vl
-                        alpha = max(alpha, math.acos(min(1.0, max(-1.0, cs))))
-        else:
-            a = left[k]
-            b = right[k]
-            mn = np.empty(3)
-            mx = np.empty(3)
-            for d in range(3):
-                mn[d] = min(geo[a, d] - geo[a, 3], geo[b, d] - geo[b, 3])
-                mx[d] = max(geo[a, d] + geo[a, 3], geo[b, d] + geo[b, 3])
-            cx = 0.5 * (mn[0] + mx[0])
-            cy = 0.5 * (mn[1] + mx[1])
-            cz = 0.5 * (mn[2] + mx[2])
-            r = 0.0
-            for ch in (a, b):
-                dd = math.sqrt((geo[ch, 0] - cx) ** 2 + (geo[ch, 1] - cy) ** 2
-                               + (geo[ch, 2] - cz) ** 2)
-                r = max(r, dd + geo[ch, 3])
-                _shift_add(full[k], full[ch], geo[ch, 0] - cx, geo[ch, 1] - cy, geo[ch, 2] - cz)
-            amax = max(geo[a, 8], geo[b, 8])
-            nx, ny, nz, nl = _unit(full[k, 0], full[k, 1], full[k, 2])
-            alpha = math.pi
-            if nl > 0.0:
-                alpha = 0.0
-                for ch in (a, b):
-                    cs = nx * geo[ch, 4] + ny * geo[ch, 5] + nz * geo[ch, 6]
-                    alpha = max(alpha, math.acos(min(1.0, max(-1.0, cs))) + geo[ch, 7])
-                alpha = min(alpha, math.pi)
-        geo[k, 0] = cx
-        geo[k, 1] = cy
-        geo[k, 2] = cz
-        geo[k, 3] = r
-        geo[k, 4] = nx
-        geo[k, 5] = ny
-        geo[k, 6] = nz
-        geo[k, 7] = alpha
-        geo[k, 8] = amax
-    # Compact moments: M0, M1, w, symmetric M2.
-    mom = np.empty((nn, N_MOM))
-    for k in range(nn):
-        src = full[k]
-        for m in range(12):
-            mom[k, m] = src[m]
-        for cc in range(3):
-            v1 = 0.0
-            for a in range(3):
-                v1 += src[12 + 9 * a + 3 * a + cc]
-            v2 = 0.0
-            for b in range(3):
-                v2 += src[12 + 9 * cc + 3 * b + b]
-            mom[k, 12 + cc] = 2.0 * v1 + v2
-        for a in range(3):
-            base = 12 + 9 * a
-            o = 15 + 6 * a
-            mom[k, o] = src[base + 0]
-            mom[k, o + 1] = src[base + 1]
-            mom[k, o + 2] = src[base + 2]
-            mom[k, o + 3] = src[base + 4]
-            mom[k, o + 4] = src[base + 5]
-            mom[k, o + 5] = src[base + 8]
-    # Second moments of the vertices' first-order weights (see _node_mass).
-    aux = np.zeros((nn, 11))
-    for k in range(nn):
-        cx = geo[k, 0]
-        cy = geo[k, 1]
-        cz = geo[k, 2]
-        for t in range(lo[k], hi[k]):
-            j = order[t]
-            ax = vmom[j, 0]
-            ay = vmom[j, 1]
-            az = vmom[j, 2]
-            ay_ = ax * (verts[j, 0] - cx) + ay * (verts[j, 1] - cy) + az * (verts[j, 2] - cz)
-            aux[k, 0] += 1.0
-            aux[k, 1] += ax * ax
-            aux[k, 2] += ax * ay
-            aux[k, 3] += ax * az
-            aux[k, 4] += ay * ay
-            aux[k, 5] += ay * az
-            aux[k, 6] += az * az
-            aux[k, 7] += ay_ * ax
-            aux[k, 8] += ay_ * ay
-            aux[k, 9] += ay_ * az
-            aux[k, 10] += ay_ * ay_
-    return geo, mom, aux
-
-
-def prepare_tree_cage(fast: FastCageData) -> TreeCage:
-    """The hierarchy over the vertices of a prepared fast cage (see :class:`TreeCage`)."""
-    verts = np.ascontiguousarray(fast.verts_t.T)
-    faces = np.ascontiguousarray(fast.far_idx[:, :3].astype(np.int64))
-    c = verts.shape[0]
-    nf = faces.shape[0]
-    planes = fast.exact.planes
-    fnorm = np.ascontiguousarray(planes[0:3].T)
-    farea = 0.5 * planes[4]
-    # Faces around each vertex.
-    corner_v = faces.ravel()
-    corner_f = np.repeat(np.arange(nf, dtype=np.int64), 3)
-    srt = np.argsort(corner_v, kind="stable")
-    star_faces = np.ascontiguousarray(corner_f[srt])
-    star_ptr = np.zeros(c + 1, dtype=np.int64)
-    np.cumsum(np.bincount(corner_v, minlength=c), out=star_ptr[1:])
-    star_area = np.bincount(corner_v, weights=np.repeat(farea, 3), minlength=c)
-    # Moments of each vertex's hat function about the vertex: per corner,
-    # with e1, e2 the edges from it and A the area,
-    #   int phi n = A/3 n,  int phi n y^T = A/12 n (e1 + e2)^T,
-    #   int phi n y y^T = n (A/30 (e1 e1^T + e2 e2^T) + A/60 (e1 e2^T + e2 e1^T)).
-    vmom = np.zeros((c, 39))
-    tri = verts[faces]  # (f, 3, 3)
-    for m in range(3):
-        e1 = tri[:, (m + 1) % 3] - tri[:, m]
-        e2 = tri[:, (m + 2) % 3] - tri[:, m]
-        A = farea[:, None]
-        m0 = A / 3.0 * fnorm
-        y1 = A / 12.0 * (e1 + e2)
-        S = (np.einsum("fi,fj->fij", e1, e1) + np.einsum("fi,fj->fij", e2, e2)) / 30.0
-        S += (np.einsum("fi,fj->fij", e1, e2) + np.einsum("fi,fj->fij", e2, e1)) / 60.0
-        S *= A[:, :, None]
-        m1 = np.einsum("fa,fb->fab", fnorm, y1).reshape(nf, 9)
-        m2 = np.einsum("fa,fbc->fabc", fnorm, S).reshape(nf, 27)
-        part = np.concatenate([m0, m1, m2], axis=1)
-        for q in range(39):
-            vmom[:, q] += np.bincount(faces[:, m], weights=part[:, q], minlength=c)
-    order, lo, hi, left, right = _build_nodes(verts, LEAF_SIZE)
-    geo, mom, aux = _node_data(verts, vmom, star_ptr, star_faces, faces, star_area,
-                          order, lo, hi, left, right)
-    return TreeCage(fast=fast, star_ptr=star_ptr, star_faces=star_faces, order=order, lo=lo,
-                    hi=hi, left=left, right=right, geo=geo, mom=mom, aux=aux)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -493,7 +175,11 @@ def tree_scratch(tree: TreeCage, n_workers: int) -> tuple:
 @njit(cache=True, error_model="numpy")
 def _tree_batch(X, xc, xr, dest, cg, tg, eps_near, far_ratio, theta, truncation, min_kept_sum,
                 col_of, counts, cols, vals, sc, wk, row, surv, work, idx, colmap):
-    """Truncated rows of one batch into ``counts[r]``, ``cols[r]``, ``vals[r]``, r = dest[l]."""
+    """Truncated rows of one batch into ``counts[r]``, ``cols[r]``, ``vals[r]``, r = dest[l].
+
+    The steps are inlined; the loop over the open faces stays in this body (one kernel: as
+    inlined steps of its own it ran 35% slower, bind "fast" on the 43K armadillo, one thread).
+    """
     verts_t, mids_t, qcoef, far_idx, planes, face_geo = cg
     star_ptr, star_faces, order, lo, hi, left, right, geo, mom, aux = tg
     stack = sc[0][wk]
@@ -511,80 +197,28 @@ def _tree_batch(X, xc, xr, dest, cg, tg, eps_near, far_ratio, theta, truncation,
     gbuf = sc[12][wk]
     gown = sc[13][wk]
     gi = sc[14][wk]
-    cap = open_v.shape[0]
     cap_g = gbuf.shape[0] - 6
-    nl = X.shape[1]
     cx = xc[0]
     cy = xc[1]
     cz = xc[2]
-    fsig = agg[0]
-    fmag = agg[1]
-    bmax = agg[2]
     undecided = agg[3]
-    for l in range(nl):
-        yg[0, l] = np.float32(X[0, l] - cx)
-        yg[1, l] = np.float32(X[1, l] - cy)
-        yg[2, l] = np.float32(X[2, l] - cz)
-        fsig[l] = 0.0
-        fmag[l] = 0.0
-        bmax[l] = 0.0
-        undecided[l] = 1.0 if dest[l] < 0 else 0.0
-    half_pi = 0.5 * math.pi
-    # Walk the hierarchy: aggregate or open.
-    n_open = 0
-    overflow = False
-    stack[0] = 0
-    sp = 1
-    while sp > 0:
-        sp -= 1
-        k = stack[sp]
-        dx = geo[k, 0] - cx
-        dy = geo[k, 1] - cy
-        dz = geo[k, 2] - cz
-        d = math.sqrt(dx * dx + dy * dy + dz * dz)
-        r = geo[k, 3]
-        if r <= theta * (d - xr):
-            beta = math.asin(min(1.0, (r + xr) / d))
-            cs = (geo[k, 4] * dx + geo[k, 5] * dy + geo[k, 6] * dz) / d
-            gamma = math.acos(min(1.0, max(-1.0, cs)))
-            alpha = geo[k, 7]
-            coherent = gamma + alpha + beta < half_pi or gamma - alpha - beta > half_pi
-            _node_lanes(mom, aux, geo, k, X, coherent, fsig, fmag, bmax)
-        elif left[k] < 0:
-            if n_open + hi[k] - lo[k] > cap:
-                overflow = True
-                break
-            for t in range(lo[k], hi[k]):
-                j = order[t]
-                open_v[n_open] = j
-                n_open += 1
-                slot_of[j] = n_open
-        else:
-            stack[sp] = right[k]
-            stack[sp + 1] = left[k]
-            sp += 2
+    _start_lanes(X, cx, cy, cz, dest, yg, agg)
+    n_open, overflow = _walk(mom, aux, geo, order, lo, hi, left, right, X, cx, cy, cz, xr, theta, stack,
+                             open_v, slot_of, agg)
     if overflow:
         for s in range(n_open):
             slot_of[open_v[s]] = 0
-        for l in range(nl):
+        for l in range(X.shape[1]):
             r = dest[l]
             if r >= 0:
                 counts[r] = UNDECIDED
         return
-    # Faces of the open vertices' stars.
-    n_faces = 0
-    for s in range(n_open):
-        j = open_v[s]
-        for q in range(star_ptr[j], star_ptr[j + 1]):
-            f = star_faces[q]
-            if not fmark[f]:
-                fmark[f] = True
-                flist[n_faces] = f
-                n_faces += 1
+    n_faces = _star_faces(open_v, n_open, star_ptr, star_faces, fmark, flist)
     Y0 = yg[0]
     Y1 = yg[1]
     Y2 = yg[2]
-    sink = accf[cap]
+    sink = accf[open_v.shape[0]]
+    nl = X.shape[1]
     n_g = 0
     for m in range(n_faces):
         f = flist[m]
@@ -666,8 +300,105 @@ def _tree_batch(X, xc, xr, dest, cg, tg, eps_near, far_ratio, theta, truncation,
             eslot[-1 - o] = 0
     for s in range(n_open):
         colmap[s] = col_of[open_v[s]]
+    _store_rows(dest, agg, nacc, accf, n_open, truncation, min_kept_sum, counts, cols, vals, row, surv,
+                work, idx, colmap)
+    # Leave the scratch clean.
+    for s in range(n_open):
+        slot_of[open_v[s]] = 0
+        for l in range(X.shape[1]):
+            nacc[l, s] = 0.0
+        accf[s, :] = np.float32(0.0)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _start_lanes(X, cx, cy, cz, dest, yg, agg):
+    """The lanes relative to the batch centre c into ``yg`` (float32); the aggregates ``agg``
+    (signed total, magnitude, bound, undecided flag) zeroed, inactive lanes undecided."""
+    for l in range(X.shape[1]):
+        yg[0, l] = np.float32(X[0, l] - cx)
+        yg[1, l] = np.float32(X[1, l] - cy)
+        yg[2, l] = np.float32(X[2, l] - cz)
+        agg[0, l] = 0.0
+        agg[1, l] = 0.0
+        agg[2, l] = 0.0
+        agg[3, l] = 1.0 if dest[l] < 0 else 0.0
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _walk(mom, aux, geo, order, lo, hi, left, right, X, cx, cy, cz, xr, theta, stack, open_v, slot_of, agg):
+    """Walk the hierarchy from the root: aggregate the nodes well separated from the batch (into
+    ``agg``), open the other leaves (their vertices into ``open_v``, 1 + slot into ``slot_of``).
+
+    Returns ``(n_open, overflow)``: overflow when more than ``len(open_v)`` vertices would open.
+    """
+    fsig = agg[0]
+    fmag = agg[1]
+    bmax = agg[2]
+    cap = open_v.shape[0]
+    half_pi = 0.5 * math.pi
+    n_open = 0
+    overflow = False
+    stack[0] = 0
+    sp = 1
+    while sp > 0:
+        sp -= 1
+        k = stack[sp]
+        dx = geo[k, 0] - cx
+        dy = geo[k, 1] - cy
+        dz = geo[k, 2] - cz
+        d = math.sqrt(dx * dx + dy * dy + dz * dz)
+        r = geo[k, 3]
+        if r <= theta * (d - xr):
+            beta = math.asin(min(1.0, (r + xr) / d))
+            cs = (geo[k, 4] * dx + geo[k, 5] * dy + geo[k, 6] * dz) / d
+            gamma = math.acos(min(1.0, max(-1.0, cs)))
+            alpha = geo[k, 7]
+            coherent = gamma + alpha + beta < half_pi or gamma - alpha - beta > half_pi
+            _node_lanes(mom, aux, geo, k, X, coherent, fsig, fmag, bmax)
+        elif left[k] < 0:
+            if n_open + hi[k] - lo[k] > cap:
+                overflow = True
+                break
+            for t in range(lo[k], hi[k]):
+                j = order[t]
+                open_v[n_open] = j
+                n_open += 1
+                slot_of[j] = n_open
+        else:
+            stack[sp] = right[k]
+            stack[sp + 1] = left[k]
+            sp += 2
+    return n_open, overflow
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _star_faces(open_v, n_open, star_ptr, star_faces, fmark, flist):
+    """The faces of the open vertices' stars, each once, into ``flist`` (marked in ``fmark``);
+    returns their count."""
+    n_faces = 0
+    for s in range(n_open):
+        j = open_v[s]
+        for q in range(star_ptr[j], star_ptr[j + 1]):
+            f = star_faces[q]
+            if not fmark[f]:
+                fmark[f] = True
+                flist[n_faces] = f
+                n_faces += 1
+    return n_faces
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _store_rows(dest, agg, nacc, accf, n_open, truncation, min_kept_sum, counts, cols, vals, row, surv,
+                work, idx, colmap):
+    """Each decided lane's row (open vertices' weights, the aggregated mass counted as dropped)
+    normalized and truncated into ``counts``, ``cols``, ``vals``; UNDECIDED where the rule on the
+    partial row cannot be shown to be the rule on the whole row."""
+    fsig = agg[0]
+    fmag = agg[1]
+    bmax = agg[2]
+    undecided = agg[3]
     rw = row[:n_open]
-    for l in range(nl):
+    for l in range(dest.shape[0]):
         rr = dest[l]
         if rr < 0:
             continue
@@ -700,12 +431,6 @@ def _tree_batch(X, xc, xr, dest, cg, tg, eps_near, far_ratio, theta, truncation,
             counts[rr] = UNDECIDED
             continue
         counts[rr] = store_kept(n_keep, scale, idx, work, colmap, cols[rr], vals[rr])
-    # Leave the scratch clean.
-    for s in range(n_open):
-        slot_of[open_v[s]] = 0
-        for l in range(nl):
-            nacc[l, s] = 0.0
-        accf[s, :] = np.float32(0.0)
 
 
 @njit(cache=True, error_model="numpy", parallel=True)
@@ -730,7 +455,7 @@ def compute_tree_truncated(plan, tree: TreeCage, start: int, stop: int, truncati
                            min_kept_sum: float, counts: np.ndarray, cols: np.ndarray,
                            vals: np.ndarray, far_ratio: float, scratch: tuple,
                            theta: float = THETA) -> None:
-    """Truncated rows of sorted positions [start, stop) of a :class:`~hybridedit.binding.mvc_flat.FastPlan`.
+    """Truncated rows of sorted positions [start, stop) of a :class:`~hybridedit.binding.mvc_layout.FastPlan`.
 
     Row ``r = position - start`` gets ``counts[r]`` entries in ``cols[r]``
     (caller's column indices, sorted) and ``vals[r]``, or ``counts[r]`` =
@@ -741,7 +466,7 @@ def compute_tree_truncated(plan, tree: TreeCage, start: int, stop: int, truncati
         return
     fast = tree.fast
     k0, k1, dest = fast_destinations(plan, start, stop)
-    _, _, eps_near = fast_tolerances(fast)
+    _, _, eps_near = tolerances(fast.scale)
     cg = (fast.verts_t, fast.mids_t, fast.qcoef, fast.far_idx, fast.exact.planes, fast.face_geo)
     tg = (tree.star_ptr, tree.star_faces, tree.order, tree.lo, tree.hi, tree.left, tree.right,
           tree.geo, tree.mom, tree.aux)

@@ -20,7 +20,8 @@ import scipy.sparse as sp
 
 from ..defaults import CAGE_SIZE, TRUNCATION
 from . import cache as bindcache
-from ..cage.build import cage_and_binding, cage_links
+from ..cage.build import cage_and_binding
+from ..cage.links import cage_links
 from ..core.mesh import Mesh
 
 Progress = Callable[[str, float], None]
@@ -70,7 +71,7 @@ class Rig:
     @property
     def links(self) -> np.ndarray:
         """(k, 2) int64 extra cage edges for ARAP tying separate cage parts to the
-        part that holds them (see :func:`hybridedit.cage.build.cage_links`)."""
+        part that holds them (see :func:`hybridedit.cage.links.cage_links`)."""
         cached = self.__dict__.get("_links")
         if cached is None:
             cached = cage_links(self.cage)

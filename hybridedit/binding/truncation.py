@@ -82,11 +82,31 @@ def _select_row(row, truncation, pre_dropped, surv, vals):
     Returns ``(n_drop, n_live, order, dropped)``: the kept entries are
     ``surv[order[k]]`` for ``n_drop <= k < n_live``. ``n_live`` is -1 if the
     row holds an inf or nan, -2 if ``pre_dropped`` exceeds the budget. ``surv`` (int64) and ``vals`` (float64), both
-    at least as long as the row, are scratch.
+    at least as long as the row, are scratch. The stages (see the module docstring) are
+    inlined steps.
     """
+    mag = _magnitude(row)
+    if not (mag < np.inf):
+        return 0, -1, np.empty(0, dtype=np.int64), 0.0  # inf or nan in the row
+    budget = truncation * (mag + pre_dropped)
+    if pre_dropped > budget:
+        return 0, -2, np.empty(0, dtype=np.int64), 0.0
+    # Stage 1: entries of magnitude <= (budget - pre_dropped) / c are always
+    # dropped.
+    n_surv, kept_mag = _drop_small(row, (budget - pre_dropped) / row.shape[0], surv, vals)
+    dropped = pre_dropped + max(0.0, mag - kept_mag)
+    n_live, dropped = _drop_rounds(surv, vals, n_surv, budget, dropped)
+    if n_live > BUCKET_MIN:
+        n_live, dropped = _drop_buckets(surv, vals, n_live, budget, dropped)
+    n_drop, order, dropped = _drop_sorted(vals, n_live, budget, dropped)
+    return n_drop, n_live, order, dropped
+
+
+@njit(cache=True, fastmath=False, error_model="numpy", inline="always")
+def _magnitude(row):
+    """sum_j |row[j]|, with four partial sums (a single running sum is bound by the latency of
+    the additions)."""
     c = row.shape[0]
-    # Row magnitude with four partial sums (a single running sum is bound by
-    # the latency of the additions).
     m0 = 0.0
     m1 = 0.0
     m2 = 0.0
@@ -99,17 +119,15 @@ def _select_row(row, truncation, pre_dropped, surv, vals):
         m3 += abs(row[j + 3])
     for j in range(c4, c):
         m0 += abs(row[j])
-    mag = (m0 + m1) + (m2 + m3)
-    if not (mag < np.inf):
-        return 0, -1, np.empty(0, dtype=np.int64), 0.0  # inf or nan in the row
-    budget = truncation * (mag + pre_dropped)
-    if pre_dropped > budget:
-        return 0, -2, np.empty(0, dtype=np.int64), 0.0
-    # Stage 1: entries of magnitude <= (budget - pre_dropped) / c are always
-    # dropped.
-    small = (budget - pre_dropped) / c
+    return (m0 + m1) + (m2 + m3)
+
+
+@njit(cache=True, fastmath=False, error_model="numpy", inline="always")
+def _drop_small(row, small, surv, vals):
+    """Stage 1: the positions of the entries of magnitude above ``small`` into ``surv``, their
+    magnitudes into ``vals``; returns their count and total magnitude."""
     n_surv = 0
-    for j in range(c):
+    for j in range(row.shape[0]):
         # Branch-free compaction: always write, advance only for survivors.
         surv[n_surv] = j
         n_surv += 1 if abs(row[j]) > small else 0
@@ -118,12 +136,15 @@ def _select_row(row, truncation, pre_dropped, surv, vals):
         a = abs(row[surv[k]])
         vals[k] = a
         kept_mag += a
-    dropped = pre_dropped + max(0.0, mag - kept_mag)
-    # Stage 1b: the same argument on the survivors with what is left of the
-    # budget: those of magnitude <= left / n_live total at most ``left`` and
-    # are the smallest survivors. Repeat while it drops something; each round
-    # moves the still-live entries to the front of surv/vals.
-    n_live = n_surv
+    return n_surv, kept_mag
+
+
+@njit(cache=True, fastmath=False, error_model="numpy", inline="always")
+def _drop_rounds(surv, vals, n_live, budget, dropped):
+    """Stage 1b: stage 1 again on the survivors with what is left of the budget (those of
+    magnitude <= left / n_live total at most ``left`` and are the smallest survivors), while it
+    drops something, at most MAX_ROUNDS times. Each round moves the still-live entries to the
+    front of surv/vals. Returns ``(n_live, dropped)``."""
     rounds = 0
     while n_live > 0 and rounds < MAX_ROUNDS:
         rounds += 1
@@ -146,41 +167,49 @@ def _select_row(row, truncation, pre_dropped, surv, vals):
             break
         dropped += gone
         n_live = k
-    if n_live > BUCKET_MIN:
-        # Stage 1c (rows whose magnitudes spread evenly, where 1b would
-        # take many rounds): a histogram of the magnitudes by their leading
-        # bits (16 buckets per octave, exact order between buckets). Every
-        # bucket below the one where the cumulative sum crosses the budget
-        # is dropped whole; the rest go to stage 2.
-        bits = vals[:n_live].view(np.int64)
-        kmax = 0
+    return n_live, dropped
+
+
+@njit(cache=True, fastmath=False, error_model="numpy", inline="always")
+def _drop_buckets(surv, vals, n_live, budget, dropped):
+    """Stage 1c (rows whose magnitudes spread evenly, where 1b would take many rounds): a
+    histogram of the magnitudes by their leading bits (16 buckets per octave, exact order between
+    buckets). Every bucket below the one where the cumulative sum crosses the budget is dropped
+    whole; the rest go to stage 2. Returns ``(n_live, dropped)``."""
+    bits = vals[:n_live].view(np.int64)
+    kmax = 0
+    for m in range(n_live):
+        kmax = max(kmax, bits[m] >> 48)
+    base = kmax - (N_BUCKETS - 1)
+    hist = np.zeros(N_BUCKETS)
+    for m in range(n_live):
+        hist[max(0, (bits[m] >> 48) - base)] += vals[m]
+    left = budget - dropped
+    cum = 0.0
+    cut = 0
+    while cut < N_BUCKETS and cum + hist[cut] <= left:
+        cum += hist[cut]
+        cut += 1
+    if cut > 0:
+        k = 0
+        gone = 0.0
         for m in range(n_live):
-            kmax = max(kmax, bits[m] >> 48)
-        base = kmax - (N_BUCKETS - 1)
-        hist = np.zeros(N_BUCKETS)
-        for m in range(n_live):
-            hist[max(0, (bits[m] >> 48) - base)] += vals[m]
-        left = budget - dropped
-        cum = 0.0
-        cut = 0
-        while cut < N_BUCKETS and cum + hist[cut] <= left:
-            cum += hist[cut]
-            cut += 1
-        if cut > 0:
-            k = 0
-            gone = 0.0
-            for m in range(n_live):
-                a = vals[m]
-                if max(0, (bits[m] >> 48) - base) < cut:
-                    gone += a
-                else:
-                    surv[k] = surv[m]
-                    vals[k] = a
-                    k += 1
-            dropped += gone
-            n_live = k
-    # Stage 2: sort what is left, smallest first, and drop while the budget
-    # allows.
+            a = vals[m]
+            if max(0, (bits[m] >> 48) - base) < cut:
+                gone += a
+            else:
+                surv[k] = surv[m]
+                vals[k] = a
+                k += 1
+        dropped += gone
+        n_live = k
+    return n_live, dropped
+
+
+@njit(cache=True, fastmath=False, error_model="numpy", inline="always")
+def _drop_sorted(vals, n_live, budget, dropped):
+    """Stage 2: sort what is left, smallest first, and drop while the budget allows. Returns
+    ``(n_drop, order, dropped)``."""
     order = np.argsort(vals[:n_live], kind="mergesort")
     n_drop = 0
     for k in range(n_live):
@@ -190,7 +219,7 @@ def _select_row(row, truncation, pre_dropped, surv, vals):
             n_drop += 1
         else:
             break
-    return n_drop, n_live, order, dropped
+    return n_drop, order, dropped
 
 
 @njit(cache=True, fastmath=False, error_model="numpy")

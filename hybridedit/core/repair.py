@@ -72,34 +72,64 @@ def _split_nonmanifold(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.nda
     for g in wide:
         hs = order[start[g]:start[g] + count[g]]
         k = int(ks[start[g]])
-        a, b = k // n, k % n
-        axis = v[b] - v[a]
-        axis = axis / (np.linalg.norm(axis) or 1.0)
-        faces_here = face[hs]
-        third = np.array([int(x) for t in faces_here for x in f[t] if x != a and x != b][: len(hs)])
-        w = v[third] - v[a]
-        w -= np.outer(w @ axis, axis)
-        ref = w[0] / (np.linalg.norm(w[0]) or 1.0)
-        angle = np.arctan2(w @ np.cross(axis, ref), w @ ref)
-        # a face with the half-edge a -> b and its third corner at angle phi has its normal along
-        # axis x wing, the way the angle grows: its inside (behind the normal) lies behind it in angle;
-        # with b -> a, ahead
-        opens_ahead = ~fwd[hs]
-        ring = np.argsort(angle, kind="stable")
-        step = np.where(opens_ahead[ring], 1, -1)
-        first = int(np.argmin(np.cumsum(step))) + 1  # brackets on a circle: start where none is left open
-        pairs, stack = [], []
-        for i in np.roll(ring, -first):
-            if opens_ahead[i]:
-                stack.append(i)
-            elif stack:
-                pairs.append((stack.pop(), i))
-        paired = {x for p in pairs for x in p}
-        drop.update(int(faces_here[i]) for i in range(len(hs)) if i not in paired)
-        joined[k] = [(int(faces_here[p]), int(faces_here[q])) for p, q in pairs]
+        joined[k], unpaired = _pair_sheets(v, f, n, k, face[hs], fwd[hs])
+        drop.update(unpaired)
     keep = np.ones(len(f), dtype=bool)
     keep[list(drop)] = False
-    # the vertices of the wide edges: one copy for each further group of their faces
+    v, out = _separate_sheets(v, f, n, keep, joined, order, ks, start, count, face)
+    return v, out[keep], sum(len(p) > 1 for p in joined.values()), len(drop)
+
+
+def _pair_sheets(v: np.ndarray, f: np.ndarray, n: int, k: int, faces_here: np.ndarray,
+                 forward: np.ndarray) -> tuple[list[tuple[int, int]], list[int]]:
+    """The faces around the wide edge of key ``k`` (``a * n + b``), paired as brackets by angle.
+
+    Parameters
+    ----------
+    v : (n, 3) float64, f : (m, 3) int64
+    faces_here : (h,) int64 the faces of the edge's half-edges; forward : (h,) bool, a half-edge a -> b
+
+    Returns
+    -------
+    pairs : the (face, face) pairs of one sheet across the edge
+    unpaired : the faces left without a partner (fins, to drop)
+    """
+    a, b = k // n, k % n
+    axis = v[b] - v[a]
+    axis = axis / (np.linalg.norm(axis) or 1.0)
+    third = np.array([int(x) for t in faces_here for x in f[t] if x != a and x != b][: len(faces_here)])
+    w = v[third] - v[a]
+    w -= np.outer(w @ axis, axis)
+    ref = w[0] / (np.linalg.norm(w[0]) or 1.0)
+    angle = np.arctan2(w @ np.cross(axis, ref), w @ ref)
+    # a face with the half-edge a -> b and its third corner at angle phi has its normal along
+    # axis x wing, the way the angle grows: its inside (behind the normal) lies behind it in angle;
+    # with b -> a, ahead
+    opens_ahead = ~forward
+    ring = np.argsort(angle, kind="stable")
+    step = np.where(opens_ahead[ring], 1, -1)
+    first = int(np.argmin(np.cumsum(step))) + 1  # brackets on a circle: start where none is left open
+    pairs, stack = [], []
+    for i in np.roll(ring, -first):
+        if opens_ahead[i]:
+            stack.append(i)
+        elif stack:
+            pairs.append((stack.pop(), i))
+    paired = {x for p in pairs for x in p}
+    unpaired = [int(faces_here[i]) for i in range(len(faces_here)) if i not in paired]
+    return [(int(faces_here[p]), int(faces_here[q])) for p, q in pairs], unpaired
+
+
+def _separate_sheets(v: np.ndarray, f: np.ndarray, n: int, keep: np.ndarray,
+                     joined: dict[int, list[tuple[int, int]]], order: np.ndarray, ks: np.ndarray,
+                     start: np.ndarray, count: np.ndarray, face: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every vertex of a wide edge given a copy for each further sheet meeting there: the groups of
+    its kept faces that the pairs ``joined`` and the two-face edges do not join.
+
+    ``order``, ``ks``, ``start``, ``count`` and ``face`` are the half-edges sorted by key (as in
+    :func:`_split_nonmanifold`). Returns the vertices (copies appended) and all the faces (not only
+    the kept ones) with the copies in place.
+    """
     touched = np.unique(np.concatenate([[k // n, k % n] for k in joined]))
     extra: list[np.ndarray] = []
     out = f.copy()
@@ -141,7 +171,7 @@ def _split_nonmanifold(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.nda
             nxt += 1
     if extra:
         v = np.vstack([v, np.array(extra)])
-    return v, out[keep], sum(len(p) > 1 for p in joined.values()), len(drop)
+    return v, out
 
 
 @numba.njit(cache=True)

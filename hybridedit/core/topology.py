@@ -10,6 +10,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from .parallel import pick
+
 __all__ = [
     "DEGENERATE_RATIO",
     "check_closed",
@@ -267,11 +269,6 @@ def _closed_oriented(f, n):  # pragma: no cover - compiled
     return True
 
 
-#: below this many faces the degenerate-face test runs on one thread (starting the
-#: thread pool costs more than the work)
-PARALLEL_MIN_FACES = 50_000
-
-
 @numba.njit(cache=True, parallel=True)
 def _degenerate_parallel(v, f, ratio, out):  # pragma: no cover - compiled
     for i in numba.prange(f.shape[0]):
@@ -325,10 +322,9 @@ def degenerate_faces(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     v = np.ascontiguousarray(vertices, dtype=np.float64)
     f = np.ascontiguousarray(faces, dtype=np.int64).reshape(-1, 3)
     out = np.zeros(len(f), dtype=bool)
-    if len(f) >= PARALLEL_MIN_FACES:
-        _degenerate_parallel(v, f, DEGENERATE_RATIO, out)
-    elif len(f):
-        _degenerate_serial(v, f, DEGENERATE_RATIO, out)
+    if len(f):
+        # below THRESHOLDS["faces"] on one thread: starting the pool costs more than the work
+        pick("faces", _degenerate_serial, _degenerate_parallel, len(f))(v, f, DEGENERATE_RATIO, out)
     return out
 
 

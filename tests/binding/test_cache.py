@@ -144,7 +144,7 @@ def test_the_cage_links_are_kept_with_the_entry(tmp_path):
     """A cage of many pieces: its links are stored with the entry and come back equal to the ones
     computed from the cage (a reopen does not search among the pieces again)."""
     from hybridedit.binding import cache as bindcache
-    from hybridedit.cage.build import cage_links
+    from hybridedit.cage.links import cage_links
     from hybridedit.binding.rig import build_rig
 
     a, b = bumpy_blob(2), bumpy_blob(2)

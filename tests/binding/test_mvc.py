@@ -9,7 +9,8 @@ import pytest
 import trimesh
 
 from hybridedit.binding import mvc
-from hybridedit.binding.mvc import check_closed, mean_value_coordinates
+from hybridedit.binding.mvc import mean_value_coordinates
+from hybridedit.core.topology import check_closed
 
 
 # ---------------------------------------------------------------------------
@@ -411,13 +412,17 @@ def test_relabelling_cage_vertices_and_faces_permutes_columns():
 
 
 def test_rejects_open_or_inconsistent_cages():
+    # (the one closedness check, hybridedit.core.topology.check_closed, says why)
     v, f = cube_cage()
-    with pytest.raises(ValueError, match="closed"):
+    with pytest.raises(ValueError, match="closed, consistently oriented surface: 3 edge.s. are unbalanced"):
         mean_value_coordinates(np.zeros((1, 3)), v, f[1:])
     g = f.copy()
     g[0] = g[0, ::-1]  # one face flipped
-    with pytest.raises(ValueError, match="closed"):
-        mean_value_coordinates(np.zeros((1, 3)), v, g)
+    for method in ("exact", "fast"):
+        with pytest.raises(ValueError, match="closed, consistently oriented surface"):
+            mean_value_coordinates(np.zeros((1, 3)), v, g, method=method)
+        with pytest.raises(ValueError, match="repeated vertex index"):
+            mean_value_coordinates(np.zeros((1, 3)), v, np.vstack([f, [[0, 0, 1]]]), method=method)
 
 
 def test_rejects_bad_inputs():

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 import trimesh
 
-from hybridedit.binding import mvc_flat
+from hybridedit.binding import mvc_layout
 
-from hybridedit.binding import mvc_tree
+from hybridedit.binding import mvc_tree, tree_cage
 from hybridedit.binding.bind import bind
 from hybridedit.core.mesh import Mesh
 from hybridedit.binding.mvc import mean_value_coordinates
@@ -60,8 +60,8 @@ def hat_weights(verts, faces, star_vertices, x, levels=3):
 def test_node_expansion_error_falls_like_the_cube_of_distance():
     v, f = sphere(3)
     v = bumpy(v, 0.1)
-    fast = mvc_flat.prepare_fast_cage(v, f)
-    tree = mvc_tree.prepare_tree_cage(fast)
+    fast = mvc_layout.prepare_fast_cage(v, f)
+    tree = tree_cage.prepare_tree_cage(fast)
     verts = fast.verts_t.T
     faces = fast.far_idx[:, :3].astype(np.int64)
     # a node of a few dozen vertices
@@ -175,9 +175,9 @@ def test_most_rows_of_a_scan_are_decided_by_the_hierarchy():
     f = np.asarray(m.faces, dtype=np.int64)
     cv, cf = fast_simplification.simplify(v, f, target_reduction=1.0 - 2000.0 / len(v))
     pts = np.ascontiguousarray(v[::10])
-    fast = mvc_flat.prepare_fast_cage(cv, cf)
-    tree = mvc_tree.prepare_tree_cage(fast)
-    plan = mvc_flat.plan_fast(pts, fast)
+    fast = mvc_layout.prepare_fast_cage(cv, cf)
+    tree = tree_cage.prepare_tree_cage(fast)
+    plan = mvc_layout.plan_fast(pts, fast)
     n = len(pts)
     out = []
     for theta in (mvc_tree.THETA, 0.1):

@@ -3,7 +3,8 @@ import pytest
 import trimesh
 from scipy.spatial import cKDTree
 
-from hybridedit.cage.build import build_cage, clean_surface
+from hybridedit.cage.build import build_cage
+from hybridedit.cage.clean import clean_surface
 from hybridedit.core.mesh import Mesh, MeshError
 
 from shapes import bumpy_blob
@@ -67,7 +68,7 @@ def test_a_cage_size_is_checked_by_one_rule_wherever_it_comes_from(blob):
 
 # ------------------------------------------------------------------ repairs (hybridedit.core.repair)
 
-from hybridedit.binding.mvc import check_closed  # noqa: E402
+from hybridedit.core.topology import check_closed  # noqa: E402
 from hybridedit.core.repair import box_cage, cage_source, close_holes  # noqa: E402
 
 
@@ -192,7 +193,10 @@ def test_box_cage_is_closed_and_outward():
 # ------------------------------------------------------------------ parts, sheets, tiny meshes
 
 from hybridedit import HybridEditor  # noqa: E402
-from hybridedit.cage.build import cage_and_binding, cage_links, cage_parts, shell_pairs, thicken  # noqa: E402
+from hybridedit.cage.build import cage_and_binding  # noqa: E402
+from hybridedit.cage.links import cage_links  # noqa: E402
+from hybridedit.cage.parts import cage_parts  # noqa: E402
+from hybridedit.cage.shell import shell_pairs, thicken  # noqa: E402
 from hybridedit.core.mesh import edge_stretch  # noqa: E402
 from hybridedit.core.topology import connected_parts  # noqa: E402
 
@@ -227,7 +231,7 @@ def _drag(mesh, handle, fixed, move, frames=15, size=0.05):
 
 
 def _winding(points, cage):
-    from hybridedit.cage.build import _winding as w
+    from hybridedit.cage.links import _winding as w
     return w(points, cage.vertices, cage.faces)
 
 

@@ -106,7 +106,8 @@ def test_a_cage_built_from_halves_is_closed_and_of_the_asked_size(big_blob, monk
 
 
 def test_the_cage_build_reports_its_progress_in_steps(big_blob, monkeypatch):
-    from hybridedit.cage.build import HALVES_SHARE, REPAIR_SHARE, cage_parts
+    from hybridedit.cage.parts import REPAIR_SHARE, cage_parts
+    from hybridedit.cage.simplify import HALVES_SHARE
 
     monkeypatch.setattr(qem, "SPLIT_MIN_FACES", 0)
     seen = []

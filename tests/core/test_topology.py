@@ -98,12 +98,13 @@ def test_group_rows_in_order_of_first_occurrence():
 
 
 def test_the_parallel_and_serial_degenerate_tests_agree():
-    from hybridedit.core.topology import PARALLEL_MIN_FACES, _degenerate_serial
+    from hybridedit.core.parallel import THRESHOLDS
+    from hybridedit.core.topology import _degenerate_serial
 
     s = trimesh.creation.icosphere(subdivisions=6)
     v = np.asarray(s.vertices).copy()
     f = np.asarray(s.faces, dtype=np.int64).copy()
-    assert len(f) >= PARALLEL_MIN_FACES
+    assert len(f) >= THRESHOLDS["faces"]
     f[::1000, 1] = f[::1000, 0]  # repeated indices
     v[f[5::1000, 2]] = v[f[5::1000, 0]]  # collapsed corners
     serial = np.zeros(len(f), dtype=bool)
