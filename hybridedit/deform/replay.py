@@ -103,7 +103,8 @@ def replay(editor: "HybridEditor", edit: Edit, *, frames: int = SETTLE_FRAMES, i
     say = progress or (lambda stage, fraction: None)
     steps = edit.steps
     plans = _plans(steps, frames, per)
-    work = _Work(total=max(sum(map(sum, plans)) + len(plans[-1]) + sum(s.polish or 0 for s in steps), 1), say=say)
+    # a drag of c iterations counts c + 1 units (its propagation), a polish its iterations
+    work = _Work(total=max(sum(sum(p) + len(p) for p in plans) + sum(s.polish or 0 for s in steps), 1), say=say)
     current, made = editor, {}
     for k, step in enumerate(steps):
         target = _runs_on(step, current, editor, editor_for_cage, made)

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Protocol, runtime_checkable
 import numpy as np
 from qtpy import QtCore
 
-from ..deform.editor import SelectionError
+from ..deform.selection import SelectionError
 from .framethread import DragFrame, FrameThread, Job
 
 if TYPE_CHECKING:

@@ -11,7 +11,7 @@ from qtpy import QtCore, QtWidgets
 
 from ..fileio.atomic import WriteError
 from ..fileio.editfile import EditFileError, load_edit, save_edit
-from ..deform.editor import SelectionError
+from ..deform.selection import SelectionError
 from ..fileio.meshfiles import SUPPORTED_EXTENSIONS, MeshFileError, write_mesh
 from ..core.mesh import MeshError
 

@@ -10,7 +10,7 @@ import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ..deform.editor import SelectionError
+from ..deform.selection import SelectionError
 from .session import Session
 from .statusbar import guarded
 from .worker import BuildResult, BuildWorker

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 from qtpy import QtGui
 
-from ..deform.editor import SelectionError
+from ..deform.selection import SelectionError
 from ..deform.roles import FREE, handle as handle_role
 from .palette import ROLE_COLORS, role_rows
 from .selectionstate import ROI

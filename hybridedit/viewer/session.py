@@ -39,7 +39,8 @@ import numpy as np
 
 from ..defaults import CAGE_SIZE, ITERATIONS, SETTLE_FRAMES
 from ..fileio.editfile import Edit
-from ..deform.editor import HybridEditor, SelectionError
+from ..deform.editor import HybridEditor
+from ..deform.selection import SelectionError
 from ..core.mesh import Mesh, rrms_edge_error
 from ..deform.roles import FIXED, handle as handle_role, is_handle
 from .history import History, Snapshot

@@ -52,6 +52,19 @@ def test_the_steps_of_a_pose_replay_to_it_exactly_through_a_file(shape):
     assert np.array_equal(again.apply_edit(back), V)
 
 
+def test_progress_rises_from_0_to_1_and_never_beyond(shape):
+    ed = he.HybridEditor(shape, 120)
+    three_steps(ed, shape)
+    said = []
+    again = he.HybridEditor(shape, 120)
+    replay(again, ed.edit, iterations=7, progress=lambda stage, f: said.append((stage, f)))
+    fractions = [f for _, f in said]
+    assert fractions[0] == 0.0 and fractions[-1] == 1.0
+    assert all(0.0 <= a <= b <= 1.0 for a, b in zip(fractions, fractions[1:]))
+    assert {"deforming", "polishing"} <= {stage for stage, _ in said}
+    assert fractions[-2] > 0.8  # the count covers the work: the last unit starts near the end
+
+
 def test_the_split_into_drags_does_not_change_the_pose(shape):
     """What the settle's slices and the replay's drags rely on: k iterations are k iterations."""
     e = ends(shape)
