@@ -37,6 +37,12 @@ def _numba_cache_where_writable() -> None:
 
 _numba_cache_where_writable()
 
+# OpenMP threads (numba's parallel kernels, CHOLMOD) wait for work asleep rather than spinning
+# (GNU OpenMP spins up to ~0.3 s by default): a spinning worker holds a core that the frame's other
+# thread, or the user's other programs, need (hybridedit.core.parallel). Read when the OpenMP
+# runtime loads, which is after this line; a user's own setting wins.
+_os.environ.setdefault("OMP_WAIT_POLICY", "passive")
+
 _WHERE = {
     "ARAPSolver": "deform.arap",
     "Document": "fileio.document",

@@ -1,11 +1,20 @@
 """When a kernel runs on every core: one table of sizes, one way to choose.
 
 Many compiled kernels come in twins, a serial loop and a ``prange`` one. Starting numba's thread
-pool costs more than small work, and on a busy 2-core machine a parallel pass can wait milliseconds
-for its second thread, so each kind of work switches to its parallel twin from a size measured for
-it (:data:`THRESHOLDS`, items of the loop: rows, vertices, faces). Every caller chooses through
-:func:`pick`; :func:`all_parallel` sets every size to zero for a while (``python -m
-hybridedit.warmup`` compiles the parallel twins that way).
+pool costs more than small work, so each kind of work switches to its parallel twin from a size
+measured for it (:data:`THRESHOLDS`, items of the loop: rows, vertices, faces). And a parallel pass
+ends when its slowest thread does: on a machine whose other programs keep the cores busy, the
+second thread waits for a time slice and a 5 ms frame takes 20 (the 173K armadillo's canonical
+edit beside a busy core). So a kind goes parallel only where a second core is actually free
+(:func:`free_cores`: the cores the *other* processes left idle over the last fraction of a
+second) and where the calling thread may use more than one (``numba.get_num_threads``). Every
+caller chooses through :func:`pick`; a size of 0 means parallel whatever the load, and
+:func:`all_parallel` sets every size to zero for a while (``python -m hybridedit.warmup``
+compiles the parallel twins that way, tests compare the twins so).
+
+The waiting itself is passive: :mod:`hybridedit` sets ``OMP_WAIT_POLICY=passive`` (unless the
+user set it) before the OpenMP runtime loads, so an idle worker sleeps instead of spinning on a
+core the frame's other thread, or the user's other programs, need.
 
 Examples
 --------
@@ -19,6 +28,9 @@ Examples
 from __future__ import annotations
 
 import contextlib
+import os
+import threading
+import time
 from typing import Iterator, TypeVar
 
 K = TypeVar("K")
@@ -46,9 +58,99 @@ THRESHOLDS: dict[str, int] = {
 }
 
 
+#: fewer free cores than this (other processes' load subtracted): the serial twin
+MIN_FREE_CORES = 1.5
+
+
 def pick(kind: str, serial: K, parallel: K, n: int) -> K:
-    """The parallel twin when ``n`` items reach ``THRESHOLDS[kind]``, else the serial one."""
-    return parallel if n >= THRESHOLDS[kind] else serial
+    """The parallel twin when ``n`` items reach ``THRESHOLDS[kind]``, the calling thread may use
+    two threads or more and at least :data:`MIN_FREE_CORES` cores are free of other processes'
+    work (:func:`free_cores`); else the serial one. A kind of size 0 is parallel regardless."""
+    size = THRESHOLDS[kind]
+    if size == 0:
+        return parallel
+    if n < size or _thread_count() < 2:
+        return serial
+    return parallel if free_cores() >= MIN_FREE_CORES else serial
+
+
+def _thread_count() -> int:
+    import numba  # (here: importing this module must stay cheap for the command line)
+
+    return numba.get_num_threads()
+
+
+class _Load:
+    """The cores other processes keep busy, sampled from ``/proc/stat`` (every process's CPU
+    time) less this process's own (``os.times``), over the last :data:`PERIOD` seconds or more."""
+
+    #: seconds between samples (/proc/stat counts in 10 ms ticks: 0.2 s is 20 ticks a core)
+    PERIOD = 0.2
+
+    def __init__(self) -> None:
+        self.lock = threading.Lock()
+        self.cores = _usable_cores()
+        self.free = float(self.cores)  # until two samples tell
+        self.last: tuple[float, float, float] | None = None  # (wall, machine busy s, own s)
+
+    def free_cores(self) -> float:
+        now = time.monotonic()
+        if self.last is not None and now - self.last[0] < self.PERIOD:
+            return self.free
+        if not self.lock.acquire(blocking=False):  # another thread is sampling
+            return self.free
+        try:
+            busy = _machine_busy_seconds()
+            own = sum(os.times()[:2])
+            if busy is None:
+                return self.free
+            if self.last is not None:
+                wall0, busy0, own0 = self.last
+                others = max(0.0, (busy - busy0) - (own - own0)) / max(now - wall0, 1e-9)
+                self.free = max(0.0, min(float(self.cores), os.cpu_count() - others))
+            self.last = (now, busy, own)
+            return self.free
+        finally:
+            self.lock.release()
+
+
+def _usable_cores() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+_TICK = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
+
+
+def _machine_busy_seconds() -> float | None:
+    """CPU seconds every process of the machine has spent since boot (None where unknown)."""
+    try:
+        with open("/proc/stat", "rb") as f:
+            fields = f.readline().split()
+    except OSError:
+        return None
+    if not fields or fields[0] != b"cpu":
+        return None
+    ticks = [int(x) for x in fields[1:9]]  # user nice system idle iowait irq softirq steal
+    return (sum(ticks) - ticks[3] - ticks[4]) / _TICK
+
+
+_LOAD = _Load()
+
+
+def free_cores() -> float:
+    """Cores that other processes left idle over the last fraction of a second (this process's own
+    work counts as free: it is what the kernels would use), at most the cores this process may run
+    on. Where the machine's load cannot be read (not Linux), every usable core.
+
+    Examples
+    --------
+    >>> 0.0 <= free_cores() <= os.cpu_count()
+    True
+    """
+    return _LOAD.free_cores()
 
 
 @contextlib.contextmanager
