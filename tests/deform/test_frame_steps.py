@@ -31,14 +31,16 @@ def rig():
     return r, maps, d, (idx, w), laplacian(r.mesh.n_vertices, e, wt)
 
 
-def session(rig, propagation, *, base=None, symmetry=None):
-    """(arap, selection, steps, base) for an edit of the blob's right end, the left end fixed."""
+def session(rig, propagation, *, base=None, symmetry=None, roi=None):
+    """(arap, selection, steps, base) for an edit of the blob's right end, the left end fixed
+    (or, with ``roi``, everything outside those shape vertices)."""
     r, maps, d, blend, L = rig
     x = r.mesh.vertices
     base = base or rest_base(binding=r.M, cage=r.cage.vertices, residual=d, blend=blend, propagation=propagation)
     a, b = np.flatnonzero(x[:, 0] < -1.0), np.flatnonzero(x[:, 0] > 1.4)
     mirror = Mirror(x, symmetry) if symmetry else None
-    roles = choose_roles(user_roles(b, fixed=a, maps=maps), mirror=mirror, maps=maps)
+    roles = choose_roles(user_roles(b, fixed=None if roi is not None else a, roi=roi, maps=maps), mirror=mirror,
+                         maps=maps)
     arap = ARAPSolver(r.cage.vertices, r.cage.faces, links=r.links)
     arap.set_reference(base.cage)
     arap.set_constrained(roles.constrained, moving=roles.moving)
@@ -157,3 +159,27 @@ def test_the_mirror_average_makes_the_displacement_symmetric():
     D = out - x
     S = mirror.S[:3, :3]
     assert np.abs(D - D[mirror.map] @ S.T).max() < 1e-15
+
+
+@pytest.mark.parametrize("propagation", ["residual", "linear"])
+def test_a_frame_reads_and_writes_only_the_moving_rows_and_their_ring(rig, propagation):
+    """Counting, not timing: every row of the shape outside the rows a drag can move, the seam
+    and their one-ring is NaN in the frame's output array; frames leave each of them untouched
+    (nothing wrote there) and every moving row finite (nothing read there)."""
+    r, maps, d, blend, L = rig
+    arap, sel, steps, base = session(rig, propagation, roi=np.flatnonzero(r.mesh.vertices[:, 0] > 1.0))
+    moving = np.union1d(sel.moving_vertices, sel.seam)
+    near = np.zeros(r.mesh.n_vertices, dtype=bool)
+    near[moving] = True
+    near[L[moving].indices] = True  # their neighbours: the region step's boundary
+    outside = np.flatnonzero(~near)
+    assert 0.3 * r.mesh.n_vertices < outside.size  # (a local edit: most of the shape is outside)
+    out = base.shape.copy()
+    out[outside] = np.nan
+    T = rigid_transform(translate=(0.1, 0.4, 0.2), axis=(0, 0, 1), degrees=30,
+                        center=base.shape[sel.shape_groups[0]].mean(axis=0))
+    for _ in range(3):
+        frame(arap, sel, steps, base, T, out=out, propagation=propagation)
+    assert np.isnan(out[outside]).all()
+    assert np.isfinite(out[near]).all()
+    assert np.abs(out[sel.moving_vertices] - base.shape[sel.moving_vertices]).max() > 0.05
