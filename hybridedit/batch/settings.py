@@ -112,7 +112,7 @@ class BatchSettings:
             ext = str(self.output_format).lower()
             ext = ext if ext.startswith(".") else "." + ext
             if ext not in OUTPUT_EXTENSIONS:
-                raise ValueError(f"output format must be one of {', '.join(OUTPUT_EXTENSIONS)}, "
+                raise ValueError(f"output_format must be one of {', '.join(OUTPUT_EXTENSIONS)}, "
                                  f"got {self.output_format!r}")
             object.__setattr__(self, "output_format", ext)
         if not isinstance(self.pose, PoseSettings):
