@@ -302,8 +302,8 @@ def run_batch(args: argparse.Namespace) -> int:
         raise CLIError(f"--workers must be >= 1, got {args.workers}")
     if args.retries < 0:
         raise CLIError(f"--retries must be >= 0, got {args.retries}")
-    from .batch.api import run
-    from .batch.cluster import ClusterError
+    from .batching.api import run
+    from .batching.cluster import ClusterError
 
     try:
         result = run(args.inputs, args.output, settings=settings, scheduler=args.scheduler, workers=args.workers,
@@ -319,7 +319,7 @@ def run_batch(args: argparse.Namespace) -> int:
 
 def _batch_settings(args: argparse.Namespace):
     """The batch's settings from its arguments (CLIError for a wrong combination or value)."""
-    from .batch.settings import BatchSettings, PoseSettings
+    from .batching.settings import BatchSettings, PoseSettings
 
     if (args.poses is None) == (args.edits is None):
         raise CLIError("give --poses N (random poses of each mesh) or --edits DIR (an edit file per mesh)")

@@ -10,12 +10,12 @@ import pyarrow.parquet as pq
 import pytest
 
 import hybridedit as he
-from hybridedit.batch.manifest import COLUMNS, JOURNAL, MANIFEST, Manifest, new_row
-from hybridedit.batch.plan import InputError, find_inputs, plan_jobs
-from hybridedit.batch.poses import centre_of_mass, draw_limbs, find_skeleton, pose_rng
-from hybridedit.batch.progress import BatchProgress
-from hybridedit.batch.settings import BatchSettings, PoseSettings
-from hybridedit.batch.tasks import bind_input, file_sha256
+from hybridedit.batching.manifest import COLUMNS, JOURNAL, MANIFEST, Manifest, new_row
+from hybridedit.batching.plan import InputError, find_inputs, plan_jobs
+from hybridedit.batching.poses import centre_of_mass, draw_limbs, find_skeleton, pose_rng
+from hybridedit.batching.progress import BatchProgress
+from hybridedit.batching.settings import BatchSettings, PoseSettings
+from hybridedit.batching.tasks import bind_input, file_sha256
 
 from shapes import bumpy_blob
 
@@ -33,7 +33,7 @@ def test_the_extremities_are_farthest_points_from_the_centre(bound):
     farthest from the centre and those before it, while that is at least MIN_SPREAD of the first."""
     from scipy.sparse.csgraph import dijkstra
 
-    from hybridedit.batch.poses import MIN_SPREAD, _edge_graph
+    from hybridedit.batching.poses import MIN_SPREAD, _edge_graph
 
     s = bound.skeleton
     cage = bound.rig.cage

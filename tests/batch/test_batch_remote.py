@@ -13,11 +13,11 @@ import time
 from pathlib import Path
 
 import pyarrow.parquet as pq
-import pytest
 
 import hybridedit as he
 
 from shapes import REPO
+
 
 def dask_command(*args: str) -> list[str]:
     """``dask ARGS``: the environment's ``dask`` command (beside this interpreter), else the same

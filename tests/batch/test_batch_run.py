@@ -11,6 +11,7 @@ import pyarrow.parquet as pq
 import pytest
 
 import hybridedit as he
+from hybridedit.batching.api import run
 from hybridedit.cli import main
 
 
@@ -79,19 +80,19 @@ def test_a_rerun_skips_what_is_done_and_redoes_the_rest(inputs, posed, client2, 
     (folder / "blob-pose001.ply").unlink()  # lost
     spoiled = folder / "long-pose002.ply"
     spoiled.write_bytes(spoiled.read_bytes()[:-8] + b"\0" * 8)  # changed: its hash no longer matches
-    result = he.batch.api.run([inputs], folder, settings=settings(cage), client=client2, progress=False)
+    result = run([inputs], folder, settings=settings(cage), client=client2, progress=False)
     assert (result.made, result.skipped, result.failed) == (2, 4, 0)
     after = {r["output"]: r for r in rows(result.table)}
     remade = {k for k in after if after[k]["finished"] != before[k]["finished"]}
     assert remade == {"blob-pose001.ply", "long-pose002.ply"}
     assert after["long-pose002.ply"]["output_sha256"] == before["long-pose002.ply"]["output_sha256"]
     # other arguments (another seed) are another batch: nothing is skipped
-    again = he.batch.api.run([inputs], folder, settings=settings(cage, seed=12), client=client2, progress=False)
+    again = run([inputs], folder, settings=settings(cage, seed=12), client=client2, progress=False)
     assert again.skipped == 0 and again.made == 6
 
 
 def settings(cage, **kw):
-    from hybridedit.batch.settings import BatchSettings
+    from hybridedit.batching.settings import BatchSettings
 
     return BatchSettings(**{"poses": 3, "seed": 11, "cage_size": cage, "output_format": ".ply", **kw})
 
@@ -160,5 +161,5 @@ def test_workers_import_neither_qt_nor_vtk(posed, client2):
         return sorted(m for m in sys.modules if m.split(".")[0] in ("PySide6", "vtk", "vtkmodules", "pyvista",
                                                                      "pyvistaqt", "PyQt5", "PyQt6"))
 
-    assert "hybridedit.batch.tasks" in client2.run(lambda: sorted(sys.modules)).popitem()[1]
+    assert "hybridedit.batching.tasks" in client2.run(lambda: sorted(sys.modules)).popitem()[1]
     assert all(mods == [] for mods in client2.run(gui_modules).values())

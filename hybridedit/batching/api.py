@@ -46,9 +46,9 @@ def run(inputs: Sequence[str | os.PathLike[str]] | str | os.PathLike[str], out: 
 
     Raises
     ------
-    hybridedit.batch.plan.InputError
+    hybridedit.batching.plan.InputError
         An input names nothing, or the output folder is a file.
-    hybridedit.batch.cluster.ClusterError
+    hybridedit.batching.cluster.ClusterError
         Dask is missing or the scheduler cannot be reached.
     """
     from .cluster import dashboard_link, needs_dask, open_client
@@ -146,19 +146,20 @@ def batch(inputs: Sequence[str | os.PathLike[str]] | str | os.PathLike[str], out
     Returns
     -------
     pyarrow.Table
-        The manifest's rows of these outputs (see :mod:`hybridedit.batch.manifest` for the columns),
+        The manifest's rows of these outputs (see :mod:`hybridedit.batching.manifest` for the columns),
         in input and pose order; ``table.to_pandas()`` makes a DataFrame where pandas is installed.
 
     Raises
     ------
     ValueError
-        A setting out of range, an input that names nothing (:class:`~hybridedit.batch.plan.InputError`).
-    hybridedit.batch.cluster.ClusterError
+        A setting out of range, an input that names nothing (:class:`~hybridedit.batching.plan.InputError`).
+    hybridedit.batching.cluster.ClusterError
         Dask or pyarrow missing, the scheduler unreachable.
 
     Examples
     --------
     >>> import hybridedit as he
+    >>> import pyarrow.compute as pc  # doctest: +SKIP
     >>> table = he.batch(["scans/"], "posed/", poses=10, seed=1)  # doctest: +SKIP
     >>> table.filter(pc.field("status") == "failed").column("message")  # doctest: +SKIP
     """

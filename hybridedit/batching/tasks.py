@@ -2,7 +2,7 @@
 
 Each function here runs in a worker process (Dask imports this module there by name): it imports
 the engine (``hybridedit.*``, never Qt or VTK), makes its outputs with the project's atomic writes,
-and returns a manifest row (a dict of :data:`hybridedit.batch.manifest.COLUMNS`). A mesh the method
+and returns a manifest row (a dict of :data:`hybridedit.batching.manifest.COLUMNS`). A mesh the method
 cannot serve (unreadable, no cage, no pose within the stretch allowed) is a ``failed`` row with a
 one-line reason, never an exception; an exception that escapes (a bug, a lost resource) is Dask's to
 retry, and the client records it as failed once the retries are spent.
