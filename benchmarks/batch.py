@@ -57,6 +57,14 @@ def _import_engine() -> None:
         importlib.import_module(name)
 
 
+def load() -> str:
+    """The machine's load average (other processes share the cores the workers are timed on)."""
+    try:
+        return "load average {:.1f} {:.1f} {:.1f}".format(*os.getloadavg())
+    except (AttributeError, OSError):
+        return "load average unknown"
+
+
 def timed_batch(meshes: list[Path], out: Path, settings: BatchSettings, workers: int):
     """(pyarrow table, seconds) of one batch on a local cluster of ``workers`` processes, started
     (and the engine imported on each) before the clock starts."""
@@ -95,7 +103,7 @@ def main() -> None:
     out = args.out if args.out is not None else work / "out"
     os.environ["HYBRIDEDIT_CACHE_DIR"] = str(work / "cache")  # a cache of its own, warmed below
     try:
-        print(f"# hybridedit batch - {machine()}")
+        print(f"# hybridedit batch - {machine()}; {load()}")
         print(f"# {len(meshes)} mesh{'es' if len(meshes) != 1 else ''} from {MESHES}: {', '.join(p.name for p in meshes)}; {poses} poses each, "
               f"seed {args.seed}, default pose settings; bindings from a warm cache, clusters started beforehand")
         warm, _ = timed_batch(meshes, work / "warm-up", BatchSettings(poses=1, seed=args.seed), 2)
@@ -119,7 +127,7 @@ def main() -> None:
         same = sum(hashes[1][k] == hashes[2].get(k) for k in made)
         print(f"the same files with 1 and 2 workers: {same} of the {len(made)} outputs made bit-identical")
         print(f"scaling efficiency, 1 -> 2 workers: {rates[2] / (2 * rates[1]) * 100:.0f}% "
-              f"(speed-up {rates[2] / rates[1]:.2f}x on {os.cpu_count()} cores)")
+              f"(speed-up {rates[2] / rates[1]:.2f}x on {os.cpu_count()} cores; {load()} at the end)")
     finally:
         shutil.rmtree(work, ignore_errors=True)
 
