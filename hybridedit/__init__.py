@@ -57,6 +57,7 @@ _WHERE = {
     "SelectionError": "deform.selection",
     "apply_transform": "core.transforms",
     "backend_description": "core.linsolve",
+    "batch": "batching.api",
     "bind": "binding.bind",
     "build_cage": "cage.build",
     "build_rig": "binding.rig",

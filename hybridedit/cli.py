@@ -378,6 +378,9 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--no-cache", action="store_true", help="do not read or write the cage/binding cache")
     d.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
     d.set_defaults(func=run_deform)
+    from .batching.command import add_parser as add_batch_parser
+
+    add_batch_parser(sub)
     i = sub.add_parser("info", help="print a mesh's size and topology")
     i.add_argument("input")
     i.add_argument("--json", action="store_true", help="print JSON")
@@ -411,7 +414,7 @@ def build_open_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="hybridedit",
         description="Open the hybrid mesh editor (default mesh when no file is given). "
-        "Subcommands: 'hybridedit deform -h', 'hybridedit info -h'.",
+        "Subcommands: 'hybridedit deform -h', 'hybridedit batch -h', 'hybridedit info -h'.",
     )
     p.add_argument("--version", action=_Version, help="print the version and the sparse solver in use, and exit")
     p.add_argument("mesh", nargs="?", help="mesh to open (.obj .ply .stl .off .glb)")
@@ -436,7 +439,7 @@ def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     # a discarded cache entry is one of the engine's notes, printed as the others are (not twice)
     warnings.filterwarnings("ignore", message="hybridedit: cache entry")
-    if argv and argv[0] in ("deform", "info"):
+    if argv and argv[0] in ("deform", "batch", "info"):
         args = build_parser().parse_args(argv)
     else:
         args = build_open_parser().parse_args(argv)

@@ -60,6 +60,9 @@ def test_the_exported_names() -> None:
     submodules = {m.name for m in pkgutil.iter_modules(he.__path__)}
     assert not submodules & set(he.__all__), "a package name that is also a submodule changes with imports"
     assert "open" not in he.__all__ and callable(he.open)  # star imports keep the builtin open
+    from hybridedit.batching import api
+
+    assert "batch" in he.__all__ and he.batch is api.batch  # the function, not a package (hybridedit.batching)
     with pytest.raises(AttributeError, match="no attribute 'nothing_here'"):
         he.nothing_here  # noqa: B018
 

@@ -1,4 +1,4 @@
-"""The layers: the engine (core, cage, binding, deform, fileio) never reaches into the window."""
+"""The layers: the engine (core, cage, binding, deform, fileio, batching) never reaches into the window."""
 
 import ast
 from pathlib import Path
@@ -8,7 +8,7 @@ import pytest
 import hybridedit
 
 PACKAGE = Path(hybridedit.__file__).resolve().parent
-ENGINE = ["core", "cage", "binding", "deform", "fileio"]
+ENGINE = ["core", "cage", "binding", "deform", "fileio", "batching"]
 GUI = ("PySide6", "qtpy", "pyvista", "pyvistaqt", "vtk", "vtkmodules")
 
 

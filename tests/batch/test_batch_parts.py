@@ -1,0 +1,170 @@
+"""The batch's parts on their own: poses, the plan, settings, the manifest, the progress line."""
+
+from __future__ import annotations
+
+import io
+import json
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+
+import hybridedit as he
+from hybridedit.batching.manifest import COLUMNS, JOURNAL, MANIFEST, Manifest, new_row
+from hybridedit.batching.plan import InputError, find_inputs, plan_jobs
+from hybridedit.batching.poses import centre_of_mass, draw_limbs, find_skeleton, pose_rng
+from hybridedit.batching.progress import BatchProgress
+from hybridedit.batching.settings import BatchSettings, PoseSettings
+from hybridedit.batching.tasks import bind_input, file_sha256
+
+from shapes import bumpy_blob
+
+
+@pytest.fixture(scope="module")
+def bound(tmp_path_factory):
+    path = tmp_path_factory.mktemp("parts") / "stick.obj"
+    blob = bumpy_blob(3)
+    he.write_mesh(path, he.Mesh(blob.vertices * [2.0, 0.6, 0.6], blob.faces))  # x in [-4.4, 4.4], thin
+    return bind_input(str(path), 0.2)
+
+
+def test_the_extremities_are_farthest_points_from_the_centre(bound):
+    """The first extremity is the cage vertex geodesically farthest from the centre; each next one the
+    farthest from the centre and those before it, while that is at least MIN_SPREAD of the first."""
+    from scipy.sparse.csgraph import dijkstra
+
+    from hybridedit.batching.poses import MIN_SPREAD, _edge_graph
+
+    s = bound.skeleton
+    cage = bound.rig.cage
+    assert 2 <= len(s.extremities) <= 8 and s.distances.shape == (len(s.extremities), cage.n_vertices)
+    from_centre = dijkstra(_edge_graph(cage.vertices, cage.edges()), indices=s.centre)
+    assert s.extremities[0] == np.argmax(from_centre) and s.reach[0] == from_centre.max()
+    assert np.allclose(s.distances[np.arange(len(s.extremities)), s.extremities], 0)
+    for k in range(1, len(s.extremities)):
+        spread = np.minimum(from_centre, s.distances[:k].min(axis=0))
+        assert spread[s.extremities[k]] == spread.max() >= MIN_SPREAD * s.reach[0]
+
+
+def test_a_cage_in_two_parts_keeps_to_the_centres_part():
+    v = np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0], [10, 0, 0], [11, 0, 0]], dtype=float)
+    s = find_skeleton(v, np.array([[0, 1], [1, 2], [3, 4]]), centre_point=np.zeros(3))
+    assert s.centre == 0 and s.extremities[0] == 2 and np.isinf(s.distances[:, 3:]).all()
+    assert set(s.extremities.tolist()) <= {1, 2}  # none on the other part
+
+
+def test_centre_of_mass_weighs_by_area():
+    m = he.Mesh(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [5, 5, 0], [5.001, 5, 0], [5, 5.001, 0]], float),
+                np.array([[0, 1, 2], [3, 4, 5]]))
+    assert np.linalg.norm(centre_of_mass(m.vertices, m.faces) - [1 / 3, 1 / 3, 0]) < 1e-4
+
+
+def test_a_draw_depends_on_seed_hash_and_index_only(bound):
+    mesh = bound.rig.mesh
+
+    def draw(seed, h, k):
+        return draw_limbs(bound.skeleton, pose_rng(seed, h, k), dominant=bound.dominant, vertices=mesh.vertices,
+                          edges=bound.edges, handles=2, max_degrees=30.0)
+
+    a, b = draw(1, bound.sha256, 0), draw(1, bound.sha256, 0)
+    assert [(x.extremity, x.degrees, x.axis.tolist()) for x in a] == [(x.extremity, x.degrees, x.axis.tolist()) for x in b]
+    others = [draw(2, bound.sha256, 0), draw(1, bound.sha256, 1), draw(1, "0" * 64, 0)]
+    assert all([x.degrees for x in o] != [x.degrees for x in a] for o in others)
+    for k in range(10):
+        limbs = draw(5, bound.sha256, k)
+        assert 1 <= len(limbs) <= 2
+        taken = np.zeros(mesh.n_vertices, bool)
+        for limb in limbs:
+            assert abs(limb.degrees) <= 30 and abs(np.linalg.norm(limb.axis) - 1) < 1e-12
+            assert np.isin(limb.handle, limb.region).all() and limb.handle.size < limb.region.size
+            assert not taken[limb.region].any()  # regions do not overlap
+            taken[limb.region] = True
+
+
+def test_find_inputs_from_files_folders_and_globs(tmp_path):
+    (tmp_path / "a" / "deep").mkdir(parents=True)
+    (tmp_path / ".hidden").mkdir()
+    (tmp_path / "empty").mkdir()
+    for name in ("a/x.obj", "a/deep/y.PLY", "a/notes.txt", ".hidden/z.obj", "b.stl"):
+        (tmp_path / name).write_text("")
+    found = find_inputs([tmp_path / "a", str(tmp_path / "*.stl"), tmp_path / "a" / "x.obj"])
+    assert [(f.name, str(sub)) for f, sub in found] == [("x.obj", "."), ("y.PLY", "deep"), ("b.stl", ".")]
+    assert [f.name for f, _ in find_inputs([tmp_path], exclude=tmp_path / "a")] == ["b.stl"]
+    for bad, says in ((tmp_path / "none.obj", "no such file or folder"), (str(tmp_path / "*.off"), "matches no mesh"),
+                      (tmp_path / "empty", "no mesh files")):
+        with pytest.raises(InputError, match=says):
+            find_inputs([bad])
+
+
+def test_outputs_are_named_from_their_inputs_and_never_collide(tmp_path):
+    found = [(tmp_path / "p" / "cat.obj", tmp_path.__class__(".")), (tmp_path / "q" / "cat.obj", tmp_path.__class__("."))]
+    jobs = plan_jobs(found, poses=2, edits=None, output_format=None)
+    outs = [j.output for j in jobs]
+    assert len(set(outs)) == 4 and all(o.startswith("cat-") and o.endswith(".obj") for o in outs)
+    (tmp_path / "edits").mkdir()
+    (tmp_path / "edits" / "cat.edit.json").write_text("{}")
+    (j,) = plan_jobs(found[:1], poses=None, edits=tmp_path / "edits", output_format=".ply")
+    assert (j.output, j.edit, j.pose, j.source_edit) == ("cat.ply", "cat.edit.json", None,
+                                                          str(tmp_path / "edits" / "cat.edit.json"))
+
+
+def test_settings_are_checked_and_keyed():
+    with pytest.raises(ValueError, match="give either"):
+        BatchSettings()
+    with pytest.raises(ValueError, match="tries must be"):
+        PoseSettings(tries=0)
+    with pytest.raises(ValueError, match="max_stretch"):
+        PoseSettings(max_stretch=0)
+    a = BatchSettings(poses=3, seed=1)
+    assert a.key() == BatchSettings(poses=30, seed=1).key()  # more poses: pose k is the same
+    assert a.key() != BatchSettings(poses=3, seed=1, pose=PoseSettings(max_degrees=10)).key()
+    assert BatchSettings(edits="e", seed=0).key() == BatchSettings(edits="f", seed=0).key() != a.key()
+
+
+def test_a_killed_batch_loses_no_row(tmp_path):
+    """Rows are journaled as they arrive: a manifest never flushed (a killed batch) still has them."""
+    m = Manifest(tmp_path, flush_seconds=1e9)
+    m.add(new_row(output="a.obj", status="done", edge_error=1.5))
+    m.add(new_row(output="b.obj", status="failed", message="b.obj: no"))
+    m.add(new_row(output="a.obj", status="done", edge_error=2.5))  # a later attempt replaces the row
+    assert not (tmp_path / MANIFEST).exists()
+    with open(tmp_path / JOURNAL, "a") as f:
+        f.write('{"output": "c.obj", "sta')  # a line cut short by the kill
+    back = Manifest(tmp_path)
+    assert sorted(back.rows) == ["a.obj", "b.obj"] and back.rows["a.obj"]["edge_error"] == 2.5
+    back.close()
+    assert not (tmp_path / JOURNAL).exists()
+    table = pq.read_table(tmp_path / MANIFEST)
+    assert table.column_names == list(COLUMNS) and table.num_rows == 2
+    assert Manifest(tmp_path).rows["b.obj"]["message"] == "b.obj: no"
+
+
+def test_claimed_done_needs_the_same_settings_and_input(tmp_path):
+    m = Manifest(tmp_path)
+    m.add(new_row(output="a.obj", status="done", settings="k", input_sha256="h"))
+    assert m.claimed_done("a.obj", settings="k", input_sha256="h") is not None
+    assert m.claimed_done("a.obj", settings="other", input_sha256="h") is None
+    assert m.claimed_done("a.obj", settings="k", input_sha256="changed") is None
+    assert m.claimed_done("b.obj", settings="k", input_sha256="h") is None
+
+
+def test_file_sha256(tmp_path):
+    (tmp_path / "f").write_bytes(b"abc")
+    assert file_sha256(tmp_path / "f") == "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
+    assert file_sha256(tmp_path / "missing") is None
+
+
+def test_the_progress_line_on_a_terminal():
+    out = io.StringIO()
+    clock = iter([0.0, 1.0, 2.0, 3.0, 60.0, 61.0]).__next__
+    bar = BatchProgress(3, stream=out, clock=clock, tty=True)
+    bar.update("done")
+    bar.say("hybridedit: failed: x: why")
+    bar.update("failed")
+    bar.update("done")
+    bar.close()
+    text = out.getvalue()
+    assert "\r\x1b[Kbatch: " in text and "\nhybridedit: failed: x: why\n" in text
+    last = text.rsplit("\r\x1b[K", 1)[-1]
+    assert last.startswith("batch: [" + "#" * 40 + "] 3/3: 2 done, 1 failed, 0 left") and last.endswith("\n")
+    assert json.dumps(text)  # plain text
