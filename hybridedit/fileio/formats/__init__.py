@@ -21,7 +21,7 @@ import numpy as np
 from ..atomic import atomic_write
 from ..document import Document
 from ...core.mesh import Mesh, MeshError
-from . import glb, obj, off, ply, stl
+from . import glb, obj, obj_materials, off, ply, stl
 from .common import MeshFileError, _Bad, _validate
 from .reporting import reporting, span
 
@@ -66,7 +66,7 @@ def _none(doc: Document, target: Path) -> list[tuple[Path, bytes]]:
 
 FORMATS: dict[str, Format] = {
     ".obj": Format("OBJ", lambda path, data: obj.read(data, path), obj.write, obj.write_converted,
-                   obj.converted_companions,
+                   obj_materials.converted_companions,
                    frozenset({"polygons", "colors", "normals", "uv", "materials", "textures"})),
     ".off": Format("OFF", lambda path, data: off.read(data), off.write, lambda doc, target: off.write(doc),
                    _none, frozenset({"polygons", "colors", "normals"})),
@@ -293,12 +293,12 @@ def _obj_copies(doc: Document, target: Path, notes: list[str]) -> list[tuple[Pat
     ``target`` needs beside it; decided before anything is written (an existing file is kept,
     with a note in ``notes`` when it differs or is a folder)."""
     copies: list[tuple[Path, Path]] = []
-    found, more = obj.companions(doc, doc.path, target)
+    found, more = obj_materials.companions(doc, doc.path, target)
     notes += more
     for src, dst in found:
         if dst.is_dir():
             notes.append(f"{src.name} not copied: {dst} is a folder")
-        elif dst.exists() and not obj.same_content(src, dst):
+        elif dst.exists() and not obj_materials.same_content(src, dst):
             notes.append(f"{dst} kept as it is: it differs from {src}, and an existing file is "
                          "never replaced by a copy (the output refers to it; copy it by hand if needed)")
         elif not dst.exists():

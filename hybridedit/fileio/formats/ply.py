@@ -512,9 +512,9 @@ def _plain(doc: Document) -> plyfile.PlyData:
 
 def texture_file_names(materials: list[Material]) -> list[str | None]:
     """The file name a converted PLY gives each material's image (None for none)."""
-    from .obj import _image_names
+    from .obj_materials import image_names
 
-    return _image_names(materials)
+    return image_names(materials)
 
 
 def converted_companions(doc: Document, target) -> list[tuple[object, bytes]]:
