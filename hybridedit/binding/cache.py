@@ -59,12 +59,12 @@ def writer_versions() -> str:
                       sort_keys=True)
 
 
-def checksum(key: str, versions: str, arrays: dict[str, np.ndarray]) -> str:
-    """SHA-256 hex digest of an entry's payload: its key, versions and the :data:`PAYLOAD` arrays
-    (each one's name, dtype, shape and bytes)."""
+def checksum(key: str, versions: str, arrays: dict[str, np.ndarray], names: tuple[str, ...] = PAYLOAD) -> str:
+    """SHA-256 hex digest of an entry's payload: its key, versions and the arrays ``names`` (by
+    default the :data:`PAYLOAD` of a cage and binding; each one's name, dtype, shape and bytes)."""
     h = hashlib.sha256()
     h.update(FORMAT.encode() + b"\0" + key.encode() + b"\0" + versions.encode() + b"\0")
-    for name in PAYLOAD:
+    for name in names:
         a = np.ascontiguousarray(arrays[name])
         h.update(f"{name}:{a.dtype.str}:{a.shape}\0".encode())
         h.update(memoryview(a).cast("B") if a.dtype.kind != "U" and a.size else a.tobytes())
@@ -120,11 +120,12 @@ def load(folder: Path, key: str, mesh: Mesh) -> tuple[Mesh, sp.csr_matrix, list[
 
 
 def discard(folder: Path, key: str) -> None:
-    """Delete the entry for ``key`` (for instance when using it failed); best effort."""
-    try:
-        _path(folder, key).unlink()
-    except OSError:
-        pass
+    """Delete the entry for ``key`` (for instance when using it failed) and its companions; best effort."""
+    for p in [_path(folder, key), *folder.glob(f"{key[:40]}.*.npz")]:
+        try:
+            p.unlink()
+        except OSError:
+            pass
 
 
 class _Invalid(Exception):
@@ -203,3 +204,69 @@ def store(folder: Path, key: str, cage: Mesh, M: sp.csr_matrix, notes: list[str]
     except OSError:
         return None
     return p
+
+
+# ------------------------------------------------------------------ companion entries
+
+def _companion_path(folder: Path, key: str, kind: str) -> Path:
+    return folder / f"{key[:40]}.{kind}.npz"
+
+
+def store_arrays(folder: Path, key: str, kind: str, arrays: dict[str, np.ndarray]) -> Path | None:
+    """Write named arrays derived from the entry ``key`` (e.g. what an editor prepares from a
+    shape, its cage and binding) as the companion ``kind`` of that entry, with their checksum and
+    the writing versions, atomically; returns the file, or None if it cannot be written.
+
+    ``kind`` names the content and its version (a new way of deriving the arrays takes a new
+    ``kind``, so old files stop matching)."""
+    names = tuple(sorted(arrays))
+    arrays = {n: np.ascontiguousarray(arrays[n]) for n in names}
+    versions = writer_versions()
+    buf = io.BytesIO()
+    np.savez(buf, key=np.array(key), versions=np.array(versions),
+             checksum=np.array(checksum(key + "/" + kind, versions, arrays, names)), **arrays)
+    p = _companion_path(folder, key, kind)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        with atomic_write(p, "wb") as fh:
+            fh.write(buf.getvalue())
+    except OSError:
+        return None
+    return p
+
+
+def load_arrays(folder: Path, key: str, kind: str, names: tuple[str, ...]) -> dict[str, np.ndarray] | None:
+    """The arrays ``names`` of the companion ``kind`` of entry ``key`` (:func:`store_arrays`), or
+    None when absent. One that is unreadable, holds other arrays, was written by other versions
+    or fails its checksum is deleted with a :class:`CacheEntryDiscarded` warning (the caller
+    derives the arrays again); what the arrays must satisfy beyond that is the caller's check."""
+    p = _companion_path(folder, key, kind)
+    if not p.is_file():
+        return None
+    try:
+        with np.load(p, allow_pickle=False) as z:
+            if "key" not in z.files or str(z["key"]) != key:
+                raise _Invalid("another key")
+            if sorted(set(z.files) - {"key", "versions", "checksum"}) != sorted(names):
+                raise _Invalid("other arrays")
+            versions = str(z["versions"])
+            arrays = {n: z[n] for n in sorted(names)}
+            if checksum(key + "/" + kind, versions, arrays, tuple(sorted(names))) != str(z["checksum"]):
+                raise _Invalid("checksum mismatch: the file was changed after it was written")
+        if versions != writer_versions():
+            raise _Invalid(f"written by {_versions_text(versions)}, this is {_versions_text(writer_versions())}")
+        return arrays
+    except Exception as e:  # noqa: BLE001 -- whatever is wrong with the file, it is not used
+        discard_arrays(folder, key, kind)
+        why = str(e) if isinstance(e, _Invalid) else f"unreadable: {type(e).__name__}: {str(e)[:60]}"
+        warnings.warn(f"hybridedit: cache file {p.name} not used ({why}); it is made again",
+                      CacheEntryDiscarded, stacklevel=2)
+        return None
+
+
+def discard_arrays(folder: Path, key: str, kind: str) -> None:
+    """Delete the companion ``kind`` of entry ``key``; best effort."""
+    try:
+        _companion_path(folder, key, kind).unlink()
+    except OSError:
+        pass

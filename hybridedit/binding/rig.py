@@ -49,6 +49,9 @@ class Rig:
         True when cage and binding came from the on-disk cache.
     cage_size, truncation
         The settings the rig was built with.
+    cache_dir, cache_key : Path and str, or None
+        Where the on-disk cache keeps this rig's entry (None: built without the cache), so that
+        what is derived from it later (an editor's set-up) is kept beside it.
     """
 
     mesh: Mesh
@@ -59,6 +62,8 @@ class Rig:
     cache_hit: bool = False
     cage_size: int | float = CAGE_SIZE
     truncation: float = TRUNCATION
+    cache_dir: Path | None = None
+    cache_key: str | None = None
 
     def __post_init__(self) -> None:
         M = sp.csr_matrix(self.M, dtype=np.float64)
@@ -158,7 +163,7 @@ def build_rig(
             c, M, cached_notes, links = hit
             try:
                 rig = Rig(mesh, c, M, tuple(cached_notes), {"cage_seconds": 0.0, "bind_seconds": 0.0}, True,
-                          cage_size, float(truncation))
+                          cage_size, float(truncation), folder, key)
                 object.__setattr__(rig, "_links", links)  # (stored with the entry: no search among the pieces)
                 _check_usable(rig)
             except Exception:  # noqa: BLE001 -- an entry that fails in any way is rebuilt, never trusted
@@ -172,6 +177,7 @@ def build_rig(
     timings.setdefault("cage_seconds", 0.0)
     timings.setdefault("bind_seconds", time.perf_counter() - t0 - timings["cage_seconds"])
     rig = Rig(mesh, c, M, tuple(discarded + notes), timings, False, cage_size, float(truncation))
-    if folder is not None and key is not None:
-        bindcache.store(folder, key, c, M, notes, rig.links)
+    if folder is not None and key is not None and bindcache.store(folder, key, c, M, notes, rig.links) is not None:
+        object.__setattr__(rig, "cache_dir", folder)
+        object.__setattr__(rig, "cache_key", key)
     return rig

@@ -59,7 +59,7 @@ THRESHOLDS: dict[str, int] = {
 
 
 #: fewer free cores than this (other processes' load subtracted): the serial twin
-MIN_FREE_CORES = 1.5
+MIN_FREE_CORES = 1.8
 
 
 def pick(kind: str, serial: K, parallel: K, n: int) -> K:

@@ -24,13 +24,11 @@ from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.spatial import cKDTree
 
-from ..binding.bind import dominant_cage_vertex
 from ..binding.rig import Progress, Rig
 from ..core.mesh import Mesh
 from ..defaults import CAGE_SIZE, ITERATIONS, TRUNCATION
-from .arap import ARAPSolver, edge_weights, laplacian
+from .arap import ARAPSolver
 from .base_pose import BasePose, current_base, fit_cage, propagate_from, propagated_residual, rest_base
 from .editor_files import EditorFiles
 from .editor_state import EditorState, StateSnapshots
@@ -40,9 +38,9 @@ from .polish import TOLERANCE as POLISH_TOLERANCE
 from .polish import PolishJob, PolishResult, ShapeARAP
 from .pose_record import PoseRecord
 from .recorded_edits import RecordedEdits
-from .residual import residual_setup
 from .rig_arguments import BuildDefault, rig_from
 from .role_queries import RoleQueries
+from .shape_setup import shape_setup
 from .selection import CageMap, Selection, SelectionError, build_selection, choose_roles, user_roles
 from .symmetry import Mirror
 from .transform_arguments import requested_transforms
@@ -142,18 +140,22 @@ class HybridEditor(RoleQueries, StateSnapshots, RecordedEdits, EditorFiles):
         #: (the shape itself is never changed), e.g. "merged 12 duplicate vertices"
         self.notes: list[str] = list(rig.notes)
         self.propagation = propagation
-        d_rest, idx, w = residual_setup(M, mesh.vertices, cage.vertices)
+        # what depends on the shape, cage and binding only: made once, then read from the cache
+        t_setup = time.perf_counter()
+        setup = shape_setup(rig)
+        self.timings["setup_seconds"] = time.perf_counter() - t_setup
+        #: True when the shape's set-up (Laplacian, rotation blend, ...) came from the cache
+        self.setup_cached = setup.from_cache
+        d_rest = setup.residual
         #: the cage vertices and weights of each shape vertex's rotation blend, (n, k) each
-        self._blend = (idx, w)
+        self._blend = (setup.blend_idx, setup.blend_w)
         self.arap = ARAPSolver(cage.vertices, cage.faces, weights=weights, links=rig.links)
         self._scale = max(mesh.bbox_diagonal(), float(np.linalg.norm(np.ptp(cage.vertices, axis=0))))
         #: how shape and cage vertices stand for each other in a selection
-        self._maps = CageMap(nearest=cKDTree(mesh.vertices).query(cage.vertices)[1].astype(np.int64),
-                             dominant=dominant_cage_vertex(M))
-        # the shape's cotangent Laplacian, for the free region's solve: built here (in
-        # the window, in the build thread) rather than at the first drag
-        e, w = edge_weights(mesh.vertices, mesh.faces, "cotangent")
-        self._laplacian = laplacian(mesh.n_vertices, e, w)
+        self._maps = CageMap(nearest=setup.nearest, dominant=setup.dominant)
+        # the shape's cotangent Laplacian, for the free region's solve: ready here (in the
+        # window, in the build thread) rather than at the first drag
+        self._laplacian = setup.laplacian
         ce = self.arap.edges
         self._cage_edge = float(np.mean(np.linalg.norm(cage.vertices[ce[:, 0]] - cage.vertices[ce[:, 1]], axis=1))) \
             if len(ce) else self._scale

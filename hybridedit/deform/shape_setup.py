@@ -1,0 +1,129 @@
+"""What an editor derives from a rig once, made or read from the on-disk cache.
+
+Opening a shape whose cage and binding come from the cache used to rebuild, every time, what
+depends only on the shape, its cage and its binding: the shape's cotangent Laplacian (the
+region step's matrix), the residual and the rotation blend of the residual propagation (the
+top k coordinates of each row), the cage vertex each shape vertex depends on most and the
+shape vertex nearest each cage vertex (a KD-tree over the shape). At 2.77M vertices that was
+most of a cached open. :func:`shape_setup` makes them once and keeps them beside the rig's
+cache entry (:func:`hybridedit.binding.cache.store_arrays`, checksummed like the entry); the
+next open reads them.
+
+Pure compute; no Qt or VTK.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.spatial import cKDTree
+
+from ..binding import cache as bindcache
+from ..binding.bind import dominant_cage_vertex
+from ..binding.rig import Rig
+from .arap import edge_weights, laplacian
+from .residual import DEFAULT_K, residual_setup
+
+__all__ = ["ShapeSetup", "shape_setup", "make_shape_setup", "KIND"]
+
+#: the cache companion's name: bump the number when any of these arrays is made another way
+KIND = "setup1"
+
+_NAMES = ("blend_idx", "blend_w", "dominant", "lap_data", "lap_indices", "lap_indptr", "nearest", "residual")
+
+
+@dataclass(frozen=True)
+class ShapeSetup:
+    """What an editor derives from a shape (n vertices), its cage (c) and binding M.
+
+    Attributes
+    ----------
+    residual : (n, 3) float64, the shape less M times the cage.
+    blend_idx, blend_w : (n, k) int64 and float64, each shape vertex's blended cage rotations
+        (:func:`hybridedit.deform.residual.residual_setup`).
+    dominant : (n,) int64, the cage vertex each shape vertex depends on most.
+    nearest : (c,) int64, the shape vertex nearest each cage vertex.
+    laplacian : (n, n) CSR float64, the shape's cotangent Laplacian.
+    from_cache : bool, read from the cache rather than made.
+    """
+
+    residual: np.ndarray
+    blend_idx: np.ndarray
+    blend_w: np.ndarray
+    dominant: np.ndarray
+    nearest: np.ndarray
+    laplacian: sp.csr_matrix
+    from_cache: bool = False
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """The arrays as the cache stores them."""
+        L = self.laplacian
+        return {"residual": self.residual, "blend_idx": self.blend_idx, "blend_w": self.blend_w,
+                "dominant": self.dominant, "nearest": self.nearest, "lap_data": L.data,
+                "lap_indices": L.indices, "lap_indptr": L.indptr}
+
+
+def make_shape_setup(rig: Rig, *, k: int = DEFAULT_K) -> ShapeSetup:
+    """Make the :class:`ShapeSetup` of ``rig`` (no cache).
+
+    Examples
+    --------
+    >>> import hybridedit as he, trimesh, numpy as np
+    >>> s = trimesh.creation.icosphere(subdivisions=2)
+    >>> rig = he.build_rig(he.Mesh(np.asarray(s.vertices), np.asarray(s.faces)), cage_size=40)
+    >>> setup = make_shape_setup(rig)
+    >>> setup.laplacian.shape, setup.blend_idx.shape
+    ((162, 162), (162, 4))
+    """
+    mesh, cage, M = rig.mesh, rig.cage, rig.M
+    d, idx, w = residual_setup(M, mesh.vertices, cage.vertices, k=k)
+    e, wt = edge_weights(mesh.vertices, mesh.faces, "cotangent")
+    nearest = cKDTree(mesh.vertices).query(cage.vertices)[1].astype(np.int64)
+    return ShapeSetup(residual=d, blend_idx=idx, blend_w=w, dominant=dominant_cage_vertex(M), nearest=nearest,
+                      laplacian=laplacian(mesh.n_vertices, e, wt))
+
+
+def shape_setup(rig: Rig) -> ShapeSetup:
+    """The :class:`ShapeSetup` of ``rig``: read from the cache companion of its entry when the rig
+    has one (:attr:`~hybridedit.binding.rig.Rig.cache_key`), else made, and then stored there.
+
+    A companion that does not fit the rig (sizes, indices out of range, non-finite values) is
+    deleted with a :class:`~hybridedit.binding.cache.CacheEntryDiscarded` warning and made again.
+    """
+    if rig.cache_dir is None or rig.cache_key is None:
+        return make_shape_setup(rig)
+    folder, key = rig.cache_dir, rig.cache_key
+    arrays = bindcache.load_arrays(folder, key, KIND, _NAMES)
+    if arrays is not None:
+        try:
+            return _checked(arrays, rig)
+        except ValueError as e:
+            bindcache.discard_arrays(folder, key, KIND)
+            warnings.warn(f"hybridedit: the cached set-up of {key[:12]} not used ({e}); it is made again",
+                          bindcache.CacheEntryDiscarded, stacklevel=2)
+    setup = make_shape_setup(rig)
+    bindcache.store_arrays(folder, key, KIND, setup.arrays())
+    return setup
+
+
+def _checked(a: dict[str, np.ndarray], rig: Rig) -> ShapeSetup:
+    """The setup in ``a`` when it fits ``rig`` (ValueError saying why not)."""
+    n, c = rig.M.shape
+    idx, w = a["blend_idx"], a["blend_w"]
+    if a["residual"].shape != (n, 3) or idx.ndim != 2 or idx.shape[0] != n or w.shape != idx.shape:
+        raise ValueError("sizes")
+    if a["dominant"].shape != (n,) or a["nearest"].shape != (c,) or a["lap_indptr"].shape != (n + 1,):
+        raise ValueError("sizes")
+    for name, hi in (("blend_idx", c), ("dominant", c), ("nearest", n)):
+        v = a[name]
+        if v.dtype != np.int64 or (v.size and (v.min() < 0 or v.max() >= hi)):
+            raise ValueError(f"{name} out of range")
+    if not (np.isfinite(a["residual"]).all() and np.isfinite(w).all() and np.isfinite(a["lap_data"]).all()):
+        raise ValueError("non-finite values")
+    L = sp.csr_matrix((a["lap_data"], a["lap_indices"], a["lap_indptr"]), shape=(n, n))
+    L.check_format(full_check=True)
+    return ShapeSetup(residual=a["residual"], blend_idx=idx, blend_w=w, dominant=a["dominant"],
+                      nearest=a["nearest"], laplacian=L, from_cache=True)

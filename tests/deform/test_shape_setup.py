@@ -1,0 +1,98 @@
+"""An editor's set-up of a shape: made once, then read from the cache beside the rig's entry."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+import hybridedit as he
+from hybridedit.binding import cache as bindcache
+from hybridedit.deform import shape_setup as S
+
+from shapes import bumpy_blob
+
+
+@pytest.fixture(scope="module")
+def blob():
+    return bumpy_blob(3)
+
+
+def _equal(a: S.ShapeSetup, b: S.ShapeSetup) -> bool:
+    return all(np.array_equal(x, y) and x.dtype == y.dtype for x, y in zip(a.arrays().values(), b.arrays().values()))
+
+
+def test_a_cached_open_makes_nothing_the_cache_holds(blob, tmp_path, monkeypatch):
+    first = he.HybridEditor(blob, 80, cache=tmp_path)
+    assert not first.cache_hit and not first.setup_cached
+    assert list(tmp_path.glob(f"*.{S.KIND}.npz"))
+
+    def rebuilt(*args, **kwargs):
+        raise AssertionError("rebuilt on a cached open")
+
+    # everything an open derives from the shape, the cage and the binding
+    monkeypatch.setattr(S, "make_shape_setup", rebuilt)
+    monkeypatch.setattr(S, "residual_setup", rebuilt)
+    monkeypatch.setattr(S, "edge_weights", rebuilt)
+    monkeypatch.setattr(S, "cKDTree", rebuilt)
+    monkeypatch.setattr(S, "dominant_cage_vertex", rebuilt)
+    import hybridedit.cage.build as build
+
+    monkeypatch.setattr(build, "cage_and_binding", rebuilt)
+    again = he.HybridEditor(blob, 80, cache=tmp_path)
+    assert again.cache_hit and again.setup_cached
+    # and the editor is the same: same rest pose, same drag
+    x = blob.vertices[:, 0]
+    for ed in (first, again):
+        ed.set_selection(np.flatnonzero(x > 1.4), roi=np.flatnonzero(x > 0.5))
+        ed.drag(translate=(0, 0.4, 0))
+    assert np.array_equal(first.deformed_vertices, again.deformed_vertices)
+
+
+def test_the_cached_setup_reads_back_equal_to_the_made_one(blob, tmp_path):
+    rig = he.build_rig(blob, cage_size=80, cache=tmp_path)
+    made = S.shape_setup(rig)
+    read = S.shape_setup(he.build_rig(blob, cage_size=80, cache=tmp_path))
+    assert not made.from_cache and read.from_cache
+    assert _equal(made, read) and _equal(made, S.make_shape_setup(rig))
+
+
+def test_a_damaged_setup_is_refused_and_made_again(blob, tmp_path):
+    rig = he.build_rig(blob, cage_size=80, cache=tmp_path)
+    made = S.shape_setup(rig)
+    (path,) = tmp_path.glob(f"*.{S.KIND}.npz")
+    data = bytearray(path.read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    path.write_bytes(bytes(data))
+    with pytest.warns(bindcache.CacheEntryDiscarded):
+        again = S.shape_setup(rig)
+    assert not again.from_cache and _equal(made, again)
+    assert S.shape_setup(rig).from_cache  # stored again
+
+
+def test_a_setup_that_does_not_fit_its_rig_is_refused(blob, tmp_path):
+    rig = he.build_rig(blob, cage_size=80, cache=tmp_path)
+    arrays = S.make_shape_setup(rig).arrays()
+    arrays["nearest"] = arrays["nearest"] + blob.n_vertices  # (checksummed as written: only the check sees it)
+    bindcache.store_arrays(tmp_path, rig.cache_key, S.KIND, arrays)
+    with pytest.warns(bindcache.CacheEntryDiscarded, match="nearest out of range"):
+        setup = S.shape_setup(rig)
+    assert not setup.from_cache and setup.nearest.max() < blob.n_vertices
+
+
+def test_without_the_cache_nothing_is_stored(blob, tmp_path, monkeypatch):
+    monkeypatch.setenv("HYBRIDEDIT_CACHE_DIR", str(tmp_path))
+    rig = he.build_rig(blob, cage_size=80)
+    assert rig.cache_key is None
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        S.shape_setup(rig)
+    assert not list(tmp_path.iterdir())
+
+
+def test_discarding_an_entry_discards_its_setup(blob, tmp_path):
+    rig = he.build_rig(blob, cage_size=80, cache=tmp_path)
+    S.shape_setup(rig)
+    bindcache.discard(tmp_path, rig.cache_key)
+    assert not list(tmp_path.glob("*.npz"))
