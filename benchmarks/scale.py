@@ -261,8 +261,12 @@ class PieceClock:
 
 def clocked_setup() -> tuple[PieceClock, PieceClock]:
     """Clocks on the pieces of the cache read (hash, load and check, usability) and of
-    HybridEditor's set-up (residual top-k, cage ARAP, KD-tree, dominant vertex, the shape's
-    cotangent Laplacian, the rest pose)."""
+    HybridEditor's set-up: the shape's set-up (residual top-k, cotangent Laplacian, KD-tree,
+    dominant vertex; or their cache companion read and checked), the cage ARAP solver, the rest
+    pose. Only names that exist are clocked (the editor's set-up moved into
+    ``hybridedit.deform.shape_setup``; both places are looked at)."""
+    import importlib
+
     from hybridedit.binding import rig as rig_mod
     from hybridedit.deform import editor as editor_mod
 
@@ -270,12 +274,24 @@ def clocked_setup() -> tuple[PieceClock, PieceClock]:
     cache.wrap(bindcache, "cache_key", "hash the shape for the key")
     cache.wrap(bindcache, "load", "load + checksum + checks")
     cache.wrap(rig_mod, "_check_usable", "cage weights check")
-    editor.wrap(editor_mod, "residual_setup", "residual + rotation blend (top-k)")
+    try:
+        setup_mod = importlib.import_module("hybridedit.deform.shape_setup")
+    except ImportError:
+        setup_mod = None
+    for mod in (editor_mod, setup_mod):
+        if mod is None:
+            continue
+        editor.wrap(mod, "residual_setup", "residual + rotation blend (top-k)")
+        editor.wrap_tree(mod, "KD-tree of the shape + nearest")
+        editor.wrap(mod, "dominant_cage_vertex", "dominant cage vertex per row")
+        editor.wrap(mod, "edge_weights", "shape cotangent weights")
+        editor.wrap(mod, "laplacian", "shape Laplacian assembly")
+    if setup_mod is not None:
+        editor.wrap(setup_mod, "_checked", "set-up companion checks")
+        # shape_setup reads and writes its companion through the cache module
+        editor.wrap(bindcache, "load_arrays", "set-up companion read")
+        editor.wrap(bindcache, "store_arrays", "set-up companion write")
     editor.wrap(editor_mod, "ARAPSolver", "cage ARAP solver")
-    editor.wrap_tree(editor_mod, "KD-tree of the shape + nearest")
-    editor.wrap(editor_mod, "dominant_cage_vertex", "dominant cage vertex per row")
-    editor.wrap(editor_mod, "edge_weights", "shape cotangent weights")
-    editor.wrap(editor_mod, "laplacian", "shape Laplacian assembly")
     editor.wrap(editor_mod, "rest_base", "rest pose")
     return cache, editor
 

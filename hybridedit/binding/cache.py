@@ -31,7 +31,7 @@ from ..fileio.atomic import atomic_write
 from ..core.mesh import Mesh
 
 #: Bump when the cage or binding algorithms change: old files stop matching.
-FORMAT = "hybridedit-binding-5"  # 2: fast binding; 3: repair notes stored; 4: checksum, versions; 5: links
+FORMAT = "hybridedit-binding-6"  # 2: fast binding; 3: notes; 4: checksum, versions; 5: links; 6: digest per array
 
 #: the arrays of an entry, in the order the checksum reads them
 PAYLOAD = ("cage_vertices", "cage_faces", "shape", "data", "indices", "indptr", "notes", "links")
@@ -61,14 +61,74 @@ def writer_versions() -> str:
 
 def checksum(key: str, versions: str, arrays: dict[str, np.ndarray], names: tuple[str, ...] = PAYLOAD) -> str:
     """SHA-256 hex digest of an entry's payload: its key, versions and the arrays ``names`` (by
-    default the :data:`PAYLOAD` of a cage and binding; each one's name, dtype, shape and bytes)."""
+    default the :data:`PAYLOAD` of a cage and binding; each one's name, dtype, shape and the
+    SHA-256 of its bytes, the large ones digested side by side on two threads)."""
+    digests = _digests([arrays[name] for name in names])
     h = hashlib.sha256()
     h.update(FORMAT.encode() + b"\0" + key.encode() + b"\0" + versions.encode() + b"\0")
-    for name in names:
-        a = np.ascontiguousarray(arrays[name])
-        h.update(f"{name}:{a.dtype.str}:{a.shape}\0".encode())
-        h.update(memoryview(a).cast("B") if a.dtype.kind != "U" and a.size else a.tobytes())
+    for name, digest in zip(names, digests):
+        a = arrays[name]
+        h.update(f"{name}:{a.dtype.str}:{a.shape}\0".encode() + digest)
     return h.hexdigest()
+
+
+def _digests(arrays: list[np.ndarray]) -> list[bytes]:
+    """SHA-256 of each array's bytes; hashlib lets go of the GIL on large buffers, so two threads
+    hash two arrays at once (reading a memory-mapped entry from disk as they go)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    def one(a: np.ndarray) -> bytes:
+        a = np.ascontiguousarray(a)
+        return hashlib.sha256(memoryview(a).cast("B") if a.dtype.kind != "U" and a.size else a.tobytes()).digest()
+
+    if sum(a.nbytes for a in arrays) < 2**24:
+        return [one(a) for a in arrays]
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        return list(pool.map(one, arrays))
+
+
+def read_entry_file(path: Path) -> dict[str, np.ndarray]:
+    """Every array of an ``.npz`` written by :func:`store` or :func:`store_arrays`, the large ones
+    memory-mapped (copy-on-write: writable, never written back) rather than copied into memory,
+    so a cached 11M-vertex shape opens without reading its binding twice.
+
+    Raises
+    ------
+    ValueError, OSError, zipfile.BadZipFile
+        Not such a file (a compressed or object member, a truncated file).
+    """
+    import struct
+    import zipfile
+
+    out = {}
+    with zipfile.ZipFile(path) as zf, open(path, "rb") as fh:
+        size = os.fstat(fh.fileno()).st_size
+        for info in zf.infolist():
+            name = info.filename.removesuffix(".npy")
+            if info.compress_type != zipfile.ZIP_STORED:
+                raise ValueError(f"member {name} is compressed")
+            fh.seek(info.header_offset)
+            local = fh.read(30)
+            if len(local) != 30 or local[:4] != b"PK\x03\x04":
+                raise ValueError(f"member {name}: no local header")
+            name_len, extra_len = struct.unpack("<HH", local[26:30])
+            fh.seek(info.header_offset + 30 + name_len + extra_len)
+            version = np.lib.format.read_magic(fh)
+            shape, fortran, dtype = (np.lib.format.read_array_header_1_0 if version == (1, 0)
+                                     else np.lib.format.read_array_header_2_0)(fh)
+            if dtype.hasobject:
+                raise ValueError(f"member {name} holds objects")
+            offset, count = fh.tell(), int(np.prod(shape, dtype=np.int64))
+            if offset + count * dtype.itemsize > size:
+                raise ValueError(f"member {name} runs past the end of the file")
+            if count * dtype.itemsize < 2**16:  # small: read
+                a = np.frombuffer(fh.read(count * dtype.itemsize), dtype=dtype, count=count).copy()
+                out[name] = a.reshape(shape, order="F" if fortran else "C")
+            else:
+                mm = np.memmap(path, dtype=dtype, mode="c", offset=offset, shape=shape,
+                               order="F" if fortran else "C")
+                out[name] = np.asarray(mm)
+    return out
 
 
 def default_cache_dir() -> Path:
@@ -87,8 +147,9 @@ def cache_key(mesh: Mesh, cage_size: int | float, truncation: float, extra: str 
     h.update(FORMAT.encode())
     h.update(repr((type(cage_size).__name__, cage_size, float(truncation), extra)).encode())
     h.update(np.int64(mesh.n_vertices).tobytes())
-    h.update(np.ascontiguousarray(mesh.vertices, dtype="<f8").tobytes())
-    h.update(np.ascontiguousarray(mesh.faces, dtype="<i8").tobytes())
+    for digest in _digests([np.ascontiguousarray(mesh.vertices, dtype="<f8"),
+                            np.ascontiguousarray(mesh.faces, dtype="<i8")]):
+        h.update(digest)
     return h.hexdigest()
 
 
@@ -133,15 +194,15 @@ class _Invalid(Exception):
 
 
 def _checked(p: Path, key: str, mesh: Mesh) -> tuple[Mesh, sp.csr_matrix, list[str], np.ndarray]:
-    with np.load(p, allow_pickle=False) as z:
-        if "key" not in z.files or str(z["key"]) != key:
-            raise _Invalid("another key")
-        if "checksum" not in z.files or "versions" not in z.files:
-            raise _Invalid("no checksum")
-        versions = str(z["versions"])
-        arrays = {name: z[name] for name in PAYLOAD}
-        if checksum(key, versions, arrays) != str(z["checksum"]):
-            raise _Invalid("checksum mismatch: the file was changed after it was written")
+    z = read_entry_file(p)
+    if "key" not in z or str(z["key"]) != key:
+        raise _Invalid("another key")
+    if "checksum" not in z or "versions" not in z:
+        raise _Invalid("no checksum")
+    versions = str(z["versions"])
+    arrays = {name: z[name] for name in PAYLOAD}
+    if checksum(key, versions, arrays) != str(z["checksum"]):
+        raise _Invalid("checksum mismatch: the file was changed after it was written")
     if versions != writer_versions():
         raise _Invalid(f"written by {_versions_text(versions)}, this is {_versions_text(writer_versions())}")
     cv, cf = arrays["cage_vertices"], arrays["cage_faces"]
@@ -244,15 +305,15 @@ def load_arrays(folder: Path, key: str, kind: str, names: tuple[str, ...]) -> di
     if not p.is_file():
         return None
     try:
-        with np.load(p, allow_pickle=False) as z:
-            if "key" not in z.files or str(z["key"]) != key:
-                raise _Invalid("another key")
-            if sorted(set(z.files) - {"key", "versions", "checksum"}) != sorted(names):
-                raise _Invalid("other arrays")
-            versions = str(z["versions"])
-            arrays = {n: z[n] for n in sorted(names)}
-            if checksum(key + "/" + kind, versions, arrays, tuple(sorted(names))) != str(z["checksum"]):
-                raise _Invalid("checksum mismatch: the file was changed after it was written")
+        z = read_entry_file(p)
+        if "key" not in z or str(z["key"]) != key:
+            raise _Invalid("another key")
+        if sorted(set(z) - {"key", "versions", "checksum"}) != sorted(names):
+            raise _Invalid("other arrays")
+        versions = str(z["versions"])
+        arrays = {n: z[n] for n in sorted(names)}
+        if checksum(key + "/" + kind, versions, arrays, tuple(sorted(names))) != str(z["checksum"]):
+            raise _Invalid("checksum mismatch: the file was changed after it was written")
         if versions != writer_versions():
             raise _Invalid(f"written by {_versions_text(versions)}, this is {_versions_text(writer_versions())}")
         return arrays

@@ -253,3 +253,41 @@ def test_an_entry_records_its_writers_versions_and_checksum(tmp_path, shape):
     assert versions["fast-simplification"] not in ("", "none")
     assert str(arrays["checksum"]) == bindcache.checksum(str(arrays["key"]), str(arrays["versions"]), arrays)
     assert len(str(arrays["checksum"])) == 64  # SHA-256
+
+
+def test_an_entry_is_read_memory_mapped_and_equal_to_what_was_stored(tmp_path):
+    import trimesh
+
+    s = trimesh.creation.icosphere(subdivisions=5)  # 10K vertices: M is mapped, not read
+    mesh = Mesh(np.asarray(s.vertices), np.asarray(s.faces))
+    built = HybridEditor(mesh, 200, cache=tmp_path)
+    (f,) = tmp_path.glob(ENTRY)
+    z = bindcache.read_entry_file(f)
+    with np.load(f) as ref:
+        assert sorted(z) == sorted(ref.files)
+        assert all(np.array_equal(z[k], ref[k]) and z[k].dtype == ref[k].dtype for k in ref.files)
+
+    def mapped(a):
+        while a is not None and not isinstance(a, np.memmap):
+            a = a.base
+        return a is not None
+
+    assert mapped(z["data"]) and mapped(z["indices"]) and z["data"].flags.writeable
+    again = HybridEditor(mesh, 200, cache=tmp_path)
+    assert again.cache_hit and (again.M != built.M).nnz == 0
+    assert np.array_equal(again.cage.vertices, built.cage.vertices)
+
+
+@pytest.mark.parametrize("cut", [0.3, 0.7, 0.999])
+def test_a_truncated_mapped_entry_is_refused(tmp_path, cut):
+    import trimesh
+
+    s = trimesh.creation.icosphere(subdivisions=5)
+    mesh = Mesh(np.asarray(s.vertices), np.asarray(s.faces))
+    HybridEditor(mesh, 200, cache=tmp_path)
+    (f,) = tmp_path.glob(ENTRY)
+    data = f.read_bytes()
+    f.write_bytes(data[: int(len(data) * cut)])
+    with pytest.warns(bindcache.CacheEntryDiscarded):
+        again = HybridEditor(mesh, 200, cache=tmp_path)
+    assert not again.cache_hit
