@@ -78,10 +78,12 @@ _WHERE = {
 #: imported it (the import system binds ``hybridedit.deform.propagate`` to the module)
 _RENAMED = {"propagate_positions": "propagate"}
 
+from .defaults import CAGE_SIZE as _CAGE_SIZE  # noqa: E402 -- (a plain module: cheap to import here)
+
 __all__ = sorted(_WHERE)  # (not ``open``: ``from hybridedit import *`` must not hide the builtin)
 
 
-def open(path, cage_size: int | float = 0.05, **options):  # noqa: A001  (he.open, as io.open)
+def open(path, cage_size: int | float = _CAGE_SIZE, **options):  # noqa: A001  (he.open, as io.open)
     """Open a mesh file for editing: ``HybridEditor.from_file(path, cage_size, **options)``.
 
     The editor keeps everything the file holds (texture coordinates, polygons,
