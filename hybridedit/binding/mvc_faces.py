@@ -188,6 +188,29 @@ def _near_faces(x0, x1, x2, verts_t, face_idx, planes, fq, eps_v, eps_plane, eps
     return False
 
 
+#: :func:`near_face_case`: the face is evaluated (its exact weights, as for any near face)
+NEAR_EVALUATED = 0
+#: the face's contribution vanishes for this point (the flat kernel zeroes its ``fq``)
+NEAR_DROPPED = 1
+#: the point is on the cage (on this face's closed triangle)
+NEAR_ON_CAGE = 2
+
+
+@njit(cache=True, fastmath=False, error_model="numpy", inline="always")
+def near_face_case(x0, x1, x2, verts_t, i0, i1, i2, nx, ny, nz, area2, dist, eps_plane):
+    """What the rules of :func:`_near_faces` make of face (i0, i1, i2) for a point at signed
+    distance ``dist`` (within ``eps_near``) of its plane: :data:`NEAR_ON_CAGE`,
+    :data:`NEAR_DROPPED` or :data:`NEAR_EVALUATED`, one face and one point at a time (the
+    hierarchical kernel's lanes)."""
+    adist = abs(dist)
+    _, _, _, h0, h1, h2 = _projection(x0, x1, x2, verts_t[0], verts_t[1], verts_t[2], i0, i1, i2, nx, ny, nz,
+                                      area2)
+    rho = max(-h0, max(-h1, -h2))  # > 0 iff outside
+    if adist <= eps_plane:
+        return NEAR_ON_CAGE if rho <= eps_plane else NEAR_DROPPED
+    return NEAR_DROPPED if adist <= RHO_RATIO * rho else NEAR_EVALUATED
+
+
 @njit(cache=True, fastmath=False, error_model="numpy", inline="always")
 def _projection(x0, x1, x2, vx, vy, vz, i0, i1, i2, nx, ny, nz, area2):
     """Where x projects onto the plane of face (i0, i1, i2) (unit normal n, twice the area ``area2``).

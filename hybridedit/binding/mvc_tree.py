@@ -45,9 +45,12 @@ already dropped; if every kept entry is larger than the aggregated vertices'
 bound, the result is the rule on the whole row up to the error of ``F``. A
 row for which this cannot be shown (the aggregated mass exceeds the budget,
 a kept entry is not above the bound, the safeguard would fire, the point is
-on or next to the cage's surface, or too many vertices were opened) is
-reported as undecided; :func:`hybridedit.binding.bind.bind` then tries it again
-with a smaller ``theta`` and finally with the flat kernel.
+on the cage's surface, or too many vertices were opened) is
+reported as undecided; :func:`hybridedit.binding.bind.bind` then gives a point at a cage
+vertex its unit row, tries the others again with a smaller ``theta`` and finally with the flat
+kernel (a pass over every cage face: the rows sent there are what made the binding grow faster
+than the shape, so a point next to a near face's plane is handled here, by the flat kernel's own
+rules for that face, :func:`hybridedit.binding.mvc_faces.near_face_case`).
 
 Cost: the open region of a batch and the aggregated nodes around it grow
 like ``log c`` (a few hundred leaves and nodes), not like ``c``.
@@ -61,7 +64,7 @@ import numpy as np
 from numba import njit, prange
 
 from .lane_ir import far_rows, g_row
-from .mvc_faces import compile_exact_face_lanes, tolerances
+from .mvc_faces import NEAR_DROPPED, NEAR_ON_CAGE, compile_exact_face_lanes, near_face_case, tolerances
 from .mvc_layout import LANES, fast_destinations
 from .tree_cage import TreeCage
 from .truncation import TOO_WIDE, UNDECIDED, keep_row, store_kept
@@ -173,8 +176,8 @@ def tree_scratch(tree: TreeCage, n_workers: int) -> tuple:
 
 
 @njit(cache=True, error_model="numpy")
-def _tree_batch(X, xc, xr, dest, cg, tg, eps_near, far_ratio, theta, truncation, min_kept_sum,
-                col_of, counts, cols, vals, sc, wk, row, surv, work, idx, colmap):
+def _tree_batch(X, xc, xr, dest, cg, tg, eps_near, eps_plane, far_ratio, theta, truncation, min_kept_sum,
+                col_of, counts, cols, vals, sc, wk, row, surv, work, idx, colmap, drop):
     """Truncated rows of one batch into ``counts[r]``, ``cols[r]``, ``vals[r]``, r = dest[l].
 
     The steps are inlined; the loop over the open faces stays in this body (one kernel: as
@@ -276,22 +279,33 @@ def _tree_batch(X, xc, xr, dest, cg, tg, eps_near, far_ratio, theta, truncation,
                      accf[s2] if s2 >= 0 else sink, q0, np.float32(q1), np.float32(q2),
                      np.float32(q3))
         else:
-            # Near: exact; a point next to the face's plane goes to the flat kernel.
+            # Near: exact. A point next to the face's plane takes the flat kernel's rules for it
+            # (the face dropped, or evaluated as any other); a point on the cage goes to the flat
+            # kernel, which writes its row.
+            n_drop = 0
             if planes[4, f] > 0.0:
                 for l in range(nl):
                     dist = (planes[0, f] * X[0, l] + planes[1, f] * X[1, l]
                             + planes[2, f] * X[2, l] - planes[3, f])
                     if abs(dist) <= eps_near:
-                        undecided[l] = 1.0
+                        case = near_face_case(X[0, l], X[1, l], X[2, l], verts_t, i0, i1, i2, planes[0, f],
+                                              planes[1, f], planes[2, f], planes[4, f], dist, eps_plane)
+                        if case == NEAR_ON_CAGE:
+                            undecided[l] = 1.0
+                        elif case == NEAR_DROPPED:
+                            drop[l] = True
+                            n_drop += 1
             exact_face_lanes(X, verts_t, planes, i0, i1, i2, f, wl)
             for l in range(nl):
-                if undecided[l] == 0.0:
+                if undecided[l] == 0.0 and not drop[l]:
                     if s0 >= 0:
                         nacc[l, s0] += wl[0, l]
                     if s1 >= 0:
                         nacc[l, s1] += wl[1, l]
                     if s2 >= 0:
                         nacc[l, s2] += wl[2, l]
+            if n_drop:
+                drop[:] = False
     for m in range(n_g):
         o = gown[m]
         if o >= 0:
@@ -434,7 +448,7 @@ def _store_rows(dest, agg, nacc, accf, n_open, truncation, min_kept_sum, counts,
 
 
 @njit(cache=True, error_model="numpy", parallel=True)
-def _tree_kernel(bx, bsph, dest, cg, tg, eps_near, far_ratio, theta, truncation, min_kept_sum,
+def _tree_kernel(bx, bsph, dest, cg, tg, eps_near, eps_plane, far_ratio, theta, truncation, min_kept_sum,
                  col_of, counts, cols, vals, sc):
     nbatch = bx.shape[0]
     n_workers = sc[0].shape[0]
@@ -445,10 +459,11 @@ def _tree_kernel(bx, bsph, dest, cg, tg, eps_near, far_ratio, theta, truncation,
         work = np.empty(cap)
         idx = np.empty(cap, dtype=np.int64)
         colmap = np.empty(cap, dtype=np.int64)
+        drop = np.zeros(bx.shape[2], dtype=np.bool_)  # lanes for which the current near face is dropped
         for b in range((wk * nbatch) // n_workers, ((wk + 1) * nbatch) // n_workers):
-            _tree_batch(bx[b], bsph[b, 0:3], bsph[b, 3], dest[b], cg, tg, eps_near, far_ratio,
+            _tree_batch(bx[b], bsph[b, 0:3], bsph[b, 3], dest[b], cg, tg, eps_near, eps_plane, far_ratio,
                         theta, truncation, min_kept_sum, col_of, counts, cols, vals, sc, wk,
-                        row, surv, work, idx, colmap)
+                        row, surv, work, idx, colmap, drop)
 
 
 def compute_tree_truncated(plan, tree: TreeCage, start: int, stop: int, truncation: float,
@@ -466,11 +481,11 @@ def compute_tree_truncated(plan, tree: TreeCage, start: int, stop: int, truncati
         return
     fast = tree.fast
     k0, k1, dest = fast_destinations(plan, start, stop)
-    _, _, eps_near = tolerances(fast.scale)
+    _, eps_plane, eps_near = tolerances(fast.scale)
     cg = (fast.verts_t, fast.mids_t, fast.qcoef, fast.far_idx, fast.exact.planes, fast.face_geo)
     tg = (tree.star_ptr, tree.star_faces, tree.order, tree.lo, tree.hi, tree.left, tree.right,
           tree.geo, tree.mom, tree.aux)
-    _tree_kernel(plan.bx[k0:k1], plan.bsph[k0:k1], dest, cg, tg, eps_near, float(far_ratio),
+    _tree_kernel(plan.bx[k0:k1], plan.bsph[k0:k1], dest, cg, tg, eps_near, eps_plane, float(far_ratio),
                  float(theta), float(truncation), float(min_kept_sum), fast.perm, counts, cols,
                  vals, scratch)
 

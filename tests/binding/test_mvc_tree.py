@@ -191,3 +191,43 @@ def test_most_rows_of_a_scan_are_decided_by_the_hierarchy():
     both = np.flatnonzero((counts > 0) & (out[1][0] > 0))
     same = [np.array_equal(out[0][1][i, :counts[i]], out[1][1][i, :out[1][0][i]]) for i in both]
     assert np.mean(same) >= 0.75, np.mean(same)
+
+
+def test_points_at_cage_vertices_and_next_to_face_planes_stay_off_the_flat_kernel(monkeypatch):
+    """A point at a cage vertex (a simplification keeps some of the shape's vertices) gets the
+    unit row of that vertex, and a point next to a near face's plane takes the flat kernel's rules
+    for that face inside the hierarchical kernel: neither costs a pass over every cage face."""
+    import hybridedit.binding.bind as B
+
+    cv, cf = sphere(3, radius=1.06)
+    cage = Mesh(bumpy(cv, 0.05), cf)
+    rng = np.random.default_rng(3)
+    sel = rng.choice(len(cf), 60, replace=False)
+    v = cage.vertices
+    nrm = np.cross(v[cf[sel, 1]] - v[cf[sel, 0]], v[cf[sel, 2]] - v[cf[sel, 0]])
+    nrm /= np.linalg.norm(nrm, axis=1)[:, None]
+    inside = np.einsum("ij,ijk->ik", rng.dirichlet([2, 2, 2], size=60), v[cf[sel]]) - 1e-10 * nrm
+    # in a face's plane (to 1e-13), beyond one of its edges, inside the cage
+    edge_mid = 0.5 * (v[cf[sel, 0]] + v[cf[sel, 1]])
+    beyond = edge_mid + 0.05 * (edge_mid - v[cf[sel, 2]])
+    beyond -= ((beyond - v[cf[sel, 0]]) * nrm).sum(axis=1)[:, None] * nrm + 1e-13 * nrm
+    interior = bumpy(np.asarray(trimesh.creation.icosphere(subdivisions=3).vertices), 0.02)
+    pts = np.vstack([v, inside, beyond, interior])
+    flat_rows = []
+    real = B._fast_truncated_chunk
+
+    def counting(plan, fast, ratio, scratch, t, start, stop, *bufs):
+        flat_rows.append(stop - start)
+        return real(plan, fast, ratio, scratch, t, start, stop, *bufs)
+
+    monkeypatch.setattr(B, "_fast_truncated_chunk", counting)
+    M = bind(pts, cage, truncation=T, method="fast", max_row=None)
+    monkeypatch.undo()
+    at_vertex = M[: len(v)]
+    assert np.array_equal(at_vertex.indices, np.arange(len(v))) and np.all(at_vertex.data == 1.0)
+    Mf = bind(pts, cage, truncation=T, method="flat", max_row=None)
+    ks, kf = kept_sets(M), kept_sets(Mf)
+    same = np.flatnonzero([a == b for a, b in zip(ks, kf)])
+    assert same.size >= 0.9 * len(pts)
+    assert abs(M[same] - Mf[same]).max() <= 1e-4
+    assert sum(flat_rows) <= 0.02 * len(pts), sum(flat_rows)
