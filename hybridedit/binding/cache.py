@@ -31,7 +31,7 @@ from ..fileio.atomic import atomic_write
 from ..core.mesh import Mesh
 
 #: Bump when the cage or binding algorithms change: old files stop matching.
-FORMAT = "hybridedit-binding-6"  # 2: fast binding; 3: notes; 4: checksum, versions; 5: links; 6: digest per array
+FORMAT = "hybridedit-binding-7"  # 2: fast binding; 3: notes; 4: checksum, versions; 5: links; 6: digest per array; 7: rows at cage vertices
 
 #: the arrays of an entry, in the order the checksum reads them
 PAYLOAD = ("cage_vertices", "cage_faces", "shape", "data", "indices", "indptr", "notes", "links")
