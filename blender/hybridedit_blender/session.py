@@ -211,7 +211,7 @@ def stretch_of(obj_world: np.ndarray) -> np.ndarray | None:
     U, sig, Vt = np.linalg.svd(L)
     if sig.min() <= 0.0 or not np.all(np.isfinite(sig)):
         raise BindError("the object's matrix is singular (a zero scale): it cannot be posed")
-    if sig.max() - sig.min() <= 1e-9 * sig.max():
+    if sig.max() - sig.min() <= 1e-6 * sig.max():  # (a float32 matrix rounds at 6e-8)
         return None
     P = (Vt.T * sig) @ Vt
     return (P + P.T) / 2
