@@ -1,6 +1,10 @@
-"""Timings of the extension in Blender itself (bpy, headless): Bind cold and from the cache, and a
-live frame split into the engine's frame (HybridEditor.drag + the moving rows into the float32
-buffer), foreach_set, and Mesh.update; Blender's own redraw is not part of it (no window).
+"""Timings of the extension in Blender itself (bpy, headless): Bind cold and from the cache, a live
+frame split into the engine's frame (HybridEditor.drag + the moving rows into the float32 buffer),
+the edit check (every basis and pose-key position compared), the pose key's foreach_set and
+Mesh.update; then, after the Empty stops, the settle on the worker thread (wall time from the last
+move to converged, while the main thread is free), Apply (main thread) and the worker's
+preparation of the next pose after it, and one animation frame solved from the base pose.
+Blender's own redraw is not part of it (no window).
 
     blender/.venv-bpy/bin/python blender/bench_live.py [--sizes 100000 1000000] [--frames 20]
 
@@ -35,8 +39,9 @@ def main() -> int:
     import bpy
 
     import hybridedit_blender as hb
+    from hybridedit_blender import live
     from hybridedit_blender import session as S
-    from hybridedit_blender.bind import SESSIONS
+    from hybridedit_blender.bind import session_of
 
     hb.register()
     rows = []
@@ -63,11 +68,21 @@ def main() -> int:
         t0 = time.perf_counter()
         bpy.ops.hybrid_arap.bind()
         cached = time.perf_counter() - t0
-        s = SESSIONS[obj.name]
+        s = session_of(obj)
         assert s.cache_hit
         empty = obj.hybrid_arap.handles[0].empty
         loc0 = empty.location.copy()
-        eng, drag, fset, upd, whole = [], [], [], [], []
+        eng, drag, fset, whole, check = [], [], [], [], []
+        edited = s.edited
+        timed = {}
+
+        def timed_edited(o):
+            t = time.perf_counter()
+            r = edited(o)
+            timed["check"] = (time.perf_counter() - t) * 1e3
+            return r
+
+        s.edited = timed_edited
         for k in range(1, args.frames + 1):
             empty.location.z = loc0.z + 0.01 * k
             empty.rotation_euler.x = math.radians(0.5 * k)
@@ -76,15 +91,51 @@ def main() -> int:
             whole.append((time.perf_counter() - t0) * 1e3)
             eng.append(s.last_engine_ms)
             drag.append(s.editor.frame_breakdown["total_seconds"] * 1e3)
-            fset.append(s.last_set_ms)
-            upd.append(s.last_update_ms)
+            fset.append(s.last_write_ms)
+            check.append(timed.get("check", 0.0))
+        # the Empty stops: the worker settles (the main thread is free meanwhile)
+        t0 = time.perf_counter()
+        live.finish(s)
+        settle = time.perf_counter() - t0
+        settle_frames = s._settle_frames
+        # a big move, released at once: the worker settles it
+        empty.location.z = loc0.z + 0.3
+        empty.rotation_euler.x = math.radians(30)
+        bpy.context.view_layer.update()
+        t0 = time.perf_counter()
+        live.finish(s)
+        big_settle = time.perf_counter() - t0
+        big_frames = s._settle_frames
+        t0 = time.perf_counter()
+        assert bpy.ops.hybrid_arap.apply() == {"FINISHED"}
+        apply_s = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        live.finish(s)
+        prepare = time.perf_counter() - t0
+        # one animation frame: solved from the base pose to converged (the same whatever came before)
+        scene = bpy.context.scene
+        empty.keyframe_insert("location", frame=1)
+        empty.location.z += 0.05
+        empty.keyframe_insert("location", frame=2)
+        t0 = time.perf_counter()
+        scene.frame_set(2)
+        anim = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        scene.frame_set(1)
+        scene.frame_set(2)
+        anim_cached = time.perf_counter() - t0
         med = lambda a: f"{np.median(a[2:]):.1f} ({min(a[2:]):.1f}-{max(a[2:]):.1f})"  # noqa: E731 (first frames warm up)
         rows.append((f"{len(me.vertices):,}", f"{len(s.moving):,}", f"{s.editor.cage.n_vertices:,}", f"{cold:.1f} s",
-                     f"{cached:.2f} s", med(eng), med(drag), med(fset), med(upd),
-                     f"{np.median(np.add(eng, fset)[2:]):.1f}", med(whole)))
-        SESSIONS.clear()
-    head = ("vertices", "moving rows", "cage", "Bind (cold)", "Bind (cached)", "engine frame ms", "of which HybridEditor.drag ms",
-            "foreach_set ms", "Mesh.update ms", "engine + foreach_set ms", "whole depsgraph update ms")
+                     f"{cached:.2f} s", med(eng), med(drag), med(check), med(fset),
+                     f"{np.median(np.add(np.add(eng, fset), check)[2:]):.1f}", med(whole),
+                     f"{settle:.1f} s ({settle_frames})", f"{big_settle:.1f} s ({big_frames})", f"{apply_s:.2f} s",
+                     f"{prepare:.1f} s", f"{anim:.1f} s", f"{anim_cached:.2f} s"))
+        live.unregister()
+        live.register()
+    head = ("vertices", "moving rows", "cage", "Bind (cold)", "Bind (cached)", "engine frame ms",
+            "of which HybridEditor.drag ms", "edit check ms", "pose key write ms", "frame total ms",
+            "whole depsgraph update ms", "settle after the drag (frames)", "settle after a big move (frames)",
+            "Apply", "next pose ready after Apply", "animation frame solved", "same frame again (cache)")
     print("| " + " | ".join(head) + " |")
     print("|" + "---|" * len(head))
     for r in rows:
