@@ -19,6 +19,7 @@
 from __future__ import annotations
 
 import threading
+import time
 
 import bpy
 import numpy as np
@@ -115,6 +116,7 @@ def transforms_now(s: S.Session, obj, depsgraph=None) -> dict | str:
 # ------------------------------------------------------------------ the worker
 def stop_worker(s: S.Session) -> None:
     """Cancel the session's worker and wait for it (at most one engine frame)."""
+    s.settle_due = 0.0
     t = s.thread
     if t is not None:
         s.cancel.set()
@@ -188,11 +190,16 @@ def _write_if_dirty(s: S.Session, obj) -> None:
 
 def tick():
     """Timer: write what the workers computed, say their progress; stops when none is left."""
-    working = []
+    working, waiting = [], False
     for s in list(SESSIONS.values()):
         obj = object_of(s)
         if obj is None:
             continue
+        if s.settle_due and time.monotonic() >= s.settle_due and s.thread is None:
+            s.settle_due = 0.0
+            settle_async(s)
+        elif s.settle_due:
+            waiting = True
         alive = s.thread is not None and s.thread.is_alive()
         _write_if_dirty(s, obj)
         if alive:
@@ -206,7 +213,7 @@ def tick():
     if BACKGROUND_BINDS:
         working += [job.status() for job, _ in BACKGROUND_BINDS]
     status("Hybrid ARAP: " + "; ".join(w.replace("Hybrid ARAP: ", "") for w in working) if working else None)
-    return 0.1 if working else None
+    return 0.1 if working or waiting else None
 
 
 def finish(s: S.Session | None = None) -> None:
@@ -216,6 +223,9 @@ def finish(s: S.Session | None = None) -> None:
         t.join()
     _poll_binds()
     for x in ([s] if s is not None else list(SESSIONS.values())):
+        if x.settle_due and x.thread is None:
+            settle_async(x)
+        x.settle_due = 0.0
         if x.thread is not None:
             x.thread.join()
             x.thread, x.busy = None, ""
@@ -281,8 +291,16 @@ def step(s: S.Session) -> bool:
     finally:
         S.ENGINE.release()
     if not s.settled:
-        settle_async(s)
+        # settle once the Empty has been still for a moment: while it moves, every live frame would
+        # first wait for the worker's frame in progress
+        s.settle_due = time.monotonic() + SETTLE_DELAY
+        if not bpy.app.timers.is_registered(tick):
+            bpy.app.timers.register(tick, first_interval=0.1, persistent=True)
     return True
+
+
+#: seconds an Empty stays still before the worker settles its pose
+SETTLE_DELAY = 0.15
 
 
 def _retry():

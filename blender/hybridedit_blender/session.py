@@ -310,6 +310,7 @@ class Session:
     busy: str = ""  # what the worker does ("settling", "preparing the next pose", ...)
     progress: float = 0.0
     needs_restore: bool = False  # an undo or redo restored the key and the Empties
+    settle_due: float = 0.0  # time.monotonic() after which the worker settles (0: nothing to settle)
     said: set = field(default_factory=set)  # one-time messages already said (Edit Mode...)
 
     tolerance: float = 1e-6  # HybridEditor.pose's: a frame moving no vertex by more than this x diagonal
