@@ -5,6 +5,8 @@
 # bundles (wheels only: nothing compiled). Prints pytest's summary line last.
 #   BPY_VERSION=4.2.* (default, venv blender/.venv-bpy) or e.g. 4.5.* (venv blender/.venv-bpy-4.5)
 #   PYTHON=python3.11 (default python3)
+#   --zip (first argument): build the Linux zip and run the tests on it, installed through Blender's
+#   own extension installer (HYBRIDEDIT_BLENDER_ZIP, see tests/conftest.py)
 set -euo pipefail
 cd "$(dirname "$0")"
 HERE=$PWD
@@ -39,5 +41,10 @@ trap 'rm -rf "$WHEELS"' EXIT
 # the engine's dependencies as the extension bundles them (build_extension.py's list), wheels only
 "${INSTALL[@]}" --only-binary=:all: "numpy<2" $("$VENV/bin/python" "$HERE/build_extension.py" --requirements cp311)
 "$VENV/bin/python" -c 'import bpy, numpy, hybridedit; print("bpy", bpy.app.version_string, "numpy", numpy.__version__)'
+if [[ ${1:-} == --zip ]]; then
+  shift
+  "$VENV/bin/python" "$HERE/build_extension.py" --platform linux-x64 --out "$WHEELS/zip" >/dev/null
+  export HYBRIDEDIT_BLENDER_ZIP=$(ls "$WHEELS"/zip/*.zip)
+fi
 cd "$HERE"
-exec "$VENV/bin/python" -m pytest -q -p no:cacheprovider tests "$@"
+"$VENV/bin/python" -m pytest -q -p no:cacheprovider tests "$@"
