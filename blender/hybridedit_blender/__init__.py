@@ -2,9 +2,12 @@
 
 ROI and handle groups come from vertex groups; each handle group follows an Empty
 (as a Hook does). Bind builds the cage and binding in the background (cached by the
-mesh's content); moving or rotating an Empty deforms the mesh live; Apply bakes the
-pose (one undo step); Reset returns to the bound pose. Only vertex positions are
-ever written: UVs, colours, custom normals and every other attribute are untouched.
+mesh's content); moving or rotating an Empty (by hand, keyframes, constraints or
+drivers) poses the mesh live in a shape key ("Hybrid ARAP") beside the base mesh;
+Apply bakes it into the mesh (one undo step), Reset zeroes it, Bake Animation turns a
+frame range into keyed shape keys. The binding is saved with the .blend and bound
+again on opening. Only positions are written: UVs, colours, custom normals and every
+other attribute are untouched.
 """
 
 from __future__ import annotations

@@ -1,11 +1,12 @@
 """Bind: the cage and binding built on a thread, with progress and Esc to cancel in the status bar.
 
-Everything Blender is read on the main thread first (positions, triangles, vertex
-groups, the Empties); the thread then only runs hybridedit (``build_rig`` with its
-on-disk cache keyed by the mesh's content, ``HybridEditor``, ``set_selection``) and
-never touches bpy. The modal operator polls it on a timer and installs the session
-when it is done. Called from a script (``bpy.ops.hybrid_arap.bind()``) it runs the
-same job synchronously.
+Everything Blender is read on the main thread first (the rest: the shape-key mix
+without the pose key; triangles, vertex groups, the Empties); the thread then only
+runs hybridedit (``build_rig`` with its on-disk cache keyed by the mesh's content,
+``HybridEditor``, ``set_selection``) and never touches bpy. The modal operator polls
+it on a timer and installs the session when it is done. Called from a script
+(``bpy.ops.hybrid_arap.bind()``) it runs the same jobs synchronously. Every selected
+mesh is bound (the active one first).
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from __future__ import annotations
 import os
 import threading
 import time
+import uuid
 from pathlib import Path
 
 import bpy
@@ -20,6 +22,7 @@ import numpy as np
 
 from . import session as S
 
+#: the bound objects' sessions, by their hybrid_arap.uid (kept through a rename)
 SESSIONS: dict[str, S.Session] = {}
 
 
@@ -46,53 +49,83 @@ def kernels_cached() -> bool:
     return any("hybridedit" in str(p) or p.name.startswith(("binding", "arap", "mvc")) for p in Path(folder).rglob("*.nbi"))
 
 
+def session_of(obj) -> S.Session | None:
+    """The session of a mesh object (by its uid, so a renamed object keeps it)."""
+    if obj is None or obj.type != "MESH":
+        return None
+    uid = obj.hybrid_arap.uid
+    s = SESSIONS.get(uid) if uid else None
+    if s is not None and s.object_name != obj.name:
+        if bpy.data.objects.get(s.object_name) is not None and bpy.data.objects[s.object_name].hybrid_arap.uid == uid:
+            return None  # a copy of the bound object (Duplicate): not bound itself
+        s.object_name = obj.name  # renamed
+    return s
+
+
+def handle_rest(h) -> np.ndarray | None:
+    """A handle's stored rest matrix (the Empty's world matrix at Bind or the last Apply), or None."""
+    M = S.matrix_np(h.rest)
+    return M if M[3, 3] == 1.0 else None
+
+
 class BindJob:
     """One bind: read on the main thread in __init__, computed by run() (any thread), installed by
-    install() on the main thread. Problems are BindError messages (one line)."""
+    install() on the main thread. Problems are BindError messages (one line).
+
+    Each handle's rest is its stored rest (the object was bound before: the pose its key holds is
+    kept and solved again at the Empties' current matrices) or the Empty's matrix now."""
 
     def __init__(self, obj, *, cancel_event: threading.Event | None = None) -> None:
         if obj is None or obj.type != "MESH":
             raise S.BindError("select a mesh object to bind")
         if obj.mode == "EDIT":
-            obj.update_from_editmode()
+            raise S.BindError(f"'{obj.name}' is in Edit Mode: leave it to Bind")
         st = obj.hybrid_arap
         me = obj.data
         if len(me.vertices) < 4 or len(me.polygons) == 0:
             raise S.BindError(f"'{obj.name}' has no surface to bind ({len(me.vertices)} vertices, "
                               f"{len(me.polygons)} faces)")
         if len(st.handles) == 0:
-            raise S.BindError("add a handle group (a vertex group and its Empty) before Bind")
+            raise S.BindError(f"'{obj.name}': add a handle group (a vertex group and its Empty) before Bind")
         names = []
         for i, h in enumerate(st.handles):
             if not h.group:
-                raise S.BindError(f"handle {i + 1} has no vertex group")
+                raise S.BindError(f"'{obj.name}': handle {i + 1} has no vertex group")
             if h.empty is None:
-                raise S.BindError(f"handle '{h.group}' has no Empty")
+                raise S.BindError(f"'{obj.name}': handle '{h.group}' has no Empty")
             if h.empty.type != "EMPTY":
-                raise S.BindError(f"'{h.empty.name}' driving '{h.group}' is not an Empty")
+                raise S.BindError(f"'{obj.name}': '{h.empty.name}' driving '{h.group}' is not an Empty")
             names.append(h.group)
         if st.roi_group:
             names.append(st.roi_group)
         members = S.group_members(obj, names)
         for name, rows in members.items():
             if len(rows) == 0:
-                raise S.BindError(f"vertex group '{name}' is empty")
+                raise S.BindError(f"'{obj.name}': vertex group '{name}' is empty")
         handle_rows = [members[h.group] for h in st.handles]
         for i in range(len(handle_rows)):
             for j in range(i):
                 if np.intersect1d(handle_rows[i], handle_rows[j]).size:
-                    raise S.BindError(f"handle groups '{st.handles[j].group}' and '{st.handles[i].group}' "
-                                      "share vertices")
+                    raise S.BindError(f"'{obj.name}': handle groups '{st.handles[j].group}' and "
+                                      f"'{st.handles[i].group}' share vertices")
         self.object_name = obj.name
-        self.positions = S.read_positions(me)
-        if not np.all(np.isfinite(self.positions)):
+        uid = st.uid
+        if not uid or any(o.hybrid_arap.uid == uid for o in bpy.data.objects if o is not obj and o.type == "MESH"):
+            uid = uuid.uuid4().hex  # new, or a copy of a bound object: an id of its own
+        self.uid = uid
+        self.rest, self.basis = S.rest_mix(obj)
+        if not np.all(np.isfinite(self.rest)):
             raise S.BindError(f"'{obj.name}' has non-finite vertex positions")
         self.tris = S.read_triangles(me)
         self.counts = S.topology_counts(me)
+        self.stretch = S.stretch_of(S.matrix_np(obj.matrix_world))
         self.handle_rows = handle_rows
+        self.groups = [h.group for h in st.handles]
         self.roi = members[st.roi_group] if st.roi_group else None
         self.roi_group = st.roi_group
-        self.handles = [S.Handle(h.group, h.empty.name, S.matrix_np(h.empty.matrix_world)) for h in st.handles]
+        stored = [handle_rest(h) for h in st.handles]
+        self.kept_rests = S.pose_key(obj) is not None and all(r is not None for r in stored)
+        self.rests = stored if self.kept_rests else [S.matrix_np(h.empty.matrix_world) for h in st.handles]
         self.cage_size = float(st.cage_size)
         self.iterations = int(st.iterations)
         self.cache_dir = user_folder("bindings")
@@ -102,6 +135,7 @@ class BindJob:
         self.session: S.Session | None = None
         self.error: str | None = None
         self.seconds = 0.0
+        self.digest = S.fingerprint(self.rest, self.tris)
 
     def _progress(self, stage: str, fraction: float) -> None:
         self.stage, self.fraction = stage, float(fraction)
@@ -114,20 +148,25 @@ class BindJob:
             self._progress("loading the engine", 0.0)
             import hybridedit as he
 
-            mesh = he.Mesh(self.positions.reshape(-1, 3).astype(np.float64), self.tris, name=self.object_name)
-            rig = he.build_rig(mesh, cage_size=self.cage_size, cache=self.cache_dir, progress=self._progress)
-            self._progress("preparing the editor", 0.0)
-            ed = he.HybridEditor(rig, iterations=self.iterations)
-            s = S.Session(self.object_name, ed, self.positions.copy(), S.triangles_digest(self.tris), self.counts,
-                          handles=self.handles, roi_group=self.roi_group, roi=self.roi,
-                          handle_rows=self.handle_rows, cage_size=self.cage_size, cache_hit=rig.cache_hit,
-                          notes=tuple(rig.notes))
-            self._progress("factoring the selection", 0.0)
-            s.select()
-            # compile the frame kernels now (first use), not at the first move of an Empty
-            self._progress("compiling the frame", 0.0)
-            ed.drag(transforms={g: np.eye(4) for g in range(len(self.handles))})
-            ed.restore_state(s.base_state)
+            V = self.rest.reshape(-1, 3).astype(np.float64)
+            if self.stretch is not None:  # the world shape (as Apply Scale makes it)
+                V = V @ self.stretch.T
+            with S.ENGINE:
+                mesh = he.Mesh(V, self.tris, name=self.object_name)
+                rig = he.build_rig(mesh, cage_size=self.cage_size, cache=self.cache_dir, progress=self._progress)
+                self._progress("preparing the editor", 0.0)
+                ed = he.HybridEditor(rig, iterations=self.iterations)
+                base = S.Base(self.digest, self.rest.copy(), self.basis.copy())
+                s = S.Session(self.uid, self.object_name, ed, base, S.triangles_digest(self.tris), self.counts,
+                              groups=self.groups, roi_group=self.roi_group, roi=self.roi,
+                              handle_rows=self.handle_rows, stretch=self.stretch, cage_size=self.cage_size,
+                              cache_hit=rig.cache_hit, notes=tuple(rig.notes))
+                self._progress("factoring the selection", 0.0)
+                s.select()
+                # compile the frame kernels now (first use), not at the first move of an Empty
+                self._progress("compiling the frame", 0.0)
+                ed.drag(transforms={g: np.eye(4) for g in range(len(self.groups))})
+                ed.restore_state(s.base.state)
             s.bind_seconds = time.perf_counter() - t0
             self.session = s
         except S.Cancelled:
@@ -135,7 +174,7 @@ class BindJob:
         except S.BindError as e:
             self.error = str(e)
         except Exception as e:  # noqa: BLE001 -- one line for the user; the type helps a bug report
-            self.error = f"bind failed: {type(e).__name__}: {e}".splitlines()[0]
+            self.error = f"bind failed for '{self.object_name}': {type(e).__name__}: {e}".splitlines()[0]
         self.seconds = time.perf_counter() - t0
 
     def status(self) -> str:
@@ -143,41 +182,71 @@ class BindJob:
         first = " (first use: compiling the engine, a minute or two, once)" if self.first_compile else ""
         return f"Hybrid ARAP: binding '{self.object_name}': {self.stage} {pct}%{first}. Esc to cancel"
 
-    def install(self, context) -> tuple[set, str]:
+    def install(self, context=None) -> tuple[set, str]:
         """Install the finished session (main thread); returns the report type and its line."""
+        from . import live
+
         if self.session is None:
             return {"WARNING"} if self.error == "cancelled" else {"ERROR"}, f"Hybrid ARAP: {self.error}"
         obj = bpy.data.objects.get(self.object_name)
         if obj is None:
-            return {"ERROR"}, f"Hybrid ARAP: '{self.object_name}' was removed during Bind"
-        if S.topology_counts(obj.data) != self.counts or not np.array_equal(S.read_positions(obj.data), self.positions):
+            return {"ERROR"}, f"Hybrid ARAP: '{self.object_name}' was removed or renamed during Bind: Bind again"
+        if obj.mode == "EDIT":
+            return {"ERROR"}, f"Hybrid ARAP: '{self.object_name}' went into Edit Mode during Bind: Bind again"
+        rest, basis = S.rest_mix(obj)
+        if S.topology_counts(obj.data) != self.counts or not np.array_equal(rest, self.rest) \
+                or not np.array_equal(basis, self.basis):
             return {"ERROR"}, f"Hybrid ARAP: '{self.object_name}' changed during Bind: Bind again"
         s = self.session
-        empties = {h.empty: S.matrix_np(bpy.data.objects[h.empty].matrix_world) for h in s.handles
-                   if h.empty in bpy.data.objects}
-        if len(empties) == len(s.handles):  # the Empties where they are now: no move yet
-            s.last_transforms = s.transforms_from(S.matrix_np(obj.matrix_world), empties)
-        SESSIONS[self.object_name] = s
         st = obj.hybrid_arap
+        old = SESSIONS.pop(st.uid, None) if st.uid else None
+        if old is not None:
+            live.stop_worker(old)
+        st.uid = self.uid
         st.problem = ""
-        st.bound = S.fingerprint(self.positions, self.tris)[:16]
-        s = self.session
+        st.bound = self.digest
+        st.stretch = [float(x) for x in (self.stretch if self.stretch is not None else np.eye(3)).T.ravel()]
+        if obj.data.shape_keys is None:
+            st.had_keys = False
+        elif S.pose_key(obj) is None:
+            st.had_keys = True
+        kb = S.pose_key(obj)
+        if self.kept_rests and kb is not None:
+            s.buf = S.read_key(kb, s.n)  # the pose the file holds, shown until it is solved again
+            s.written = s.buf.copy()
+        S.ensure_pose_key(obj, s.base.basis32)
+        for h, M in zip(st.handles, self.rests):
+            h.rest = S.matrix_flat(M)
+        SESSIONS[self.uid] = s
+        if not self.kept_rests:
+            s.write(obj)
+        live.catch_up(s, obj)
         line = (f"Hybrid ARAP: bound '{self.object_name}' ({s.n:,} vertices, cage {s.editor.cage.n_vertices:,}) in "
                 f"{s.bind_seconds:.1f} s{' from the cache' if s.cache_hit else ''}")
+        if self.stretch is not None:
+            line += "; solved in world space (non-uniform scale)"
         if s.notes:
             return {"WARNING"}, line + "; the cage was built on a repaired copy: " + "; ".join(s.notes)
         return {"INFO"}, line
 
 
+def meshes_to_bind(context) -> list:
+    """The selected meshes, the active one first (or the active one alone when nothing is selected)."""
+    active = context.object
+    out = [active] if active is not None and active.type == "MESH" else []
+    out += [o for o in context.selected_objects if o.type == "MESH" and o is not active]
+    return out
+
+
 class HYBRIDARAP_OT_bind(bpy.types.Operator):
-    """Build the cage and binding of the active mesh (in the background, cached by the mesh's
+    """Build the cage and binding of every selected mesh (in the background, cached by the mesh's
     content) and set the selection from the ROI and handle vertex groups"""
 
     bl_idname = "hybrid_arap.bind"
     bl_label = "Bind"
-    bl_options = {"REGISTER"}
+    bl_options = {"REGISTER", "UNDO"}
 
-    _job: BindJob | None = None
+    _jobs: list | None = None
     _thread: threading.Thread | None = None
     _timer = None
 
@@ -185,55 +254,77 @@ class HYBRIDARAP_OT_bind(bpy.types.Operator):
     def poll(cls, context):
         return context.object is not None and context.object.type == "MESH"
 
-    def _start(self, context) -> BindJob | None:
-        SESSIONS.pop(context.object.name, None)  # a new bind replaces the old session
-        try:
-            return BindJob(context.object)
-        except S.BindError as e:
-            self.report({"ERROR"}, f"Hybrid ARAP: {e}")
-            return None
+    def _start(self, context) -> list[BindJob]:
+        objs = meshes_to_bind(context)
+        if any(o.mode == "EDIT" for o in objs):
+            bpy.ops.object.mode_set(mode="OBJECT")
+        jobs = []
+        for obj in objs:
+            try:
+                jobs.append(BindJob(obj))
+            except S.BindError as e:
+                self.report({"ERROR"}, f"Hybrid ARAP: {e}")
+        return jobs
+
+    def _finish(self, jobs) -> set:
+        ok = False
+        for job in jobs:
+            kind, line = job.install()
+            self.report(kind, line)
+            ok |= job.session is not None and kind != {"ERROR"}
+        return {"FINISHED"} if ok else {"CANCELLED"}
 
     def execute(self, context):
-        job = self._start(context)
-        if job is None:
-            return {"CANCELLED"}
-        job.run()
-        kind, line = job.install(context)
-        self.report(kind, line)
-        return {"FINISHED"} if job.session is not None else {"CANCELLED"}
+        jobs = self._start(context)
+        for job in jobs:
+            job.run()
+        return self._finish(jobs) if jobs else {"CANCELLED"}
 
     def invoke(self, context, event):
-        job = self._start(context)
-        if job is None:
+        jobs = self._start(context)
+        if not jobs:
             return {"CANCELLED"}
-        self._job = job
-        self._thread = threading.Thread(target=job.run, name="hybridedit-bind", daemon=True)
+        self._jobs = jobs
+
+        def run_all():
+            for job in jobs:
+                if jobs[0].cancel.is_set():
+                    job.error = "cancelled"
+                    continue
+                job.cancel = jobs[0].cancel
+                job.run()
+
+        self._thread = threading.Thread(target=run_all, name="hybridedit-bind", daemon=True)
         self._thread.start()
         wm = context.window_manager
         self._timer = wm.event_timer_add(0.1, window=context.window)
         wm.progress_begin(0, 100)
         wm.modal_handler_add(self)
-        context.workspace.status_text_set(job.status())
+        context.workspace.status_text_set(jobs[0].status())
         return {"RUNNING_MODAL"}
 
+    def _current(self) -> BindJob:
+        return next((j for j in self._jobs if j.session is None and j.error is None), self._jobs[-1])
+
     def modal(self, context, event):
-        job = self._job
         if event.type == "ESC" and event.value == "PRESS":
-            job.cancel.set()
+            self._jobs[0].cancel.set()
             context.workspace.status_text_set("Hybrid ARAP: cancelling the bind...")
             return {"RUNNING_MODAL"}
         if event.type != "TIMER":
             return {"PASS_THROUGH"}
         if self._thread.is_alive():
+            job = self._current()
             context.window_manager.progress_update(int(100 * job.fraction))
-            context.workspace.status_text_set(job.status())
+            k = self._jobs.index(job)
+            more = f" ({k + 1} of {len(self._jobs)})" if len(self._jobs) > 1 else ""
+            context.workspace.status_text_set(job.status() + more)
             return {"RUNNING_MODAL"}
         wm = context.window_manager
         wm.event_timer_remove(self._timer)
         wm.progress_end()
         context.workspace.status_text_set(None)
-        kind, line = job.install(context)
-        self.report(kind, line)
+        result = self._finish(self._jobs)
         for area in context.screen.areas if context.screen else ():
             area.tag_redraw()
-        return {"FINISHED"} if job.session is not None else {"CANCELLED"}
+        return result

@@ -3,15 +3,20 @@
 from __future__ import annotations
 
 import bpy
-from bpy.props import BoolProperty, CollectionProperty, FloatProperty, IntProperty, PointerProperty, StringProperty
+from bpy.props import (BoolProperty, CollectionProperty, FloatProperty, FloatVectorProperty, IntProperty,
+                       PointerProperty, StringProperty)
 
-from .bind import SESSIONS
+from .bind import session_of
+from .session import KEY
 
 
 class HybridArapHandle(bpy.types.PropertyGroup):
     group: StringProperty(name="Vertex Group", description="Vertices that follow the Empty exactly")
     empty: PointerProperty(name="Empty", type=bpy.types.Object, poll=lambda self, ob: ob.type == "EMPTY",
                            description="Moving or rotating this Empty moves the group, as a Hook does")
+    # the Empty's world matrix at Bind (or the last Apply): its motion since then moves the group.
+    # Saved with the .blend (and restored by undo with the pose it belongs to); all zeros: not set
+    rest: FloatVectorProperty(size=16, subtype="MATRIX", default=[0.0] * 16, options={"HIDDEN"})
 
 
 class HybridArapSettings(bpy.types.PropertyGroup):
@@ -24,7 +29,12 @@ class HybridArapSettings(bpy.types.PropertyGroup):
     iterations: IntProperty(name="Iterations", default=2, min=1, max=16,
                             description="ARAP iterations per live frame")
     live: BoolProperty(name="Live", default=True, description="Follow the Empties as they move")
-    bound: StringProperty(options={"HIDDEN"})  # fingerprint of the bound mesh ("" when not bound)
+    # saved with the .blend: what was bound, so that opening the file binds it again
+    bound: StringProperty(options={"HIDDEN"})  # SHA-256 of the bound rest and triangles ("" when not bound)
+    uid: StringProperty(options={"HIDDEN"})  # the binding's id (a rename keeps it, a copy gets its own)
+    stretch: FloatVectorProperty(size=9, subtype="MATRIX", default=[1, 0, 0, 0, 1, 0, 0, 0, 1], options={"HIDDEN"})
+    had_keys: BoolProperty(default=True, options={"HIDDEN"})  # shape keys before the first Bind (Apply keeps them)
+    baked: BoolProperty(default=False, options={"HIDDEN"})  # Bake Animation wrote keyed shape keys
     problem: StringProperty(options={"HIDDEN"})  # the last problem found while following the Empties
 
 
@@ -66,19 +76,27 @@ class VIEW3D_PT_hybrid_arap(bpy.types.Panel):
         row.scale_y = 1.3
         row.operator("hybrid_arap.bind", icon="MOD_MESHDEFORM")
         row.operator("hybrid_arap.unbind", text="", icon="X")
-        s = SESSIONS.get(obj.name)
+        s = session_of(obj)
         if s is not None:
             layout.prop(st, "live")
             row = layout.row(align=True)
             row.operator("hybrid_arap.apply", icon="CHECKMARK")
             row.operator("hybrid_arap.reset", icon="LOOP_BACK")
+            layout.operator("hybrid_arap.bake_animation", icon="KEYINGSET")
             box = layout.box().column(align=True)
             box.label(text=f"{s.n:,} vertices, cage {s.editor.cage.n_vertices:,}", icon="INFO")
             box.label(text=f"bound in {s.bind_seconds:.1f} s{' (cache)' if s.cache_hit else ''}")
-            if s.frames:
+            box.label(text=f"pose in shape key '{KEY}'" + (", world space" if s.stretch is not None else ""))
+            if s.busy:
+                box.label(text=f"{s.busy} {int(100 * s.progress)}%", icon="SORTTIME")
+            elif s.frames:
                 box.label(text=f"frame: engine {s.last_engine_ms:.1f} ms, write {s.last_write_ms:.1f} ms")
+            if st.baked:
+                box.label(text="animation baked into shape keys", icon="KEYINGSET")
         elif st.problem:
             layout.label(text=st.problem, icon="ERROR")
+        elif st.bound:
+            layout.label(text="binding again...", icon="SORTTIME")
 
 
 CLASSES = (HybridArapHandle, HybridArapSettings, HYBRIDARAP_UL_handles, VIEW3D_PT_hybrid_arap)

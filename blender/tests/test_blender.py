@@ -17,12 +17,32 @@ import pytest
 from conftest import ARMADILLO
 from mathutils import Euler, Vector
 
+from hybridedit_blender import live
 from hybridedit_blender import session as S
-from hybridedit_blender.bind import SESSIONS
+from hybridedit_blender.bind import SESSIONS, session_of
 
 
 def positions(me) -> np.ndarray:
+    """The mesh's own (base) coordinates."""
     return S.read_positions(me).reshape(-1, 3)
+
+
+def evaluated(obj) -> np.ndarray:
+    """What Blender shows: the object's evaluated positions (shape keys and modifiers applied), local."""
+    dg = bpy.context.evaluated_depsgraph_get()
+    ev = obj.evaluated_get(dg).data
+    buf = np.empty(len(ev.vertices) * 3, dtype=np.float32)
+    ev.attributes["position"].data.foreach_get("vector", buf)
+    return buf.reshape(-1, 3)
+
+
+def key_positions(obj) -> np.ndarray:
+    return S.read_key(S.pose_key(obj), len(obj.data.vertices)).reshape(-1, 3)
+
+
+def world(obj, P) -> np.ndarray:
+    M = S.matrix_np(obj.matrix_world)
+    return P.astype(np.float64) @ M[:3, :3].T + M[:3, 3]
 
 
 def select_rows(obj, mask: np.ndarray) -> None:
@@ -86,13 +106,20 @@ def reference_editor(rest32: np.ndarray, tris: np.ndarray, roi, handles, cage_si
 
 
 def check_pose(obj, s, ref_V, rest32, roi_rows, handle_rows, T):
-    """The mesh holds the add-on's pose in float32 (float32 is Blender's); it equals the API's; fixed rows untouched;
-    the handle exactly at the Empty's transform."""
+    """The pose key holds the add-on's pose in float32 (float32 is Blender's); it equals the API's; fixed rows
+    untouched; the handle exactly at the Empty's transform; Blender shows the key (evaluated positions, to float32
+    rounding of basis + (key - basis)) and the base coordinates never change."""
     me = obj.data
     diag = float(np.linalg.norm(np.ptp(rest32, axis=0)))
     ours = np.asarray(s.editor.deformed_vertices)
     assert np.abs(ours - ref_V).max() <= 1e-9 * diag
-    P = positions(me)
+    assert np.array_equal(positions(me), rest32)  # the base mesh is never written while posed
+    P = key_positions(obj)
+    ev = evaluated(obj)
+    assert np.abs(ev - P).max() <= 1e-7 * diag  # (Blender adds key - basis to the basis, in float32)
+    still = np.ones(len(P), bool)
+    still[s.moving] = False
+    assert np.array_equal(ev[still], rest32[still])  # what Blender shows keeps the rest's bits there
     # the rows a drag can move hold the pose in float32; the others keep their own bits (the
     # engine's float64 rest differs from them by ~1e-18 there, which the add-on never writes)
     still = np.ones(len(P), bool)
@@ -119,7 +146,7 @@ def test_icosphere_live_edit_matches_api_and_keeps_attributes(scene):
     attrs = attribute_snapshot(me)
     assert "UVMap" in attrs and "Col" in attrs
     assert bpy.ops.hybrid_arap.bind() == {"FINISHED"}
-    s = SESSIONS[obj.name]
+    s = session_of(obj)
     assert s.n == len(me.vertices) and obj.hybrid_arap.bound
     rest_world = S.matrix_np(empty.matrix_world)
     handle_rows, roi_rows = np.flatnonzero(handle_mask), np.flatnonzero(roi_mask)
@@ -129,22 +156,21 @@ def test_icosphere_live_edit_matches_api_and_keeps_attributes(scene):
     steps = [(Vector((0, 0.1 * k, 0.08 * k)), Euler((0, 0, 0))) for k in range(1, 4)]
     steps += [(Vector((0, 0.3, 0.24)), Euler((math.radians(10 * k), 0, math.radians(5 * k)))) for k in range(1, 4)]
     loc0 = empty.location.copy()
+    k_step = 0
     for d, rot in steps:
         empty.location = loc0 + d
         empty.rotation_euler = rot
-        bpy.context.view_layer.update()
+        bpy.context.view_layer.update()  # the live frame (HybridEditor.drag), on Blender's main thread
         T = local_T(obj, empty, rest_world)
-        ref_V = ref.drag(transforms={0: T})
-        check_pose(obj, s, ref_V, rest32, roi_rows, handle_rows, T)
+        if k_step == 0:  # the first live frame, written before the worker settles it: the API's drag
+            V = ref.drag(transforms={0: T})
+            assert np.array_equal(key_positions(obj)[s.moving], V[s.moving].astype(np.float32))
+        # the worker settles from there (what it does when the Empty stops) = pose()'s loop going on
+        assert bpy.ops.hybrid_arap.settle() == {"FINISHED"}
+        assert s.settled
+        check_pose(obj, s, ref.pose(transforms={0: T}), rest32, roi_rows, handle_rows, T)
+        k_step += 1
     assert s.frames >= len(steps)
-
-    # settle (what the timer does when the Empty stops) = the API's pose() for that transform
-    frames_before = s.frames
-    assert bpy.ops.hybrid_arap.settle() == {"FINISHED"}
-    assert s.settled and s.frames > frames_before
-    # the reference continues pose()'s loop from its last drag as the add-on does
-    ref_V = ref.pose(transforms={0: T})
-    check_pose(obj, s, ref_V, rest32, roi_rows, handle_rows, T)
     assert all(np.array_equal(v, attribute_snapshot(me)[k]) for k, v in attrs.items())
 
     # an evaluation with nothing moved computes nothing
@@ -154,7 +180,7 @@ def test_icosphere_live_edit_matches_api_and_keeps_attributes(scene):
 
     # Reset: the rest pose exactly, the Empty back where it was
     assert bpy.ops.hybrid_arap.reset() == {"FINISHED"}
-    assert np.array_equal(positions(me), rest32)
+    assert np.array_equal(evaluated(obj), rest32) and np.array_equal(key_positions(obj), rest32)
     assert np.allclose(S.matrix_np(empty.matrix_world), rest_world, atol=1e-6)
     assert all(np.array_equal(v, attribute_snapshot(me)[k]) for k, v in attrs.items())
 
@@ -173,22 +199,26 @@ def test_apply_persists_and_undo_restores(scene, tmp_path):
     empty.rotation_euler.x = math.radians(25)
     bpy.context.view_layer.update()
     assert bpy.ops.hybrid_arap.apply() == {"FINISHED"}
-    posed = positions(obj.data).copy()
+    live.finish()
+    posed = positions(obj.data).copy()  # Apply writes the pose into the base mesh
     assert np.abs(posed - rest32).max() > 0.1
+    assert obj.data.shape_keys is None  # the mesh had no shape keys: Apply leaves none
+    assert np.array_equal(evaluated(obj), posed)
 
     # Apply persists: Reset now returns to the applied pose, and the pose is in the saved file
     empty.location.z += 0.2
     bpy.context.view_layer.update()
-    assert not np.array_equal(positions(obj.data), posed)
+    assert not np.array_equal(evaluated(obj), posed) and np.array_equal(positions(obj.data), posed)
     assert bpy.ops.hybrid_arap.reset() == {"FINISHED"}
-    assert np.array_equal(positions(obj.data), posed)
+    assert np.array_equal(evaluated(obj), posed)
     path = str(tmp_path / "posed.blend")
     bpy.ops.wm.save_as_mainfile(filepath=path)
     bpy.ops.wm.open_mainfile(filepath=path)
-    assert np.array_equal(positions(bpy.data.objects[name].data), posed)
+    live.finish()
+    assert np.array_equal(evaluated(bpy.data.objects[name]), posed)
     assert all(np.array_equal(v, attribute_snapshot(bpy.data.objects[name].data)[k]) for k, v in attrs.items())
 
-    # Undo: a fresh bind, Apply, then Ctrl+Z gives back the mesh and the Empty as they were.
+    # Undo: Apply, then Ctrl+Z gives back the mesh and the Empty as they were.
     # bpy.ops called from a script push no undo step; the UI pushes one after an operator with
     # the UNDO option, as Apply has: the test pushes it the same way (ed.undo_push).
     from hybridedit_blender.ops import HYBRIDARAP_OT_apply
@@ -196,27 +226,35 @@ def test_apply_persists_and_undo_restores(scene, tmp_path):
     assert "UNDO" in HYBRIDARAP_OT_apply.bl_options
     obj = bpy.data.objects[name]
     bpy.context.view_layer.objects.active = obj
-    assert bpy.ops.hybrid_arap.bind() == {"FINISHED"}
-    bpy.ops.ed.undo_push(message="bound again")
+    assert session_of(obj) is not None  # bound again on opening
+    bpy.ops.ed.undo_push(message="opened")
     e = bpy.data.objects[empty_name]
     e.location.x += 0.3
     bpy.context.view_layer.update()
+    live.finish()
+    bpy.ops.ed.undo_push(message="moved")
     assert bpy.ops.hybrid_arap.apply() == {"FINISHED"}
+    live.finish()
     bpy.ops.ed.undo_push(message="Apply")
     applied = positions(bpy.data.objects[name].data).copy()
     assert not np.array_equal(applied, posed)
     bpy.ops.ed.undo()
+    live.finish()
     obj = bpy.data.objects[name]
-    P = positions(obj.data)
-    assert np.array_equal(P, posed), (np.abs(P - posed).max(), np.abs(P - applied).max(), np.abs(P - rest32).max(), tuple(bpy.data.objects[empty_name].location))
+    assert np.array_equal(positions(obj.data), posed)  # the base as it was before Apply
+    # the pose key holds the pose of the moved Empty (the settled one, from the cache), which Blender
+    # shows as the base plus the key's offset (float32 rounding of basis + (key - basis))
+    assert np.array_equal(key_positions(obj), applied), np.abs(key_positions(obj) - applied).max()
+    assert np.abs(evaluated(obj) - applied).max() <= 1e-7 * np.linalg.norm(np.ptp(posed, axis=0))
     # the session goes on from what undo restored: the Empty moved again deforms from there
-    s = SESSIONS[name]
+    s = session_of(obj)
     e = bpy.data.objects[empty_name]
+    frames = s.frames
     e.location.x += 0.1
     bpy.context.view_layer.update()
-    assert s.frames > 0 and not np.array_equal(positions(obj.data), posed)
-    bpy.ops.ed.redo()
-    assert np.array_equal(positions(bpy.data.objects[name].data), applied)
+    live.finish()
+    assert s.frames > frames and not np.array_equal(evaluated(obj), applied)
+    assert np.array_equal(positions(obj.data), posed)
 
 
 def _report_of(op, *args, **kw) -> str:
@@ -252,14 +290,15 @@ def test_problems_are_one_line_reports(scene, capfd):
     assert bpy.ops.hybrid_arap.bind() == {"FINISHED"}  # no ROI: nothing fixed
 
     # the mesh changed since Bind (a vertex edited behind the add-on's back; then one more vertex)
-    obj.data.vertices[0].co.x += 0.5
-    assert "edited since Bind" in _report_of(bpy.ops.hybrid_arap.apply)
-    assert obj.name not in SESSIONS and obj.hybrid_arap.problem
+    obj.data.shape_keys.reference_key.data[0].co.x += 0.5  # (the basis: what Edit Mode edits)
+    assert "edited since Bind (1 vertices moved)" in _report_of(bpy.ops.hybrid_arap.apply)
+    assert session_of(obj) is None and obj.hybrid_arap.problem
     assert bpy.ops.hybrid_arap.bind() == {"FINISHED"}
     obj.data.vertices.add(1)
     assert "changed since Bind" in _report_of(bpy.ops.hybrid_arap.reset)
 
     # found while following the Empty: said in the info log in one line, not as a traceback
+    live.finish()
     bpy.ops.wm.read_factory_settings(use_empty=True)
     obj = icosphere(3)
     Z = positions(obj.data)[:, 2]
@@ -269,9 +308,7 @@ def test_problems_are_one_line_reports(scene, capfd):
     empty.location.z += 0.3
     capfd.readouterr()
     bpy.context.view_layer.update()
-    from hybridedit_blender import live
-
-    assert live.LAST_PROBLEMS and obj.name not in SESSIONS
+    assert live.LAST_PROBLEMS and session_of(obj) is None
     live._say()
     out = capfd.readouterr()
     assert "changed since Bind" in out.out + out.err and "Traceback" not in out.out + out.err
@@ -316,7 +353,7 @@ def test_armadillo_imported_by_blender_matches_api(scene):
     empty = rig_up(obj, handle_mask, roi_mask)
     attrs = attribute_snapshot(me)
     assert bpy.ops.hybrid_arap.bind() == {"FINISHED"}
-    s = SESSIONS[obj.name]
+    s = session_of(obj)
     rest_world = S.matrix_np(empty.matrix_world)
     hr, rr = np.flatnonzero(handle_mask), np.flatnonzero(roi_mask)
     ref = reference_editor(rest32, S.read_triangles(me), rr, [hr], 0.05)
@@ -326,12 +363,11 @@ def test_armadillo_imported_by_blender_matches_api(scene):
         empty.rotation_euler = Euler((0, math.radians(4 * k), math.radians(3 * k)))
         bpy.context.view_layer.update()
         T = local_T(obj, empty, rest_world)
-        check_pose(obj, s, ref.drag(transforms={0: T}), rest32, rr, hr, T)
-    assert bpy.ops.hybrid_arap.settle() == {"FINISHED"}
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")  # the reference converged (no "not converged" warning)
-        ref_V = ref.pose(transforms={0: T}, max_frames=s.max_frames)
-    check_pose(obj, s, ref_V, rest32, rr, hr, T)
+        assert bpy.ops.hybrid_arap.settle() == {"FINISHED"}
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # the reference converged (no "not converged" warning)
+            ref_V = ref.pose(transforms={0: T}, max_frames=s.max_frames)
+        check_pose(obj, s, ref_V, rest32, rr, hr, T)
     assert all(np.array_equal(v, attribute_snapshot(me)[k]) for k, v in attrs.items())
 
 
@@ -362,4 +398,4 @@ def test_bind_job_cancels_and_reports_progress(scene):
     assert job.session is None and job.error == "cancelled"
     assert "Esc to cancel" in job.status()
     kind, line = job.install(bpy.context)
-    assert kind == {"WARNING"} and "cancelled" in line and obj.name not in SESSIONS
+    assert kind == {"WARNING"} and "cancelled" in line and session_of(obj) is None
