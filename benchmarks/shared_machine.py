@@ -1,6 +1,6 @@
 """A frame that shares the machine: the engine's threading against one thread, under load.
 
-Usage: python benchmarks/shared_machine.py [--smoke] [--frames 40] [--rounds 4]
+Usage: python benchmarks/shared_machine.py [--smoke] [--frames 30] [--rounds 8]
 
 The canonical arm edit (benchmarks/common.py) on the 43K armadillo (2,000-vertex cage) and on
 the armadillo Loop-subdivided once (173K, 5% cage), dragged frame after frame while other
@@ -123,8 +123,8 @@ def child(args_json: str, policy: str) -> dict:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--frames", type=int, default=40)
-    ap.add_argument("--rounds", type=int, default=4)
+    ap.add_argument("--frames", type=int, default=30)
+    ap.add_argument("--rounds", type=int, default=8)
     ap.add_argument("--smoke", action="store_true", help="CI smoke run: the 43K armadillo, two loads, few frames")
     ap.add_argument("--one", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)

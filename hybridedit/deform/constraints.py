@@ -28,6 +28,7 @@ import numpy as np
 import scipy.sparse as sp
 from numba import njit, prange
 
+from ..core.index_sets import union_in_range, unique_in_range
 from ..core.linsolve import SPDSolver
 from ..core.parallel import pick
 
@@ -288,12 +289,12 @@ class RegionStep:
         rows = L[self.free]
         inside = np.zeros(n, dtype=bool)
         inside[self.free] = True
-        around = np.unique(rows.indices)
+        around = unique_in_range(rows.indices, n)
         self.boundary = around[~inside[around]].astype(np.int64)
         self._solver = SPDSolver(rows[:, self.free].tocsc(), simplicial=True)
         # the vertices whose rotations the step uses (free and boundary), numbered on their own and
         # copied out once: a frame reads their rows in order instead of scattered through the shape
-        turning = np.union1d(self.free, self.boundary).astype(np.int64)
+        turning = union_in_range(self.free, self.boundary, n)
         self._turning = turning
         self._idx = np.ascontiguousarray(idx[turning], dtype=np.int64)
         self._w = np.ascontiguousarray(w[turning], dtype=np.float64)

@@ -32,6 +32,7 @@ import scipy.sparse as sp
 
 from typing import TYPE_CHECKING
 
+from ..core.index_sets import union_in_range, unique_in_range
 from .roles import FIXED, FREE
 
 if TYPE_CHECKING:  # (annotations only: symmetry.py reads SelectionError from here)
@@ -121,7 +122,7 @@ def as_indices(selection, n: int, *, role: str = "selection", space: str = "shap
             f"{role} has {int(bad.sum()):,} {space} vertex indices out of range [0, {n - 1:,}], "
             f"e.g. {int(idx[bad][0])}"
         )
-    return np.unique(idx)
+    return unique_in_range(idx, n)
 
 
 def _is_collection(x) -> bool:
@@ -219,7 +220,7 @@ class CageMap:
         selected[idx] = True
         cage_idx = np.flatnonzero(selected[self.nearest])
         if cage_idx.size == 0:
-            cage_idx = np.unique(self.dominant[idx])
+            cage_idx = unique_in_range(self.dominant[idx], self.n_cage)
         return cage_idx.astype(np.int64)
 
     def shape_roles(self, cage_roles) -> np.ndarray:
@@ -398,7 +399,7 @@ def choose_roles(user: UserRoles, *, mirror: Mirror | None, maps: CageMap) -> Ro
     for k in range(len(source)):
         if not np.any(cage_roles == k + 1):
             rows = np.flatnonzero(roles == k + 1)
-            dom = np.unique(maps.dominant[rows])
+            dom = unique_in_range(maps.dominant[rows], len(cage_roles))
             dom = dom[cage_roles[dom] <= FREE]  # a handle takes precedence over fixed
             if dom.size == 0:
                 raise SelectionError(
@@ -449,7 +450,7 @@ class Selection(Roles):
     @property
     def moving_vertices(self) -> np.ndarray:
         """(k,) int64 sorted shape vertices a drag can move (free rows and handles)."""
-        return np.union1d(self.rows, np.flatnonzero(self.roles > 0)).astype(np.int64)
+        return union_in_range(self.rows, np.flatnonzero(self.roles > 0), len(self.roles))
 
 
 def build_selection(roles: Roles, *, free_cage: np.ndarray, held: np.ndarray, binding: sp.csr_matrix,

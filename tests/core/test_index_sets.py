@@ -1,0 +1,18 @@
+import numpy as np
+import pytest
+
+from hybridedit.core import index_sets
+from hybridedit.core.index_sets import union_in_range, unique_in_range
+
+
+@pytest.mark.parametrize("k", [0, 3, 500, 50_000])
+def test_the_mask_and_the_sort_give_np_unique(k, monkeypatch):
+    rng = np.random.default_rng(k)
+    n = 20_000
+    idx = rng.integers(0, n, k)
+    other = rng.integers(0, n, k // 2 + 1)
+    for share in (0.0, 1.0, index_sets.MASK_SHARE):  # always the mask, always the sort, the default
+        monkeypatch.setattr(index_sets, "MASK_SHARE", share)
+        u = unique_in_range(idx, n)
+        assert u.dtype == np.int64 and np.array_equal(u, np.unique(idx))
+        assert np.array_equal(union_in_range(idx, other, n), np.union1d(idx, other))
