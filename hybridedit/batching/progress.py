@@ -17,6 +17,8 @@ import sys
 import time
 from typing import Callable, TextIO
 
+from ..core.progress import format_seconds
+
 
 __all__ = ["BatchProgress", "format_seconds"]
 
@@ -25,24 +27,6 @@ LOG_EVERY_SECONDS = 10.0
 #: a terminal's line is redrawn at most this often
 REDRAW_SECONDS = 0.2
 BAR_WIDTH = 40
-
-
-def format_seconds(seconds: float) -> str:
-    """'45 s', '2 min 5 s', '1 h 3 min' (whole seconds, at least 1 s).
-
-    Examples
-    --------
-    >>> format_seconds(125), format_seconds(3725)
-    ('2 min 5 s', '1 h 2 min')
-    """
-    s = max(1, int(round(seconds)))
-    if s < 60:
-        return f"{s} s"
-    if s < 3600:
-        m, s = divmod(s, 60)
-        return f"{m} min {s} s" if s else f"{m} min"
-    h, rest = divmod(s, 3600)
-    return f"{h} h {rest // 60} min"
 
 
 class BatchProgress:

@@ -253,13 +253,19 @@ def store(folder: Path, key: str, cage: Mesh, M: sp.csr_matrix, notes: list[str]
         "notes": np.array(list(notes), dtype=str),
         "links": np.ascontiguousarray(links, dtype=np.int64).reshape(-1, 2),
     }
+    return _write_entry(_path(folder, key), key, key, arrays, PAYLOAD)
+
+
+def _write_entry(p: Path, key: str, digest_key: str, arrays: dict[str, np.ndarray],
+                 names: tuple[str, ...]) -> Path | None:
+    """``arrays`` with ``key``, the writing versions and the checksum of ``names`` under
+    ``digest_key``, written atomically to ``p``; None if it cannot be written."""
     versions = writer_versions()
     buf = io.BytesIO()
     np.savez(buf, key=np.array(key), versions=np.array(versions),
-             checksum=np.array(checksum(key, versions, arrays)), **arrays)
-    p = _path(folder, key)
+             checksum=np.array(checksum(digest_key, versions, arrays, names)), **arrays)
     try:
-        folder.mkdir(parents=True, exist_ok=True)
+        p.parent.mkdir(parents=True, exist_ok=True)
         with atomic_write(p, "wb") as fh:
             fh.write(buf.getvalue())
     except OSError:
@@ -282,18 +288,7 @@ def store_arrays(folder: Path, key: str, kind: str, arrays: dict[str, np.ndarray
     ``kind``, so old files stop matching)."""
     names = tuple(sorted(arrays))
     arrays = {n: np.ascontiguousarray(arrays[n]) for n in names}
-    versions = writer_versions()
-    buf = io.BytesIO()
-    np.savez(buf, key=np.array(key), versions=np.array(versions),
-             checksum=np.array(checksum(key + "/" + kind, versions, arrays, names)), **arrays)
-    p = _companion_path(folder, key, kind)
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-        with atomic_write(p, "wb") as fh:
-            fh.write(buf.getvalue())
-    except OSError:
-        return None
-    return p
+    return _write_entry(_companion_path(folder, key, kind), key, key + "/" + kind, arrays, names)
 
 
 def load_arrays(folder: Path, key: str, kind: str, names: tuple[str, ...]) -> dict[str, np.ndarray] | None:

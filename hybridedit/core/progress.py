@@ -32,7 +32,13 @@ MIN_ADVANCE = 0.02
 
 
 def format_seconds(seconds: float) -> str:
-    """'3 s', '45 s', '2 min 5 s', '1 h 3 min' (whole seconds, at least 1 s)."""
+    """'3 s', '45 s', '2 min 5 s', '1 h 3 min' (whole seconds, at least 1 s).
+
+    Examples
+    --------
+    >>> format_seconds(125), format_seconds(3725)
+    ('2 min 5 s', '1 h 2 min')
+    """
     s = max(1, int(round(seconds)))
     if s < 60:
         return f"{s} s"
