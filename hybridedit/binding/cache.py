@@ -11,7 +11,9 @@ and the versions compared before anything else, then the arrays' shapes and the
 rows of M summing to 1 are checked: a corrupt, truncated, tampered (a cage
 shifted on disk passes every structural check, not the checksum) or stale file
 is discarded with a note (a :class:`CacheEntryDiscarded` warning) and rebuilt,
-never used. Files are written atomically.
+never used. Files are written atomically, and read memory-mapped (:func:`read_entry_file`).
+Beside an entry, companions (:func:`store_arrays`) keep what is derived from it, checked the same
+way (an editor's set-up: :mod:`hybridedit.deform.shape_setup`).
 """
 
 from __future__ import annotations
