@@ -19,7 +19,6 @@ way (an editor's set-up: :mod:`hybridedit.deform.shape_setup`).
 from __future__ import annotations
 
 import hashlib
-import io
 import json
 import os
 import warnings
@@ -263,13 +262,11 @@ def _write_entry(p: Path, key: str, digest_key: str, arrays: dict[str, np.ndarra
     """``arrays`` with ``key``, the writing versions and the checksum of ``names`` under
     ``digest_key``, written atomically to ``p``; None if it cannot be written."""
     versions = writer_versions()
-    buf = io.BytesIO()
-    np.savez(buf, key=np.array(key), versions=np.array(versions),
-             checksum=np.array(checksum(digest_key, versions, arrays, names)), **arrays)
+    digest = checksum(digest_key, versions, arrays, names)
     try:
         p.parent.mkdir(parents=True, exist_ok=True)
-        with atomic_write(p, "wb") as fh:
-            fh.write(buf.getvalue())
+        with atomic_write(p, "wb") as fh:  # (straight into the file: no second copy in memory)
+            np.savez(fh, key=np.array(key), versions=np.array(versions), checksum=np.array(digest), **arrays)
     except OSError:
         return None
     return p
