@@ -258,6 +258,7 @@ class ARAPSolver:
         #: global step (right-hand side and solve)
         self.last_timings = {"local_seconds": 0.0, "global_seconds": 0.0}
         self._L_fc: sp.csr_matrix | None = None
+        self._touching = np.zeros(0, dtype=np.int64)  # constrained vertices with a free neighbour
         self.held = np.zeros(0, dtype=np.int64)
         self._given = self.constrained
 
@@ -318,7 +319,12 @@ class ARAPSolver:
         self.local_step()  # rotations of the vertices that will not move stay these
         L = self.L
         self._solver = SPDSolver(L[free][:, free], backend=self.backend)
-        self._L_fc = L[free][:, c].tocsr()
+        # the free rows' couplings to constrained vertices: only those next to a free vertex have
+        # any, and a frame gathers only those (not every held vertex of a big cage)
+        L_fc = L[free][:, c].tocsr()
+        cols = np.unique(L_fc.indices)
+        self._L_fc = L_fc[:, cols].tocsr()
+        self._touching = c[cols]
 
     def solve(self, constrained_positions: np.ndarray, iterations: int = 2) -> np.ndarray:
         """Move the constrained vertices and run local/global iterations.
@@ -341,7 +347,7 @@ class ARAPSolver:
             raise ValueError(f"expected {len(self._given)} constrained positions, got {len(cp)}")
         self.positions[self._given] = cp
         t0 = time.perf_counter()
-        rhs_c = self._L_fc @ self.positions[self.constrained]
+        rhs_c = self._L_fc @ self.positions[self._touching]
         b = np.empty((len(self.free), 3))
         t_local = 0.0
         for _ in range(int(iterations)):

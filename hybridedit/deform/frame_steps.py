@@ -53,14 +53,18 @@ def cage_targets(base_cage: np.ndarray, selection: Selection, transforms: list[n
         A target is not finite, or lies farther than :data:`MAX_REACH` times ``scale``
         (the shape's size) from where it starts.
     """
-    start = base_cage[selection.constrained]
-    target = start.copy()
+    target = base_cage[selection.constrained]  # (a new array; only the groups' rows move: the
+    reach = 0.0                                  # checks below look at those alone)
+    finite = True
     with np.errstate(all="ignore"):
         for g, T in enumerate(transforms):
             s = selection.slots[g]
-            target[s] = target[s] @ T[:3, :3].T + T[:3, 3]
-        reach = float(np.max(np.abs(target - start), initial=0.0))
-    if not np.all(np.isfinite(target)):
+            start = target[s]
+            moved = start @ T[:3, :3].T + T[:3, 3]
+            target[s] = moved
+            reach = max(reach, float(np.max(np.abs(moved - start), initial=0.0)))
+            finite = finite and bool(np.all(np.isfinite(moved)))
+    if not finite or not np.isfinite(reach):
         raise ValueError("the drag moves the handle to non-finite positions; refused, nothing changed")
     limit = MAX_REACH * max(scale, np.finfo(float).tiny)
     if reach > limit:
@@ -81,11 +85,12 @@ def solve_cage(arap, target: np.ndarray, *, iterations: int) -> None:
         The solve gave non-finite positions (the solver's positions and rotations are
         then as they were).
     """
-    saved = (arap.positions.copy(), arap.rotations.copy())
+    turning = arap.active  # (the only rotations a solve changes: not all of a big cage's are copied)
+    saved = (arap.positions.copy(), arap.rotations[turning])
     arap.solve(target, iterations)
     if not np.all(np.isfinite(arap.positions)):
         arap.positions[:] = saved[0]
-        arap.rotations[:] = saved[1]
+        arap.rotations[turning] = saved[1]
         raise ValueError("the drag produced non-finite cage positions; refused, nothing changed")
 
 
