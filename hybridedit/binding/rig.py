@@ -84,6 +84,19 @@ class Rig:
         return cached
 
     @property
+    def cage_weights(self) -> tuple[np.ndarray, np.ndarray]:
+        """The cage's edges (e, 2) int64 and their cotangent ARAP weights (e,) float64
+        (:func:`hybridedit.deform.arap.edge_weights`), made once: a cached rig checks them on
+        loading and its editor's ARAP solver takes the same arrays."""
+        cached = self.__dict__.get("_cage_weights")
+        if cached is None:
+            from ..deform.arap import edge_weights
+
+            cached = edge_weights(self.cage.vertices, self.cage.faces, "cotangent")
+            object.__setattr__(self, "_cage_weights", cached)
+        return cached
+
+    @property
     def nnz_per_row(self) -> float:
         """Mean number of cage vertices each shape vertex depends on."""
         return self.M.nnz / max(self.M.shape[0], 1)
@@ -92,9 +105,7 @@ class Rig:
 def _check_usable(rig: Rig) -> None:
     """Raise if a rig cannot serve an editor: the cage's ARAP weights and links must
     be computable and finite (what a cached entry is first used for)."""
-    from ..deform.arap import edge_weights
-
-    _, w = edge_weights(rig.cage.vertices, rig.cage.faces, "cotangent")
+    _, w = rig.cage_weights
     if not np.all(np.isfinite(w)) or not np.all(np.isfinite(rig.M.data)):
         raise ValueError("the cage or binding has non-finite values")
     rig.links  # noqa: B018 -- computed here, so that a bad cage fails now

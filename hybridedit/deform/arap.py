@@ -206,6 +206,11 @@ class ARAPSolver:
     faces : (m, 3) int64 array
     weights : "uniform" or "cotangent"
     backend : linear solver backend, see :class:`~hybridedit.core.linsolve.SPDSolver`.
+    links : (k, 2) int array, optional
+        Extra edges tying separate parts together (:func:`hybridedit.cage.links.cage_links`).
+    edge_data : ((e, 2) int64, (e,) float64), optional
+        The mesh's edges and weights as :func:`edge_weights` gives them for ``weights``, when the
+        caller has them already (a rig keeps its cage's).
 
     Notes
     -----
@@ -220,13 +225,15 @@ class ARAPSolver:
     """
 
     def __init__(self, vertices: np.ndarray, faces: np.ndarray, weights: str = "uniform", backend: str = "auto",
-                 *, links: np.ndarray | None = None) -> None:
+                 *, links: np.ndarray | None = None,
+                 edge_data: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         self.rest = np.ascontiguousarray(vertices, dtype=np.float64)
         self.faces = np.asarray(faces, dtype=np.int64)
         self.weights = weights
         self.backend = backend
         n = len(self.rest)
-        self.edges, self.w = edge_weights(self.rest, self.faces, weights)
+        # (edge_data: what edge_weights(vertices, faces, weights) gives, made already by the caller)
+        self.edges, self.w = edge_data if edge_data is not None else edge_weights(self.rest, self.faces, weights)
         if links is not None and len(links):
             lk = np.sort(np.asarray(links, dtype=np.int64).reshape(-1, 2), axis=1)
             if lk.min() < 0 or lk.max() >= n or np.any(lk[:, 0] == lk[:, 1]):

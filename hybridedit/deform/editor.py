@@ -149,7 +149,8 @@ class HybridEditor(RoleQueries, StateSnapshots, RecordedEdits, EditorFiles):
         d_rest = setup.residual
         #: the cage vertices and weights of each shape vertex's rotation blend, (n, k) each
         self._blend = (setup.blend_idx, setup.blend_w)
-        self.arap = ARAPSolver(cage.vertices, cage.faces, weights=weights, links=rig.links)
+        self.arap = ARAPSolver(cage.vertices, cage.faces, weights=weights, links=rig.links,
+                               edge_data=rig.cage_weights if weights == "cotangent" else None)
         self._scale = max(mesh.bbox_diagonal(), float(np.linalg.norm(np.ptp(cage.vertices, axis=0))))
         #: how shape and cage vertices stand for each other in a selection
         self._maps = CageMap(nearest=setup.nearest, dominant=setup.dominant)

@@ -145,3 +145,25 @@ def test_cholmod_and_scipy_agree():
     x2 = SPDSolver(L, "scipy").solve(b)
     assert np.allclose(L @ x1, b, atol=1e-9)
     assert np.allclose(x1, x2, atol=1e-9)
+
+
+def test_edge_data_given_is_the_same_solver():
+    import trimesh as _t
+
+    s = _t.creation.icosphere(subdivisions=2)
+    v, f = np.asarray(s.vertices), np.asarray(s.faces)
+    made = ARAPSolver(v, f, weights="cotangent")
+    given = ARAPSolver(v, f, weights="cotangent", edge_data=edge_weights(v, f, "cotangent"))
+    assert np.array_equal(made.edges, given.edges) and np.array_equal(made.w, given.w)
+    assert (made.L != given.L).nnz == 0
+
+
+def test_an_editor_solves_with_its_rigs_cage_weights():
+    import hybridedit as he
+    from shapes import bumpy_blob
+
+    rig = he.build_rig(bumpy_blob(3), cage_size=80)
+    ed = he.HybridEditor(rig)
+    e, w = rig.cage_weights
+    assert np.array_equal(ed.arap.edges[: len(e)], e) and np.array_equal(ed.arap.w[: len(w)], w)
+    assert rig.cage_weights is rig.cage_weights  # made once
