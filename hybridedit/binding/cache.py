@@ -122,7 +122,9 @@ def read_entry_file(path: Path) -> dict[str, np.ndarray]:
             offset, count = fh.tell(), int(np.prod(shape, dtype=np.int64))
             if offset + count * dtype.itemsize > size:
                 raise ValueError(f"member {name} runs past the end of the file")
-            if count * dtype.itemsize < 2**16:  # small: read
+            # small, or not on a multiple of 64 bytes (an array the kernels see unaligned would be
+            # compiled for again, and read slower): read
+            if count * dtype.itemsize < 2**16 or offset % 64:
                 a = np.frombuffer(fh.read(count * dtype.itemsize), dtype=dtype, count=count).copy()
                 out[name] = a.reshape(shape, order="F" if fortran else "C")
             else:
@@ -263,13 +265,39 @@ def _write_entry(p: Path, key: str, digest_key: str, arrays: dict[str, np.ndarra
     ``digest_key``, written atomically to ``p``; None if it cannot be written."""
     versions = writer_versions()
     digest = checksum(digest_key, versions, arrays, names)
+    members = {"key": np.array(key), "versions": np.array(versions), "checksum": np.array(digest), **arrays}
     try:
         p.parent.mkdir(parents=True, exist_ok=True)
         with atomic_write(p, "wb") as fh:  # (straight into the file: no second copy in memory)
-            np.savez(fh, key=np.array(key), versions=np.array(versions), checksum=np.array(digest), **arrays)
+            _savez_aligned(fh, members)
     except OSError:
         return None
     return p
+
+
+#: the zip "extra field" id of padding (as Android's zipalign writes it)
+_PAD_ID = 0xD935
+
+
+def _savez_aligned(fh, members: dict[str, np.ndarray]) -> None:
+    """What ``np.savez(fh, **members)`` writes (an uncompressed ``.npz`` that ``np.load`` reads),
+    with each array's data starting on a multiple of 64 bytes of the file: each member's local
+    header carries a padding extra field. A memory-mapped array is then as aligned as one in
+    memory (:func:`read_entry_file`); numba compiles its kernels for aligned arrays."""
+    import struct
+    import zipfile
+
+    with zipfile.ZipFile(fh, "w", compression=zipfile.ZIP_STORED, allowZip64=True) as zf:
+        for name, value in members.items():
+            a = np.asanyarray(value)
+            info = zipfile.ZipInfo(name + ".npy", date_time=(1980, 1, 1, 0, 0, 0))
+            info.compress_type = zipfile.ZIP_STORED
+            big = a.nbytes > 2**31 - 2**20  # (zipfile then adds a 20-byte zip64 field to the header)
+            start = fh.tell() + 30 + len(info.filename.encode()) + 4 + (20 if big else 0)
+            pad = -start % 64
+            info.extra = struct.pack("<HH", _PAD_ID, pad) + bytes(pad)
+            with zf.open(info, "w", force_zip64=big) as out:
+                np.lib.format.write_array(out, a, allow_pickle=False)
 
 
 # ------------------------------------------------------------------ companion entries

@@ -273,6 +273,9 @@ def test_an_entry_is_read_memory_mapped_and_equal_to_what_was_stored(tmp_path):
         return a is not None
 
     assert mapped(z["data"]) and mapped(z["indices"]) and z["data"].flags.writeable
+    # mapped arrays start on a multiple of 64 bytes, as in memory: the kernels see aligned arrays
+    assert all(z[k].flags.aligned for k in z)
+    assert all(z[k].ctypes.data % 64 == 0 for k in z if mapped(z[k]))
     again = HybridEditor(mesh, 200, cache=tmp_path)
     assert again.cache_hit and (again.M != built.M).nnz == 0
     assert np.array_equal(again.cage.vertices, built.cage.vertices)

@@ -96,3 +96,4 @@ def test_discarding_an_entry_discards_its_setup(blob, tmp_path):
     S.shape_setup(rig)
     bindcache.discard(tmp_path, rig.cache_key)
     assert not list(tmp_path.glob("*.npz"))
+
