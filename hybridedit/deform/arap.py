@@ -12,6 +12,7 @@ from ..core.linsolve import SPDSolver
 from ..core.parallel import pick
 from ..core.mesh import unique_edges
 from ..core.rotations import closest_rotation
+from ..core.index_sets import union_in_range, unique_in_range
 from ..core.topology import edge_index
 
 WEIGHTS = ("uniform", "cotangent")
@@ -292,9 +293,10 @@ class ARAPSolver:
         (listed in :attr:`held`, constrained like fixed vertices).
         """
         n = self.n_vertices
-        c = np.unique(np.asarray(constrained, dtype=np.int64))
-        if c.size and (c[0] < 0 or c[-1] >= n):
+        c = np.asarray(constrained, dtype=np.int64).ravel()
+        if c.size and (c.min() < 0 or c.max() >= n):
             raise ValueError(f"constrained vertex index out of range [0, {n})")
+        c = unique_in_range(c, n)
         mask = np.zeros(n, dtype=bool)
         mask[c] = True
         ncomp, labels = sp.csgraph.connected_components(self.L, directed=False)
@@ -310,11 +312,12 @@ class ARAPSolver:
         if moving is None:
             mov = c
         else:
-            mov = np.unique(np.asarray(moving, dtype=np.int64))
-            if not np.all(np.isin(mov, c)):
+            mov = np.asarray(moving, dtype=np.int64).ravel()
+            if mov.size and (mov.min() < 0 or mov.max() >= n or not np.all(mask[mov])):
                 raise ValueError("moving vertices must be constrained")
+            mov = unique_in_range(mov, n)
         # vertices whose rotation can change: those that move and their neighbours
-        moves = np.union1d(free, mov)
+        moves = union_in_range(free, mov, n)
         active = np.zeros(n, dtype=bool)
         active[moves] = True
         if moves.size:
