@@ -25,6 +25,16 @@ def _session(op, context) -> S.Session | None:
     return s
 
 
+def _settled_and_checked(op, context) -> S.Session | None:
+    """The active object's session with its pending settle finished, then :func:`_checked`
+    (None, reported, when it is not bound or not usable)."""
+    s = _session(op, context)
+    if s is None:
+        return None
+    live.finish(s)
+    return _checked(op, context)
+
+
 def _checked(op, context) -> S.Session | None:
     s = _session(op, context)
     if s is None:
@@ -191,11 +201,7 @@ class HYBRIDARAP_OT_reset(bpy.types.Operator):
     poll = classmethod(lambda cls, context: _mesh_poll(context))
 
     def execute(self, context):
-        s = _session(self, context)
-        if s is None:
-            return {"CANCELLED"}
-        live.finish(s)
-        s = _checked(self, context)
+        s = _settled_and_checked(self, context)
         if s is None:
             return {"CANCELLED"}
         obj = context.object
@@ -297,11 +303,7 @@ class HYBRIDARAP_OT_bake_animation(bpy.types.Operator):
         return self.execute(context)
 
     def execute(self, context):
-        s = _session(self, context)
-        if s is None:
-            return {"CANCELLED"}
-        live.finish(s)
-        s = _checked(self, context)
+        s = _settled_and_checked(self, context)
         if s is None:
             return {"CANCELLED"}
         obj, scene = context.object, context.scene

@@ -19,7 +19,7 @@ from mathutils import Euler, Vector
 
 from hybridedit_blender import live
 from hybridedit_blender import session as S
-from hybridedit_blender.bind import SESSIONS, session_of
+from hybridedit_blender.bind import session_of
 
 
 def positions(me) -> np.ndarray:
