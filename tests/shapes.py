@@ -48,3 +48,14 @@ def capsule_blob(subdivisions: int = 4):
     v[:, 0] *= 2.0
     v[:, 1] += 0.15 * np.cos(1.2 * v[:, 0])
     return Mesh(v, np.asarray(s.faces), name="blob")
+
+
+def arm_edit(ed, blob: Mesh) -> dict:
+    """On ``ed`` editing ``blob`` (:func:`bumpy_blob`), select the +x end as the handle and the
+    arm from about x = 0.3 as the region, and return the drag's keyword arguments: the end swung
+    up about where the arm starts."""
+    x = blob.vertices[:, 0]
+    hand, arm = np.flatnonzero(x > 1.6), np.flatnonzero(x > 0.3)
+    ed.set_selection(hand, roi=arm)
+    return {"rotate": {"axis": (0, 0, 1), "degrees": 35, "center": blob.vertices[arm].mean(axis=0)},
+            "translate": (0.0, 0.2, 0.0)}

@@ -5,7 +5,7 @@ from hybridedit import HybridEditor, SelectionError
 from hybridedit.deform.propagate import propagate
 from hybridedit.core.transforms import apply_transform, rigid_transform
 
-from shapes import icosphere
+from shapes import arm_edit, icosphere
 
 
 @pytest.fixture(scope="module")
@@ -670,20 +670,6 @@ def test_a_mirrored_selection_of_cage_vertices_bends_both_sides_alike(ellipsoid)
 # --------------------------------------------------------------------------- scripts: pose, read-only frames, options
 
 
-@pytest.fixture(scope="module")
-def blob_rig(blob):
-    from hybridedit import build_rig
-
-    return build_rig(blob, cage_size=300)
-
-
-def arm_edit(ed, blob):
-    """The +x end swung up about where the arm starts; returns drag's keyword arguments."""
-    x = blob.vertices[:, 0]
-    hand, arm = np.flatnonzero(x > 1.6), np.flatnonzero(x > 0.3)
-    ed.set_selection(hand, roi=arm)
-    return {"rotate": {"axis": (0, 0, 1), "degrees": 35, "center": blob.vertices[arm].mean(axis=0)},
-            "translate": (0.0, 0.2, 0.0)}
 
 
 def test_pose_is_the_converged_drag_loop(blob_rig, blob):

@@ -8,21 +8,9 @@ import pytest
 import hybridedit as he
 from hybridedit import HybridEditor
 
-
-@pytest.fixture(scope="module")
-def blob_rig(blob):
-    from hybridedit import build_rig
-
-    return build_rig(blob, cage_size=300)
+from shapes import arm_edit
 
 
-def arm_edit(ed, blob):
-    """The +x end swung up about where the arm starts; returns drag's keyword arguments."""
-    x = blob.vertices[:, 0]
-    hand, arm = np.flatnonzero(x > 1.6), np.flatnonzero(x > 0.3)
-    ed.set_selection(hand, roi=arm)
-    return {"rotate": {"axis": (0, 0, 1), "degrees": 35, "center": blob.vertices[arm].mean(axis=0)},
-            "translate": (0.0, 0.2, 0.0)}
 
 
 def test_save_without_a_document_writes_positions_and_faces_with_a_note(blob_rig, blob, tmp_path):
