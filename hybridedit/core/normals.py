@@ -74,13 +74,18 @@ def _face_terms(V, F, f):
 
 
 @njit(cache=True, inline="always")
-def _write_unit(acc, a, out, v):
-    x, y, z = acc[a, 0], acc[a, 1], acc[a, 2]
+def _store_unit(x, y, z, out, v):
+    """out[v] = (x, y, z) made unit length, or 0 for a vector of no length."""
     L = np.sqrt(x * x + y * y + z * z)
     if L > 1e-300:
         out[v, 0], out[v, 1], out[v, 2] = x / L, y / L, z / L
     else:
         out[v, 0], out[v, 1], out[v, 2] = 0.0, 0.0, 0.0
+
+
+@njit(cache=True, inline="always")
+def _write_unit(acc, a, out, v):
+    _store_unit(acc[a, 0], acc[a, 1], acc[a, 2], out, v)
 
 
 @njit(cache=True)
@@ -145,11 +150,7 @@ def _gather_vertex(F, ft, vf_ptr, vf_idx, v, out):
         x += ft[f, 0] * w
         y += ft[f, 1] * w
         z += ft[f, 2] * w
-    L = np.sqrt(x * x + y * y + z * z)
-    if L > 1e-300:
-        out[v, 0], out[v, 1], out[v, 2] = x / L, y / L, z / L
-    else:
-        out[v, 0], out[v, 1], out[v, 2] = 0.0, 0.0, 0.0
+    _store_unit(x, y, z, out, v)
 
 
 @njit(cache=True)
