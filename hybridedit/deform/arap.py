@@ -282,12 +282,17 @@ class ARAPSolver:
         constrained : (k,) int array of vertex indices (handle and fixed).
         moving : (h,) int array, the constrained vertices that later :meth:`solve`
             calls may move (the handle); default: all of them. The others must
-            stay where they are now. Each iteration then updates only the
-            rotations that can change (of free and moving vertices and their
-            neighbours), so a frame costs in proportion to the edited region.
+            stay where they are now (checked to be constrained).
 
         Notes
         -----
+        Each :meth:`solve` iteration updates only the rotations the global step reads:
+        those of the free vertices and of the constrained vertices next to a free one
+        (:attr:`active`), so a frame costs in proportion to the free region, whatever
+        the size of the handle. The rotation of a constrained vertex inside a handle
+        (all of its neighbours constrained) is left as this call computed it;
+        :meth:`local_step` brings every rotation up to date.
+
         A connected part of the mesh (edges and links) with no constrained vertex
         would have an undetermined position: its vertices are held where they are
         (listed in :attr:`held`, constrained like fixed vertices).
@@ -309,24 +314,14 @@ class ARAPSolver:
             mask[self.held] = True
             c = np.flatnonzero(mask).astype(np.int64)
         free = np.flatnonzero(~mask)
-        if moving is None:
-            mov = c
-        else:
+        if moving is not None:
             mov = np.asarray(moving, dtype=np.int64).ravel()
             if mov.size and (mov.min() < 0 or mov.max() >= n or not np.all(mask[mov])):
                 raise ValueError("moving vertices must be constrained")
-            mov = unique_in_range(mov, n)
-        # vertices whose rotation can change: those that move and their neighbours
-        moves = union_in_range(free, mov, n)
-        active = np.zeros(n, dtype=bool)
-        active[moves] = True
-        if moves.size:
-            active[self.L[moves].indices] = True
         self.constrained = c
         self.free = free
-        self.active = np.flatnonzero(active).astype(np.int64)
         self._all = np.arange(n, dtype=np.int64)
-        self.local_step()  # rotations of the vertices that will not move stay these
+        self.local_step()  # rotations a solve does not update stay these
         L = self.L
         self._solver = SPDSolver(L[free][:, free], backend=self.backend)
         # the free rows' couplings to constrained vertices: only those next to a free vertex have
@@ -335,8 +330,12 @@ class ARAPSolver:
         cols = np.unique(L_fc.indices)
         self._L_fc = L_fc[:, cols].tocsr()
         self._touching = c[cols]
+        # the rotations the global step reads (b_i sums R_i + R_j over a free i's edges): not a
+        # handle's inside, whose rotations nothing reads (its positions are given)
+        self.active = union_in_range(free, self._touching, n)
 
-    def solve(self, constrained_positions: np.ndarray, iterations: int = 2) -> np.ndarray:
+    def solve(self, constrained_positions: np.ndarray, iterations: int = 2, *,
+              slots: np.ndarray | None = None) -> np.ndarray:
         """Move the constrained vertices and run local/global iterations.
 
         Parameters
@@ -345,6 +344,11 @@ class ARAPSolver:
             vertices as given (sorted unique) to :meth:`set_constrained`; held
             vertices stay where they are.
         iterations : number of local/global iterations (>= 0).
+        slots : (s,) int array, optional
+            Positions within that order of the vertices ``constrained_positions`` (then
+            (s, 3)) moves; the other constrained vertices stay where they are. A frame
+            that moves a handle gives only the handle's (a big cage's fixed vertices are
+            most of it).
 
         Returns
         -------
@@ -353,9 +357,10 @@ class ARAPSolver:
         if self._solver is None:
             raise RuntimeError("call set_constrained first")
         cp = np.asarray(constrained_positions, dtype=np.float64).reshape(-1, 3)
-        if len(cp) != len(self._given):
-            raise ValueError(f"expected {len(self._given)} constrained positions, got {len(cp)}")
-        self.positions[self._given] = cp
+        moved = self._moved_by(slots)
+        if len(cp) != len(moved):
+            raise ValueError(f"expected {len(moved)} constrained positions, got {len(cp)}")
+        self.positions[moved] = cp
         t0 = time.perf_counter()
         rhs_c = self._L_fc @ self.positions[self._touching]
         b = np.empty((len(self.free), 3))
@@ -370,6 +375,22 @@ class ARAPSolver:
         total = time.perf_counter() - t0
         self.last_timings = {"local_seconds": t_local, "global_seconds": total - t_local}
         return self.positions
+
+    def _moved_by(self, slots: np.ndarray | None) -> np.ndarray:
+        """The constrained vertices a :meth:`solve` given ``slots`` writes."""
+        if slots is None:
+            return self._given
+        sl = np.asarray(slots, dtype=np.int64).ravel()
+        if sl.size and (sl.min() < 0 or sl.max() >= len(self._given)):
+            raise ValueError(f"slots must lie in [0, {len(self._given)})")
+        return self._given[sl]
+
+    def written_by_solve(self, slots: np.ndarray | None = None) -> np.ndarray:
+        """(w,) int64 the vertices a :meth:`solve` with ``slots`` writes: the free ones and
+        the constrained ones it moves (what a caller saves to undo a solve)."""
+        if self._solver is None:
+            raise RuntimeError("call set_constrained first")
+        return np.concatenate([self.free, self._moved_by(slots)])
 
     def local_step(self) -> np.ndarray:
         """Update and return the rotations of all vertices, (n, 3, 3) float64."""

@@ -360,7 +360,7 @@ class HybridEditor(RoleQueries, StateSnapshots, RecordedEdits, EditorFiles):
         t0 = time.perf_counter()
         base = self._base
         internal = sel.group_transforms(new)
-        solve_cage(self.arap, cage_targets(base.cage, sel, internal, scale=self._scale), iterations=k)
+        solve_cage(self.arap, *cage_targets(base.cage, sel, internal, scale=self._scale), iterations=k)
         same = len(new) == len(self._transforms) and all(np.array_equal(a, b) for a, b in zip(new, self._transforms))
         self._record = self._record.after_drag(same_transforms=same, iterations=k)
         self._transforms = new

@@ -42,10 +42,15 @@ MAX_REACH = 1e6
 
 
 def cage_targets(base_cage: np.ndarray, selection: Selection, transforms: list[np.ndarray], *,
-                 scale: float) -> np.ndarray:
-    """(k, 3) float64 positions of the selection's constrained cage vertices: fixed ones
-    where they are in the (c, 3) ``base_cage``, each internal group's at its (4, 4)
-    transform of there.
+                 scale: float) -> tuple[np.ndarray, np.ndarray]:
+    """Where a frame puts the selection's moving cage vertices: each internal group's at its
+    (4, 4) transform of where it is in the (c, 3) ``base_cage``. The fixed ones are not
+    written by a frame at all (they stay where the base has them).
+
+    Returns
+    -------
+    slots : (k,) int64 positions within ``selection.constrained`` of the groups' cage vertices.
+    target : (k, 3) float64 their positions.
 
     Raises
     ------
@@ -53,17 +58,16 @@ def cage_targets(base_cage: np.ndarray, selection: Selection, transforms: list[n
         A target is not finite, or lies farther than :data:`MAX_REACH` times ``scale``
         (the shape's size) from where it starts.
     """
-    target = base_cage[selection.constrained]  # (a new array; only the groups' rows move: the
-    reach = 0.0                                  # checks below look at those alone)
+    reach = 0.0
     finite = True
+    moved = []
     with np.errstate(all="ignore"):
         for g, T in enumerate(transforms):
-            s = selection.slots[g]
-            start = target[s]
-            moved = start @ T[:3, :3].T + T[:3, 3]
-            target[s] = moved
-            reach = max(reach, float(np.max(np.abs(moved - start), initial=0.0)))
-            finite = finite and bool(np.all(np.isfinite(moved)))
+            start = base_cage[selection.cage_groups[g]]
+            m = start @ T[:3, :3].T + T[:3, 3]
+            moved.append(m)
+            reach = max(reach, float(np.max(np.abs(m - start), initial=0.0)))
+            finite = finite and bool(np.all(np.isfinite(m)))
     if not finite or not np.isfinite(reach):
         raise ValueError("the drag moves the handle to non-finite positions; refused, nothing changed")
     limit = MAX_REACH * max(scale, np.finfo(float).tiny)
@@ -72,12 +76,15 @@ def cage_targets(base_cage: np.ndarray, selection: Selection, transforms: list[n
             f"the drag moves the handle {reach:.3g} away, more than {MAX_REACH:g} times the shape's "
             f"size ({scale:.3g}); refused, nothing changed"
         )
-    return target
+    slots = np.concatenate([np.asarray(s, dtype=np.int64) for s in selection.slots[:len(transforms)]]
+                           + [np.zeros(0, dtype=np.int64)])
+    return slots, np.concatenate(moved + [np.zeros((0, 3))])
 
 
-def solve_cage(arap, target: np.ndarray, *, iterations: int) -> None:
+def solve_cage(arap, slots: np.ndarray, target: np.ndarray, *, iterations: int) -> None:
     """Run ``iterations`` ARAP iterations of ``arap`` (an :class:`~hybridedit.deform.arap.ARAPSolver`)
-    with its constrained vertices at ``target`` (k, 3).
+    with its constrained vertices at ``slots`` (positions within its constrained order) at
+    ``target`` (k, 3), the others where they are (:func:`cage_targets` gives both).
 
     Raises
     ------
@@ -85,11 +92,12 @@ def solve_cage(arap, target: np.ndarray, *, iterations: int) -> None:
         The solve gave non-finite positions (the solver's positions and rotations are
         then as they were).
     """
-    turning = arap.active  # (the only rotations a solve changes: not all of a big cage's are copied)
-    saved = (arap.positions.copy(), arap.rotations[turning])
-    arap.solve(target, iterations)
-    if not np.all(np.isfinite(arap.positions)):
-        arap.positions[:] = saved[0]
+    written = arap.written_by_solve(slots)  # (only these rows and the active rotations change: a big
+    turning = arap.active                  # cage's still rows are not copied, nor checked)
+    saved = (arap.positions[written], arap.rotations[turning])
+    arap.solve(target, iterations, slots=slots)
+    if not np.all(np.isfinite(arap.positions[written])):
+        arap.positions[written] = saved[0]
         arap.rotations[turning] = saved[1]
         raise ValueError("the drag produced non-finite cage positions; refused, nothing changed")
 

@@ -167,3 +167,55 @@ def test_an_editor_solves_with_its_rigs_cage_weights():
     e, w = rig.cage_weights
     assert np.array_equal(ed.arap.edges[: len(e)], e) and np.array_equal(ed.arap.w[: len(w)], w)
     assert rig.cage_weights is rig.cage_weights  # made once
+
+
+def test_a_solve_turns_only_the_rotations_its_global_step_reads():
+    # counting, not timing: the rotations inside the handle (all neighbours constrained) are never
+    # read, so poisoning them changes nothing, and the solve leaves them as they were; the pose is
+    # bit for bit the one of a solver that updates every rotation
+    m, s = blob_solver()
+    _, full = blob_solver()
+    a, _ = two_ends(m)
+    b = np.flatnonzero(m.vertices[:, 0] > np.median(m.vertices[:, 0]))  # a big handle
+    c = np.union1d(a, b)
+    s.set_constrained(c, moving=b)
+    full.set_constrained(c, moving=b)
+    full.active = np.arange(m.n_vertices)
+    L = s.L.tocsr()
+    next_to_free = np.zeros(m.n_vertices, dtype=bool)
+    next_to_free[L[s.free].indices] = True
+    inside = np.flatnonzero(~next_to_free)  # constrained, every neighbour constrained
+    assert inside.size > 0.2 * m.n_vertices
+    assert np.array_equal(s.active, np.flatnonzero(next_to_free))
+    s.rotations[inside] = np.nan
+    T = rigid_transform(translate=(0.2, 0.4, 0.0), axis=(0, 0, 1), degrees=40, center=m.vertices[b].mean(0))
+    target = m.vertices[c].copy()
+    target[np.isin(c, b)] = apply_transform(T, m.vertices[b])
+    for _ in range(5):
+        s.solve(target, iterations=2)
+        full.solve(target, iterations=2)
+    assert np.array_equal(s.positions, full.positions)
+    assert np.all(np.isnan(s.rotations[inside]))
+    assert np.array_equal(s.rotations[s.active], full.rotations[s.active])
+
+
+def test_a_solve_given_slots_moves_only_those_and_equals_a_full_solve():
+    m, s = blob_solver()
+    _, full = blob_solver()
+    a, b = two_ends(m)
+    c = np.union1d(a, b)
+    for solver in (s, full):
+        solver.set_constrained(c, moving=b)
+    slots = np.flatnonzero(np.isin(c, b))
+    T = rigid_transform(translate=(0.1, 0.3, 0.0), axis=(1, 0, 0), degrees=20, center=m.vertices[b].mean(0))
+    target = m.vertices[c].copy()
+    target[slots] = apply_transform(T, m.vertices[b])
+    for _ in range(3):
+        s.solve(target[slots], iterations=2, slots=slots)
+        full.solve(target, iterations=2)
+    assert np.array_equal(s.positions, full.positions)
+    assert np.array_equal(np.sort(s.written_by_solve(slots)), np.union1d(s.free, b))
+    with pytest.raises(ValueError, match="expected"):
+        s.solve(target, slots=slots)
+    with pytest.raises(ValueError, match="slots"):
+        s.solve(target[:1], slots=[len(c)])
