@@ -29,6 +29,9 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+from numba import njit, prange
+
+from ..core.parallel import pick
 
 from .constraints import RegionStep, SeamSpread, place, region_to_solve
 from .residual import SelectionRows
@@ -130,13 +133,44 @@ class TurnRotations:
     are the identity: the others keep it)."""
 
     def __init__(self, free: np.ndarray, groups: tuple[np.ndarray, ...]) -> None:
-        self.free = free
+        self.free = np.ascontiguousarray(free, dtype=np.int64)
         self.groups = groups
+        self._members = np.concatenate([np.asarray(g, dtype=np.int64) for g in groups] + [np.zeros(0, np.int64)])
+        self._group_of = np.repeat(np.arange(len(groups), dtype=np.int64), [len(g) for g in groups])
 
     def run(self, frame: Frame) -> None:
-        frame.rotations[self.free] = frame.cage_rotations[self.free]
-        for g, T in enumerate(frame.transforms):
-            frame.rotations[self.groups[g]] = T[:3, :3]
+        Rs = np.array([T[:3, :3] for T in frame.transforms], dtype=np.float64).reshape(-1, 3, 3)
+        n = self.free.size + self._members.size
+        pick("place", _turn_serial, _turn_parallel, n)(frame.rotations, frame.cage_rotations, self.free,
+                                                      self._members, self._group_of, Rs)
+
+
+@njit(cache=True, inline="always")
+def _turn_one(q, out, cage_rots, free, members, group_of, Rs):
+    nf = free.shape[0]
+    if q < nf:
+        i = free[q]
+        for a in range(3):
+            for b in range(3):
+                out[i, a, b] = cage_rots[i, a, b]
+    else:
+        i = members[q - nf]
+        g = group_of[q - nf]
+        for a in range(3):
+            for b in range(3):
+                out[i, a, b] = Rs[g, a, b]
+
+
+@njit(cache=True)
+def _turn_serial(out, cage_rots, free, members, group_of, Rs):  # pragma: no cover - compiled
+    for q in range(free.shape[0] + members.shape[0]):
+        _turn_one(q, out, cage_rots, free, members, group_of, Rs)
+
+
+@njit(cache=True, parallel=True)
+def _turn_parallel(out, cage_rots, free, members, group_of, Rs):  # pragma: no cover - compiled
+    for q in prange(free.shape[0] + members.shape[0]):
+        _turn_one(q, out, cage_rots, free, members, group_of, Rs)
 
 
 class PropagateRows:

@@ -104,6 +104,27 @@ def test_a_failed_cage_solve_leaves_the_solver_as_it_was():
     assert np.array_equal(s.positions, np.zeros((4, 3))) and np.array_equal(s.rotations, np.tile(np.eye(3), (4, 1, 1)))
 
 
+@pytest.mark.parametrize("threshold", [10**9, 0])  # the serial kernel, then the parallel one
+def test_turn_rotations_gives_free_vertices_arap_s_and_each_group_its_transform_s(monkeypatch, threshold):
+    from hybridedit.core.parallel import THRESHOLDS
+    from hybridedit.deform.frame_steps import TurnRotations
+
+    monkeypatch.setitem(THRESHOLDS, "place", threshold)
+    rng = np.random.default_rng(3)
+    c = 40
+    cage_rots = rng.normal(size=(c, 3, 3))
+    free, g0, g1 = np.array([1, 5, 7]), np.array([0, 2, 30]), np.array([11, 12])
+    Ts = [rigid_transform(axis=(0, 0, 1), degrees=30), rigid_transform(axis=(1, 0, 0), degrees=-70)]
+    out = np.full((c, 3, 3), 7.0)
+    TurnRotations(free, (g0, g1)).run(Frame(base_shape=None, transforms=Ts, cage=None, cage_rotations=cage_rots,
+                                            rotations=out, propagation_rotations=out, out=None))
+    assert np.array_equal(out[free], cage_rots[free])
+    assert np.array_equal(out[g0], np.broadcast_to(Ts[0][:3, :3], (3, 3, 3)))
+    assert np.array_equal(out[g1], np.broadcast_to(Ts[1][:3, :3], (2, 3, 3)))
+    rest = np.setdiff1d(np.arange(c), np.concatenate([free, g0, g1]))
+    assert np.all(out[rest] == 7.0)  # the others are not written
+
+
 @pytest.mark.parametrize("propagation", ["residual", "linear"])
 def test_the_frame_steps_place_constrained_vertices_exactly(rig, propagation):
     arap, sel, steps, base = session(rig, propagation)
