@@ -257,6 +257,10 @@ class ARAPSolver:
         self.reference = self.rest.copy()
         self.positions = self.rest.copy()
         self.rotations = np.tile(np.eye(3), (n, 1, 1))
+        # a solve's rotations are written here and swapped in when it succeeds (a failed solve leaves
+        # ``rotations`` as they were, with no copy of them made every frame); outside ``active`` the
+        # two arrays agree
+        self._spare = self.rotations.copy()
         self.constrained = np.zeros(0, dtype=np.int64)
         self.free = np.arange(n, dtype=np.int64)
         self._all = np.arange(n, dtype=np.int64)
@@ -360,18 +364,27 @@ class ARAPSolver:
         moved = self._moved_by(slots)
         if len(cp) != len(moved):
             raise ValueError(f"expected {len(moved)} constrained positions, got {len(cp)}")
-        self.positions[moved] = cp
+        if not np.all(np.isfinite(cp)):
+            raise FloatingPointError("non-finite constrained positions; nothing changed")
         t0 = time.perf_counter()
+        before = (self.positions[moved], self.positions[self.free])
+        self.positions[moved] = cp
         rhs_c = self._L_fc @ self.positions[self._touching]
         b = np.empty((len(self.free), 3))
+        rots = self._spare  # the iterations' rotations (its entries outside ``active`` are ours)
         t_local = 0.0
         for _ in range(int(iterations)):
             t1 = time.perf_counter()
-            _local_step(self.reference, self.positions, self._indptr, self._indices, self._wts, self.rotations,
-                        self.active)
+            _local_step(self.reference, self.positions, self._indptr, self._indices, self._wts, rots, self.active)
             t_local += time.perf_counter() - t1
-            _rhs(self.reference, self._indptr, self._indices, self._wts, self.rotations, self.free, b)
-            self.positions[self.free] = self._solver.solve(b - rhs_c)
+            _rhs(self.reference, self._indptr, self._indices, self._wts, rots, self.free, b)
+            x = self._solver.solve(b - rhs_c)
+            if not np.all(np.isfinite(x)):
+                self.positions[moved], self.positions[self.free] = before
+                raise FloatingPointError("the solve gave non-finite positions; nothing changed")
+            self.positions[self.free] = x
+        if iterations > 0:  # the new rotations become ours; the old array is the next solve's to write
+            self.rotations, self._spare = rots, self.rotations
         total = time.perf_counter() - t0
         self.last_timings = {"local_seconds": t_local, "global_seconds": total - t_local}
         return self.positions
@@ -396,6 +409,7 @@ class ARAPSolver:
         """Update and return the rotations of all vertices, (n, 3, 3) float64."""
         _local_step(self.reference, self.positions, self._indptr, self._indices, self._wts, self.rotations,
                     self._all)
+        self._spare[:] = self.rotations
         return self.rotations
 
     def energy(self, positions: np.ndarray | None = None) -> float:
@@ -407,6 +421,11 @@ class ARAPSolver:
         _energy_terms(self.reference, p, self._indptr, self._indices, self._wts, rots, out)
         return float(out.sum())
 
+    def set_rotations(self, rotations: np.ndarray) -> None:
+        """Put the rotations back to ``rotations`` (n, 3, 3) (an undo's snapshot of :attr:`rotations`)."""
+        self.rotations[:] = rotations
+        self._spare[:] = rotations
+
     def set_reference(self, positions: np.ndarray) -> None:
         """Measure the energy against ``positions`` (c, 3) from now on, and start there:
         the positions become these and every rotation the identity. The weights and
@@ -417,9 +436,11 @@ class ARAPSolver:
         self.reference = np.ascontiguousarray(p).copy()
         self.positions[:] = p
         self.rotations[:] = np.eye(3)
+        self._spare[:] = np.eye(3)
 
     def reset(self) -> None:
         """Back to the rest pose (also as the reference)."""
         self.reference = self.rest.copy()
         self.positions[:] = self.rest
         self.rotations[:] = np.eye(3)
+        self._spare[:] = np.eye(3)

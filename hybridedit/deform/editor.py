@@ -263,7 +263,7 @@ class HybridEditor(RoleQueries, StateSnapshots, RecordedEdits, EditorFiles):
             self.arap.set_constrained(roles.constrained, moving=roles.moving)
         except ValueError as e:
             self.arap.reference = before[0]
-            self.arap.rotations[:] = before[1]
+            self.arap.set_rotations(before[1])
             raise SelectionError(str(e)) from None
         sel = build_selection(roles, free_cage=self.arap.free, held=self.arap.held, binding=self.M,
                               blend_idx=self._blend[0] if self.propagation == "residual" else None)

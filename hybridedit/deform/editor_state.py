@@ -56,7 +56,7 @@ class StateSnapshots:
         self._steps = state.steps
         self._centers = state.centers
         self.arap.positions[:] = state.cage_positions
-        self.arap.rotations[:] = state.arap_rotations
+        self.arap.set_rotations(state.arap_rotations)
         self._rots[:] = state.rotations
         self._out[:] = state.shape
         self._transforms = [T.copy() for T in state.transforms]

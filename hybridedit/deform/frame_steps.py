@@ -93,16 +93,12 @@ def solve_cage(arap, slots: np.ndarray, target: np.ndarray, *, iterations: int) 
     ------
     ValueError
         The solve gave non-finite positions (the solver's positions and rotations are
-        then as they were).
+        then as they were: its solve leaves them so).
     """
-    written = arap.written_by_solve(slots)  # (only these rows and the active rotations change: a big
-    turning = arap.active                  # cage's still rows are not copied, nor checked)
-    saved = (arap.positions[written], arap.rotations[turning])
-    arap.solve(target, iterations, slots=slots)
-    if not np.all(np.isfinite(arap.positions[written])):
-        arap.positions[written] = saved[0]
-        arap.rotations[turning] = saved[1]
-        raise ValueError("the drag produced non-finite cage positions; refused, nothing changed")
+    try:
+        arap.solve(target, iterations, slots=slots)
+    except FloatingPointError:
+        raise ValueError("the drag produced non-finite cage positions; refused, nothing changed") from None
 
 
 @dataclass(frozen=True, slots=True)

@@ -187,7 +187,9 @@ def test_a_solve_turns_only_the_rotations_its_global_step_reads():
     inside = np.flatnonzero(~next_to_free)  # constrained, every neighbour constrained
     assert inside.size > 0.2 * m.n_vertices
     assert np.array_equal(s.active, np.flatnonzero(next_to_free))
-    s.rotations[inside] = np.nan
+    poisoned = s.rotations.copy()
+    poisoned[inside] = np.nan
+    s.set_rotations(poisoned)
     T = rigid_transform(translate=(0.2, 0.4, 0.0), axis=(0, 0, 1), degrees=40, center=m.vertices[b].mean(0))
     target = m.vertices[c].copy()
     target[np.isin(c, b)] = apply_transform(T, m.vertices[b])
