@@ -10,13 +10,15 @@ Examples
 array([1, 3, 5])
 >>> union_in_range(np.array([4, 0]), np.array([2, 4]), 8)
 array([0, 2, 4])
+>>> difference_in_range(np.array([4, 0, 2]), np.array([2, 7]), 8)
+array([0, 4])
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["unique_in_range", "union_in_range"]
+__all__ = ["unique_in_range", "union_in_range", "difference_in_range"]
 
 #: at least this share of ``n`` indices: a mask (one pass over n) beats a sort (k log k)
 MASK_SHARE = 1 / 64
@@ -55,3 +57,25 @@ def union_in_range(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
     (m,) int64
     """
     return unique_in_range(np.concatenate([np.asarray(a).ravel(), np.asarray(b).ravel()]), n)
+
+
+def difference_in_range(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
+    """The sorted distinct values of ``a`` not in ``b``, all in ``[0, n)``: ``np.setdiff1d(a, b)``.
+
+    Parameters
+    ----------
+    a, b : (k,) and (l,) int arrays
+    n : int
+
+    Returns
+    -------
+    (m,) int64
+    """
+    a = np.asarray(a).ravel()
+    b = np.asarray(b).ravel()
+    if a.size < MASK_SHARE * n:
+        return np.setdiff1d(a, b).astype(np.int64, copy=False)
+    mask = np.zeros(n, dtype=bool)
+    mask[a] = True
+    mask[b] = False
+    return np.flatnonzero(mask)

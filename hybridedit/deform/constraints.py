@@ -250,7 +250,9 @@ def region_to_solve(points: np.ndarray, free: np.ndarray, seam: np.ndarray, cage
         return free
     from scipy.spatial import cKDTree
 
-    d, _ = cKDTree(points[seam]).query(points[free], distance_upper_bound=BAND_CAGE_EDGES * cage_edge)
+    workers = pick("propagate", 1, -1, free.size)  # (every core when they are free)
+    d, _ = cKDTree(points[seam]).query(points[free], distance_upper_bound=BAND_CAGE_EDGES * cage_edge,
+                                       workers=workers)
     return free[np.isfinite(d)]
 
 

@@ -31,6 +31,7 @@ import numpy as np
 import scipy.sparse as sp
 from numba import njit, prange
 
+from ..core.index_sets import difference_in_range
 from ..core.parallel import pick
 
 from .constraints import RegionStep, SeamSpread, place, region_to_solve
@@ -335,7 +336,7 @@ def build_frame_steps(selection: Selection, base, *, binding: sp.csr_matrix, res
     if propagation == "residual":
         solve = region_to_solve(rest, rows, seam, cage_edge)
         region = RegionStepSolver(RegionStep(base.shape, laplacian, solve, *blend))
-        propagated = np.setdiff1d(rows, region.solved).astype(np.int64)  # it places its rows itself
+        propagated = difference_in_range(rows, region.solved, len(rest))  # it places its rows itself
     else:
         region = SeamSpreadSolver(SeamSpread(laplacian, rows, seam), rows, seam, selection.seam_role) \
             if seam.size else RegionSolver()

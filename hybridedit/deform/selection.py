@@ -29,10 +29,12 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+from numba import njit, prange
 
 from typing import TYPE_CHECKING
 
 from ..core.index_sets import union_in_range, unique_in_range
+from ..core.parallel import pick
 from .roles import FIXED, FREE
 
 if TYPE_CHECKING:  # (annotations only: symmetry.py reads SelectionError from here)
@@ -418,12 +420,36 @@ def rows_that_can_move(binding: sp.csr_matrix, changing: np.ndarray, *, blend_id
     (``changing``, (c,) bool), or turning with one (``blend_idx``, (n, k), the
     residual's rotation blend; None for the linear propagation)."""
     M = binding
-    row_of_nz = np.repeat(np.arange(M.shape[0]), np.diff(M.indptr))
-    mask = np.zeros(M.shape[0], dtype=bool)
-    mask[row_of_nz[changing[M.indices]]] = True
-    if blend_idx is not None:
-        mask |= changing[blend_idx].any(axis=1)
+    n = M.shape[0]
+    mask = np.zeros(n, dtype=bool)
+    blend = np.zeros((n, 0), dtype=np.int64) if blend_idx is None else blend_idx
+    kernel = pick("propagate", _rows_touching_serial, _rows_touching_parallel, n)
+    kernel(M.indptr, M.indices, np.ascontiguousarray(changing, dtype=np.bool_), blend, mask)
     return np.flatnonzero(mask).astype(np.int64)
+
+
+@njit(cache=True, inline="always")
+def _row_touches(i, indptr, indices, changing, blend, mask):
+    for k in range(indptr[i], indptr[i + 1]):
+        if changing[indices[k]]:
+            mask[i] = True
+            return
+    for t in range(blend.shape[1]):
+        if changing[blend[i, t]]:
+            mask[i] = True
+            return
+
+
+@njit(cache=True)
+def _rows_touching_serial(indptr, indices, changing, blend, mask):  # pragma: no cover - compiled
+    for i in range(mask.shape[0]):
+        _row_touches(i, indptr, indices, changing, blend, mask)
+
+
+@njit(cache=True, parallel=True)
+def _rows_touching_parallel(indptr, indices, changing, blend, mask):  # pragma: no cover - compiled
+    for i in prange(mask.shape[0]):
+        _row_touches(i, indptr, indices, changing, blend, mask)
 
 
 @dataclass(frozen=True)

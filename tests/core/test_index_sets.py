@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from hybridedit.core import index_sets
-from hybridedit.core.index_sets import union_in_range, unique_in_range
+from hybridedit.core.index_sets import difference_in_range, union_in_range, unique_in_range
 
 
 @pytest.mark.parametrize("k", [0, 3, 500, 50_000])
@@ -16,3 +16,5 @@ def test_the_mask_and_the_sort_give_np_unique(k, monkeypatch):
         u = unique_in_range(idx, n)
         assert u.dtype == np.int64 and np.array_equal(u, np.unique(idx))
         assert np.array_equal(union_in_range(idx, other, n), np.union1d(idx, other))
+        d = difference_in_range(idx, other, n)
+        assert d.dtype == np.int64 and np.array_equal(d, np.setdiff1d(idx, other))

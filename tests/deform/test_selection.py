@@ -169,14 +169,25 @@ def test_the_rows_a_drag_can_move_are_those_bound_to_moving_cage_vertices(rig, p
     assert np.array_equal(sel.moving_vertices, np.union1d(sel.rows, np.flatnonzero(sel.roles > 0)))
 
 
-def test_rows_that_can_move_follow_the_binding_and_the_rotation_blend():
+@pytest.mark.parametrize("threshold", [10**9, 0])  # the serial kernel, then the parallel one
+def test_rows_that_can_move_follow_the_binding_and_the_rotation_blend(monkeypatch, threshold):
     import scipy.sparse as sp
 
+    from hybridedit.core.parallel import THRESHOLDS
+
+    monkeypatch.setitem(THRESHOLDS, "propagate", threshold)
     M = sp.csr_matrix(np.array([[1.0, 0, 0], [0.5, 0.5, 0], [0, 0, 1.0]]))
     changing = np.array([False, True, False])
     assert rows_that_can_move(M, changing).tolist() == [1]
     blend = np.array([[0, 0], [0, 1], [2, 1]])  # row 2 turns with cage vertex 1
     assert rows_that_can_move(M, changing, blend_idx=blend).tolist() == [1, 2]
+    # a bigger one against the definition
+    rng = np.random.default_rng(0)
+    M = sp.random(3000, 200, density=0.02, format="csr", random_state=1)
+    changing = rng.random(200) < 0.05
+    blend = rng.integers(0, 200, (3000, 4))
+    want = (M[:, changing].getnnz(axis=1) > 0) | changing[blend].any(axis=1)
+    assert np.array_equal(rows_that_can_move(M, changing, blend_idx=blend), np.flatnonzero(want))
 
 
 def test_a_mirrored_selections_mirror_groups_follow_the_mirrored_transform(rig):
