@@ -179,7 +179,11 @@ def _edit_session(mesh, say: Progress, label: str) -> None:
     from .core.region_metrics import ShapeMetrics, copy_rows
 
     say(f"{label}: cage and binding", 0.0)
-    ed = HybridEditor(mesh, 0.1, cache=False)
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as folder:  # built, then opened from a cache (its checks' kernels)
+        HybridEditor(mesh, 0.1, cache=folder)
+        ed = HybridEditor(mesh, 0.1, cache=folder)
     handle, roi = _selection(mesh)
     center = mesh.vertices[handle].mean(axis=0)
     metrics = ShapeMetrics(mesh.vertices, mesh.faces)

@@ -121,9 +121,14 @@ def _checked(a: dict[str, np.ndarray], rig: Rig) -> ShapeSetup:
         v = a[name]
         if v.dtype != np.int64 or (v.size and (v.min() < 0 or v.max() >= hi)):
             raise ValueError(f"{name} out of range")
-    if not (np.isfinite(a["residual"]).all() and np.isfinite(w).all() and np.isfinite(a["lap_data"]).all()):
+    if not (np.isfinite(a["residual"]).all() and np.isfinite(w).all()):
         raise ValueError("non-finite values")
+    from ..core.csr_checks import csr_check  # (numba: not at import)
+
+    fault, columns_sorted = csr_check(a["lap_indptr"], a["lap_indices"], a["lap_data"], n_columns=n)
+    if fault:
+        raise ValueError(f"Laplacian: {fault}")
     L = sp.csr_matrix((a["lap_data"], a["lap_indices"], a["lap_indptr"]), shape=(n, n))
-    L.check_format(full_check=True)
+    L.has_sorted_indices = columns_sorted
     return ShapeSetup(residual=a["residual"], blend_idx=idx, blend_w=w, dominant=a["dominant"],
                       nearest=a["nearest"], laplacian=L, from_cache=True)
