@@ -60,22 +60,25 @@ def propagate_from(base: BasePose, *, binding: sp.csr_matrix, cage: np.ndarray, 
 
 
 def rest_base(*, binding: sp.csr_matrix, cage: np.ndarray, residual: np.ndarray,
-              blend: tuple[np.ndarray, np.ndarray], propagation: str) -> BasePose:
-    """The rest pose as a base: the (c, 3) rest ``cage`` and the shape the propagation
-    gives there (the input to rounding with the residual propagation, M @ cage with
-    the linear one, whose residual is then zero).
+              blend: tuple[np.ndarray, np.ndarray], propagation: str, shape: np.ndarray) -> BasePose:
+    """The rest pose as a base: the (c, 3) rest ``cage`` and the rest shape as the propagation
+    gives it: the (n, 3) ``shape`` itself with the residual propagation (M @ cage plus the
+    residual, which it equals to rounding: taken as it is, the rest pose is exact, and an
+    11M-vertex shape opens without propagating every row), M @ cage with the linear one,
+    whose residual is then zero.
 
     Parameters
     ----------
     residual : (n, 3) float64 rest shape - M @ cage (:func:`hybridedit.deform.residual.residual_setup`).
+    shape : (n, 3) float64 the rest shape (referenced, never written).
     """
-    d = residual if propagation == "residual" else np.zeros_like(residual)
-    start = BasePose(cage, None, d, at_rest=True)
-    rotations = np.tile(np.eye(3), (cage.shape[0], 1, 1))
-    shape = np.empty((binding.shape[0], 3))
-    propagate_from(start, binding=binding, cage=cage, rotations=rotations, blend=blend, propagation=propagation,
-                   out=shape)
-    return BasePose(cage, shape, d, at_rest=True)
+    if propagation == "residual":
+        return BasePose(cage, shape, residual, at_rest=True)
+    d = np.zeros_like(residual)
+    out = np.empty((binding.shape[0], 3))
+    propagate_from(BasePose(cage, None, d, at_rest=True), binding=binding, cage=cage,
+                   rotations=np.tile(np.eye(3), (cage.shape[0], 1, 1)), blend=blend, propagation=propagation, out=out)
+    return BasePose(cage, out, d, at_rest=True)
 
 
 def current_base(base: BasePose, *, moved: bool, cage: np.ndarray, shape: np.ndarray,

@@ -172,7 +172,7 @@ class HybridEditor(RoleQueries, StateSnapshots, RecordedEdits, EditorFiles):
         self._transforms: list[np.ndarray] = []
         #: the pose the current selection's drags start from; the rest pose first
         self._base = self._rest_base = rest_base(binding=M, cage=cage.vertices, residual=d_rest, blend=self._blend,
-                                                 propagation=propagation)
+                                                 propagation=propagation, shape=mesh.vertices)
         self._out = self._rest_base.shape.copy()
         self._moved = False  # the pose changed since the base was taken
         #: how the pose was made from the rest pose (the steps :attr:`edit` describes)
@@ -381,7 +381,7 @@ class HybridEditor(RoleQueries, StateSnapshots, RecordedEdits, EditorFiles):
         self.arap.reset()
         self._rots[:] = np.eye(3)
         self._base = self._rest_base
-        self._propagate_all()
+        self._out[:] = self._rest_base.shape  # (the rest pose as the editor opened it, exactly)
         self._start_from(self._rest_base)
         self._record = PoseRecord()
 

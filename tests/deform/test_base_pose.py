@@ -20,15 +20,18 @@ def rig():
 
 def test_the_rest_base_is_the_input_with_the_residual_propagation(rig):
     r, d, blend = rig
-    base = rest_base(binding=r.M, cage=r.cage.vertices, residual=d, blend=blend, propagation="residual")
+    base = rest_base(binding=r.M, cage=r.cage.vertices, residual=d, blend=blend, propagation="residual",
+                     shape=r.mesh.vertices)
     assert base.at_rest and base.cage is r.cage.vertices
-    assert np.abs(base.shape - r.mesh.vertices).max() < 1e-12
+    assert np.array_equal(base.shape, r.mesh.vertices)  # the input itself: exact
+    assert np.abs(r.M @ r.cage.vertices + d - r.mesh.vertices).max() < 1e-12  # what the propagation gives there
     assert propagated_residual(base, blend, propagation="residual")[0] is d
 
 
 def test_the_rest_base_is_m_times_the_cage_with_the_linear_propagation(rig):
     r, d, blend = rig
-    base = rest_base(binding=r.M, cage=r.cage.vertices, residual=d, blend=blend, propagation="linear")
+    base = rest_base(binding=r.M, cage=r.cage.vertices, residual=d, blend=blend, propagation="linear",
+                     shape=r.mesh.vertices)
     assert np.abs(base.shape - r.M @ r.cage.vertices).max() < 1e-14
     assert not np.any(base.residual)
     assert propagated_residual(base, blend, propagation="linear") is None  # the paper's plain x' = M y'
@@ -36,7 +39,8 @@ def test_the_rest_base_is_m_times_the_cage_with_the_linear_propagation(rig):
 
 def test_the_current_pose_becomes_a_base_of_its_own(rig):
     r, d, blend = rig
-    rest = rest_base(binding=r.M, cage=r.cage.vertices, residual=d, blend=blend, propagation="residual")
+    rest = rest_base(binding=r.M, cage=r.cage.vertices, residual=d, blend=blend, propagation="residual",
+                     shape=r.mesh.vertices)
     cage = r.cage.vertices + 0.1
     shape = r.mesh.vertices * 1.05
     assert current_base(rest, moved=False, cage=cage, shape=shape, binding=r.M) is rest
@@ -51,7 +55,8 @@ def test_the_current_pose_becomes_a_base_of_its_own(rig):
 @pytest.mark.parametrize("propagation", ["residual", "linear"])
 def test_propagating_a_base_unmoved_gives_the_base(rig, propagation):
     r, d, blend = rig
-    rest = rest_base(binding=r.M, cage=r.cage.vertices, residual=d, blend=blend, propagation=propagation)
+    rest = rest_base(binding=r.M, cage=r.cage.vertices, residual=d, blend=blend, propagation=propagation,
+                     shape=r.mesh.vertices)
     rng = np.random.default_rng(1)
     base = current_base(rest, moved=True, cage=r.cage.vertices + 0.02 * rng.standard_normal(r.cage.vertices.shape),
                         shape=r.mesh.vertices + 0.02 * rng.standard_normal(r.mesh.vertices.shape), binding=r.M)
@@ -63,7 +68,8 @@ def test_propagating_a_base_unmoved_gives_the_base(rig, propagation):
 
 def test_the_residual_turns_with_the_cage(rig):
     r, d, blend = rig
-    rest = rest_base(binding=r.M, cage=r.cage.vertices, residual=d, blend=blend, propagation="residual")
+    rest = rest_base(binding=r.M, cage=r.cage.vertices, residual=d, blend=blend, propagation="residual",
+                     shape=r.mesh.vertices)
     T = rigid_transform(axis=(0, 0, 1), degrees=40, translate=(0.3, 0, 0))
     R = T[:3, :3]
     out = np.empty_like(rest.shape)

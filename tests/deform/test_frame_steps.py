@@ -36,7 +36,8 @@ def session(rig, propagation, *, base=None, symmetry=None, roi=None):
     (or, with ``roi``, everything outside those shape vertices)."""
     r, maps, d, blend, L = rig
     x = r.mesh.vertices
-    base = base or rest_base(binding=r.M, cage=r.cage.vertices, residual=d, blend=blend, propagation=propagation)
+    base = base or rest_base(binding=r.M, cage=r.cage.vertices, residual=d, blend=blend, propagation=propagation,
+                     shape=r.mesh.vertices)
     a, b = np.flatnonzero(x[:, 0] < -1.0), np.flatnonzero(x[:, 0] > 1.4)
     mirror = Mirror(x, symmetry) if symmetry else None
     roles = choose_roles(user_roles(b, fixed=None if roi is not None else a, roi=roi, maps=maps), mirror=mirror,
