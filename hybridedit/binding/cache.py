@@ -32,7 +32,7 @@ from ..fileio.atomic import atomic_write
 from ..core.mesh import Mesh
 
 #: Bump when the cage or binding algorithms change: old files stop matching.
-FORMAT = "hybridedit-binding-7"  # 2: fast binding; 3: notes; 4: checksum, versions; 5: links; 6: digest per array; 7: rows at cage vertices
+FORMAT = "hybridedit-binding-8"  # 2: fast binding; 3: notes; 4: checksum, versions; 5: links; 6: digest per array; 7: rows at cage vertices; 8: large arrays digested in pieces
 
 #: the arrays of an entry, in the order the checksum reads them
 PAYLOAD = ("cage_vertices", "cage_faces", "shape", "data", "indices", "indptr", "notes", "links")
@@ -73,19 +73,37 @@ def checksum(key: str, versions: str, arrays: dict[str, np.ndarray], names: tupl
     return h.hexdigest()
 
 
+#: arrays are digested in pieces of this many bytes, side by side on two threads
+DIGEST_PIECE = 1 << 25
+
+
 def _digests(arrays: list[np.ndarray]) -> list[bytes]:
-    """SHA-256 of each array's bytes; hashlib lets go of the GIL on large buffers, so two threads
-    hash two arrays at once (reading a memory-mapped entry from disk as they go)."""
+    """SHA-256 of each array's bytes; an array larger than :data:`DIGEST_PIECE` is digested
+    in pieces (its digest: the SHA-256 of theirs). hashlib lets go of the GIL on large buffers,
+    so two threads hash two pieces at once, whatever the sizes of the arrays (a binding's weights
+    are most of an entry), reading a memory-mapped entry from disk as they go."""
     from concurrent.futures import ThreadPoolExecutor
 
-    def one(a: np.ndarray) -> bytes:
+    def raw(a: np.ndarray):
         a = np.ascontiguousarray(a)
-        return hashlib.sha256(memoryview(a).cast("B") if a.dtype.kind != "U" and a.size else a.tobytes()).digest()
+        return memoryview(a).cast("B") if a.dtype.kind != "U" and a.size else memoryview(a.tobytes())
 
-    if sum(a.nbytes for a in arrays) < 2**24:
-        return [one(a) for a in arrays]
-    with ThreadPoolExecutor(max_workers=2) as pool:
-        return list(pool.map(one, arrays))
+    views = [raw(a) for a in arrays]
+    pieces = [(k, start) for k, v in enumerate(views) for start in range(0, max(len(v), 1), DIGEST_PIECE)]
+
+    def one(piece: tuple[int, int]) -> bytes:
+        k, start = piece
+        return hashlib.sha256(views[k][start:start + DIGEST_PIECE]).digest()
+
+    if sum(len(v) for v in views) < 2**24:
+        digests = [one(p) for p in pieces]
+    else:
+        with ThreadPoolExecutor(max_workers=2) as pool:
+            digests = list(pool.map(one, pieces))
+    out: list[list[bytes]] = [[] for _ in views]
+    for (k, _), d in zip(pieces, digests):
+        out[k].append(d)
+    return [d[0] if len(d) == 1 else hashlib.sha256(b"".join(d)).digest() for d in out]
 
 
 def read_entry_file(path: Path) -> dict[str, np.ndarray]:

@@ -294,3 +294,27 @@ def test_a_truncated_mapped_entry_is_refused(tmp_path, cut):
     with pytest.warns(bindcache.CacheEntryDiscarded):
         again = HybridEditor(mesh, 200, cache=tmp_path)
     assert not again.cache_hit
+
+
+def test_large_arrays_are_digested_in_pieces_and_any_piece_counts(monkeypatch):
+    import hashlib
+
+    monkeypatch.setattr(bindcache, "DIGEST_PIECE", 1024)
+    a = np.arange(1000, dtype=np.float64)  # 8,000 bytes: 8 pieces
+    small = np.arange(10, dtype=np.int64)
+    digest, small_digest = bindcache._digests([a, small])
+    raw = a.tobytes()
+    pieces = b"".join(hashlib.sha256(raw[s:s + 1024]).digest() for s in range(0, len(raw), 1024))
+    assert digest == hashlib.sha256(pieces).digest()
+    assert small_digest == hashlib.sha256(small.tobytes()).digest()  # one piece: its own digest
+    for at in (0, 1500, 7999):  # a change in any piece changes the digest
+        b = a.copy()
+        b.view(np.uint8)[at] ^= 1
+        assert bindcache._digests([b, small])[0] != digest
+    monkeypatch.setattr(bindcache, "DIGEST_PIECE", 1 << 25)
+    assert bindcache._digests([a])[0] == hashlib.sha256(raw).digest()
+    big = np.arange(4_500_000, dtype=np.float64)  # over 16 MB: the pieces go to two threads
+    raw = big.tobytes()
+    piece = 1 << 25
+    want = hashlib.sha256(b"".join(hashlib.sha256(raw[s:s + piece]).digest() for s in range(0, len(raw), piece)))
+    assert bindcache._digests([small, big]) == [hashlib.sha256(small.tobytes()).digest(), want.digest()]
