@@ -31,25 +31,46 @@ from .propagate import _row as _linear_row
 DEFAULT_K = 4
 
 
+@njit(cache=True, inline="always")
+def _top_k_row(i, indptr, indices, data, k, idx, w):
+    """Row i's k entries of largest |value| (ties: the first in the row), weights by magnitude."""
+    a, b = indptr[i], indptr[i + 1]
+    kk = min(k, b - a)
+    # insertion into the k best, largest first; a later entry of equal magnitude goes after
+    for t in range(kk):
+        w[i, t] = -1.0
+    for p in range(a, b if kk > 0 else a):
+        v = abs(data[p])
+        t = kk - 1
+        if v <= w[i, t]:
+            continue
+        while t > 0 and v > w[i, t - 1]:
+            w[i, t] = w[i, t - 1]
+            idx[i, t] = idx[i, t - 1]
+            t -= 1
+        w[i, t] = v
+        idx[i, t] = indices[p]
+    total = 0.0
+    for t in range(kk):
+        total += w[i, t]
+    for t in range(k):
+        if t < kk and total > 0.0:
+            w[i, t] = w[i, t] / total
+        else:  # padding (rows shorter than k): no weight
+            idx[i, t] = idx[i, 0] if t > 0 else 0
+            w[i, t] = 0.0
+
+
 @njit(cache=True)
-def _top_k(indptr, indices, data, k, idx, w):
-    n = idx.shape[0]
-    for i in range(n):
-        a, b = indptr[i], indptr[i + 1]
-        m = b - a
-        vals = np.abs(data[a:b])
-        order = np.argsort(-vals)
-        total = 0.0
-        kk = min(k, m)
-        for t in range(kk):
-            total += vals[order[t]]
-        for t in range(k):
-            if t < kk and total > 0.0:
-                idx[i, t] = indices[a + order[t]]
-                w[i, t] = vals[order[t]] / total
-            else:  # padding (rows shorter than k): no weight
-                idx[i, t] = idx[i, 0] if t > 0 else 0
-                w[i, t] = 0.0
+def _top_k_serial(indptr, indices, data, k, idx, w):  # pragma: no cover - compiled
+    for i in range(idx.shape[0]):
+        _top_k_row(i, indptr, indices, data, k, idx, w)
+
+
+@njit(cache=True, parallel=True)
+def _top_k_parallel(indptr, indices, data, k, idx, w):  # pragma: no cover - compiled
+    for i in prange(idx.shape[0]):
+        _top_k_row(i, indptr, indices, data, k, idx, w)
 
 
 def residual_setup(
@@ -75,7 +96,7 @@ def residual_setup(
     n = M.shape[0]
     idx = np.zeros((n, k), dtype=np.int64)
     w = np.zeros((n, k))
-    _top_k(M.indptr.astype(np.int64), M.indices.astype(np.int64), M.data, k, idx, w)
+    pick("propagate", _top_k_serial, _top_k_parallel, n)(M.indptr, M.indices, M.data, k, idx, w)
     return d, idx, w
 
 

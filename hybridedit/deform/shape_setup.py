@@ -78,12 +78,23 @@ def make_shape_setup(rig: Rig, *, k: int = DEFAULT_K) -> ShapeSetup:
     >>> setup.laplacian.shape, setup.blend_idx.shape
     ((162, 162), (162, 4))
     """
+    from concurrent.futures import ThreadPoolExecutor
+
     mesh, cage, M = rig.mesh, rig.cage, rig.M
-    d, idx, w = residual_setup(M, mesh.vertices, cage.vertices, k=k)
-    e, wt = edge_weights(mesh.vertices, mesh.faces, "cotangent")
-    nearest = cKDTree(mesh.vertices).query(cage.vertices)[1].astype(np.int64)
-    return ShapeSetup(residual=d, blend_idx=idx, blend_w=w, dominant=dominant_cage_vertex(M), nearest=nearest,
-                      laplacian=laplacian(mesh.n_vertices, e, wt))
+
+    def shape_laplacian():
+        e, wt = edge_weights(mesh.vertices, mesh.faces, "cotangent")
+        return laplacian(mesh.n_vertices, e, wt)
+
+    # the Laplacian on a second thread beside the binding's parts (numba, scipy and the KD-tree let
+    # go of the GIL): both cores busy, as the issue of large shapes asks of every build stage
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        lap = pool.submit(shape_laplacian)
+        d, idx, w = residual_setup(M, mesh.vertices, cage.vertices, k=k)
+        nearest = cKDTree(mesh.vertices).query(cage.vertices)[1].astype(np.int64)
+        dominant = dominant_cage_vertex(M)
+        L = lap.result()
+    return ShapeSetup(residual=d, blend_idx=idx, blend_w=w, dominant=dominant, nearest=nearest, laplacian=L)
 
 
 def shape_setup(rig: Rig) -> ShapeSetup:

@@ -40,3 +40,28 @@ def test_selection_rows_equal_the_whole_propagation(residual, fraction):
     assert np.allclose(out[rows], want[rows], rtol=0, atol=1e-12)
     others = np.setdiff1d(np.arange(400), rows)
     assert np.all(out[others] == 7.0)  # only the selection's rows are written
+
+
+@pytest.mark.parametrize("threshold", [10**9, 0])  # the serial kernel, then the parallel one
+def test_the_rotation_blend_takes_each_rows_largest_coordinates(monkeypatch, threshold):
+    from hybridedit.core.parallel import THRESHOLDS
+
+    monkeypatch.setitem(THRESHOLDS, "propagate", threshold)
+    rng = np.random.default_rng(7)
+    n, c, k = 300, 50, 4
+    nnz = rng.integers(0, 12, n)  # empty rows, rows shorter than k, longer ones
+    rows = np.repeat(np.arange(n), nnz)
+    cols = np.concatenate([rng.choice(c, m, replace=False) for m in nnz])
+    vals = rng.choice([0.1, 0.2, 0.3, -0.2, 0.25], rows.size)  # ties and negative values
+    M = sp.csr_matrix((vals, (rows, cols)), shape=(n, c))
+    d, idx, w = residual_setup(M, np.zeros((n, 3)), np.zeros((c, 3)), k=k)
+    for i in range(n):
+        a, b = M.indptr[i], M.indptr[i + 1]
+        mag = np.abs(M.data[a:b])
+        best = np.argsort(-mag, kind="stable")[:k]  # largest first, ties in row order
+        m = len(best)
+        assert np.array_equal(idx[i, :m], M.indices[a:b][best])
+        if m and mag[best].sum() > 0:
+            assert np.allclose(w[i, :m], mag[best] / mag[best].sum(), rtol=0, atol=1e-15)
+            assert np.isclose(w[i].sum(), 1.0)
+        assert np.all(w[i, m:] == 0.0)
