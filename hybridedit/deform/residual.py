@@ -112,6 +112,8 @@ def _row(i, o, indptr, indices, data, y, rots, idx, w, d, out):
     a2 = 0.0
     for t in range(idx.shape[1]):
         c = w[i, t]
+        if c == 0.0:  # (a row shorter than k is padded with weight 0: no rotation to read)
+            continue
         r = rots[idx[i, t]]
         a0 += c * (r[0, 0] * d0 + r[0, 1] * d1 + r[0, 2] * d2)
         a1 += c * (r[1, 0] * d0 + r[1, 1] * d1 + r[1, 2] * d2)
