@@ -103,6 +103,8 @@ def _blend_one(i, idx, w, cage_rots, out):
     a00 = a01 = a02 = a10 = a11 = a12 = a20 = a21 = a22 = 0.0
     for k in range(idx.shape[1]):
         c = w[i, k]
+        if c == 0.0:  # (padding of a row shorter than k)
+            continue
         r = cage_rots[idx[i, k]]
         a00 += c * r[0, 0]
         a01 += c * r[0, 1]
