@@ -12,6 +12,7 @@ from ..core.linsolve import SPDSolver
 from ..core.parallel import pick
 from ..core.mesh import unique_edges
 from ..core.rotations import closest_rotation
+from ..core.row_copy import put_rows, take_rows
 from ..core.index_sets import union_in_range, unique_in_range
 from ..core.topology import edge_index
 
@@ -367,9 +368,10 @@ class ARAPSolver:
         if not np.all(np.isfinite(cp)):
             raise FloatingPointError("non-finite constrained positions; nothing changed")
         t0 = time.perf_counter()
-        before = (self.positions[moved], self.positions[self.free])
-        self.positions[moved] = cp
-        rhs_c = self._L_fc @ self.positions[self._touching]
+        free = self.free
+        before = (take_rows(self.positions, moved), take_rows(self.positions, free))
+        put_rows(cp, moved, self.positions)
+        rhs_c = self._L_fc @ take_rows(self.positions, self._touching)
         b = np.empty((len(self.free), 3))
         rots = self._spare  # the iterations' rotations (its entries outside ``active`` are ours)
         t_local = 0.0
@@ -380,9 +382,10 @@ class ARAPSolver:
             _rhs(self.reference, self._indptr, self._indices, self._wts, rots, self.free, b)
             x = self._solver.solve(b - rhs_c)
             if not np.all(np.isfinite(x)):
-                self.positions[moved], self.positions[self.free] = before
+                put_rows(before[0], moved, self.positions)
+                put_rows(before[1], free, self.positions)
                 raise FloatingPointError("the solve gave non-finite positions; nothing changed")
-            self.positions[self.free] = x
+            put_rows(x, free, self.positions)
         if iterations > 0:  # the new rotations become ours; the old array is the next solve's to write
             self.rotations, self._spare = rots, self.rotations
         total = time.perf_counter() - t0

@@ -33,6 +33,7 @@ from numba import njit, prange
 
 from ..core.index_sets import difference_in_range
 from ..core.parallel import pick
+from ..core.row_copy import take_rows
 
 from .constraints import RegionStep, SeamSpread, place, region_to_solve
 from .residual import SelectionRows
@@ -67,7 +68,7 @@ def cage_targets(base_cage: np.ndarray, selection: Selection, transforms: list[n
     moved = []
     with np.errstate(all="ignore"):
         for g, T in enumerate(transforms):
-            start = base_cage[selection.cage_groups[g]]
+            start = take_rows(base_cage, selection.cage_groups[g])
             m = start @ T[:3, :3].T + T[:3, 3]
             moved.append(m)
             reach = max(reach, float(np.max(np.abs(m - start), initial=0.0)))
