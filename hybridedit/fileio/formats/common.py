@@ -101,26 +101,30 @@ def _weld(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return p[first[by_first]], rank[group].reshape(-1, 3)
 
 
-def _mesh(vertices: np.ndarray, faces: np.ndarray) -> Mesh:
-    """The engine mesh of a file's positions and triangles; _Bad for an index out of range."""
-    n = len(vertices)
-    faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
-    if faces.size:
+def _check_indices(faces: np.ndarray, n: int) -> None:
+    """_Bad naming the first face index out of ``[0, n)``: two reductions over the faces, and the
+    mask (a temporary of every index) only when one is out of range."""
+    if faces.size and (faces.min() < 0 or faces.max() >= n):
         bad = (faces < 0) | (faces >= n)
-        if bad.any():
-            value = int(faces.ravel()[int(np.argmax(bad.ravel()))])
-            raise _Bad(f"face index {value} out of range (file has {_words(n, 'vertex')})")
-    return Mesh(vertices, faces)
+        value = int(faces.ravel()[int(np.argmax(bad.ravel()))])
+        raise _Bad(f"face index {value} out of range (file has {_words(n, 'vertex')})")
+
+
+def _mesh(vertices: np.ndarray, faces: np.ndarray) -> Mesh:
+    """The engine mesh of a file's positions and triangles (every reader makes its mesh here);
+    _Bad naming the first face index out of range."""
+    faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    try:
+        return Mesh(vertices, faces)  # (it checks the index range: not done twice)
+    except MeshError:
+        _check_indices(faces, len(vertices))
+        raise
 
 
 def _validate(vertices: np.ndarray, faces: np.ndarray) -> None:
-    """Check face indices, finiteness and that there is a face; raise _Bad if not."""
+    """Check finiteness and that there is a face (the indices were checked making the mesh,
+    :func:`_mesh`); raise _Bad if not."""
     n = len(vertices)
-    if faces.size:
-        bad = (faces < 0) | (faces >= n)
-        if bad.any():
-            value = int(faces.ravel()[int(np.argmax(bad.ravel()))])
-            raise _Bad(f"face index {value} out of range (file has {_words(n, 'vertex')})")
     finite = np.isfinite(vertices).all(axis=1)
     if not finite.all():
         k = int((~finite).sum())

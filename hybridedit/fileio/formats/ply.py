@@ -146,7 +146,7 @@ def _index_list(el: plyfile.PlyElement) -> str:
 
 
 def _check_start(data: bytes) -> None:
-    first = data.split(b"\n", 1)[0].strip()
+    first = data[:1024].split(b"\n", 1)[0].strip()  # (not a split of the whole file)
     if first != b"ply":
         raise _Bad("not a PLY file (it does not start with a 'ply' line)")
     if b"end_header" not in data[:1 << 20]:
@@ -202,9 +202,10 @@ def read(path: str, data: bytes) -> Document:
     except plyfile.PlyParseError as exc:
         raise _Bad(_plain_message(exc)) from None
     vertex, names = _vertex_element(ply)
+    vertices = np.empty((vertex.count, 3))  # (one array, each column converted into it)
     with np.errstate(all="ignore"):
-        vertices = np.column_stack([vertex.data[a].astype(np.float64) for a in "xyz"]) \
-            if vertex.count else np.zeros((0, 3))
+        for k, a in enumerate("xyz"):
+            vertices[:, k] = vertex.data[a]
     faces, polygons = _faces(ply)
     colors = _colors(vertex, names)
     vertex_uv = next((pair for pair in _VERTEX_UV if all(a in names for a in pair)), ())
@@ -263,7 +264,7 @@ def _faces(ply: plyfile.PlyData) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarr
             flat[flat == np.iinfo(code).max] = -1
         parts.append(_strip_triangles(counts, flat))
         polygons = None  # strips have no polygons to carry over
-    return np.concatenate(parts), polygons
+    return (parts[1] if len(parts) == 2 else np.concatenate(parts)), polygons  # (no copy of one part)
 
 
 def _colors(vertex: plyfile.PlyElement, names: list[str]) -> np.ndarray | None:
