@@ -95,6 +95,14 @@ class SeamSpread:
 
 
 
+def _summing_to_one(w: np.ndarray) -> np.ndarray:
+    """(t, k) float64 blend weights ``w`` (stored as float32) made to sum to 1 per row in float64
+    (rows of no weight stay zero): equal rotations then blend to that rotation to rounding."""
+    out = np.asarray(w, dtype=np.float64)
+    total = out.sum(axis=1, keepdims=True)
+    return np.ascontiguousarray(np.divide(out, total, out=np.zeros_like(out), where=total > 0))
+
+
 @njit(cache=True, inline="always")
 def _blend_one(i, idx, w, cage_rots, out):
     """out[i] = sum_k w[i, k] cage_rots[idx[i, k]]: the rotation a shape vertex takes, a linear
@@ -301,7 +309,7 @@ class RegionStep:
         turning = union_in_range(self.free, self.boundary, n)
         self._turning = turning
         self._idx = np.ascontiguousarray(idx[turning], dtype=np.int64)
-        self._w = np.ascontiguousarray(w[turning], dtype=np.float64)
+        self._w = _summing_to_one(w[turning])
         self._free_local = np.searchsorted(turning, self.free).astype(np.int64)
         # each unknown's edges (the weights w_ij = -L_ij), the other end numbered among ``turning``
         E = sp.csr_matrix(-rows[:, turning])

@@ -32,45 +32,50 @@ DEFAULT_K = 4
 
 
 @njit(cache=True, inline="always")
-def _top_k_row(i, indptr, indices, data, k, idx, w):
-    """Row i's k entries of largest |value| (ties: the first in the row), weights by magnitude."""
+def _top_k_row(i, o, indptr, indices, data, k, idx, w):
+    """Row i's k entries of largest |value| (ties: the first in the row) into ``idx[i]``, their
+    magnitudes' shares into ``w[o]`` (float64; the caller stores them narrower)."""
     a, b = indptr[i], indptr[i + 1]
     kk = min(k, b - a)
     # insertion into the k best, largest first; a later entry of equal magnitude goes after
     for t in range(kk):
-        w[i, t] = -1.0
+        w[o, t] = -1.0
     for p in range(a, b if kk > 0 else a):
         v = abs(data[p])
         t = kk - 1
-        if v <= w[i, t]:
+        if v <= w[o, t]:
             continue
-        while t > 0 and v > w[i, t - 1]:
-            w[i, t] = w[i, t - 1]
+        while t > 0 and v > w[o, t - 1]:
+            w[o, t] = w[o, t - 1]
             idx[i, t] = idx[i, t - 1]
             t -= 1
-        w[i, t] = v
+        w[o, t] = v
         idx[i, t] = indices[p]
     total = 0.0
     for t in range(kk):
-        total += w[i, t]
+        total += w[o, t]
     for t in range(k):
         if t < kk and total > 0.0:
-            w[i, t] = w[i, t] / total
+            w[o, t] = w[o, t] / total
         else:  # padding (rows shorter than k): no weight
             idx[i, t] = idx[i, 0] if t > 0 else 0
-            w[i, t] = 0.0
+            w[o, t] = 0.0
 
 
 @njit(cache=True)
-def _top_k_serial(indptr, indices, data, k, idx, w):  # pragma: no cover - compiled
-    for i in range(idx.shape[0]):
-        _top_k_row(i, indptr, indices, data, k, idx, w)
+def _top_k_serial(indptr, indices, data, k, r0, r1, idx, w):  # pragma: no cover - compiled
+    for i in range(r0, r1):
+        _top_k_row(i, i - r0, indptr, indices, data, k, idx, w)
 
 
 @njit(cache=True, parallel=True)
-def _top_k_parallel(indptr, indices, data, k, idx, w):  # pragma: no cover - compiled
-    for i in prange(idx.shape[0]):
-        _top_k_row(i, indptr, indices, data, k, idx, w)
+def _top_k_parallel(indptr, indices, data, k, r0, r1, idx, w):  # pragma: no cover - compiled
+    for i in prange(r0, r1):
+        _top_k_row(i, i - r0, indptr, indices, data, k, idx, w)
+
+
+#: rows of the top-k made at a time (their float64 shares in a buffer of this many rows)
+_TOP_K_ROWS = 1 << 20
 
 
 def residual_setup(
@@ -94,9 +99,14 @@ def residual_setup(
     M = sp.csr_matrix(M)
     d = np.ascontiguousarray(points - M @ cage_vertices, dtype=np.float64)
     n = M.shape[0]
-    idx = np.zeros((n, k), dtype=np.int64)
-    w = np.zeros((n, k))
-    pick("propagate", _top_k_serial, _top_k_parallel, n)(M.indptr, M.indices, M.data, k, idx, w)
+    idx = np.zeros((n, k), dtype=np.int32)
+    w = np.zeros((n, k), dtype=np.float32)
+    shares = np.empty((min(n, _TOP_K_ROWS), k))
+    kernel = pick("propagate", _top_k_serial, _top_k_parallel, n)
+    for r0 in range(0, n, _TOP_K_ROWS):
+        r1 = min(n, r0 + _TOP_K_ROWS)
+        kernel(M.indptr, M.indices, M.data, k, r0, r1, idx, shares)
+        w[r0:r1] = shares[: r1 - r0]
     return d, idx, w
 
 
@@ -110,8 +120,14 @@ def _row(i, o, indptr, indices, data, y, rots, idx, w, d, out):
     a0 = 0.0
     a1 = 0.0
     a2 = 0.0
+    total = 0.0  # (the weights are stored as float32: they are made to sum to 1 here, in float64,
+    for t in range(idx.shape[1]):  # so that equal rotations turn the residual rigidly, exactly)
+        total += w[i, t]
+    if total <= 0.0:
+        return
+    inv = 1.0 / total
     for t in range(idx.shape[1]):
-        c = w[i, t]
+        c = w[i, t] * inv
         if c == 0.0:  # (a row shorter than k is padded with weight 0: no rotation to read)
             continue
         r = rots[idx[i, t]]

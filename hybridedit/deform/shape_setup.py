@@ -42,7 +42,7 @@ class ShapeSetup:
     Attributes
     ----------
     residual : (n, 3) float64, the shape less M times the cage.
-    blend_idx, blend_w : (n, k) int64 and float64, each shape vertex's blended cage rotations
+    blend_idx, blend_w : (n, k) int32 and float32, each shape vertex's blended cage rotations
         (:func:`hybridedit.deform.residual.residual_setup`).
     dominant : (n,) int64, the cage vertex each shape vertex depends on most.
     nearest : (c,) int64, the shape vertex nearest each cage vertex.
@@ -128,12 +128,16 @@ def _checked(a: dict[str, np.ndarray], rig: Rig) -> ShapeSetup:
         raise ValueError("sizes")
     if a["dominant"].shape != (n,) or a["nearest"].shape != (c,) or a["lap_indptr"].shape != (n + 1,):
         raise ValueError("sizes")
-    for name, hi in (("blend_idx", c), ("dominant", c), ("nearest", n)):
+    for name, hi, kind in (("blend_idx", c, np.int32), ("dominant", c, np.int64), ("nearest", n, np.int64)):
         v = a[name]
-        if v.dtype != np.int64 or (v.size and (v.min() < 0 or v.max() >= hi)):
+        if v.dtype != kind:
+            raise ValueError(f"{name} is {v.dtype}, this version keeps {np.dtype(kind)}")
+        if v.size and (v.min() < 0 or v.max() >= hi):
             raise ValueError(f"{name} out of range")
-    if not (np.isfinite(a["residual"]).all() and np.isfinite(w).all()):
-        raise ValueError("non-finite values")
+    if w.dtype != np.float32:
+        raise ValueError(f"blend_w is {w.dtype}, this version keeps float32")
+    if not (np.isfinite(a["residual"]).all() and np.isfinite(w).all() and (w.size == 0 or w.min() >= 0.0)):
+        raise ValueError("non-finite or negative values")
     from ..core.csr_checks import csr_check  # (numba: not at import)
 
     fault, columns_sorted = csr_check(a["lap_indptr"], a["lap_indices"], a["lap_data"], n_columns=n)
