@@ -464,6 +464,32 @@ def test_truncated_binary_ply(tmp_path: Path) -> None:
     assert "header says 5 faces but file ends after" in message
 
 
+def test_a_ply_larger_than_the_head_the_registry_reads(tmp_path: Path, monkeypatch) -> None:
+    # the registry reads a PLY's first bytes only (plyfile maps the body): a binary file's counts are
+    # checked against its size, a text file is read whole by the PLY reader
+    from hybridedit.fileio.formats import FORMATS, ply
+
+    monkeypatch.setitem(FORMATS, ".ply", FORMATS[".ply"].__class__(**{**FORMATS[".ply"].__dict__, "head": 600}))
+    mesh = icosphere(3)  # 642 vertices: files of several kilobytes
+    for encoding in ("binary", "ascii"):
+        path = tmp_path / f"{encoding}.ply"
+        write_mesh(path, mesh) if encoding == "binary" else path.write_bytes(
+            b"ply\nformat ascii 1.0\nelement vertex %d\nproperty float x\nproperty float y\nproperty float z\n"
+            b"element face %d\nproperty list uchar int vertex_indices\nend_header\n" % (mesh.n_vertices, mesh.n_faces)
+            + b"".join(b"%r %r %r\n" % tuple(float(np.float32(c)) for c in v) for v in mesh.vertices)
+            + b"".join(b"3 %d %d %d\n" % tuple(f) for f in mesh.faces))
+        assert path.stat().st_size > 4 * 600
+        back = read_mesh(path)
+        assert np.array_equal(back.faces, mesh.faces)
+        assert np.allclose(back.vertices, mesh.vertices, atol=1e-6)
+        data = path.read_bytes()
+        if encoding == "binary":
+            assert "file ends after" in read_error(write_bytes(tmp_path / "cut.ply", data[:-40]))
+        else:
+            assert "face" in read_error(write_bytes(tmp_path / "cut.ply", data[:-12]))
+    assert ply.HEAD_BYTES >= 1 << 20  # (a header must end within them: _check_start's own limit)
+
+
 def test_ply_header_lying_about_counts(tmp_path: Path) -> None:
     more = pyramid_ply("binary_little_endian").replace(b"element face 5", b"element face 500")
     # refused from the header: 500 faces need more bytes than the file has after it

@@ -50,6 +50,9 @@ class Format:
     holds : frozenset of {"polygons", "colors", "normals", "uv", "materials", "textures"}
         What this format can carry over from a document read in another one
         ("textures": the images of the materials, without the rest of them).
+    head : int
+        Bytes of the file ``read`` is given (it reads what else it needs itself); 0: the
+        whole file.
     """
 
     name: str
@@ -58,6 +61,7 @@ class Format:
     convert: Callable[[Document, Path], bytes]
     companions: Callable[[Document, Path], list[tuple[Path, bytes]]]
     holds: frozenset[str]
+    head: int = 0
 
 
 def _none(doc: Document, target: Path) -> list[tuple[Path, bytes]]:
@@ -71,7 +75,7 @@ FORMATS: dict[str, Format] = {
     ".off": Format("OFF", lambda path, data: off.read(data), off.write, lambda doc, target: off.write(doc),
                    _none, frozenset({"polygons", "colors", "normals"})),
     ".ply": Format("PLY", ply.read, ply.write, lambda doc, target: ply.write(doc), ply.converted_companions,
-                   frozenset({"polygons", "colors", "normals", "uv", "textures"})),
+                   frozenset({"polygons", "colors", "normals", "uv", "textures"}), head=ply.HEAD_BYTES),
     ".stl": Format("STL", lambda path, data: stl.read(data), stl.write, lambda doc, target: stl.write(doc),
                    _none, frozenset()),
     ".glb": Format("glTF binary", glb.read, glb.write, lambda doc, target: glb.write(doc), _none,
@@ -138,7 +142,7 @@ def read_document(path: str | os.PathLike[str], *,
         tell(0.0)  # (before the bytes are read: a big file takes a while on a slow disk)
     try:
         with open(p, "rb") as f:
-            data = f.read()
+            data = f.read(fmt.head) if fmt.head else f.read()  # (a binary PLY's body: memory-mapped later)
     except FileNotFoundError:
         raise MeshFileError(f"{name}: file not found ({os.path.abspath(p)})") from None
     except IsADirectoryError:

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import copy
 import io
+import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -153,7 +154,18 @@ def _check_start(data: bytes) -> None:
         raise _Bad("not a valid PLY header (no 'end_header' line)")
 
 
-def _check_counts(data: bytes) -> None:
+#: bytes of a PLY file the registry reads first (:func:`read` takes the rest itself when the
+#: file is text); a header must end within them
+HEAD_BYTES = 1 << 20
+
+
+def _is_text(head: bytes) -> bool:
+    """The header says ``format ascii``."""
+    end = head.find(b"end_header")
+    return any(line.split()[:2] == [b"format", b"ascii"] for line in head[:end].splitlines())
+
+
+def _check_counts(data: bytes, size: int | None = None) -> None:
     """Refuse a header whose element counts need more than the file has after it.
 
     An ASCII record is one line; a binary record needs at least its scalar
@@ -178,7 +190,9 @@ def _check_counts(data: bytes) -> None:
                 raise _truncated(el.count, el.name, lines)
             lines -= el.count
         return
-    left, exact = len(body), True  # bytes left for this element; whether earlier records had fixed sizes
+    # bytes left for this element (``data`` may be the file's head only: then ``size`` is the whole
+    # file's); whether earlier records had fixed sizes
+    left, exact = (len(body) if size is None else max(0, size - (newline + 1 if newline >= 0 else size))), True
     for el in header.elements:
         lists = [p for p in el.properties if isinstance(p, plyfile.PlyListProperty)]
         size = sum(np.dtype(p.list_dtype()[0] if p in lists else p.dtype()).itemsize
@@ -194,9 +208,15 @@ def _check_counts(data: bytes) -> None:
 
 
 def read(path: str, data: bytes) -> Document:
-    """Read a PLY file into a :class:`Document` (raises _Bad for a bad file)."""
+    """Read a PLY file into a :class:`Document` (raises _Bad for a bad file). ``data`` is the file
+    or its first :data:`HEAD_BYTES` (a binary file's body is read memory-mapped by plyfile, and
+    a text file is read whole here)."""
     _check_start(data)
-    _check_counts(data)
+    size = os.path.getsize(path)
+    if len(data) < size and _is_text(data):
+        with open(path, "rb") as f:
+            data = f.read()
+    _check_counts(data, size=None if len(data) >= size else size)
     try:
         ply = _read_plydata(path)
     except plyfile.PlyParseError as exc:
