@@ -401,13 +401,6 @@ class ARAPSolver:
             raise ValueError(f"slots must lie in [0, {len(self._given)})")
         return self._given[sl]
 
-    def written_by_solve(self, slots: np.ndarray | None = None) -> np.ndarray:
-        """(w,) int64 the vertices a :meth:`solve` with ``slots`` writes: the free ones and
-        the constrained ones it moves (what a caller saves to undo a solve)."""
-        if self._solver is None:
-            raise RuntimeError("call set_constrained first")
-        return np.concatenate([self.free, self._moved_by(slots)])
-
     def local_step(self) -> np.ndarray:
         """Update and return the rotations of all vertices, (n, 3, 3) float64."""
         _local_step(self.reference, self.positions, self._indptr, self._indices, self._wts, self.rotations,

@@ -216,7 +216,6 @@ def test_a_solve_given_slots_moves_only_those_and_equals_a_full_solve():
         s.solve(target[slots], iterations=2, slots=slots)
         full.solve(target, iterations=2)
     assert np.array_equal(s.positions, full.positions)
-    assert np.array_equal(np.sort(s.written_by_solve(slots)), np.union1d(s.free, b))
     with pytest.raises(ValueError, match="expected"):
         s.solve(target, slots=slots)
     with pytest.raises(ValueError, match="slots"):
