@@ -91,8 +91,9 @@ def residual_setup(
     Returns
     -------
     d : (n, 3) float64 residuals x - M c
-    idx : (n, k) int64 cage vertex of each blended rotation
-    w : (n, k) float64 blend weights, rows summing to 1
+    idx : (n, k) int32 cage vertex of each blended rotation
+    w : (n, k) float32 blend weights, rows summing to 1 (to float32's precision: the kernels that
+        use them make them sum to 1 in float64)
     """
     if k < 1:
         raise ValueError(f"k must be >= 1, got {k}")

@@ -489,7 +489,7 @@ def build_selection(roles: Roles, *, free_cage: np.ndarray, held: np.ndarray, bi
     free_cage : (f,) int64 cage vertices ARAP moves; held : (h,) int64 those it holds
         still (parts with no constraint), both from :meth:`hybridedit.deform.arap.ARAPSolver.set_constrained`.
     binding : (n, c) CSR binding M.
-    blend_idx : (n, k) int64 cage vertices of each shape vertex's rotation blend (the
+    blend_idx : (n, k) int array, cage vertices of each shape vertex's rotation blend (the
         residual propagation: a row turning with a moving cage vertex moves), or None.
     """
     n_int = len(roles.source)
