@@ -232,13 +232,21 @@ def is_closed_oriented(faces: np.ndarray, n_vertices: int) -> bool:
     f = np.ascontiguousarray(faces, dtype=np.int64).reshape(-1, 3)
     if len(f) == 0:
         return False
-    return bool(_closed_oriented(f, max(int(n_vertices), int(f.max()) + 1)))
+    n = max(int(n_vertices), int(f.max()) + 1)
+    start = np.zeros(n + 1, dtype=np.int64)
+    out = np.empty(3 * len(f), dtype=np.int64)
+    if not _outgoing(f, n, start, out):
+        return False
+    bad = np.zeros(n, dtype=np.bool_)
+    pick("faces", _pairs_serial, _pairs_parallel, len(f))(start, out, bad)
+    return not bool(bad.any())
 
 
 @numba.njit(cache=True)
-def _closed_oriented(f, n):  # pragma: no cover - compiled
+def _outgoing(f, n, start, out):  # pragma: no cover - compiled
+    """Each vertex's outgoing half-edges' heads, grouped by vertex (``start`` (n + 1,), ``out``
+    (3 m,)); False for a face with a negative or repeated index."""
     m = f.shape[0]
-    start = np.zeros(n + 1, dtype=np.int64)
     for i in range(m):
         for j in range(3):
             a = f[i, j]
@@ -248,25 +256,42 @@ def _closed_oriented(f, n):  # pragma: no cover - compiled
     for k in range(n):
         start[k + 1] += start[k]
     head = start[:-1].copy()
-    out = np.empty(3 * m, dtype=np.int64)  # the heads of each vertex's outgoing half-edges
     for i in range(m):
         for j in range(3):
             a = f[i, j]
             out[head[a]] = f[i, (j + 1) % 3]
             head[a] += 1
-    for a in range(n):
-        for k in range(start[a], start[a + 1]):
-            b = out[k]
-            for k2 in range(k + 1, start[a + 1]):  # a -> b only once
-                if out[k2] == b:
-                    return False
-            back = 0
-            for k2 in range(start[b], start[b + 1]):  # b -> a exactly once
-                if out[k2] == a:
-                    back += 1
-            if back != 1:
-                return False
     return True
+
+
+@numba.njit(cache=True, inline="always")
+def _pairs_at(a, start, out, bad):
+    """bad[a] when a half-edge a -> b is there twice, or b -> a is not there exactly once."""
+    for k in range(start[a], start[a + 1]):
+        b = out[k]
+        for k2 in range(k + 1, start[a + 1]):  # a -> b only once
+            if out[k2] == b:
+                bad[a] = True
+                return
+        back = 0
+        for k2 in range(start[b], start[b + 1]):  # b -> a exactly once
+            if out[k2] == a:
+                back += 1
+        if back != 1:
+            bad[a] = True
+            return
+
+
+@numba.njit(cache=True)
+def _pairs_serial(start, out, bad):  # pragma: no cover - compiled
+    for a in range(bad.shape[0]):
+        _pairs_at(a, start, out, bad)
+
+
+@numba.njit(cache=True, parallel=True)
+def _pairs_parallel(start, out, bad):  # pragma: no cover - compiled
+    for a in numba.prange(bad.shape[0]):
+        _pairs_at(a, start, out, bad)
 
 
 @numba.njit(cache=True, parallel=True)

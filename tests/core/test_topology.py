@@ -26,7 +26,14 @@ def test_a_closed_box_is_closed_and_oriented():
     assert len(edges) == 18 and np.all(counts == 2) and np.all(edges[:, 0] < edges[:, 1])
 
 
-def test_open_flipped_duplicated_and_nonmanifold_are_not_closed_oriented():
+@pytest.fixture(params=[10**9, 0], ids=["serial", "parallel"])
+def twin(request, monkeypatch):
+    from hybridedit.core.parallel import THRESHOLDS
+
+    monkeypatch.setitem(THRESHOLDS, "faces", request.param)
+
+
+def test_open_flipped_duplicated_and_nonmanifold_are_not_closed_oriented(twin):
     v, f = box()
     with pytest.raises(ValueError, match="unbalanced"):
         check_closed(f[1:])
