@@ -32,6 +32,7 @@ from numba import njit, prange
 from ..core.mesh import unique_edges
 from ..core.normals import accumulate_corners, face_terms, write_unit_rows, write_vertex_normals
 from ..core.parallel import pick
+from ..core.row_copy import take_rows
 
 
 @njit(cache=True, inline="always")
@@ -84,16 +85,6 @@ def copy_rows(src: np.ndarray, rows: np.ndarray, dst: np.ndarray, at: np.ndarray
     [9.0, 3.0]
     """
     _copy_rows_serial(src, np.asarray(rows, dtype=np.int64), dst, np.asarray(at, dtype=np.int64))
-
-
-@njit(cache=True)
-def _gather(V, rows, P):
-    """P[t] = V[rows[t]]: the region's positions, compact and in order."""
-    for t in range(rows.shape[0]):
-        r = rows[t]
-        P[t, 0] = V[r, 0]
-        P[t, 1] = V[r, 1]
-        P[t, 2] = V[r, 2]
 
 
 @njit(cache=True, inline="always")
@@ -260,7 +251,7 @@ class ShapeMetrics:
             face_terms(V, self.faces, self.all_faces, self.face_terms)
             write_vertex_normals(self.faces, self.face_terms, self.vf_ptr, self.vf_idx, self.all_vertices, out)
             return
-        _gather(V, c.vertices, c.P)
+        take_rows(V, c.vertices, out=c.P)
         c.acc[:] = 0.0
         accumulate_corners(c.P, c.faces, c.faces, c.acc)
         write_unit_rows(c.acc, c.targets, self.normal_vertices, out)
@@ -280,7 +271,7 @@ class ShapeMetrics:
                                                                                 eidx, self.terms)
         else:
             eidx = self.moving_edges
-            _gather(V, c.vertices, c.P)
+            take_rows(V, c.vertices, out=c.P)
             self.total += _pick(_edge_terms_serial, _edge_terms_parallel, eidx)(c.P, c.edges, c.rest_len, eidx,
                                                                                 self.terms)
         if self.n_ok == 0:

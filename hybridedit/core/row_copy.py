@@ -37,15 +37,18 @@ def _put(src, rows, out):  # pragma: no cover - compiled
         out[r, 2] = src[t, 2]
 
 
-def take_rows(src: np.ndarray, rows: np.ndarray) -> np.ndarray:
+def take_rows(src: np.ndarray, rows: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
     """``src[rows]``: (k, 3) float64 rows ``rows`` ((k,) int64, in range: not checked) of the
-    (n, 3) float64 ``src``, a new C-ordered array."""
-    out = np.empty((rows.shape[0], 3))
+    (n, 3) float64 ``src``, into ``out`` (k, 3) float64 when given (a buffer kept between calls),
+    else a new C-ordered array; returns it."""
+    if out is None:
+        out = np.empty((rows.shape[0], 3))
     _take(src, rows, out)
     return out
 
 
 def put_rows(src: np.ndarray, rows: np.ndarray, out: np.ndarray) -> None:
-    """``out[rows] = src``: the (k, 3) rows ``src`` into rows ``rows`` ((k,) int64, in range:
-    not checked) of the (n, 3) float64 ``out``."""
-    _put(np.ascontiguousarray(src, dtype=np.float64), rows, out)
+    """``out[rows] = src``: the (k, 3) float64 rows ``src`` (C or Fortran order, as a sparse
+    solve gives them) into rows ``rows`` ((k,) int64, in range: not checked) of the (n, 3)
+    float64 ``out``."""
+    _put(src, rows, out)

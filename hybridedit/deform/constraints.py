@@ -31,6 +31,7 @@ from numba import njit, prange
 from ..core.index_sets import union_in_range, unique_in_range
 from ..core.linsolve import SPDSolver
 from ..core.parallel import pick
+from ..core.row_copy import put_rows
 
 
 def _bounded(L: sp.csr_matrix, free: np.ndarray) -> np.ndarray:
@@ -197,16 +198,6 @@ def region_rhs(idx, w, cage_rots, rots, free_local, indptr, indices, he, s, cptr
     pick("region_step", _region_rhs_serial, _region_rhs_parallel, rots.shape[0])(*args)
 
 
-@njit(cache=True)
-def _scatter_rows(src, rows, out):
-    """out[rows[r]] = src[r]."""
-    for r in range(rows.shape[0]):
-        i = rows[r]
-        out[i, 0] = src[r, 0]
-        out[i, 1] = src[r, 1]
-        out[i, 2] = src[r, 2]
-
-
 @njit(cache=True, inline="always")
 def _place_one(i, source, T, out):
     x0, x1, x2 = source[i, 0], source[i, 1], source[i, 2]
@@ -361,4 +352,4 @@ class RegionStep:
             return
         region_rhs(self._idx, self._w, cage_rotations, self._rots, self._free_local, *self._E, self._he,
                    self._s, *self._C, out, self._b)
-        _scatter_rows(np.asfortranarray(self._solver.solve(self._b)), self.free, out)
+        put_rows(self._solver.solve(self._b), self.free, out)
