@@ -52,7 +52,7 @@ def run(inputs: Sequence[str | os.PathLike[str]] | str | os.PathLike[str], out: 
         Dask is missing or the scheduler cannot be reached.
     """
     from .cluster import dashboard_link, needs_dask, open_client
-    from .graph import outputs_done, results, submit
+    from .graph import outputs_done, resubmit, results, submit
     from .manifest import Manifest
     from .plan import InputError
     from .progress import BatchProgress
@@ -84,7 +84,9 @@ def run(inputs: Sequence[str | os.PathLike[str]] | str | os.PathLike[str], out: 
                 bar.say(f"hybridedit: batch: Dask dashboard at {link}")
             futures = submit(c, [j for j in jobs if j.output not in done], settings, str(outdir.resolve()),
                              retries=retries)
-            for job, row in results(futures, settings):
+            outpath = str(outdir.resolve())
+            for job, row in results(futures, settings,
+                                    again=lambda job: resubmit(c, job, settings, outpath, retries=retries)):
                 manifest.add(row)
                 bar.update(row["status"])
                 if row["status"] == "done":

@@ -117,12 +117,43 @@ def _failed(job: Job, settings: BatchSettings, error: BaseException | None) -> d
                    status="failed", message=f"internal error: {why}")
 
 
-def results(futures: dict, settings: BatchSettings) -> Iterator[tuple[Job, dict]]:
-    """(job, manifest row) for each task as it finishes, in the order they finish."""
+def resubmit(client, job: Job, settings: BatchSettings, outdir: str, *, retries: int = 2):
+    """A new future that makes ``job`` alone (its binding made again for a pose): for a task Dask
+    reported cancelled without anyone cancelling it (it can, when the worker holding a task's
+    dependency is killed as the task is handed on)."""
+    run = uuid.uuid4().hex[:8]
+    if settings.mode == "edits":
+        return client.submit(replay_output, job, settings, outdir, key=f"hybridedit-replay-{run}-again",
+                             retries=retries, priority=POSE_PRIORITY)
+    bound = client.submit(bind_input, job.input, settings.cage_size, key=f"hybridedit-bind-{run}-again",
+                          retries=retries, priority=BIND_PRIORITY)
+    return client.submit(pose_output, bound, job, settings, outdir, key=f"hybridedit-pose-{run}-again",
+                         retries=retries, priority=POSE_PRIORITY)
+
+
+#: times a job whose task came back cancelled is submitted again before it is reported failed
+CANCELLED_AGAIN = 2
+
+
+def results(futures: dict, settings: BatchSettings, *, again=None) -> Iterator[tuple[Job, dict]]:
+    """(job, manifest row) for each task as it finishes, in the order they finish.
+
+    ``again`` (job -> future), when given, makes a job whose task came back cancelled again, up to
+    :data:`CANCELLED_AGAIN` times (:func:`resubmit`), instead of reporting it failed: nobody
+    cancels a batch's tasks but Dask itself, after losing a worker."""
     from distributed import as_completed
 
-    for f in as_completed(list(futures)):
+    tries: dict[str, int] = {}
+    pending = as_completed(list(futures))
+    for f in pending:
         job = futures.pop(f)
+        if f.status == "cancelled" and again is not None and tries.get(job.output, 0) < CANCELLED_AGAIN:
+            tries[job.output] = tries.get(job.output, 0) + 1
+            f.release()
+            nf = again(job)
+            futures[nf] = job
+            pending.add(nf)
+            continue
         if f.status == "finished":
             row = f.result()
         else:

@@ -168,3 +168,42 @@ def test_the_progress_line_on_a_terminal():
     last = text.rsplit("\r\x1b[K", 1)[-1]
     assert last.startswith("batch: [" + "#" * 40 + "] 3/3: 2 done, 1 failed, 0 left") and last.endswith("\n")
     assert json.dumps(text)  # plain text
+
+
+def _slow_row(job, seconds):
+    import time
+
+    time.sleep(seconds)
+    return {"output": job.output, "status": "done"}
+
+
+def test_a_task_dask_cancels_is_made_again_not_reported_failed():
+    # Dask can hand a batch a cancelled future when a worker dies as the task's dependency moves;
+    # nobody cancels a batch's tasks otherwise, so the job is made again (a bounded number of times)
+    from distributed import Client, LocalCluster
+
+    from hybridedit.batching import graph
+    from hybridedit.batching.plan import Job
+
+    jobs = [Job(input="/in/a.ply", output=f"a-pose{k}.ply", edit=f"a-pose{k}.json", pose=k, source_edit=None)
+            for k in range(3)]
+    settings = BatchSettings(poses=3)
+    with LocalCluster(n_workers=1, threads_per_worker=2, processes=False, dashboard_address=":0") as cluster, \
+            Client(cluster) as client:
+        futures = {client.submit(_slow_row, job, 2.0 if job.pose == 1 else 0.0, pure=False): job for job in jobs}
+        victim = next(f for f, job in futures.items() if job.pose == 1)
+        client.cancel(victim)
+        made = []
+
+        def again(job):
+            made.append(job.output)
+            return client.submit(_slow_row, job, 0.0, pure=False)
+
+        rows = dict((job.output, row) for job, row in graph.results(dict(futures), settings, again=again))
+        assert made == ["a-pose1.ply"]
+        assert all(row["status"] == "done" for row in rows.values()) and len(rows) == 3
+        # without a way to make it again, a cancelled task is a failed row that says so
+        futures = {client.submit(_slow_row, jobs[0], 2.0, pure=False): jobs[0]}
+        client.cancel(list(futures))
+        rows = [row for _, row in graph.results(futures, settings)]
+        assert rows[0]["status"] == "failed" and "cancelled" in rows[0]["message"]
