@@ -59,6 +59,15 @@ def rig_up(obj, handle_mask, roi_mask, cage_size=0.05):
     return obj.hybrid_arap.handles[-1].empty
 
 
+def rig_cap(obj, roi_z=-0.1):
+    """The tests' usual edit: the cap above z = 0.75 a handle, everything above ``roi_z`` the ROI.
+    Returns (rest positions (n, 3) float32, handle mask, roi mask, the handle's Empty)."""
+    rest = positions(obj.data).copy()
+    Z = rest[:, 2]
+    handle, roi = Z > 0.75, Z > roi_z
+    return rest, handle, roi, rig_up(obj, handle, roi)
+
+
 def icosphere(subdivisions=4):
     bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=subdivisions, radius=1.0)
     obj = bpy.context.object
@@ -139,10 +148,7 @@ def check_pose(obj, s, ref_V, rest32, roi_rows, handle_rows, T):
 def test_icosphere_live_edit_matches_api_and_keeps_attributes(scene):
     obj = icosphere(4)
     me = obj.data
-    rest32 = positions(me).copy()
-    Z = rest32[:, 2]
-    handle_mask, roi_mask = Z > 0.75, Z > -0.1
-    empty = rig_up(obj, handle_mask, roi_mask)
+    rest32, handle_mask, roi_mask, empty = rig_cap(obj)
     attrs = attribute_snapshot(me)
     assert "UVMap" in attrs and "Col" in attrs
     assert bpy.ops.hybrid_arap.bind() == {"FINISHED"}

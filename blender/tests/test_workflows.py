@@ -10,7 +10,7 @@ import bmesh
 import bpy
 import numpy as np
 from mathutils import Vector
-from test_blender import evaluated, icosphere, key_positions, positions, rig_up, world
+from test_blender import evaluated, icosphere, key_positions, positions, rig_cap, rig_up, world
 
 import hybridedit_blender
 from hybridedit_blender import live
@@ -90,10 +90,7 @@ def test_the_pose_under_other_modifiers(scene):
     """The pose key comes first in the stack: a Subdivision modifier after it works on the posed mesh,
     as it would on a mesh whose own coordinates were the pose."""
     obj = icosphere(2)
-    rest = positions(obj.data).copy()
-    Z = rest[:, 2]
-    handle, roi = Z > 0.75, Z > -0.1
-    empty = rig_up(obj, handle, roi)
+    rest, handle, roi, empty = rig_cap(obj)
     obj.modifiers.new("Subdivision", "SUBSURF").levels = 1
     unposed = evaluated(obj).copy()
     assert len(unposed) > len(rest)
@@ -125,10 +122,7 @@ def test_a_constrained_and_driven_empty_drives_the_pose_on_frame_change(scene):
     """The Empty's location from a Copy Location constraint on an animated target, its rotation from a
     driver on the frame: each frame poses the mesh, the same whichever frame came before."""
     obj = icosphere(3)
-    rest = positions(obj.data).copy()
-    Z = rest[:, 2]
-    handle, roi = Z > 0.75, Z > -0.1
-    empty = rig_up(obj, handle, roi)
+    rest, handle, roi, empty = rig_cap(obj)
     rest_world = S.matrix_np(empty.matrix_world)
     assert bpy.ops.hybrid_arap.bind() == {"FINISHED"}
     s = session_of(obj)
@@ -190,10 +184,7 @@ def _render(scene, frame: int, path: str) -> np.ndarray:
 
 def test_keyframed_empty_is_deterministic_and_a_baked_animation_plays_without_the_addon(scene, tmp_path):
     obj = icosphere(3)
-    rest = positions(obj.data).copy()
-    Z = rest[:, 2]
-    handle, roi = Z > 0.75, Z > -0.1
-    empty = rig_up(obj, handle, roi)
+    rest, handle, roi, empty = rig_cap(obj)
     rest_world = S.matrix_np(empty.matrix_world)
     assert bpy.ops.hybrid_arap.bind() == {"FINISHED"}
     s = session_of(obj)
@@ -249,10 +240,7 @@ def test_keyframed_empty_is_deterministic_and_a_baked_animation_plays_without_th
 def test_save_reopen_rename_duplicate_and_the_original_rest(scene, tmp_path):
     obj = icosphere(3)
     name = obj.name
-    rest = positions(obj.data).copy()
-    Z = rest[:, 2]
-    handle, roi = Z > 0.75, Z > -0.1
-    empty = rig_up(obj, handle, roi)
+    rest, handle, roi, empty = rig_cap(obj)
     empty_name = empty.name
     assert bpy.ops.hybrid_arap.bind() == {"FINISHED"}
     empty.location.z += 0.4
@@ -353,10 +341,7 @@ def test_undo_after_the_settle_gives_the_settled_pose(scene):
 def test_edit_mode_changes_are_never_lost(scene):
     obj = icosphere(4)
     me = obj.data
-    rest = positions(me).copy()
-    Z = rest[:, 2]
-    handle, roi = Z > 0.75, Z > -0.3
-    empty = rig_up(obj, handle, roi)
+    rest, handle, roi, empty = rig_cap(obj, roi_z=-0.3)
     assert bpy.ops.hybrid_arap.bind() == {"FINISHED"}
     empty.location.z += 0.3
     bpy.context.view_layer.update()
