@@ -84,22 +84,33 @@ def submit(client, jobs: list[Job], settings: BatchSettings, outdir: str, *, ret
     futures = {}
     if settings.mode == "edits":
         for i, job in enumerate(jobs):
-            f = client.submit(replay_output, job, settings, outdir, key=f"hybridedit-replay-{run}-{i}",
-                              retries=retries, priority=POSE_PRIORITY)
-            futures[f] = job
+            futures[_job_task(client, job, settings, outdir, f"{run}-{i}", retries)] = job
         return futures
     by_input: dict[str, list[Job]] = {}
     for job in jobs:
         by_input.setdefault(job.input, []).append(job)
     for m, (path, its) in enumerate(by_input.items()):
-        bound = client.submit(bind_input, path, settings.cage_size, key=f"hybridedit-bind-{run}-{m}",
-                              retries=retries, priority=BIND_PRIORITY)
+        bound = _bind_task(client, path, settings, f"{run}-{m}", retries)
         for job in its:
-            f = client.submit(pose_output, bound, job, settings, outdir, key=f"hybridedit-pose-{run}-{m}-{job.pose}",
-                              retries=retries, priority=POSE_PRIORITY)
-            futures[f] = job
+            futures[_job_task(client, job, settings, outdir, f"{run}-{m}-{job.pose}", retries, bound)] = job
         del bound  # Dask lets the bound mesh go once its poses are done
     return futures
+
+
+def _bind_task(client, path: str, settings: BatchSettings, key: str, retries: int):
+    """The future of ``path``'s binding (its key ``hybridedit-bind-KEY``)."""
+    return client.submit(bind_input, path, settings.cage_size, key=f"hybridedit-bind-{key}", retries=retries,
+                         priority=BIND_PRIORITY)
+
+
+def _job_task(client, job: Job, settings: BatchSettings, outdir: str, key: str, retries: int, bound=None):
+    """The future that makes ``job``: its edit replayed (the edits mode), or its pose from the
+    binding future ``bound`` (keys ``hybridedit-replay-KEY`` / ``hybridedit-pose-KEY``)."""
+    if settings.mode == "edits":
+        return client.submit(replay_output, job, settings, outdir, key=f"hybridedit-replay-{key}", retries=retries,
+                             priority=POSE_PRIORITY)
+    return client.submit(pose_output, bound, job, settings, outdir, key=f"hybridedit-pose-{key}", retries=retries,
+                         priority=POSE_PRIORITY)
 
 
 def _failed(job: Job, settings: BatchSettings, error: BaseException | None) -> dict:
@@ -121,14 +132,9 @@ def resubmit(client, job: Job, settings: BatchSettings, outdir: str, *, retries:
     """A new future that makes ``job`` alone (its binding made again for a pose): for a task Dask
     reported cancelled without anyone cancelling it (it can, when the worker holding a task's
     dependency is killed as the task is handed on)."""
-    run = uuid.uuid4().hex[:8]
-    if settings.mode == "edits":
-        return client.submit(replay_output, job, settings, outdir, key=f"hybridedit-replay-{run}-again",
-                             retries=retries, priority=POSE_PRIORITY)
-    bound = client.submit(bind_input, job.input, settings.cage_size, key=f"hybridedit-bind-{run}-again",
-                          retries=retries, priority=BIND_PRIORITY)
-    return client.submit(pose_output, bound, job, settings, outdir, key=f"hybridedit-pose-{run}-again",
-                         retries=retries, priority=POSE_PRIORITY)
+    key = uuid.uuid4().hex[:8] + "-again"
+    bound = None if settings.mode == "edits" else _bind_task(client, job.input, settings, key, retries)
+    return _job_task(client, job, settings, outdir, key, retries, bound)
 
 
 #: times a job whose task came back cancelled is submitted again before it is reported failed

@@ -132,7 +132,6 @@ class TurnRotations:
 
     def __init__(self, free: np.ndarray, groups: tuple[np.ndarray, ...]) -> None:
         self.free = np.ascontiguousarray(free, dtype=np.int64)
-        self.groups = groups
         self._members = np.concatenate([np.asarray(g, dtype=np.int64) for g in groups] + [np.zeros(0, np.int64)])
         self._group_of = np.repeat(np.arange(len(groups), dtype=np.int64), [len(g) for g in groups])
 

@@ -159,25 +159,24 @@ def _check_start(data: bytes) -> None:
 HEAD_BYTES = 1 << 20
 
 
-def _is_text(head: bytes) -> bool:
-    """The header says ``format ascii``."""
-    end = head.find(b"end_header")
-    return any(line.split()[:2] == [b"format", b"ascii"] for line in head[:end].splitlines())
+def _header(data: bytes) -> plyfile.PlyData:
+    """The header of the PLY whose first bytes are ``data`` (plyfile's parse; _Bad if it fails)."""
+    try:
+        return plyfile.PlyData._parse_header(io.BytesIO(data))
+    except plyfile.PlyParseError as exc:
+        raise _Bad(_plain_message(exc)) from None
 
 
-def _check_counts(data: bytes, size: int | None = None) -> None:
+def _check_counts(data: bytes, header: plyfile.PlyData, size: int) -> None:
     """Refuse a header whose element counts need more than the file has after it.
 
     An ASCII record is one line; a binary record needs at least its scalar
     properties' bytes and each list's count. A header promising 10^12 faces in a
     small file is refused here, before plyfile allocates anything for them, with
     the message a truncated file gets ("header says N faces but file ends after K")
-    where K is known.
+    where K is known. ``data`` is the whole file when it is text, else at least its
+    header; ``size`` is the file's size in bytes.
     """
-    try:
-        header = plyfile.PlyData._parse_header(io.BytesIO(data))
-    except plyfile.PlyParseError as exc:
-        raise _Bad(_plain_message(exc)) from None
     end = data.index(b"end_header")
     newline = data.find(b"\n", end)
     body = memoryview(data)[newline + 1:] if newline >= 0 else memoryview(b"")
@@ -190,20 +189,20 @@ def _check_counts(data: bytes, size: int | None = None) -> None:
                 raise _truncated(el.count, el.name, lines)
             lines -= el.count
         return
-    # bytes left for this element (``data`` may be the file's head only: then ``size`` is the whole
-    # file's); whether earlier records had fixed sizes
-    left, exact = (len(body) if size is None else max(0, size - (newline + 1 if newline >= 0 else size))), True
+    # bytes left for this element (of the whole file: ``data`` may be its head only); whether earlier
+    # records had fixed sizes
+    left, exact = (size - (newline + 1) if newline >= 0 else 0), True
     for el in header.elements:
         lists = [p for p in el.properties if isinstance(p, plyfile.PlyListProperty)]
-        size = sum(np.dtype(p.list_dtype()[0] if p in lists else p.dtype()).itemsize
+        each = sum(np.dtype(p.list_dtype()[0] if p in lists else p.dtype()).itemsize
                    for p in el.properties)
-        if el.count * size > left:
+        if el.count * each > left:
             if exact and not lists:
-                raise _truncated(el.count, el.name, left // size if size else 0)
+                raise _truncated(el.count, el.name, left // each if each else 0)
             raise _Bad(f"header says {_words(el.count, el.name)} but the file has room for at most "
-                       f"{left // size if size else 0:,} ({left:,} bytes left, at least {size} byte{'' if size == 1 else 's'} each; "
+                       f"{left // each if each else 0:,} ({left:,} bytes left, at least {each} byte{'' if each == 1 else 's'} each; "
                        "the header's element counts are wrong)")
-        left -= el.count * size
+        left -= el.count * each
         exact = exact and not lists
 
 
@@ -212,11 +211,12 @@ def read(path: str, data: bytes) -> Document:
     or its first :data:`HEAD_BYTES` (a binary file's body is read memory-mapped by plyfile, and
     a text file is read whole here)."""
     _check_start(data)
+    header = _header(data)
     size = os.path.getsize(path)
-    if len(data) < size and _is_text(data):
+    if header.text and len(data) < size:
         with open(path, "rb") as f:
             data = f.read()
-    _check_counts(data, size=None if len(data) >= size else size)
+    _check_counts(data, header, size)
     try:
         ply = _read_plydata(path)
     except plyfile.PlyParseError as exc:
