@@ -66,27 +66,6 @@ def _rows_box(P, rows, box):
                 box[1, d] = x
 
 
-@njit(cache=True)
-def _copy_rows_serial(src, rows, dst, at):
-    for t in range(rows.shape[0]):
-        r, a = rows[t], at[t]
-        dst[a, 0] = src[r, 0]
-        dst[a, 1] = src[r, 1]
-        dst[a, 2] = src[r, 2]
-
-
-def copy_rows(src: np.ndarray, rows: np.ndarray, dst: np.ndarray, at: np.ndarray) -> None:
-    """``dst[at] = src[rows]`` for (n, 3) float32 arrays and (k,) int64 indices, without temporaries.
-
-    Examples
-    --------
-    >>> src = np.arange(12, dtype=np.float32).reshape(4, 3); dst = np.zeros((2, 3), np.float32)
-    >>> copy_rows(src, np.array([3, 1]), dst, np.array([0, 1])); dst[:, 0].tolist()
-    [9.0, 3.0]
-    """
-    _copy_rows_serial(src, np.asarray(rows, dtype=np.int64), dst, np.asarray(at, dtype=np.int64))
-
-
 @njit(cache=True, inline="always")
 def _edge_term(P, ends, rest_len, t, e, terms):
     a, b = ends[t, 0], ends[t, 1]

@@ -24,7 +24,7 @@ import pyvista as pv
 from vtkmodules.vtkRenderingCore import vtkPolyDataMapper
 
 from ..deform.roles import FIXED, FREE
-from ..core.region_metrics import copy_rows
+from ..core.row_copy import copy_rows
 
 DISABLE_SHIFT_SCALE = 0
 """vtkOpenGLVertexBufferObject::DISABLE_SHIFT_SCALE: no bounds rescan of the points at every upload."""

@@ -19,3 +19,16 @@ def test_take_and_put_rows_are_fancy_indexing():
     want[rows] = new * 2
     assert np.array_equal(out, want)
     assert take_rows(src, np.zeros(0, dtype=np.int64)).shape == (0, 3)
+
+
+def test_copy_rows_is_a_gather_into_other_rows():
+    from hybridedit.core.row_copy import copy_rows
+
+    rng = np.random.default_rng(1)
+    src = rng.random((50, 3)).astype(np.float32)
+    dst = np.zeros((20, 3), np.float32)
+    rows, at = rng.choice(50, 8, replace=False), rng.choice(20, 8, replace=False)
+    copy_rows(src, rows, dst, at)
+    want = np.zeros((20, 3), np.float32)
+    want[at] = src[rows]
+    assert np.array_equal(dst, want)
