@@ -28,6 +28,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import dijkstra
 
+from ..core.index_sets import unique_in_range, unique_sorted
+
 __all__ = ["Skeleton", "find_skeleton", "draw_pose", "pose_rng", "MAX_EXTREMITIES", "MIN_SPREAD",
            "ROI_FRACTION", "HANDLE_FRACTION"]
 
@@ -180,7 +182,7 @@ def _joint(region: np.ndarray, edges: np.ndarray, vertices: np.ndarray) -> np.nd
     """The mean position of the region's vertices with an edge out of it ((n,) bool ``region``), or
     None when it has no border (it is the whole part)."""
     a, b = region[edges[:, 0]], region[edges[:, 1]]
-    border = np.unique(np.concatenate([edges[a & ~b, 0], edges[b & ~a, 1]]))
+    border = unique_in_range(np.concatenate([edges[a & ~b, 0], edges[b & ~a, 1]]), len(region))
     return vertices[border].mean(axis=0) if border.size else None
 
 
@@ -267,6 +269,6 @@ def draw_pose(skeleton: Skeleton, rng: np.random.Generator, *, dominant: np.ndar
     groups = [HandleEdit(limb.handle, translate=np.zeros(3),
                          rotate={"axis": limb.axis, "degrees": limb.degrees, "center": limb.joint})
               for limb in limbs]
-    region = np.unique(np.concatenate([limb.region for limb in limbs]))
+    region = unique_sorted(np.concatenate([limb.region for limb in limbs]))
     return Edit(handles=groups, roi=region, space="shape", iterations=int(iterations), cage=dict(cage),
                 mesh=fingerprint)

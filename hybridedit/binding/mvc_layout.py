@@ -15,6 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.index_sets import difference_in_range
+
 __all__ = ["CageData", "FACE_TILE", "FAST_BLOCK", "FastCageData", "FastPlan", "LANES", "fast_destinations",
            "morton_order", "plan_fast", "prepare_cage", "prepare_fast_cage"]
 
@@ -262,7 +264,7 @@ def prepare_fast_cage(cage_vertices: np.ndarray, cage_faces: np.ndarray) -> Fast
     # Internal vertex order: by first use in the kernel's face order.
     used, first = np.unique(f.ravel(), return_index=True)
     by_use = np.argsort(first, kind="stable")
-    perm = np.concatenate([used[by_use], np.setdiff1d(np.arange(c), used)]).astype(np.int64)
+    perm = np.concatenate([used[by_use], difference_in_range(np.arange(c), used, c)]).astype(np.int64)
     inv_perm = np.empty(c, dtype=np.int64)
     inv_perm[perm] = np.arange(c)
     first_face = np.sort(first) // 3

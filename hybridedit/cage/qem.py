@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from .qem_worker import simplify_half
+from ..core.index_sets import unique_in_range
 from ..core.topology import group_rows
 
 __all__ = ["SPLIT_MIN_FACES", "MARGIN", "HalfWorker", "helper_python", "presimplify", "start_worker", "splits"]
@@ -280,4 +281,4 @@ def _border(f: np.ndarray, n: int) -> np.ndarray:
     from ..core.topology import edge_face_counts
 
     edges, counts = edge_face_counts(f, n)
-    return np.unique(edges[counts == 1])
+    return unique_in_range(edges[counts == 1], n)

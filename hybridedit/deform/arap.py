@@ -13,7 +13,7 @@ from ..core.parallel import pick
 from ..core.mesh import unique_edges
 from ..core.rotations import closest_rotation
 from ..core.row_copy import put_rows, take_rows
-from ..core.index_sets import union_in_range, unique_in_range
+from ..core.index_sets import union_in_range, unique_in_range, unique_sorted
 from ..core.topology import edge_index
 
 WEIGHTS = ("uniform", "cotangent")
@@ -240,9 +240,9 @@ class ARAPSolver:
             lk = np.sort(np.asarray(links, dtype=np.int64).reshape(-1, 2), axis=1)
             if lk.min() < 0 or lk.max() >= n or np.any(lk[:, 0] == lk[:, 1]):
                 raise ValueError(f"links must be pairs of distinct vertex indices in [0, {n})")
-            code = np.union1d(lk[:, 0] * n + lk[:, 1], [])
+            code = unique_sorted(lk[:, 0] * n + lk[:, 1])
             have = self.edges[:, 0] * n + self.edges[:, 1]
-            code = np.setdiff1d(code.astype(np.int64), have)
+            code = code[~np.isin(code, have)]
             if code.size:
                 # a link is as stiff as a typical edge of the mesh it joins
                 lw = np.full(code.size, float(np.median(self.w)))
@@ -332,7 +332,7 @@ class ARAPSolver:
         # the free rows' couplings to constrained vertices: only those next to a free vertex have
         # any, and a frame gathers only those (not every held vertex of a big cage)
         L_fc = L[free][:, c].tocsr()
-        cols = np.unique(L_fc.indices)
+        cols = unique_in_range(L_fc.indices, len(c))
         self._L_fc = L_fc[:, cols].tocsr()
         self._touching = c[cols]
         # the rotations the global step reads (b_i sums R_i + R_j over a free i's edges): not a

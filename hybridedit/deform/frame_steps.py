@@ -31,7 +31,7 @@ import numpy as np
 import scipy.sparse as sp
 from numba import njit, prange
 
-from ..core.index_sets import difference_in_range
+from ..core.index_sets import difference_in_range, union_in_range
 from ..core.parallel import pick
 from ..core.row_copy import take_rows
 
@@ -340,7 +340,7 @@ def build_frame_steps(selection: Selection, base, *, binding: sp.csr_matrix, res
     else:
         region = SeamSpreadSolver(SeamSpread(laplacian, rows, seam), rows, seam, selection.seam_role) \
             if seam.size else RegionSolver()
-        propagated = np.union1d(rows, seam).astype(np.int64)
+        propagated = union_in_range(rows, seam, len(rest))
     average = AverageMirror(selection.sym_rows, selection.mirror) if selection.sym_rows.size else None
     return FrameSteps(turn=TurnRotations(selection.free_cage, selection.cage_groups),
                       propagate=PropagateRows(SelectionRows(binding, propagated, residual)), region=region,

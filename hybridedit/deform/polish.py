@@ -24,6 +24,7 @@ import numpy as np
 from .arap import ARAPSolver
 from ..defaults import POLISH_MAX_ITERATIONS as MAX_ITERATIONS
 from ..defaults import POLISH_TOLERANCE as TOLERANCE
+from ..core.index_sets import unique_in_range
 from ..core.mesh import Mesh
 from ..core.topology import connected_parts
 
@@ -97,7 +98,7 @@ class ShapeARAP:
         """The region's shape vertices (k,), its faces on them (m, 3) and which of them are held (k,)."""
         f = self.mesh.faces
         sub = f[free[f].any(axis=1)]
-        region = np.unique(sub)
+        region = unique_in_range(sub, self.mesh.n_vertices)
         local = np.full(self.mesh.n_vertices, -1, dtype=np.int64)
         local[region] = np.arange(len(region))
         sub = local[sub]
@@ -107,7 +108,7 @@ class ShapeARAP:
         pinned[labels[held]] = True
         if not np.all(pinned):  # drop the pieces nothing holds
             sub = sub[pinned[labels[sub[:, 0]]]]
-            keep = np.unique(sub)
+            keep = unique_in_range(sub, len(region))
             region, held = region[keep], held[keep]
             sub = np.searchsorted(keep, sub)
         return region, sub, held

@@ -505,7 +505,7 @@ def build_selection(roles: Roles, *, free_cage: np.ndarray, held: np.ndarray, bi
     mirror = roles.mirror
     if mirror is not None:
         partners = mirror.map[rows]
-        rows = np.union1d(rows, partners[r[partners] == FREE]).astype(np.int64)
+        rows = union_in_range(rows, partners[r[partners] == FREE], len(r))
         sym_rows = rows[r[mirror.map[rows]] == FREE]
     return Selection(
         **{name: getattr(roles, name) for name in Roles.__dataclass_fields__},

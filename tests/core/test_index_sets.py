@@ -18,3 +18,19 @@ def test_the_mask_and_the_sort_give_np_unique(k, monkeypatch):
         assert np.array_equal(union_in_range(idx, other, n), np.union1d(idx, other))
         d = difference_in_range(idx, other, n)
         assert d.dtype == np.int64 and np.array_equal(d, np.setdiff1d(idx, other))
+
+
+@pytest.mark.parametrize("dtype", [np.int32, np.int64, np.uint8])
+@pytest.mark.parametrize("k", [0, 1, 2, 7, 10_000])
+def test_unique_sorted_gives_np_unique(dtype, k):
+    rng = np.random.default_rng(k)
+    values = rng.integers(0, 100 if dtype == np.uint8 else 10**9, (k, 2)).astype(dtype)
+    u = index_sets.unique_sorted(values)
+    expected = np.unique(values)
+    assert u.dtype == expected.dtype and np.array_equal(u, expected)
+    assert values.shape == (k, 2)  # (the input is left as it was)
+
+
+def test_unique_sorted_keeps_negative_values_and_repeats_of_one():
+    assert np.array_equal(index_sets.unique_sorted(np.array([-3, 5, -3, 0])), [-3, 0, 5])
+    assert np.array_equal(index_sets.unique_sorted(np.full(9, 4)), [4])
