@@ -178,8 +178,10 @@ def _edit_session(mesh, say: Progress, label: str) -> None:
     from .deform.polish import ShapeARAP, polish
     from .core.region_metrics import ShapeMetrics
     from .core.row_copy import copy_rows
+    from .core.up_axis import guess_up_axis
 
     say(f"{label}: cage and binding", 0.0)
+    guess_up_axis(mesh)  # (what the window asks of a shape it opens)
     import tempfile
 
     with tempfile.TemporaryDirectory() as folder:  # built, then opened from a cache (its checks' kernels)

@@ -16,6 +16,7 @@ AFTER_WARMUP = textwrap.dedent("""
     from hybridedit import warmup
     from hybridedit.deform.polish import ShapeARAP, polish
     from hybridedit.core.region_metrics import ShapeMetrics
+    from hybridedit.core.up_axis import guess_up_axis
 
     s = trimesh.creation.icosphere(subdivisions=6)  # 41K vertices: past the parallel thresholds
     mesh = he.Mesh(np.asarray(s.vertices) * [2.0, 1.0, 1.0], np.asarray(s.faces), name="check")
@@ -32,6 +33,7 @@ AFTER_WARMUP = textwrap.dedent("""
         sm.set_moving(np.flatnonzero(free))
         sm.write_normals(V, np.zeros((len(V), 3), np.float32), everything=True)
         sm.update_error(V, everything=True)
+        guess_up_axis(mesh)
     print(len(compiled), "PySide6" in sys.modules or "vtkmodules" in sys.modules)
 """)
 

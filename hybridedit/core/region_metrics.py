@@ -29,7 +29,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ..core.mesh import unique_edges
+from ..core.index_sets import MASK_SHARE, union_in_range, unique_in_range
+from ..core.mesh import edge_lengths, unique_edges
 from ..core.normals import accumulate_corners, face_terms, write_unit_rows, write_vertex_normals
 from ..core.parallel import pick
 from ..core.row_copy import take_rows
@@ -124,23 +125,50 @@ def _pick(serial, parallel, items: np.ndarray):
 
 
 def _incidence(items: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """CSR of which rows of ``items`` ((m, k) vertex indices) touch each of n vertices."""
-    rows = np.repeat(np.arange(len(items), dtype=np.int64), items.shape[1])
-    cols = items.ravel()
-    order = np.argsort(cols, kind="stable")
+    """CSR of which rows of ``items`` ((m, k) vertex indices) touch each of n vertices: (n + 1,)
+    pointers and (m k,) rows, each vertex's rows in increasing order (a counting sort: linear)."""
     ptr = np.zeros(n + 1, dtype=np.int64)
-    np.cumsum(np.bincount(cols, minlength=n), out=ptr[1:])
-    return ptr, rows[order]
+    np.cumsum(np.bincount(items.ravel(), minlength=n), out=ptr[1:])
+    rows = np.empty(items.size, dtype=np.int64)
+    _fill_incidence(np.ascontiguousarray(items), ptr, rows)
+    return ptr, rows
 
 
-def _touching(ptr: np.ndarray, idx: np.ndarray, verts: np.ndarray) -> np.ndarray:
-    """Sorted unique items of the CSR rows ``verts``."""
-    if len(verts) == 0:
-        return np.zeros(0, dtype=np.int64)
-    starts, stops = ptr[verts], ptr[verts + 1]
-    lens = stops - starts
-    offs = np.repeat(starts - np.cumsum(lens) + lens, lens) + np.arange(lens.sum())
-    return np.unique(idx[offs])
+@njit(cache=True)
+def _fill_incidence(items, ptr, rows):
+    at = ptr[:-1].copy()
+    for i in range(items.shape[0]):
+        for j in range(items.shape[1]):
+            v = items[i, j]
+            rows[at[v]] = i
+            at[v] += 1
+
+
+def _touching(ptr: np.ndarray, idx: np.ndarray, verts: np.ndarray, m: int) -> np.ndarray:
+    """Sorted unique items (all in ``[0, m)``) of the CSR rows ``verts``: marked in an m-long mask
+    by one pass over those rows."""
+    mask = np.zeros(m, dtype=np.bool_)
+    _mark_rows(ptr, idx, np.asarray(verts, dtype=np.int64), mask)
+    return np.flatnonzero(mask)
+
+
+@njit(cache=True)
+def _mark_rows(ptr, idx, verts, mask):
+    for t in range(verts.shape[0]):
+        v = verts[t]
+        for p in range(ptr[v], ptr[v + 1]):
+            mask[idx[p]] = True
+
+
+def _renumbered(vertices: np.ndarray, items: np.ndarray, n: int) -> np.ndarray:
+    """``items`` (any shape; values in the sorted ``vertices``, all in ``[0, n)``) as positions in
+    ``vertices``, int32: what ``np.searchsorted(vertices, items)`` gives, by a table when there
+    are many."""
+    if items.size < MASK_SHARE * n:
+        return np.searchsorted(vertices, items).astype(np.int32)
+    local = np.empty(n, dtype=np.int32)
+    local[vertices] = np.arange(len(vertices), dtype=np.int32)
+    return local[items]
 
 
 class _Compact:
@@ -149,11 +177,12 @@ class _Compact:
     edges as rows of the compact positions P (k, 3), and the rows of P whose normals are written."""
 
     def __init__(self, metrics: "ShapeMetrics", normal_vertices: np.ndarray, moving_edges: np.ndarray) -> None:
-        faces = metrics.faces[_touching(metrics.vf_ptr, metrics.vf_idx, normal_vertices)]
-        self.vertices = np.union1d(faces, normal_vertices)  # (a vertex on no face keeps a zero normal)
-        self.faces = np.searchsorted(self.vertices, faces).astype(np.int32)
-        self.targets = np.searchsorted(self.vertices, normal_vertices).astype(np.int64)
-        self.edges = np.searchsorted(self.vertices, metrics.edges[moving_edges]).astype(np.int32)
+        n = metrics.n
+        faces = metrics.faces[_touching(metrics.vf_ptr, metrics.vf_idx, normal_vertices, len(metrics.faces))]
+        self.vertices = union_in_range(faces, normal_vertices, n)  # (a vertex on no face keeps a zero normal)
+        self.faces = _renumbered(self.vertices, faces, n)
+        self.targets = _renumbered(self.vertices, normal_vertices, n).astype(np.int64)
+        self.edges = _renumbered(self.vertices, metrics.edges[moving_edges], n)
         self.rest_len = np.ascontiguousarray(metrics.rest_len[moving_edges])
         self.P = np.empty((len(self.vertices), 3))
         self.acc = np.empty((len(self.vertices), 3))
@@ -177,7 +206,7 @@ class ShapeMetrics:
         n = len(self.rest)
         self.n = n
         self.edges = unique_edges(self.faces)
-        self.rest_len = np.linalg.norm(self.rest[self.edges[:, 1]] - self.rest[self.edges[:, 0]], axis=1)
+        self.rest_len = edge_lengths(self.rest, self.edges)
         self.n_ok = int(np.count_nonzero(self.rest_len > 0))
         self.vf_ptr, self.vf_idx = _incidence(self.faces, n)
         self.ve_ptr, self.ve_idx = _incidence(self.edges, n)
@@ -199,12 +228,13 @@ class ShapeMetrics:
             self.moving_edges = self.all_edges
             self.stretch_vertices = self.all_vertices
             return
-        self.moving = np.unique(np.asarray(moving, dtype=np.int64))
-        self.moving_faces = _touching(self.vf_ptr, self.vf_idx, self.moving)
-        self.normal_vertices = np.unique(self.faces[self.moving_faces].ravel()) if len(self.moving_faces) \
+        n = self.n
+        self.moving = unique_in_range(np.asarray(moving, dtype=np.int64), n)
+        self.moving_faces = _touching(self.vf_ptr, self.vf_idx, self.moving, len(self.faces))
+        self.normal_vertices = unique_in_range(self.faces[self.moving_faces], n) if len(self.moving_faces) \
             else self.moving
-        self.moving_edges = _touching(self.ve_ptr, self.ve_idx, self.moving)
-        self.stretch_vertices = np.unique(self.edges[self.moving_edges].ravel()) if len(self.moving_edges) \
+        self.moving_edges = _touching(self.ve_ptr, self.ve_idx, self.moving, len(self.edges))
+        self.stretch_vertices = unique_in_range(self.edges[self.moving_edges], n) if len(self.moving_edges) \
             else self.moving
         self._compact = _Compact(self, self.normal_vertices, self.moving_edges)
 

@@ -17,6 +17,7 @@ import json
 from pathlib import Path
 
 import numpy as np
+from numba import njit
 
 from ..fileio.atomic import atomic_write
 from .mesh import Mesh
@@ -76,35 +77,56 @@ def guess_up_axis(mesh: Mesh, *, path: str | Path | None = None) -> str:
     """
     if path is not None and Path(path).suffix.lower() in FORMAT_UP:
         return FORMAT_UP[Path(path).suffix.lower()]
-    v, f = np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces, dtype=np.int64)
+    v = np.ascontiguousarray(mesh.vertices, dtype=np.float64)
+    f = np.ascontiguousarray(mesh.faces, dtype=np.int64)
     if len(f) == 0:
         return DEFAULT
-    cross = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]) * 0.5  # area-weighted normals
-    area = np.linalg.norm(cross, axis=1)
-    total = float(area.sum())
-    if total <= 0:
-        return DEFAULT
-    summed = cross.sum(axis=0)
-    if np.linalg.norm(summed) > OPEN_SHARE * total and np.max(np.abs(summed)) > 0.7 * np.linalg.norm(summed):
-        return _name(summed)  # open: the normals sum to the side it is open away from
-    centre = v[f].mean(axis=1)
-    unit = cross / np.where(area > 0, area, 1.0)[:, None]
     lo, hi = v.min(axis=0), v.max(axis=0)
     extent = max(float(np.max(hi - lo)), 1e-300)
-    cos = np.cos(np.radians(FLAT_DEGREES))
-    best, best_area = None, 0.0
-    for axis in AXES:
-        down = -axis_vector(axis)
-        k = "XYZ".index(axis[1])
-        bottom = lo[k] if axis[0] == "+" else -hi[k]
-        height = centre[:, k] if axis[0] == "+" else -centre[:, k]
-        flat = (unit @ down > cos) & (height <= bottom + FLAT_BAND * extent)
-        a = float(area[flat].sum())
-        if a > best_area:
-            best, best_area = axis, a
-    if best is not None and best_area > FLAT_SHARE * total:
-        return best
+    # the bottom of the box along each axis, as the height measured down it goes
+    bottom = np.array([lo[1], lo[2], -hi[1], -hi[2], lo[0], -hi[0]]) + FLAT_BAND * extent
+    total, summed, flat = _face_sums(v, f, bottom, np.cos(np.radians(FLAT_DEGREES)))
+    if total <= 0:
+        return DEFAULT
+    if np.linalg.norm(summed) > OPEN_SHARE * total and np.max(np.abs(summed)) > 0.7 * np.linalg.norm(summed):
+        return _name(summed)  # open: the normals sum to the side it is open away from
+    best = int(np.argmax(flat))  # (the first of equal areas, in the order of AXES)
+    if flat[best] > 0 and flat[best] > FLAT_SHARE * total:
+        return AXES[best]
     return DEFAULT
+
+
+@njit(cache=True)
+def _face_sums(v, f, bottom, cos):
+    """One pass over the faces: their total area, their area-weighted normals summed (3,), and for
+    each axis of :data:`AXES` (6,) the area of the faces facing down it (within ``cos``) whose
+    centre lies below ``bottom`` of it (heights measured along the axis)."""
+    total = 0.0
+    summed = np.zeros(3)
+    flat = np.zeros(6)
+    # (the coordinate and the sign of each axis of AXES: +Y +Z -Y -Z +X -X)
+    coord = (1, 2, 1, 2, 0, 0)
+    sign = (1.0, 1.0, -1.0, -1.0, 1.0, -1.0)
+    for t in range(f.shape[0]):
+        a, b, c = f[t, 0], f[t, 1], f[t, 2]
+        ux, uy, uz = v[b, 0] - v[a, 0], v[b, 1] - v[a, 1], v[b, 2] - v[a, 2]
+        wx, wy, wz = v[c, 0] - v[a, 0], v[c, 1] - v[a, 1], v[c, 2] - v[a, 2]
+        nx, ny, nz = 0.5 * (uy * wz - uz * wy), 0.5 * (uz * wx - ux * wz), 0.5 * (ux * wy - uy * wx)
+        area = np.sqrt(nx * nx + ny * ny + nz * nz)
+        total += area
+        summed[0] += nx
+        summed[1] += ny
+        summed[2] += nz
+        if area <= 0.0:
+            continue
+        n = (nx / area, ny / area, nz / area)
+        for k in range(6):
+            d = coord[k]
+            facing_down = -sign[k] * n[d]
+            height = sign[k] * (v[a, d] + v[b, d] + v[c, d]) / 3.0
+            if facing_down > cos and height <= bottom[k]:
+                flat[k] += area
+    return total, summed, flat
 
 
 # ---------------------------------------------------------------------------- remembered per shape

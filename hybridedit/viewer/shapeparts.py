@@ -24,6 +24,7 @@ import pyvista as pv
 from vtkmodules.vtkRenderingCore import vtkPolyDataMapper
 
 from ..deform.roles import FIXED, FREE
+from ..core.index_sets import unique_in_range
 from ..core.row_copy import copy_rows
 
 DISABLE_SHIFT_SCALE = 0
@@ -76,10 +77,10 @@ class _Part:
                  texture=None, on_asset: bool = False) -> None:
         self.role = role
         self.face_rows = face_rows  # (f,) rows of the drawn triangles (the shape's, or the render mesh's)
-        used = np.unique(faces)  # render points of these faces
+        used = unique_in_range(faces, int(faces.max()) + 1 if faces.size else 0)  # render points of these faces
         #: (k,) global shape vertex of each local point (repeats where a seam splits a vertex)
         self.vertices = used if source is None else source[used]
-        order = np.argsort(self.vertices, kind="stable")
+        order = np.arange(len(used)) if source is None else np.argsort(self.vertices, kind="stable")
         self._order, self._sorted = order, self.vertices[order]
         local_of = np.full(int(used[-1]) + 1 if len(used) else 0, -1, dtype=np.int64)
         local_of[used] = np.arange(len(used))
