@@ -37,3 +37,24 @@ def test_the_engine_imports_no_viewer_and_no_gui_toolkit(layer):
                 assert not name.startswith("viewer"), f"{f.relative_to(PACKAGE)} imports {'.' * level}{name}"
             elif level <= depth:  # inside its own sub-package
                 pass
+
+
+SORTED_KEYWORDS = {"return_index", "return_inverse", "return_counts", "axis"}
+HASHING = ("union1d", "setdiff1d", "intersect1d")
+
+
+@pytest.mark.parametrize("f", sorted(PACKAGE.rglob("*.py")), ids=lambda f: str(f.relative_to(PACKAGE)))
+def test_sets_of_indices_come_from_index_sets(f):
+    """A plain ``np.unique`` (and union1d, setdiff1d, intersect1d, which call it) hashes integers
+    from numpy 2.3: 15-40x slower than a sort for millions of distinct indices. Sets of indices
+    come from :mod:`hybridedit.core.index_sets`; np.unique stays only where it also gives
+    indices, an inverse or counts (it sorts then)."""
+    for node in ast.walk(ast.parse(f.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) \
+                and isinstance(node.func.value, ast.Name) and node.func.value.id == "np":
+            name = node.func.attr
+            where = f"{f.relative_to(PACKAGE)}:{node.lineno}"
+            assert name not in HASHING, f"{where}: np.{name}; use hybridedit.core.index_sets"
+            if name == "unique":
+                assert {k.arg for k in node.keywords} & SORTED_KEYWORDS, \
+                    f"{where}: plain np.unique; use index_sets.unique_sorted"

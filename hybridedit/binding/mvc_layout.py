@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.index_sets import difference_in_range
+from ..core.index_sets import difference_in_range, unique_sorted
 
 __all__ = ["CageData", "FACE_TILE", "FAST_BLOCK", "FastCageData", "FastPlan", "LANES", "fast_destinations",
            "morton_order", "plan_fast", "prepare_cage", "prepare_fast_cage"]
@@ -142,7 +142,7 @@ def prepare_cage(cage_vertices: np.ndarray, cage_faces: np.ndarray) -> CageData:
     face_edges = rank[inv.ravel()].reshape(nf, 3)
     face_idx = np.ascontiguousarray(np.concatenate([f, face_edges], axis=1).astype(np.uint32))
     # Tiles of faces, and the range of edges each tile uses first.
-    face_tiles = np.unique(np.append(np.arange(0, nf, FACE_TILE), nf)).astype(np.int64)
+    face_tiles = unique_sorted(np.append(np.arange(0, nf, FACE_TILE), nf)).astype(np.int64)
     first_use_face = np.sort(first) // 3  # face of each edge's first use, by edge id
     edge_tiles = np.searchsorted(first_use_face, face_tiles, side="left").astype(np.int64)
 
@@ -283,7 +283,7 @@ def prepare_fast_cage(cage_vertices: np.ndarray, cage_faces: np.ndarray) -> Fast
     rad = np.linalg.norm(tri - cen[:, None, :], axis=2).max(axis=1)
     face_geo = np.ascontiguousarray(np.concatenate([cen.T, rad[None]]))
     # Blocks of FAST_BLOCK faces (a divisor of FACE_TILE: tiles hold whole blocks).
-    block_faces = np.unique(np.append(np.arange(0, nf, FAST_BLOCK), nf)).astype(np.int64)
+    block_faces = unique_sorted(np.append(np.arange(0, nf, FAST_BLOCK), nf)).astype(np.int64)
     nb = len(block_faces) - 1
     tile_blocks = np.searchsorted(block_faces, ex.face_tiles, side="left").astype(np.int64)
     bid = np.arange(nf) // FAST_BLOCK

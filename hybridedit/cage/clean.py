@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.index_sets import unique_sorted
 from ..core.mesh import Mesh
 from ..core.topology import check_closed, degenerate_faces, repeats_a_face
 
@@ -63,7 +64,7 @@ def clean_surface(vertices: np.ndarray, faces: np.ndarray) -> Mesh:
             keep[first] = True
             multi = counts[inverse] > 1
             if np.any(multi):
-                for g in np.unique(inverse[multi]):
+                for g in unique_sorted(inverse[multi]):
                     idx = np.flatnonzero(inverse == g)
                     orient = [_parity(f[i]) for i in idx]
                     if len(set(orient)) > 1:

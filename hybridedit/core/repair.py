@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from .index_sets import unique_sorted
 from .mesh import Mesh, MeshError
 from .topology import (connected_parts, degenerate_faces, edge_balance, edge_index, group_rows, half_edges,
                        is_closed_oriented, repeats_a_face, weld)
@@ -130,7 +131,7 @@ def _separate_sheets(v: np.ndarray, f: np.ndarray, n: int, keep: np.ndarray,
     :func:`_split_nonmanifold`). Returns the vertices (copies appended) and all the faces (not only
     the kept ones) with the copies in place.
     """
-    touched = np.unique(np.concatenate([[k // n, k % n] for k in joined]))
+    touched = unique_sorted(np.concatenate([[k // n, k % n] for k in joined]))
     extra: list[np.ndarray] = []
     out = f.copy()
     nxt = n

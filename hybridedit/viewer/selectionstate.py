@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.index_sets import unique_sorted
 from ..deform.roles import FIXED, group, handle as handle_role, is_handle
 from .picking import combine, selection_roles
 
@@ -268,4 +269,4 @@ class SelectionState:
         touching = np.zeros(len(r), dtype=bool)
         for x, y in ((e[:, 0], e[:, 1]), (e[:, 1], e[:, 0])):
             touching[x[is_handle(r[x]) & (r[y] == FIXED)]] = True
-        return {int(group(g)): int(np.count_nonzero(touching & (r == g))) for g in np.unique(r[touching])}
+        return {int(group(g)): int(np.count_nonzero(touching & (r == g))) for g in unique_sorted(r[touching])}

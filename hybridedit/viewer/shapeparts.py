@@ -24,7 +24,7 @@ import pyvista as pv
 from vtkmodules.vtkRenderingCore import vtkPolyDataMapper
 
 from ..deform.roles import FIXED, FREE
-from ..core.index_sets import unique_in_range
+from ..core.index_sets import unique_in_range, unique_sorted
 from ..core.row_copy import copy_rows
 
 DISABLE_SHIFT_SCALE = 0
@@ -218,7 +218,7 @@ class ShapeParts:
         self.remove()
         # one part per role and material: roles from FIXED up, materials from -1 (none) up
         key = (fr - FIXED) * (len(look.materials) + 1 if look is not None else 1) + (material + 1)
-        for k in np.unique(key).tolist():
+        for k in unique_sorted(key).tolist():
             rows = np.flatnonzero(key == k)
             role, m = int(fr[rows[0]]), int(material[rows[0]])
             colour = self.colour_of(np.array([role]))[0]

@@ -7,6 +7,7 @@ import warnings
 
 import numpy as np
 
+from ...core.index_sets import unique_sorted
 from ...core.mesh import Mesh, MeshError
 from .reporting import report
 
@@ -283,7 +284,7 @@ class TextPrecision:
 
 def _sample_rows(n: int, limit: int = 2000) -> np.ndarray:
     """Up to ``limit`` row indices spread evenly over ``n`` rows."""
-    return np.unique(np.linspace(0, n - 1, min(n, limit)).astype(np.int64)) if n else np.zeros(0, np.int64)
+    return unique_sorted(np.linspace(0, n - 1, min(n, limit)).astype(np.int64)) if n else np.zeros(0, np.int64)
 
 
 def _float32_texts(values: np.ndarray) -> np.ndarray:
