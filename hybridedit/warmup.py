@@ -176,7 +176,7 @@ def _edit_session(mesh, say: Progress, label: str) -> None:
     from . import HybridEditor, rigid_transform
     from .binding.bind import bind
     from .deform.polish import ShapeARAP, polish
-    from .core.region_metrics import ShapeMetrics
+    from .core.region_metrics import ShapeMetrics, points_box
     from .core.row_copy import copy_rows
     from .core.up_axis import guess_up_axis
 
@@ -210,6 +210,8 @@ def _edit_session(mesh, say: Progress, label: str) -> None:
             metrics.write_stretch(stretch)
         metrics.update_error(V, everything=True)
         metrics.write_normals(V, normals, everything=True)
+        points_box(points, skip=np.zeros(mesh.n_vertices, dtype=bool))  # (the window's boxes)
+        points_box(V)
         e.reset()
     say(f"{label}: polish", 0.6)
     free = np.zeros(mesh.n_vertices, dtype=bool)

@@ -185,7 +185,7 @@ def write_vertex_normals(F: np.ndarray, ft: np.ndarray, vf_ptr: np.ndarray, vf_i
     ----------
     F : (m, 3) int64 triangles
     ft : (m, 6) float64, :func:`face_terms` of (at least) the triangles at ``verts``
-    vf_ptr, vf_idx : (n + 1,), (3 m,) int64, the triangles at each vertex (CSR)
+    vf_ptr, vf_idx : (n + 1,) int64, (3 m,) int32 or int64, the triangles at each vertex (CSR)
     verts : (k,) int64; out : (n, 3) float array, rows ``verts`` written
     """
     pick("normals", _gather_serial, _gather_parallel, verts.shape[0])(F, ft, vf_ptr, vf_idx, verts, out)

@@ -116,7 +116,7 @@ class LoadingMixin:
     def _install_new_shape(self, result: BuildResult) -> str | None:
         """The session of a newly opened shape, with what its file says it looks like and which way is up;
         returns a note for the status bar (Mirror off, what the look could not show), or None."""
-        session, note = self._new_session(result.editor, result.request)
+        session, note = self._new_session(result.editor, result.request, result.metrics)
         session.look = result.look  # what the file says the shape looks like (None: plain)
         if result.up is not None:  # which way is up: remembered for this shape, or guessed
             session.up_axis, _, session.shape_key = result.up
@@ -128,14 +128,15 @@ class LoadingMixin:
         self.set_modified(False)
         return note
 
-    def _new_session(self, ed, req) -> tuple[Session, str | None]:
-        """A session for a newly opened shape, mirrored as the Mode menu says when the shape allows it;
-        and a sentence when it does not."""
+    def _new_session(self, ed, req, metrics=None) -> tuple[Session, str | None]:
+        """A session for a newly opened shape (``metrics``: its view's index sets, when the build made
+        them), mirrored as the Mode menu says when the shape allows it; and a sentence when it does not."""
         axis = next((a for a in "xyz" if self.actions_[f"mirror_{a}"].isChecked()), None)
         if axis is not None:
             try:
-                return Session(ed, path=req.path, cage_size=req.cage_size, symmetry=axis), None
+                return Session(ed, path=req.path, cage_size=req.cage_size, symmetry=axis, metrics=metrics), None
             except SelectionError as e:
                 self.actions_[f"mirror_{axis}"].setChecked(False)
-                return Session(ed, path=req.path, cage_size=req.cage_size), f"Mirror {axis.upper()} is off: {e}"
-        return Session(ed, path=req.path, cage_size=req.cage_size), None
+                return (Session(ed, path=req.path, cage_size=req.cage_size, metrics=metrics),
+                        f"Mirror {axis.upper()} is off: {e}")
+        return Session(ed, path=req.path, cage_size=req.cage_size, metrics=metrics), None

@@ -33,15 +33,14 @@ from .palette import (
     BACKGROUND, CAGE_COLOR, POINT_ALPHA, ROLE_COLORS, SHAPE_COLOR, role_rows, shape_tint, stretch_colour_bar,
     stretch_lookup_table,
 )
-from ..core.region_metrics import ShapeMetrics
+from ..core.region_metrics import ShapeMetrics, points_box
 from .shapeparts import ShapeParts
 
 
-def _bounds(P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(lo, hi) corners of the points P (k, 3); an empty box (lo > hi) for no points."""
-    if len(P) == 0:
-        return np.full(3, np.inf), np.full(3, -np.inf)
-    return P.min(axis=0).astype(np.float64), P.max(axis=0).astype(np.float64)
+def _bounds(P: np.ndarray, skip: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi) corners of the points P (k, 3) but the rows ``skip`` ((k,) bool) marks; an empty box
+    (lo > hi) for no points."""
+    return points_box(P, skip=skip)
 
 
 def _union(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
@@ -330,9 +329,9 @@ class Scene:
             self.parts.set_changed(None if moving is None else self.metrics.normal_vertices)
             self._still_bounds = None
             if moving is not None:
-                still = np.ones(len(self.points32), dtype=bool)
-                still[self.metrics.moving] = False
-                self._still_bounds = _bounds(self.points32[still])
+                in_motion = np.zeros(len(self.points32), dtype=bool)
+                in_motion[self.metrics.moving] = True
+                self._still_bounds = _bounds(self.points32, skip=in_motion)
 
     def update_shape(self, V: np.ndarray, *, everything: bool = False) -> tuple[float, float]:
         """Write shape positions (n, 3) and their normals into the buffers VTK draws, in place.

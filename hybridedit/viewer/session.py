@@ -58,6 +58,8 @@ class Session(SelectionState):
     cage_size : the cage size the editor was built with (int count or float fraction).
     roi, handle : initial selection masks over the cage vertices (default: empty).
     symmetry : mirror the selection across this axis's mid-plane ("x", "y", "z"), or None.
+    metrics : the shape's :class:`~hybridedit.core.region_metrics.ShapeMetrics` when made already
+        (the window's build makes it off the UI thread); default: made here.
 
     Raises
     ------
@@ -68,12 +70,12 @@ class Session(SelectionState):
 
     def __init__(self, editor: HybridEditor, path: Path | None = None, cage_size: int | float = CAGE_SIZE,
                  roi: np.ndarray | None = None, handle: np.ndarray | None = None,
-                 symmetry: str | None = None) -> None:
+                 symmetry: str | None = None, *, metrics: ShapeMetrics | None = None) -> None:
         self.editor = editor
         self.mesh: Mesh = editor.mesh
         self.path = Path(path) if path is not None else None
         self.cage_size = cage_size
-        self.metrics = ShapeMetrics(self.mesh.vertices, self.mesh.faces)
+        self.metrics = metrics if metrics is not None else ShapeMetrics(self.mesh.vertices, self.mesh.faces)
         self.dominant = editor.dominant_cage_vertex
         self._init_selection(editor.cage.n_vertices, roi, handle, symmetry)
         #: transform of each handle group since the selection was applied

@@ -86,7 +86,10 @@ class _Part:
         local_of[used] = np.arange(len(used))
         poly = pv.PolyData()
         poly.points = np.zeros((len(used), 3), dtype=np.float32)
-        poly.faces = np.column_stack([np.full(len(faces), 3, dtype=np.int64), local_of[faces]]).ravel()
+        # VTK's connectivity straight from the (f, 3) local triangles, which it shares (kept here): the
+        # padded legacy form pyvista's ``faces`` takes is converted cell by cell (9 s at 11M, this 0.02)
+        self._triangles = np.ascontiguousarray(local_of[faces])
+        poly.polys = pv.CellArray.from_regular_cells(self._triangles)
         poly.point_data["Normals"] = np.zeros((len(used), 3), dtype=np.float32)
         poly.GetPointData().SetActiveNormals("Normals")
         if uv is not None:

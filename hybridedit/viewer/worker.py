@@ -16,6 +16,7 @@ from qtpy import QtCore
 
 from ..deform.editor import HybridEditor
 from ..binding.rig import build_rig
+from ..core.region_metrics import ShapeMetrics
 from ..core.up_axis import shape_key, up_axis_of
 from ..fileio.meshfiles import read_document
 from .look import Look, shown_look
@@ -59,6 +60,8 @@ class BuildResult:
     #: a new shape's up axis, whether it was remembered (else guessed), and the key it is remembered
     #: under (:mod:`hybridedit.core.up_axis`); None for a rebuild
     up: tuple[str, bool, str] | None = None
+    #: a new shape's per-frame index sets for the view (made here, off the UI thread); None for a rebuild
+    metrics: ShapeMetrics | None = None
 
 
 class BuildWorker(QtCore.QThread):
@@ -142,6 +145,10 @@ class BuildWorker(QtCore.QThread):
             # while on a big shape: said, so that "100%" is the end of the work
             self._report("setting up the editor", 0.0)
             editor = HybridEditor(rig)
+            metrics = None
+            if not req.rebuild:  # (a rebuild keeps the shape, and the view's sets of it)
+                self._report("preparing the view", 0.0)
+                metrics = ShapeMetrics(mesh.vertices, mesh.faces)
             up = self._up
             self._report("done", 1.0)
         except Cancelled:
@@ -154,7 +161,7 @@ class BuildWorker(QtCore.QThread):
                 msg = f"{e.__class__.__name__}: {msg}"
             self.failed.emit(msg)
         else:
-            self.succeeded.emit(BuildResult(req, mesh, editor, time.perf_counter() - t0, look, up))
+            self.succeeded.emit(BuildResult(req, mesh, editor, time.perf_counter() - t0, look, up, metrics))
 
 
 

@@ -375,3 +375,36 @@ def test_a_new_shape_is_drawn_while_its_cage_is_built_and_the_camera_works(qtbot
     gate.set()
     wait_loaded(qtbot, w)
     assert w.session.mesh is other and np.allclose(cam.GetPosition(), turned)
+
+
+def test_the_view_sets_of_a_new_shape_are_made_on_the_build_thread_once(qtbot, win, make_blob, tmp_path,
+                                                                        monkeypatch):
+    """The per-frame index sets of the view (ShapeMetrics: edges, incidences, rest lengths; 23 s of an
+    11M shape) are made beside the cage and binding, off the UI thread, and the session takes them;
+    a rebuild (same shape, another cage) keeps the session's."""
+    from hybridedit.core import region_metrics
+    from hybridedit.fileio.meshfiles import write_mesh
+
+    w = win
+    path = tmp_path / "another.ply"
+    shape = make_blob(2)  # (162 vertices)
+    write_mesh(path, shape)
+    n = shape.n_vertices
+    made = []
+    init = region_metrics.ShapeMetrics.__init__
+
+    def recording(self, rest, faces):
+        init(self, rest, faces)
+        if self.n == n:  # (the shape's, not the cage's: the scene has its own for the cage's normals)
+            made.append(threading.get_ident())
+
+    monkeypatch.setattr(region_metrics.ShapeMetrics, "__init__", recording)
+    assert w.open_path(path)
+    wait_loaded(qtbot, w)
+    qtbot.waitUntil(lambda: w.session is not None and w.session.path == path, timeout=30000)
+    assert len(made) == 1 and made[0] != threading.get_ident()
+    metrics = w.session.metrics
+    w.set_cage_size(60)
+    assert w.rebuild()
+    qtbot.waitUntil(lambda: w.worker is None and w.session.cage_size == 60, timeout=30000)
+    assert w.session.metrics is metrics and len(made) == 1
