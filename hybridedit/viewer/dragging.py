@@ -75,6 +75,8 @@ class DragFrames(QtCore.QObject):
     frames : the frame thread (:class:`~.framethread.FrameThread`).
     settle_timer : the timer that settles the pose in slices after a release.
     engine_ms : the engine's solve in the latest frame, milliseconds (0 before the first).
+    thread_ms : all the frame thread did for the latest frame (the solve, the moving region's points,
+        normals and edge error, the cage's normals), milliseconds (0 before the first).
     error : the latest frame's edge error in percent, not yet shown (the status tick shows it
         a few times a second; a label repaint every frame costs), or None.
     """
@@ -90,6 +92,7 @@ class DragFrames(QtCore.QObject):
         self.settle_timer.setInterval(0)
         self.settle_timer.timeout.connect(self._settle_tick)
         self.engine_ms = 0.0
+        self.thread_ms = 0.0
         #: when the latest drag frame was shown (``time.perf_counter()``; 0 before the first)
         self.frame_shown_at = 0.0
         self.error: float | None = None
@@ -147,8 +150,9 @@ class DragFrames(QtCore.QObject):
             if stretch:
                 s.metrics.write_stretch(scene.stretch32)
             cage = s.cage_positions
-            return DragFrame(s, t1 - t0, normals_s, points_s, error, stretch, cage, scene.cage_geometry(cage),
-                             s.handle_centroid())
+            geometry, centroid = scene.cage_geometry(cage), s.handle_centroid()
+            return DragFrame(s, t1 - t0, normals_s, points_s, error, stretch, cage, geometry, centroid,
+                             time.perf_counter() - t0)
 
         return job
 
@@ -181,6 +185,7 @@ class DragFrames(QtCore.QObject):
         split.add("normals", frame.normals_s)
         split.add("vtk update", upload_s)
         self.engine_ms = frame.engine_s * 1e3
+        self.thread_ms = frame.thread_s * 1e3
         self.frame_shown_at = time.perf_counter()
         if frame.error is not None:
             self.error = frame.error

@@ -47,8 +47,8 @@ cycles rather than slowing the render down."""
 class DragFrame:
     """What a drag job hands to the UI thread: the session it ran on, its seconds (engine solve,
     normals, points), the edge error in percent (None: not measured this frame), whether the stretch buffer was written, the cage
-    pose (c, 3) with its normals and bounds (the scene's ``cage_geometry``) and the handle centroid (3,)
-    or None. The shape itself is in the scene's buffers."""
+    pose (c, 3) with its normals and bounds (the scene's ``cage_geometry``), the handle centroid (3,)
+    or None, and the job's seconds in all. The shape itself is in the scene's buffers."""
 
     session: object
     engine_s: float
@@ -59,6 +59,7 @@ class DragFrame:
     cage: np.ndarray
     cage_geometry: tuple
     centroid: np.ndarray | None
+    thread_s: float = 0.0
 
 
 class FrameThread(QtCore.QObject):

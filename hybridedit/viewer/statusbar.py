@@ -51,7 +51,7 @@ class StatusBarMixin:
         # fields of fixed size: a new frame rate or edge error while dragging re-lays nothing out; the row
         # shows those that fit its width, by priority (edge error, selection, sizes, timing), never one over
         # another; the build's progress bar and Cancel button come first
-        self.time_label = StatusField(template="00 fps · engine 00.0 ms · render 000 ms")
+        self.time_label = StatusField(template="00 fps · frame 000 ms · render 000 ms")
         self.size_label = StatusField("no shape")
         self.sel_label = StatusField()
         self.error_label = StatusField(template="edge error 00.00 %")
@@ -151,13 +151,20 @@ class StatusBarMixin:
         self.time_label.setText(self.timing_text())
 
     def timing_text(self) -> str:
-        """Frames of a drag shown per second first (what the eye gets), then the engine's and the render's
-        share; a brush stroke or a turn of the camera renders too, but that rate is not a drag's: "idle"."""
+        """Frames of a drag shown per second first (what the eye gets), then what the frame thread spent on
+        the latest frame (the engine's solve, and the moving region's normals and edge error; the split
+        is in the field's tooltip), and the render's time; a brush stroke or a turn of the camera renders
+        too, but that rate is not a drag's: "idle"."""
         dragging = time.perf_counter() - self.dragging.frame_shown_at <= 1.0
         fps = self.view.display_fps() if dragging else 0.0
         parts = [f"{fps:.0f} fps" if fps > 0 else "idle"]
-        if self.dragging.engine_ms > 0:
-            parts.append(f"engine {self.dragging.engine_ms:.1f} ms")
+        d = self.dragging
+        if d.engine_ms > 0:
+            parts.append(f"frame {d.thread_ms:.0f} ms")
+            self.time_label.setToolTip(
+                f"The latest drag frame: {d.thread_ms:.1f} ms on the frame thread, of which the engine's solve "
+                f"{d.engine_ms:.1f} ms and the moving region's points, normals and edge error "
+                f"{max(d.thread_ms - d.engine_ms, 0.0):.1f} ms; the render runs beside it")
         if self.view.render_seconds > 0:
             parts.append(f"render {self.view.render_seconds * 1e3:.0f} ms")
         return " · ".join(parts)

@@ -82,7 +82,7 @@ def test_edge_error_a_few_times_a_second_and_every_frame_with_the_stretch_map(qt
     monkeypatch.setattr(type(s.metrics), "update_error", counting)
     end = _press_and_move(qtbot, w, 6)
     assert measured == [False]  # the first frame measures its region's edges, the other five do not
-    assert w.dragging.engine_ms > 0
+    assert 0 < w.dragging.engine_ms <= w.dragging.thread_ms  # (the solve is part of the frame thread's work)
     qtbot.mouseRelease(w.view, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier, end)
     qtbot.waitUntil(lambda: not w.settle_timer.isActive(), timeout=20000)
     qtbot.keyClick(w.view, Qt.Key.Key_T)  # the stretch map: every frame measures (the colours follow the pose)
