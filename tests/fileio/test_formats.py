@@ -678,3 +678,152 @@ def test_an_ascii_stl_with_a_word_for_a_coordinate_is_refused_in_one_line(tmp_pa
     with pytest.raises(MeshFileError) as err:
         read_mesh(p)
     assert "bad.stl" in str(err.value) and "vertex 0 0 zz" in str(err.value) and "\n" not in str(err.value)
+
+
+# --------------------------------------------------------------------------- OBJ: compiled scans
+
+#: lines an OBJ reader meets, odd ones included: tabs, \v and \f, indentation, comments between
+#: vertices, relative indices, v/t/n corners, texture lines written three ways
+ODD_OBJ_LINES = [
+    "# made by hand", "mtllib a.mtl", "o thing", "", "v 0 0 0", "v\t1 0 0", "  v 1 1 0", "\tv 0 1 0 1.0",
+    "# between vertices", "v +0.5 -2.5e-1 1e0", "vt 0 0", "vt\t1 0", "vt", "vn 0 0 1", "vn 0 1 0", "g group",
+    "s 1", "usemtl red", "f 1/1/1 2/2/1 3/3/1 4/1/2", "f -5//1 -4//2 -1//-1", "f 2/1 3/1 5/1",
+    " f\t1 2 3 ", "f 1/2/ 2// 3/1", "\x0cv 3 3 3", "l 1 2", "f +1 02 3",
+]
+
+
+def _scan_cases() -> list[bytes]:
+    body = ODD_OBJ_LINES
+    return [("\n".join(body) + "\n").encode(), ("\r\n".join(body)).encode(), ("\r".join(body) + "\r").encode(),
+            "".join(line + ["\n", "\r\n", "\r"][i % 3] for i, line in enumerate(body)).encode(),
+            b"", b"\n", b"\r\n\r\n", b"x", b"\n\nv 1 2 3", b"\r\n\n\r\r"]
+
+
+@pytest.mark.parametrize("case", range(len(_scan_cases())))
+def test_line_spans_cut_lines_as_splitlines(case: int) -> None:
+    from hybridedit.fileio.formats.text_scan import CR, CRLF, LF, line_spans
+
+    data = _scan_cases()[case]
+    starts, ends, lead, endings, indented = line_spans(np.frombuffer(data, dtype=np.uint8))
+    lines = data.splitlines()
+    assert [data[a:b] for a, b in zip(starts.tolist(), ends.tolist())] == lines
+    assert [data[a + k:b] for a, b, k in zip(starts.tolist(), ends.tolist(), lead.tolist())] == \
+        [line.lstrip() for line in lines]
+    assert indented == any(line[:1] in (b" ", b"\t") for line in lines)
+    ends_kept = data.splitlines(keepends=True)
+    assert endings[CRLF] == sum(line.endswith(b"\r\n") for line in ends_kept)
+    assert endings[CR] == sum(line.endswith(b"\r") for line in ends_kept)
+    assert endings[LF] == sum(line.endswith(b"\n") and not line.endswith(b"\r\n") for line in ends_kept)
+
+
+def _face_lines(lines: list[str]) -> tuple[bytes, np.ndarray, np.ndarray]:
+    data = "\n".join(lines).encode()
+    starts, ends = [], []
+    at = 0
+    for line in lines:
+        starts.append(at + 1)  # after the "f"
+        ends.append(at + len(line))
+        at += len(line) + 1
+    return data, np.array(starts, dtype=np.int64), np.array(ends, dtype=np.int64)
+
+
+@pytest.mark.parametrize("want_normals", [False, True])
+def test_face_corners_match_the_python_reading(want_normals: bool) -> None:
+    from hybridedit.fileio.formats.obj import _corner_normal_refs, _obj_corners
+    from hybridedit.fileio.formats.text_scan import face_corners
+
+    lines = ["f 1 2 3", "f\t1/1/1 2/2/1 3/3/1 4/1/2", "f -5//1 -4//2 -1//-1 ", "f 2/1 3/1 5/1",
+             "f +1 02 3", "f 1/2/ 2// 3/1", "f 123456789012345678 1 -1", "f", "f 7 8\x0b9\x0c10"]
+    data, lo, hi = _face_lines(lines)
+    counts, idx, refs = face_corners(np.frombuffer(data, dtype=np.uint8), lo, hi, want_normals)
+    flines = [line.encode() for line in lines]
+    old_counts, old_idx = _obj_corners(flines, np.arange(len(lines)))
+    assert counts.tolist() == old_counts.tolist() and idx.tolist() == old_idx.tolist()
+    if want_normals:
+        assert refs.tolist() == _corner_normal_refs(flines, len(idx)).tolist()
+    else:
+        assert refs is None
+
+
+@pytest.mark.parametrize("line", ["f 1 2 x", "f /1 2 3", "f 1.0 2 3", "f 1_0 2 3", "f 1 2 3#c",
+                                  "f 1234567890123456789 2 3", "f - 2 3", "f 1/2/3/4 2 3", "f 1//x 2 3"])
+def test_face_corners_leave_uncommon_lines_to_python(line: str) -> None:
+    """A line not in the common form is found (the reader then takes the Python path, which names
+    the problem): the normal part only when normals are read."""
+    from hybridedit.fileio.formats.text_scan import face_corners
+
+    data, lo, hi = _face_lines(["f 1 2 3", line])
+    got = face_corners(np.frombuffer(data, dtype=np.uint8), lo, hi, True)
+    assert got == 1
+    if line in ("f 1/2/3/4 2 3", "f 1//x 2 3"):  # normals not read: the part after the vertex is skipped
+        counts, idx, refs = face_corners(np.frombuffer(data, dtype=np.uint8), lo, hi, False)
+        assert idx.tolist() == [1, 2, 3, 1, 2, 3] and refs is None
+
+
+def test_gathered_text_parses_like_the_joined_lines() -> None:
+    """gather is ``b"\\n".join`` of the pieces, and ends in a NUL that stops np.fromstring: without
+    it, the parser read the bytes after the text and lost its last number."""
+    from hybridedit.fileio.formats.common import _numbers
+    from hybridedit.fileio.formats.text_scan import gather
+
+    data = b"v 0.1 2 3.5e0\r\nv\t4 5 6\n# no\nv 7 8 0.25999"
+    b = np.frombuffer(data, dtype=np.uint8)
+    lo, hi = np.array([1, 16, 29]), np.array([13, 22, 38])  # (the last piece stops inside 0.25999)
+    text = gather(b, lo, hi)
+    assert text.tobytes() == b"\n".join(data[a:z] for a, z in zip(lo, hi)) == b" 0.1 2 3.5e0\n\t4 5 6\n 7 8 0.25"
+    assert _numbers(text, np.float64, 9).tolist() == [0.1, 2, 3.5, 4, 5, 6, 7, 8, 0.25]
+
+
+def _odd_obj(tmp_path: Path, newline: str, final: bool) -> Path:
+    lines = ["# odd", "mtllib a.mtl", "v 0 0 0", "v\t1 0 0", "# between", "v 1 1 0", "v 0 1 0",
+             "  v 0.5 0.5 1", "vt 0 0", "vt 1 0", "vn 0 0 1", "vn 0 0 -1", "usemtl red",
+             "f 1/1/1 2/2/1 3/1/1", "f -5//1 -2//1 -1//1", "\tf 1 3 4", "f 2/2/2 3/2/2 5/1/2 \\", "",
+             "g end"]
+    text = newline.join(lines) + (newline if final else "")
+    path = tmp_path / f"odd{len(newline)}{int(final)}.obj"
+    path.write_bytes(text.encode())
+    return path
+
+
+@pytest.mark.parametrize("newline,final", [("\n", True), ("\r\n", False), ("\r", True), ("\n", False)])
+def test_obj_compiled_reading_matches_the_python_path(tmp_path: Path, monkeypatch, newline: str,
+                                                      final: bool) -> None:
+    """The compiled face reading gives what the Python path gives (forced here by a kernel that
+    finds every file uncommon), and writing the document back is the same either way."""
+    from hybridedit.fileio.formats import obj
+
+    path = _odd_obj(tmp_path, newline, final)
+    fast = read_document(path)
+    with monkeypatch.context() as m:
+        m.setattr(obj, "face_corners", lambda *args: 0)
+        slow = read_document(path)
+    assert np.array_equal(fast.mesh.vertices, slow.mesh.vertices)
+    assert np.array_equal(fast.mesh.faces, slow.mesh.faces)
+    assert np.array_equal(fast.native.corner_vn, slow.native.corner_vn)
+    assert fast.extras == slow.extras == {"material libraries": 1, "texture coordinates": 2,
+                                          "material references": 1, "group names": 1}
+    assert path.read_bytes().replace(b"\\" + newline.encode(), b" ") == obj.write(fast)  # untouched: as read
+    V = bend(fast.mesh.vertices) + 0.25
+    assert obj.write(fast.with_vertices(V)) == obj.write(slow.with_vertices(V))
+
+
+@pytest.mark.parametrize("text", [b"a\nb\nc\n", b"a\r\nb\r\nc", b"a\rb\rc\r", b"a\nb\r\nc\n", b"a\r\rb\n\nc"])
+def test_file_lines_join_like_the_list_of_lines(text: bytes) -> None:
+    """FileLines.joined (the text between replaced lines kept as it is) is the list of lines with
+    the replacements and insertion, joined by the file's newline."""
+    from hybridedit.fileio.formats.obj import FileLines
+    from hybridedit.fileio.formats.text_scan import CR, CRLF, LF, line_spans
+
+    starts, ends, _, endings, _ = line_spans(np.frombuffer(text, dtype=np.uint8))
+    newline = b"\r\n" if b"\r\n" in text else (b"\r" if b"\n" not in text else b"\n")
+    kind = {b"\n": LF, b"\r": CR, b"\r\n": CRLF}[newline]
+    lines = FileLines(text, starts, ends, newline, int(endings.sum()) == int(endings[kind]))
+    final = text[-1:] in (b"\n", b"\r")
+    for new, at, added in [({}, 1, []), ({0: b"A", 2: b"C"}, 1, []), ({1: b"B"}, 2, [b"x", b"y"]),
+                           ({}, len(lines), [b"z"]), ({len(lines) - 1: b"L"}, len(lines), [b"z"])]:
+        out = text.splitlines()
+        for i, line in new.items():
+            out[i] = line
+        out[at:at] = added
+        expected = newline.join(out) + (newline if final else b"")
+        assert lines.joined(new, at, added, final) == expected

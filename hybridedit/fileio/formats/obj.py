@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import re
 from collections import Counter
-from operator import itemgetter
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -26,63 +25,70 @@ import numpy as np
 from ..document import Document, Material, Texturing, moved_vertices
 from ...core.normals import grouped_normals, vertex_normals
 from .obj_materials import read_mtl
-from .common import TextPrecision, _Bad, _indented, _sample_rows, _shortest_rows, _mesh, fan_triangles, _format_rows, _numbers, _snippet, _token_count, _widths, _words
+from .common import TextPrecision, _Bad, _sample_rows, _shortest_rows, _mesh, fan_triangles, _format_rows, _numbers, _snippet, _token_count, _widths, _words
 from .reporting import report, span
+from .text_scan import CR, CRLF, LF, face_corners, gather, line_heads, line_spans, token_counts
 
 _MARK = int(np.iinfo(np.int64).max)  # stands in for each line's "f" while parsing indices
 
 
 
-_V, _VN, _F, _COMMENT, _BLANK, _OTHER = range(6)
+_V, _VN, _F, _COMMENT, _BLANK, _OTHER, _VT = range(7)
 
 
-def _line_kinds(lines: list[bytes]) -> np.ndarray:
-    """The kind of each line (``_V``, ``_VN``, ``_F``, ``_COMMENT``, ``_BLANK`` or ``_OTHER``),
-    (k,) int8, from its first three bytes in one pass (lines start with their statement: the
-    caller strips indented ones)."""
-    head = np.array([line[:3] for line in lines], dtype="S3").view(np.uint8).reshape(-1, 3)
+def _line_kinds(head: np.ndarray) -> np.ndarray:
+    """The kind of each line (``_V``, ``_VN``, ``_F``, ``_COMMENT``, ``_BLANK``, ``_VT`` or
+    ``_OTHER``), (k,) int8, from its first three bytes ((k, 3) uint8, 0 past the line's end; lines
+    start with their statement: the caller skips indented ones' whitespace). ``_VT``: the lines
+    whose first word is ``vt``."""
     ws1 = (head[:, 1] == 32) | (head[:, 1] == 9)
     ws2 = (head[:, 2] == 32) | (head[:, 2] == 9)
-    kinds = np.full(len(lines), _OTHER, dtype=np.int8)
+    kinds = np.full(len(head), _OTHER, dtype=np.int8)
     kinds[head[:, 0] == 0] = _BLANK  # an empty line (a NUL byte is refused before)
     kinds[head[:, 0] == ord("#")] = _COMMENT
     v = head[:, 0] == ord("v")
     kinds[v & ws1] = _V
     kinds[v & (head[:, 1] == ord("n")) & ws2] = _VN
+    word_end = ws2 | (head[:, 2] == 0) | (head[:, 2] == 11) | (head[:, 2] == 12)  # bytes.split's
+    kinds[v & (head[:, 1] == ord("t")) & word_end] = _VT
     kinds[(head[:, 0] == ord("f")) & ws1] = _F
     return kinds
 
 
-def _pick(lines: list[bytes], rows: np.ndarray) -> list[bytes]:
-    """``[lines[i] for i in rows]``, at C speed."""
-    if len(rows) == 0:
-        return []
-    if len(rows) == 1:
-        return [lines[int(rows[0])]]
-    return list(itemgetter(*rows.tolist())(lines))
+def _texts(data: bytes, lo: np.ndarray, hi: np.ndarray) -> list[bytes]:
+    """``[data[a:b] for a, b in zip(lo, hi)]`` ((k,) int64 each)."""
+    return [data[a:b] for a, b in zip(lo.tolist(), hi.tolist())]
 
 
-def _obj_vertices(vlines: list[bytes], line_at: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
-    """x y z of every "v" line (``vlines``, at 0-based line numbers ``line_at``), (n, 3) float64, and
-    the colours when every line has ``v x y z r g b`` ((n, 3) float64, else None); a ``w`` column
-    is ignored."""
-    widths = _widths(vlines) - 1
+def _obj_vertices(data: bytes, heads: np.ndarray, ends: np.ndarray,
+                  line_at: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    """x y z of every "v" line (``data[heads[i]:ends[i]]``, (n,) int64 each, at 0-based line
+    numbers ``line_at``), (n, 3) float64, and the colours when every line has ``v x y z r g b``
+    ((n, 3) float64, else None); a ``w`` column is ignored."""
+    b = np.frombuffer(data, dtype=np.uint8)
+    widths = token_counts(b, heads + 1, ends)
     if widths.size and widths.min() < 3:
         k = int(np.argmax(widths < 3))
         raise _Bad(f"line {line_at[k] + 1}: vertex has "
-                   f"{int(widths[k])} coordinates, expected 3 ('{_snippet(vlines[k])}')")
-    if not vlines:
+                   f"{int(widths[k])} coordinates, expected 3 ('{_snippet(data[heads[k]:ends[k]])}')")
+    if not len(heads):
         return np.zeros((0, 3)), None
     if widths.min() == widths.max():
         w = int(widths[0])
-        vals = _numbers(b"\n".join([line[1:] for line in vlines]), np.float64, w * len(vlines))
+        vals = _numbers(gather(b, heads + 1, ends), np.float64, w * len(heads))
         if vals is not None:
             table = vals.reshape(-1, w)
             colors = np.ascontiguousarray(table[:, 3:6]) if w == 6 else None
             return np.ascontiguousarray(table[:, :3]), colors
+    return _vertices_slowly(_texts(data, heads, ends), line_at), None
+
+
+def _vertices_slowly(vlines: list[bytes], line_at: np.ndarray) -> np.ndarray:
+    """x y z of the "v" lines ``vlines`` (at 0-based line numbers ``line_at``) in Python, (n, 3)
+    float64; raises _Bad naming the first line that is not numbers."""
     rows = [line.split()[1:4] for line in vlines]
     try:
-        return np.array(rows).astype(np.float64), None
+        return np.array(rows).astype(np.float64)
     except ValueError:
         for k, row in enumerate(rows):
             try:
@@ -91,6 +97,21 @@ def _obj_vertices(vlines: list[bytes], line_at: np.ndarray) -> tuple[np.ndarray,
                 raise _Bad(f"line {line_at[k] + 1}: cannot read "
                            f"vertex coordinates '{_snippet(vlines[k])}'") from None
         raise
+
+
+def _obj_faces(data: bytes, heads: np.ndarray, ends: np.ndarray, line_at: np.ndarray,
+               want_normals: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """Corner counts (p,) int64, vertex indices as written (sum of counts,) int64 and, when
+    ``want_normals`` and every corner is in the common form, normal indices as written (0 for
+    none; else None: :func:`_corner_normal_refs` reads them) of the "f" lines
+    ``data[heads[i]:ends[i]]`` (at 0-based line numbers ``line_at``): compiled
+    (:func:`~hybridedit.fileio.formats.text_scan.face_corners`), or :func:`_obj_corners` for a
+    file it does not read."""
+    got = face_corners(np.frombuffer(data, dtype=np.uint8), heads + 1, ends, want_normals)
+    if isinstance(got, int):
+        counts, idx = _obj_corners(_texts(data, heads, ends), line_at)
+        return counts, idx, None
+    return got
 
 
 def _obj_corners(flines: list[bytes], line_at: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -176,11 +197,70 @@ _EXTRA_NAMES = {
 }
 
 
+class FileLines:
+    """A text's lines without their line ends (``bytes.splitlines`` of it), kept as the text and
+    each line's span: a ``bytes`` object is made only for a line asked for.
+
+    Parameters
+    ----------
+    text : bytes
+    starts, ends : (k,) int64 arrays
+        Line ``i`` is ``text[starts[i]:ends[i]]``.
+    newline : bytes
+        The line end the text is written back with.
+    uniform : bool
+        Whether every line of ``text`` that has a line end has ``newline`` (then the text between
+        two lines is kept as it is in :meth:`joined`).
+    """
+
+    def __init__(self, text: bytes, starts: np.ndarray, ends: np.ndarray, newline: bytes, uniform: bool):
+        self.text, self.starts, self.ends = text, starts, ends
+        self.newline, self.uniform = newline, uniform
+
+    def __len__(self) -> int:
+        return len(self.starts)
+
+    def __getitem__(self, i: int) -> bytes:
+        return self.text[self.starts[i]:self.ends[i]]
+
+    def __iter__(self):
+        return iter(self.text.splitlines())
+
+    def pick(self, rows: np.ndarray) -> list[bytes]:
+        """Lines ``rows`` ((r,) int), in that order."""
+        return _texts(self.text, self.starts[rows], self.ends[rows])
+
+    def joined(self, new: dict[int, bytes], added_at: int, added: list[bytes], final_newline: bool) -> bytes:
+        """The text of the lines with line ``i`` replaced by ``new[i]`` and the lines ``added``
+        inserted before line ``added_at`` (>= 1), joined by :attr:`newline` (one more at the end
+        when ``final_newline``): the text between replaced lines is kept as it is, unless its line
+        ends are not all :attr:`newline` (then it is made of every line, as they all change)."""
+        if not self.uniform:
+            out = self.text.splitlines()
+            for i, line in new.items():
+                out[i] = line
+            out[added_at:added_at] = added
+            text = self.newline.join(out)
+            return text + self.newline if final_newline else text
+        cut = {i: [line] for i, line in new.items()}  # what replaces each line's span
+        if added:
+            cut.setdefault(added_at - 1, [self[added_at - 1]]).append(self.newline + self.newline.join(added))
+        pieces = []
+        at = 0
+        for i in sorted(cut):
+            pieces.append(self.text[at:self.starts[i]])
+            pieces.extend(cut[i])
+            at = self.ends[i]
+        pieces.append(self.text[at:])  # (with the final line end, if the text has one)
+        return b"".join(pieces)
+
+
 @dataclass(eq=False)
 class ObjNative:
     """What :func:`write` needs to give an OBJ file back (see the module docstring)."""
 
-    lines: list[bytes]  # the file's lines without line ends (continuations joined)
+    lines: FileLines  # the file's lines without line ends (continuations joined)
+    kinds: np.ndarray  # (k,) int8 kind of each line (_V, _VN, ...; from its stripped text)
     newline: bytes
     final_newline: bool
     v_lines: np.ndarray  # (n,) line of each vertex
@@ -191,6 +271,41 @@ class ObjNative:
     f_lines: np.ndarray  # (p,) line of each face
     vn_relative: bool  # some face refers to its normals by negative (relative) indices
 
+    def statements(self) -> tuple[np.ndarray, list[bytes]]:
+        """The lines that are no ``v``, ``vn``, ``f``, comment or blank line (``vt``, ``usemtl``,
+        ``mtllib``, ...): their 0-based line numbers (r,) int64 and texts as in the file."""
+        rows = np.flatnonzero((self.kinds == _OTHER) | (self.kinds == _VT))
+        return rows, self.lines.pick(rows)
+
+
+def _uniform(endings: np.ndarray, newline: bytes) -> bool:
+    """Whether every line end counted in ``endings`` ((3,) int64: LF, CR, CRLF) is ``newline``."""
+    kind = {b"\n": LF, b"\r": CR, b"\r\n": CRLF}[newline]
+    return int(endings.sum()) == int(endings[kind])
+
+
+def _extras(data: bytes, heads: np.ndarray, ends: np.ndarray, kinds: np.ndarray) -> dict[str, int]:
+    """How many lines of each statement other than v, vn and f the file has, by name
+    (:data:`_EXTRA_NAMES`), in the order of their first line (``vt`` lines counted without
+    reading them)."""
+    other = np.flatnonzero(kinds == _OTHER)
+    first: dict[bytes, int] = {}
+    counter: Counter = Counter()
+    for i, line in zip(other.tolist(), _texts(data, heads[other], ends[other])):
+        if line.strip():
+            head = line.split(None, 1)[0]
+            counter[head] += 1
+            first.setdefault(head, i)
+    vt = np.flatnonzero(kinds == _VT)
+    if vt.size:
+        counter[b"vt"] += int(vt.size)
+        first[b"vt"] = min(first.get(b"vt", len(kinds)), int(vt[0]))
+    extras: dict[str, int] = {}
+    for head in sorted(counter, key=first.__getitem__):
+        name = _EXTRA_NAMES.get(head, "other statements")
+        extras[name] = extras.get(name, 0) + counter[head]
+    return extras
+
 
 def read(data: bytes, path: str | None = None) -> Document:
     """Parse an OBJ file into a :class:`Document` (raises _Bad for a bad file); its texture
@@ -199,21 +314,20 @@ def read(data: bytes, path: str | None = None) -> Document:
         raise _Bad("not a text OBJ file (it contains binary data)")
     if b"\\" in data:  # line continuations
         data = re.sub(rb"\\[ \t]*(\r\n|\n|\r)", b" ", data)
-    original = data.splitlines()
-    lines = original
-    if _indented(data):
-        lines = [line.lstrip() for line in lines]  # some lines are indented
-    kinds = _line_kinds(lines)
+    b = np.frombuffer(data, dtype=np.uint8)
+    starts, ends, lead, endings, indented = line_spans(b)
+    heads = starts + lead if indented else starts  # (some lines are indented: all are stripped)
+    del lead
+    kinds = _line_kinds(line_heads(b, heads, ends))
     v_lines = np.flatnonzero(kinds == _V)
     vn_lines = np.flatnonzero(kinds == _VN)
     f_lines = np.flatnonzero(kinds == _F)
     # progress between the passes, by their shares of the time (a 2.7M-vertex file)
     report(0.2)
-    vertices, colors = _obj_vertices(_pick(lines, v_lines), v_lines)
+    vertices, colors = _obj_vertices(data, heads[v_lines], ends[v_lines], v_lines)
     report(0.5)
     nv = len(vertices)
-    flines = _pick(lines, f_lines)
-    counts, idx = _obj_corners(flines, f_lines)
+    counts, idx, refs = _obj_faces(data, heads[f_lines], ends[f_lines], f_lines, bool(len(vn_lines)))
     report(0.85)
     if counts.size and counts.min() < 3:
         k = int(np.argmax(counts < 3))
@@ -227,11 +341,13 @@ def read(data: bytes, path: str | None = None) -> Document:
         raise _Bad(f"line {f_lines[k] + 1}: face index {int(idx[at])} "
                    f"out of range (file has {_words(nv, 'vertex')})")
     flat = idx - 1
+    del idx
 
     corner_vn = None
     vn_relative = False
     if len(vn_lines):
-        refs = _corner_normal_refs(flines, len(flat))
+        if refs is None:
+            refs = _corner_normal_refs(_texts(data, heads[f_lines], ends[f_lines]), len(flat))
         vn_relative = bool(refs.min() < 0)
         if vn_relative:
             rel = refs < 0
@@ -242,15 +358,12 @@ def read(data: bytes, path: str | None = None) -> Document:
             raise _Bad(f"a face refers to normal {int(refs.max())} but the file has "
                        f"{len(vn_lines)}")
         corner_vn = refs - 1  # -1: no normal
-    counter = Counter(line.split(None, 1)[0] for line in _pick(lines, np.flatnonzero(kinds == _OTHER))
-                      if line.strip())
-    extras: dict[str, int] = {}
-    for head, count in counter.items():
-        name = _EXTRA_NAMES.get(head, "other statements")
-        extras[name] = extras.get(name, 0) + count
+    extras = _extras(data, heads, ends, kinds)
+    del heads
     newline = b"\r\n" if b"\r\n" in data[:65536] else (b"\r" if b"\r" in data[:65536] and
                                                         b"\n" not in data[:65536] else b"\n")
-    native = ObjNative(lines=original, newline=newline, final_newline=data[-1:] in (b"\n", b"\r"),
+    lines = FileLines(data, starts, ends, newline, _uniform(endings, newline))
+    native = ObjNative(lines=lines, kinds=kinds, newline=newline, final_newline=data[-1:] in (b"\n", b"\r"),
                        v_lines=v_lines, vn_lines=vn_lines, rest=vertices, corner_vn=corner_vn,
                        counts=counts, f_lines=f_lines, vn_relative=vn_relative)
     rgba = None
@@ -269,7 +382,8 @@ def read(data: bytes, path: str | None = None) -> Document:
 def read_texturing(nat: ObjNative, folder: Path | None) -> Texturing | None:
     """The ``vt`` coordinates of every face corner, and each face's material (``usemtl``, with
     ``Kd``, ``d`` and the ``map_Kd`` image of the ``mtllib`` libraries found in ``folder``)."""
-    heads = [(i, line.lstrip()) for i, line in enumerate(nat.lines) if line.lstrip()[:2] in (b"vt", b"us", b"mt")]
+    heads = [(i, line.lstrip()) for i, line in zip(*map(list, nat.statements()))
+             if line.lstrip()[:2] in (b"vt", b"us", b"mt")]
     vt = [(i, w) for i, w in ((i, line.split()) for i, line in heads) if w and w[0] == b"vt"]
     use = [(i, w) for i, w in ((i, line.split()) for i, line in heads) if w and w[0] == b"usemtl"]
     libs = [w for _, line in heads for w in [line.split()] if w and w[0] == b"mtllib"]
@@ -277,7 +391,7 @@ def read_texturing(nat: ObjNative, folder: Path | None) -> Texturing | None:
     if vt:
         uv = np.array([[float(x) for x in (w[1:3] + [b"0"])[:2]] for _, w in vt])
         refs = []
-        for line in _pick(nat.lines, nat.f_lines):
+        for line in nat.lines.pick(nat.f_lines):
             for tok in line.split()[1:]:
                 parts = tok.split(b"/")
                 refs.append(int(parts[1]) if len(parts) > 1 and parts[1] else 0)
@@ -315,28 +429,56 @@ def write(doc: Document) -> bytes:
         return _plain(doc)  # a bare mesh (write_converted for a document from another format)
     V = doc.mesh.vertices
     moved = moved_vertices(nat.rest, V)
-    out = list(nat.lines)
+    out = _Edited(nat.lines)
     rows = np.flatnonzero(moved)
     # progress: the moved vertices' lines, their normals, then joining the text (shares at 2.7M)
     with span(0.0, 0.6):
         style = precision(nat) if len(rows) else None
         for start in range(0, len(rows), _ROWS_PER_REPORT):
-            for i in rows[start:start + _ROWS_PER_REPORT].tolist():
-                li = nat.v_lines[i]
-                tail = out[li].split()[4:]
-                out[li] = b" ".join([b"v", *map(style.text, V[i].tolist()), *tail])
+            chunk = rows[start:start + _ROWS_PER_REPORT]
+            at = nat.v_lines[chunk]
+            for li, line, xyz in zip(at.tolist(), nat.lines.pick(at), V[chunk].tolist()):
+                out[li] = b" ".join([b"v", *map(style.text, xyz), *line.split()[4:]])
             report((start + _ROWS_PER_REPORT) / len(rows))
     if nat.corner_vn is not None and moved.any():
         _write_normals(doc, nat, V, moved, out)
     report(0.7)
-    text = nat.newline.join(out)
+    text = out.joined(nat.final_newline)
     report(1.0)
-    return text + nat.newline if nat.final_newline else text
+    return text
+
+
+class _Edited:
+    """The file's lines with some replaced (``out[i] = line``) and new ones inserted
+    (:meth:`insert`), for :func:`write`: reading line ``i`` gives its new text, if it has one."""
+
+    def __init__(self, lines: FileLines):
+        self.lines = lines
+        self.new: dict[int, bytes] = {}
+        self.added_at, self.added = 1, []
+
+    def __len__(self) -> int:
+        return len(self.lines)
+
+    def __getitem__(self, i: int) -> bytes:
+        line = self.new.get(int(i))
+        return self.lines[i] if line is None else line
+
+    def __setitem__(self, i: int, line: bytes) -> None:
+        self.new[int(i)] = line
+
+    def insert(self, at: int, lines: list[bytes]) -> None:
+        """Put ``lines`` before line ``at`` (>= 1)."""
+        self.added_at, self.added = at, lines
+
+    def joined(self, final_newline: bool) -> bytes:
+        """The text of the file (see :meth:`FileLines.joined`)."""
+        return self.lines.joined(self.new, self.added_at, self.added, final_newline)
 
 
 def precision(nat: ObjNative) -> TextPrecision:
     """How the file writes its ``v`` coordinates (from up to 2,000 of its lines spread over it)."""
-    lines = _pick(nat.lines, nat.v_lines[_sample_rows(len(nat.v_lines))])
+    lines = nat.lines.pick(nat.v_lines[_sample_rows(len(nat.v_lines))])
     return TextPrecision.of([t for line in lines for t in line.split()[1:4]])
 
 
@@ -348,7 +490,7 @@ _ROWS_PER_REPORT = 1 << 16
 _SAME_NORMAL = 1e-6
 
 
-def _write_normals(doc: Document, nat: ObjNative, V: np.ndarray, moved: np.ndarray, out: list[bytes]) -> None:
+def _write_normals(doc: Document, nat: ObjNative, V: np.ndarray, moved: np.ndarray, out: _Edited) -> None:
     """Recompute, in ``out``, the ``vn`` lines that moved vertices touch.
 
     A normal is recomputed over the corners that share its ``vn`` index at one
@@ -418,7 +560,7 @@ def _write_normals(doc: Document, nat: ObjNative, V: np.ndarray, moved: np.ndarr
             words[1 + c] = b"/".join(parts)
         out[li] = lead + b" ".join(words)
     at = len(out) if nat.vn_relative else int(nat.vn_lines[-1]) + 1
-    out[at:at] = added
+    out.insert(at, added)
 
 
 def _parse_normal(line: bytes) -> np.ndarray:

@@ -81,8 +81,8 @@ _MAP_STATEMENTS = {"bump", "disp", "decal", "refl", "norm"}
 
 def _material_libraries(doc: Document) -> list[str]:
     names: list[str] = []
-    if doc.format == "obj":  # (its native is the file's lines: an ObjNative)
-        for line in doc.native.lines:
+    if doc.format == "obj":  # (its native is the file's lines: an ObjNative; mtllib is a statement)
+        for line in doc.native.statements()[1]:
             s = line.strip()
             if s[:7] in (b"mtllib ", b"mtllib\t"):
                 names += [w.decode("utf-8", "replace") for w in s.split()[1:]]
