@@ -699,21 +699,50 @@ def _scan_cases() -> list[bytes]:
             b"", b"\n", b"\r\n\r\n", b"x", b"\n\nv 1 2 3", b"\r\n\n\r\r"]
 
 
-@pytest.mark.parametrize("case", range(len(_scan_cases())))
+def _reference_kinds(lines: list[bytes]) -> list[int]:
+    """The kind of each line (stripped when the file is indented), as the reader found them in
+    Python before (its three first bytes, in numpy); ``vt``: the first word is vt."""
+    from hybridedit.fileio.formats.text_scan import BLANK, COMMENT, F, OTHER, V, VN, VT
+
+    head = np.array([line[:3] for line in lines], dtype="S3").view(np.uint8).reshape(-1, 3)
+    ws1 = (head[:, 1] == 32) | (head[:, 1] == 9)
+    ws2 = (head[:, 2] == 32) | (head[:, 2] == 9)
+    kinds = np.full(len(lines), OTHER, dtype=np.int8)
+    kinds[head[:, 0] == 0] = BLANK
+    kinds[head[:, 0] == ord("#")] = COMMENT
+    v = head[:, 0] == ord("v")
+    kinds[v & ws1] = V
+    kinds[v & (head[:, 1] == ord("n")) & ws2] = VN
+    kinds[(head[:, 0] == ord("f")) & ws1] = F
+    kinds[[line[:2] == b"vt" and line.split()[0] == b"vt" for line in lines]] = VT
+    return kinds.tolist()
+
+
+@pytest.mark.parametrize("case", range(len(_scan_cases()) + 1))
 def test_line_spans_cut_lines_as_splitlines(case: int) -> None:
     from hybridedit.fileio.formats.text_scan import CR, CRLF, LF, line_spans
 
-    data = _scan_cases()[case]
-    starts, ends, lead, endings, indented = line_spans(np.frombuffer(data, dtype=np.uint8))
+    data = _scan_cases()[case] if case < len(_scan_cases()) else b"v 1 2 3\n\x0bv 1 2 3\n\x0cf 1 2 3\n\x0bvt 1 2\n"
+    starts, ends, heads, kinds, endings, indented = line_spans(np.frombuffer(data, dtype=np.uint8))
     lines = data.splitlines()
     assert [data[a:b] for a, b in zip(starts.tolist(), ends.tolist())] == lines
-    assert [data[a + k:b] for a, b, k in zip(starts.tolist(), ends.tolist(), lead.tolist())] == \
-        [line.lstrip() for line in lines]
     assert indented == any(line[:1] in (b" ", b"\t") for line in lines)
+    read = [line.lstrip() for line in lines] if indented else lines  # (\v and \f: no indentation)
+    assert [data[a:b] for a, b in zip(heads.tolist(), ends.tolist())] == read
+    assert kinds.tolist() == _reference_kinds(read)
     ends_kept = data.splitlines(keepends=True)
     assert endings[CRLF] == sum(line.endswith(b"\r\n") for line in ends_kept)
     assert endings[CR] == sum(line.endswith(b"\r") for line in ends_kept)
     assert endings[LF] == sum(line.endswith(b"\n") and not line.endswith(b"\r\n") for line in ends_kept)
+
+
+def test_line_spans_grow_past_their_estimate() -> None:
+    """The arrays are sized from the first MiB's lines; a file with more lines after it gets them all."""
+    from hybridedit.fileio.formats.text_scan import line_spans
+
+    data = b"# " + b"x" * (1 << 20) + b"\n" + b"v 1 2 3\n" * 5000
+    starts, ends, heads, kinds, _, _ = line_spans(np.frombuffer(data, dtype=np.uint8))
+    assert len(starts) == len(kinds) == 5001 and ends[-1] == len(data) - 1
 
 
 def _face_lines(lines: list[str]) -> tuple[bytes, np.ndarray, np.ndarray]:
@@ -743,6 +772,18 @@ def test_face_corners_match_the_python_reading(want_normals: bool) -> None:
         assert refs.tolist() == _corner_normal_refs(flines, len(idx)).tolist()
     else:
         assert refs is None
+
+
+def test_face_corners_grow_past_room_for_triangles() -> None:
+    """Room is made for triangles; polygons grow it, and the arrays hold just the corners."""
+    from hybridedit.fileio.formats.text_scan import face_corners
+
+    lines = [f"f {i + 1}//1 {i + 2}//2 {i + 3}//3 {i + 4}//4 {i + 5}//5" for i in range(2000)] + ["f 1//1 2//2 3//3"]
+    data, lo, hi = _face_lines(lines)
+    counts, idx, refs = face_corners(np.frombuffer(data, dtype=np.uint8), lo, hi, True)
+    assert counts.tolist() == [5] * 2000 + [3] and len(idx) == len(refs) == 10003
+    assert idx[:5].tolist() == [1, 2, 3, 4, 5] and idx[-8:].tolist() == [2000, 2001, 2002, 2003, 2004, 1, 2, 3]
+    assert refs[:5].tolist() == [1, 2, 3, 4, 5] and refs[-3:].tolist() == [1, 2, 3]
 
 
 @pytest.mark.parametrize("line", ["f 1 2 x", "f /1 2 3", "f 1.0 2 3", "f 1_0 2 3", "f 1 2 3#c",
@@ -814,7 +855,7 @@ def test_file_lines_join_like_the_list_of_lines(text: bytes) -> None:
     from hybridedit.fileio.formats.obj import FileLines
     from hybridedit.fileio.formats.text_scan import CR, CRLF, LF, line_spans
 
-    starts, ends, _, endings, _ = line_spans(np.frombuffer(text, dtype=np.uint8))
+    starts, ends, _, _, endings, _ = line_spans(np.frombuffer(text, dtype=np.uint8))
     newline = b"\r\n" if b"\r\n" in text else (b"\r" if b"\n" not in text else b"\n")
     kind = {b"\n": LF, b"\r": CR, b"\r\n": CRLF}[newline]
     lines = FileLines(text, starts, ends, newline, int(endings.sum()) == int(endings[kind]))

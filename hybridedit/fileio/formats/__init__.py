@@ -151,7 +151,7 @@ def read_document(path: str | os.PathLike[str], *,
         raise MeshFileError(f"{name}: permission denied") from None
     except OSError as exc:
         raise MeshFileError(f"{name}: cannot read file ({exc.strerror or exc})") from None
-    if not data.strip():
+    if not data or data.isspace():  # (not data.strip(): a copy of the whole file)
         raise MeshFileError(f"{name}: file is empty")
     try:
         # NaN/inf (even signalling NaN in binary files) are reported by _validate

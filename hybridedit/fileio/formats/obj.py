@@ -27,32 +27,14 @@ from ...core.normals import grouped_normals, vertex_normals
 from .obj_materials import read_mtl
 from .common import TextPrecision, _Bad, _sample_rows, _shortest_rows, _mesh, fan_triangles, _format_rows, _numbers, _snippet, _token_count, _widths, _words
 from .reporting import report, span
-from .text_scan import CR, CRLF, LF, face_corners, gather, line_heads, line_spans, token_counts
+from .text_scan import BLANK, COMMENT, CR, CRLF, F, LF, OTHER, V, VN, VT, face_corners, gather, line_spans, token_counts
 
 _MARK = int(np.iinfo(np.int64).max)  # stands in for each line's "f" while parsing indices
 
 
 
-_V, _VN, _F, _COMMENT, _BLANK, _OTHER, _VT = range(7)
-
-
-def _line_kinds(head: np.ndarray) -> np.ndarray:
-    """The kind of each line (``_V``, ``_VN``, ``_F``, ``_COMMENT``, ``_BLANK``, ``_VT`` or
-    ``_OTHER``), (k,) int8, from its first three bytes ((k, 3) uint8, 0 past the line's end; lines
-    start with their statement: the caller skips indented ones' whitespace). ``_VT``: the lines
-    whose first word is ``vt``."""
-    ws1 = (head[:, 1] == 32) | (head[:, 1] == 9)
-    ws2 = (head[:, 2] == 32) | (head[:, 2] == 9)
-    kinds = np.full(len(head), _OTHER, dtype=np.int8)
-    kinds[head[:, 0] == 0] = _BLANK  # an empty line (a NUL byte is refused before)
-    kinds[head[:, 0] == ord("#")] = _COMMENT
-    v = head[:, 0] == ord("v")
-    kinds[v & ws1] = _V
-    kinds[v & (head[:, 1] == ord("n")) & ws2] = _VN
-    word_end = ws2 | (head[:, 2] == 0) | (head[:, 2] == 11) | (head[:, 2] == 12)  # bytes.split's
-    kinds[v & (head[:, 1] == ord("t")) & word_end] = _VT
-    kinds[(head[:, 0] == ord("f")) & ws1] = _F
-    return kinds
+# kinds of line (see :func:`~hybridedit.fileio.formats.text_scan.line_spans`)
+_V, _VN, _F, _COMMENT, _BLANK, _OTHER, _VT = V, VN, F, COMMENT, BLANK, OTHER, VT
 
 
 def _texts(data: bytes, lo: np.ndarray, hi: np.ndarray) -> list[bytes]:
@@ -315,10 +297,7 @@ def read(data: bytes, path: str | None = None) -> Document:
     if b"\\" in data:  # line continuations
         data = re.sub(rb"\\[ \t]*(\r\n|\n|\r)", b" ", data)
     b = np.frombuffer(data, dtype=np.uint8)
-    starts, ends, lead, endings, indented = line_spans(b)
-    heads = starts + lead if indented else starts  # (some lines are indented: all are stripped)
-    del lead
-    kinds = _line_kinds(line_heads(b, heads, ends))
+    starts, ends, heads, kinds, endings, _ = line_spans(b)  # (heads: after an indentation)
     v_lines = np.flatnonzero(kinds == _V)
     vn_lines = np.flatnonzero(kinds == _VN)
     f_lines = np.flatnonzero(kinds == _F)

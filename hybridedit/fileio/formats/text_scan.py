@@ -10,9 +10,11 @@ which can name the line that is wrong.
 Examples
 --------
 >>> b = np.frombuffer(b"v 1 2 3\\r\\n  f 1 2 3\\nx", dtype=np.uint8)
->>> starts, ends, lead, endings, indented = line_spans(b)
->>> starts.tolist(), ends.tolist(), lead.tolist(), endings.tolist(), indented
-([0, 9, 19], [7, 18, 20], [0, 2, 0], [1, 0, 1], True)
+>>> starts, ends, heads, kinds, endings, indented = line_spans(b)
+>>> starts.tolist(), ends.tolist(), heads.tolist(), endings.tolist(), indented
+([0, 9, 19], [7, 18, 20], [0, 11, 19], [1, 0, 1], True)
+>>> [int(k) for k in kinds] == [V, F, OTHER]
+True
 """
 
 from __future__ import annotations
@@ -20,10 +22,14 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["line_spans", "line_heads", "token_counts", "gather", "face_corners"]
+__all__ = ["line_spans", "token_counts", "gather", "face_corners"]
 
 #: line ends counted by :func:`line_spans`: ``\\n``, ``\\r`` and ``\\r\\n``
 LF, CR, CRLF = range(3)
+
+#: kinds of line (:func:`line_spans`): ``v``, ``vn``, ``f``, comment, blank, any other statement,
+#: ``vt`` (a line whose first word is ``vt``)
+V, VN, F, COMMENT, BLANK, OTHER, VT = range(7)
 
 
 @njit(cache=True)
@@ -33,57 +39,83 @@ def _is_space(c):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _count_lines(b):  # pragma: no cover - compiled
-    n = b.shape[0]
-    k = 0
-    i = 0
-    while i < n:
-        c = b[i]
-        if c == 10:
-            k += 1
-        elif c == 13:
-            k += 1
-            if i + 1 < n and b[i + 1] == 10:
-                i += 1
-        i += 1
-    if n and b[n - 1] != 10 and b[n - 1] != 13:
-        k += 1  # a last line without a line end
-    return k
+def _kind(b, p, end):  # pragma: no cover - compiled
+    """The kind of the line ``b[p:end]`` from its first three bytes (0 past its end)."""
+    c0 = b[p] if p < end else 0
+    c1 = b[p + 1] if p + 1 < end else 0
+    c2 = b[p + 2] if p + 2 < end else 0
+    ws1 = c1 == 32 or c1 == 9
+    ws2 = c2 == 32 or c2 == 9
+    if c0 == 0:
+        return BLANK  # an empty line (a NUL byte is refused before)
+    if c0 == 35:  # "#"
+        return COMMENT
+    if c0 == 102 and ws1:  # "f"
+        return F
+    if c0 == 118:  # "v"
+        if ws1:
+            return V
+        if c1 == 110 and ws2:  # "vn"
+            return VN
+        if c1 == 116 and (ws2 or c2 == 0 or c2 == 11 or c2 == 12):  # "vt" and the word's end
+            return VT
+    return OTHER
 
 
 @njit(cache=True)
-def _fill_spans(b, starts, ends, lead, endings):  # pragma: no cover - compiled
+def _spans(b, i, k, starts, ends, heads, kinds, state):  # pragma: no cover - compiled
+    """Lines from byte ``i`` on into rows ``k`` on of the arrays, until they are full; returns
+    (the next byte, the next row). ``state``: (3,) endings, then indented, then lines led by
+    whitespace."""
     n = b.shape[0]
-    indented = False
-    k = 0
-    i = 0
-    while i < n:
+    room = starts.shape[0]
+    while i < n and k < room:
         starts[k] = i
         j = i
         while j < n and (b[j] == 32 or b[j] == 9 or b[j] == 11 or b[j] == 12):
             j += 1
-        lead[k] = j - i
-        if j > i and (b[i] == 32 or b[i] == 9):
-            indented = True
+        heads[k] = j
+        if j > i:
+            state[4] += 1
+            if b[i] == 32 or b[i] == 9:
+                state[3] = 1
         while j < n and b[j] != 10 and b[j] != 13:
             j += 1
         ends[k] = j
+        kinds[k] = _kind(b, heads[k], j)
         if j < n:
             if b[j] == 13 and j + 1 < n and b[j + 1] == 10:
-                endings[CRLF] += 1
+                state[CRLF] += 1
                 j += 1
             elif b[j] == 13:
-                endings[CR] += 1
+                state[CR] += 1
             else:
-                endings[LF] += 1
+                state[LF] += 1
             j += 1
         i = j
         k += 1
-    return indented
+    return i, k
 
 
-def line_spans(b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]:
-    """The lines of a text as ``bytes.splitlines`` cuts it (at ``\\n``, ``\\r`` and ``\\r\\n``).
+@njit(cache=True)
+def _unstripped(starts, heads, kinds):  # pragma: no cover - compiled
+    """In a file without indentation lines are read as they are: one led by \\v or \\f is
+    another statement."""
+    for t in range(starts.shape[0]):
+        if heads[t] > starts[t]:
+            heads[t] = starts[t]
+            kinds[t] = OTHER
+
+
+def _grown(a: np.ndarray, size: int) -> np.ndarray:
+    out = np.empty(size, dtype=a.dtype)
+    out[:len(a)] = a
+    return out
+
+
+def line_spans(b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]:
+    """The lines of a text as ``bytes.splitlines`` cuts it (at ``\\n``, ``\\r`` and ``\\r\\n``),
+    and their kinds, in one pass.
 
     Parameters
     ----------
@@ -94,36 +126,34 @@ def line_spans(b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.nd
     -------
     starts, ends : (k,) int64 arrays
         Each line is ``b[starts[i]:ends[i]]`` (without its line end).
-    lead : (k,) int64 array
-        Bytes of leading whitespace of each line (what ``bytes.lstrip`` removes).
+    heads : (k,) int64 arrays
+        Where each line's statement starts: after its leading whitespace when some line is
+        indented (then every line is read stripped, as ``bytes.lstrip`` strips it), else at
+        ``starts``.
+    kinds : (k,) int8 array
+        :data:`V`, :data:`VN`, :data:`F`, :data:`COMMENT`, :data:`BLANK`, :data:`VT` or
+        :data:`OTHER`, from the first three bytes from ``heads`` (0 past the line's end).
     endings : (3,) int64 array
         How many lines end in ``\\n``, ``\\r`` and ``\\r\\n`` (:data:`LF`, :data:`CR`, :data:`CRLF`).
     indented : bool
         Whether some line starts with a space or a tab.
     """
-    k = _count_lines(b)
-    starts = np.empty(k, dtype=np.int64)
-    ends = np.empty(k, dtype=np.int64)
-    lead = np.empty(k, dtype=np.int64)
-    endings = np.zeros(3, dtype=np.int64)
-    indented = bool(_fill_spans(b, starts, ends, lead, endings))
-    return starts, ends, lead, endings, indented
-
-
-@njit(cache=True)
-def _heads(b, lo, hi, out):  # pragma: no cover - compiled
-    for i in range(lo.shape[0]):
-        for j in range(3):
-            p = lo[i] + j
-            out[i, j] = b[p] if p < hi[i] else 0
-
-
-def line_heads(b: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """The first three bytes of each line ``b[lo[i]:hi[i]]``, 0 past its end, (k, 3) uint8 (as
-    ``np.array([line[:3] ...], dtype="S3")`` has them)."""
-    out = np.empty((lo.shape[0], 3), dtype=np.uint8)
-    _heads(b, lo, hi, out)
-    return out
+    sample = b[: 1 << 20].tobytes()  # lines in the first MiB, to size the arrays (they grow if needed)
+    per_byte = (sample.count(b"\\n") + sample.count(b"\\r") - sample.count(b"\\r\\n") + 1) / max(len(sample), 1)
+    room = int(b.shape[0] * per_byte * 1.05) + 1024
+    arrays = [np.empty(room, dtype=np.int64), np.empty(room, dtype=np.int64), np.empty(room, dtype=np.int64),
+              np.empty(room, dtype=np.int8)]
+    state = np.zeros(5, dtype=np.int64)
+    i, k = _spans(b, 0, 0, *arrays, state)
+    while i < b.shape[0]:
+        room = k + k // 2 + 1024
+        arrays = [_grown(a, room) for a in arrays]
+        i, k = _spans(b, i, k, *arrays, state)
+    starts, ends, heads, kinds = (a[:k] for a in arrays)
+    indented = bool(state[3])
+    if state[4] and not indented:
+        _unstripped(starts, heads, kinds)
+    return starts, ends, heads, kinds, state[:3].copy(), indented
 
 
 @njit(cache=True)
@@ -154,9 +184,9 @@ def _gather(b, lo, hi, out):  # pragma: no cover - compiled
         if i:
             out[q] = 10
             q += 1
-        for p in range(lo[i], hi[i]):
-            out[q] = b[p]
-            q += 1
+        m = hi[i] - lo[i]
+        out[q:q + m] = b[lo[i]:hi[i]]
+        q += m
 
 
 def gather(b: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -198,26 +228,22 @@ def _int_at(b, p, end):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _face_corners(b, lo, hi, counts, idx, normals, want_normals):  # pragma: no cover - compiled
-    """Fill ``counts`` (tokens of each line) and, when ``idx`` is given room, the indices; the
-    first line not in the common form, or -1."""
-    c = 0
-    for i in range(lo.shape[0]):
+def _face_corners(b, lo, hi, first, c, counts, idx, normals, want_normals):  # pragma: no cover - compiled
+    """Corners of lines ``first`` on, from corner ``c`` on, until a line has no room left in
+    ``idx``; returns (the next line, the next corner, the first line not in the common form or
+    -1)."""
+    room = idx.shape[0]
+    for i in range(first, lo.shape[0]):
         end = hi[i]
         p = lo[i]
-        count = 0
+        line_start = c
         while p < end:
             if _is_space(b[p]):
                 p += 1
                 continue
-            count += 1
-            if idx.shape[0] == 0:  # counting only
-                while p < end and not _is_space(b[p]):
-                    p += 1
-                continue
             v, p = _int_at(b, p, end)
             if p < 0:
-                return i
+                return i, c, i
             vn = 0
             if p < end and b[p] == 47:  # "/": a texture and maybe a normal index follow
                 p += 1
@@ -229,18 +255,20 @@ def _face_corners(b, lo, hi, counts, idx, normals, want_normals):  # pragma: no 
                         if p < end and not _is_space(b[p]):
                             vn, p = _int_at(b, p, end)
                             if p < 0:
-                                return i
+                                return i, c, i
                     else:
                         while p < end and not _is_space(b[p]):
                             p += 1
             if p < end and not _is_space(b[p]):
-                return i
+                return i, c, i
+            if c == room:
+                return i, line_start, -1  # (this line again, with more room)
             idx[c] = v
             if want_normals:
                 normals[c] = vn
             c += 1
-        counts[i] = count
-    return -1
+        counts[i] = c - line_start
+    return lo.shape[0], c, -1
 
 
 def face_corners(b: np.ndarray, lo: np.ndarray, hi: np.ndarray,
@@ -270,12 +298,16 @@ def face_corners(b: np.ndarray, lo: np.ndarray, hi: np.ndarray,
     or, for a line not in that form, its position in ``lo`` (an int).
     """
     counts = np.empty(lo.shape[0], dtype=np.int64)
-    nothing = np.empty(0, dtype=np.int64)
-    _face_corners(b, lo, hi, counts, nothing, nothing, False)
-    total = int(counts.sum())
-    idx = np.empty(total, dtype=np.int64)
-    normals = np.empty(total if want_normals else 0, dtype=np.int64)
-    bad = _face_corners(b, lo, hi, counts, idx, normals, want_normals)
+    room = 3 * lo.shape[0] + 16  # triangles; it grows for polygons
+    idx = np.empty(room, dtype=np.int64)
+    normals = np.empty(room if want_normals else 0, dtype=np.int64)
+    i, c, bad = _face_corners(b, lo, hi, 0, 0, counts, idx, normals, want_normals)
+    while bad < 0 and i < lo.shape[0]:
+        room = c + c // 2 + 1024
+        idx = _grown(idx, room)
+        normals = _grown(normals, room) if want_normals else normals
+        i, c, bad = _face_corners(b, lo, hi, i, c, counts, idx, normals, want_normals)
     if bad >= 0:
         return int(bad)
-    return counts, idx, (normals if want_normals else None)
+    idx = idx[:c] if c == 3 * lo.shape[0] else idx[:c].copy()  # (polygons: not the room it grew by)
+    return counts, idx, (normals[:c].copy() if want_normals else None)
