@@ -867,4 +867,5 @@ def test_file_lines_join_like_the_list_of_lines(text: bytes) -> None:
             out[i] = line
         out[at:at] = added
         expected = newline.join(out) + (newline if final else b"")
-        assert lines.joined(new, at, added, final) == expected
+        rows = np.array(sorted(new), dtype=np.int64)
+        assert lines.joined(rows, [new[i] for i in rows.tolist()], at, added, final) == expected

@@ -212,28 +212,33 @@ class FileLines:
         """Lines ``rows`` ((r,) int), in that order."""
         return _texts(self.text, self.starts[rows], self.ends[rows])
 
-    def joined(self, new: dict[int, bytes], added_at: int, added: list[bytes], final_newline: bool) -> bytes:
-        """The text of the lines with line ``i`` replaced by ``new[i]`` and the lines ``added``
-        inserted before line ``added_at`` (>= 1), joined by :attr:`newline` (one more at the end
-        when ``final_newline``): the text between replaced lines is kept as it is, unless its line
-        ends are not all :attr:`newline` (then it is made of every line, as they all change)."""
+    def joined(self, rows: np.ndarray, new: list[bytes], added_at: int, added: list[bytes],
+               final_newline: bool) -> bytes:
+        """The text of the lines with lines ``rows`` ((r,) int64, ascending) replaced by ``new``
+        (r texts) and the lines ``added`` inserted before line ``added_at`` (>= 1), joined by
+        :attr:`newline` (one more at the end when ``final_newline``): the text between replaced
+        lines is kept as it is, unless its line ends are not all :attr:`newline` (then it is made
+        of every line, as they all change)."""
         if not self.uniform:
             out = self.text.splitlines()
-            for i, line in new.items():
+            for i, line in zip(rows.tolist(), new):
                 out[i] = line
             out[added_at:added_at] = added
             text = self.newline.join(out)
             return text + self.newline if final_newline else text
-        cut = {i: [line] for i, line in new.items()}  # what replaces each line's span
-        if added:
-            cut.setdefault(added_at - 1, [self[added_at - 1]]).append(self.newline + self.newline.join(added))
-        pieces = []
-        at = 0
-        for i in sorted(cut):
-            pieces.append(self.text[at:self.starts[i]])
-            pieces.extend(cut[i])
-            at = self.ends[i]
-        pieces.append(self.text[at:])  # (with the final line end, if the text has one)
+        if added:  # they follow line added_at - 1, in its text
+            tail = self.newline + self.newline.join(added)
+            j = int(np.searchsorted(rows, added_at - 1))
+            if j < len(rows) and rows[j] == added_at - 1:
+                new = new[:j] + [new[j] + tail] + new[j + 1:]
+            else:
+                rows = np.insert(rows, j, added_at - 1)
+                new = new[:j] + [self[added_at - 1] + tail] + new[j:]
+        gaps = [self.text[a:b] for a, b in zip(np.r_[0, self.ends[rows]].tolist(),
+                                               np.r_[self.starts[rows], len(self.text)].tolist())]
+        pieces: list[bytes] = [b""] * (2 * len(rows) + 1)
+        pieces[0::2] = gaps  # (the last one with the final line end, if the text has one)
+        pieces[1::2] = new
         return b"".join(pieces)
 
 
@@ -301,13 +306,14 @@ def read(data: bytes, path: str | None = None) -> Document:
     v_lines = np.flatnonzero(kinds == _V)
     vn_lines = np.flatnonzero(kinds == _VN)
     f_lines = np.flatnonzero(kinds == _F)
-    # progress between the passes, by their shares of the time (a 2.7M-vertex file)
-    report(0.2)
+    # progress between the passes, by their shares of the time (a 2.7M-vertex file: the line scan,
+    # the numbers of the v lines, the faces)
+    report(0.3)
     vertices, colors = _obj_vertices(data, heads[v_lines], ends[v_lines], v_lines)
-    report(0.5)
+    report(0.85)
     nv = len(vertices)
     counts, idx, refs = _obj_faces(data, heads[f_lines], ends[f_lines], f_lines, bool(len(vn_lines)))
-    report(0.85)
+    report(0.95)
     if counts.size and counts.min() < 3:
         k = int(np.argmax(counts < 3))
         raise _Bad(f"line {f_lines[k] + 1}: face has "
@@ -413,12 +419,14 @@ def write(doc: Document) -> bytes:
     # progress: the moved vertices' lines, their normals, then joining the text (shares at 2.7M)
     with span(0.0, 0.6):
         style = precision(nat) if len(rows) else None
+        texts: list[bytes] = []
         for start in range(0, len(rows), _ROWS_PER_REPORT):
             chunk = rows[start:start + _ROWS_PER_REPORT]
-            at = nat.v_lines[chunk]
-            for li, line, xyz in zip(at.tolist(), nat.lines.pick(at), V[chunk].tolist()):
-                out[li] = b" ".join([b"v", *map(style.text, xyz), *line.split()[4:]])
+            xyz = V[chunk].ravel().tolist()  # (flat: a list per row made the collector run)
+            for line, x, y, z in zip(nat.lines.pick(nat.v_lines[chunk]), xyz[0::3], xyz[1::3], xyz[2::3]):
+                texts.append(b" ".join([b"v", style.text(x), style.text(y), style.text(z), *line.split()[4:]]))
             report((start + _ROWS_PER_REPORT) / len(rows))
+        out.replace(nat.v_lines[rows], texts)
     if nat.corner_vn is not None and moved.any():
         _write_normals(doc, nat, V, moved, out)
     report(0.7)
@@ -428,20 +436,32 @@ def write(doc: Document) -> bytes:
 
 
 class _Edited:
-    """The file's lines with some replaced (``out[i] = line``) and new ones inserted
-    (:meth:`insert`), for :func:`write`: reading line ``i`` gives its new text, if it has one."""
+    """The file's lines with some replaced, for :func:`write`: many at once (:meth:`replace`, the
+    moved vertices'), others one by one (``out[i] = line``), and new ones inserted
+    (:meth:`insert`); reading line ``i`` gives its new text, if it has one."""
 
     def __init__(self, lines: FileLines):
         self.lines = lines
+        self.rows, self.texts = np.zeros(0, dtype=np.int64), []
         self.new: dict[int, bytes] = {}
         self.added_at, self.added = 1, []
 
     def __len__(self) -> int:
         return len(self.lines)
 
+    def replace(self, rows: np.ndarray, texts: list[bytes]) -> None:
+        """Lines ``rows`` ((r,) int64, ascending) become ``texts`` (r texts); before any
+        ``out[i] = line``."""
+        self.rows, self.texts = rows, texts
+
     def __getitem__(self, i: int) -> bytes:
-        line = self.new.get(int(i))
-        return self.lines[i] if line is None else line
+        i = int(i)
+        if i in self.new:
+            return self.new[i]
+        j = int(np.searchsorted(self.rows, i))
+        if j < len(self.rows) and self.rows[j] == i:
+            return self.texts[j]
+        return self.lines[i]
 
     def __setitem__(self, i: int, line: bytes) -> None:
         self.new[int(i)] = line
@@ -452,7 +472,23 @@ class _Edited:
 
     def joined(self, final_newline: bool) -> bytes:
         """The text of the file (see :meth:`FileLines.joined`)."""
-        return self.lines.joined(self.new, self.added_at, self.added, final_newline)
+        rows, texts = self.rows, self.texts
+        if self.new:  # merged into the lines replaced at once, in order
+            keys = np.array(sorted(self.new), dtype=np.int64)
+            at = np.searchsorted(rows, keys)
+            hit = np.zeros(len(keys), dtype=bool)
+            if len(rows):
+                hit = rows[np.minimum(at, len(rows) - 1)] == keys
+            texts = list(texts)
+            for k, j in zip(keys[hit].tolist(), at[hit].tolist()):
+                texts[j] = self.new[k]
+            miss = keys[~hit]
+            if miss.size:
+                every = np.concatenate([rows, miss])
+                order = np.argsort(every, kind="stable")
+                texts = texts + [self.new[k] for k in miss.tolist()]
+                rows, texts = every[order], [texts[j] for j in order.tolist()]
+        return self.lines.joined(rows, texts, self.added_at, self.added, final_newline)
 
 
 def precision(nat: ObjNative) -> TextPrecision:
