@@ -240,6 +240,13 @@ def _rare_paths(shape) -> None:
     closest_rotations(np.tile(np.eye(3), (4, 1, 1)), np.empty((4, 3, 3)))
     atan2_pos_array(np.ones(4), np.ones(4))
 
+    from .fileio.formats import obj
+
+    # an OBJ's line scan, token counts, joined vertex text and face parser: an indented file with a
+    # colour on one vertex, normals; then a plain one with a line led by a form feed
+    obj.read(b"v 0 0 0\n  v 1 0 0\nv 0 1 0 1 1 1\nvn 0 0 1\nf 1//1 2//1 3//1\nf 1 2 3\n")
+    obj.read(b"v 0 0 0\nv 1 0 0\nv 0 1 0\n\fo x\nf 1 2 3\n")
+
 
 def run(progress: Progress | None = None) -> dict:
     """Compile (or load from the cache) every kernel; returns what happened.
