@@ -73,3 +73,25 @@ def test_a_dense_cage_draws_small_points_and_they_grow_as_the_view_zooms_in(qtbo
     # the stretch map's legend: text at a readable fixed size, not scaled to the bar's width
     bar = sc.stretch_bar
     assert bar.GetUnconstrainedFontSize() and bar.GetTitleTextProperty().GetFontSize() >= 12
+
+
+def test_undoing_a_drag_keeps_the_shapes_parts_and_a_new_selection_remakes_them(qtbot, win):
+    """The shape's parts (one actor per role) are remade only when the roles change: undoing a drag
+    (same selection) redraws the rest pose in the same parts; selecting something else splits anew."""
+    from test_window_files import drag_tip
+
+    w = win
+    s = w.session
+    drag_tip(qtbot, w)
+    parts = list(w.scene.parts.parts)
+    assert s.is_posed()
+    w.actions_["undo"].trigger()
+    qtbot.waitUntil(lambda: not s.is_posed(), timeout=10000)
+    assert [id(p) for p in w.scene.parts.parts] == [id(p) for p in parts]
+    drawn = w.scene.parts.drawn_points()
+    np.testing.assert_array_equal(drawn, s.shape_positions.astype(np.float32))  # the rest pose, in them
+    P = s.cage_positions
+    s.set_mask("handle", P[:, 0] > 1.2)  # another handle: the tint changes, the parts are made again
+    w._refresh_selection()
+    assert not any(p is q for p in w.scene.parts.parts for q in parts)
+    np.testing.assert_array_equal(w.scene.parts.drawn_points(), s.shape_positions.astype(np.float32))
