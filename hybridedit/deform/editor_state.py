@@ -39,10 +39,25 @@ class StateSnapshots:
     cage solver's positions and rotations, the residual's rotations ``_rots``, the shape ``_out``)."""
 
     def save_state(self) -> EditorState:
-        """A snapshot of the selection and pose, for :meth:`restore_state` (undo)."""
+        """A snapshot of the selection and pose, for :meth:`restore_state` (undo).
+
+        Snapshots are read, never written; one whose pose is bit for bit the previous snapshot's
+        shares that one's arrays (a selection changes no pose: each such step held another copy of
+        the shape, 265 MB at 11M)."""
         return EditorState(self._sel, tuple(T.copy() for T in self._transforms), self.arap.positions.copy(),
-                           self.arap.rotations.copy(), self._rots.copy(), self._out.copy(), self._base,
+                           self._kept("arap_rotations", self.arap.rotations), self._kept("rotations", self._rots),
+                           self._kept("shape", self._out), self._base,
                            self._moved, steps=self._steps, centers=self._centers, record=self._record)
+
+    def _kept(self, name: str, a: np.ndarray) -> np.ndarray:
+        """A copy of ``a`` for a snapshot: the last snapshot's copy when ``a`` is bit for bit the same."""
+        kept = self.__dict__.setdefault("_snapshot_arrays", {})
+        last = kept.get(name)
+        if last is not None and last.shape == a.shape and last.dtype == a.dtype \
+                and np.array_equal(last.view(np.uint8), np.ascontiguousarray(a).view(np.uint8)):
+            return last
+        kept[name] = a.copy()
+        return kept[name]
 
     def restore_state(self, state: EditorState) -> np.ndarray:
         """Go back to a snapshot taken by :meth:`save_state` (the selection, the pose it

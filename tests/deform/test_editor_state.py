@@ -32,3 +32,29 @@ def test_save_and_restore_state_bring_back_selection_and_pose(ed):
     ed.drag(translate=(0, 0.6, 0))  # continues from the restored selection: constraints exact
     assert np.abs(ed.deformed_vertices[a] - x[a]).max() == 0.0
     assert np.allclose(ed.deformed_vertices[b], x[b] + [0, 0.6, 0], atol=1e-12)
+
+
+def test_snapshots_of_one_pose_share_its_arrays_and_each_restores_exactly(blob):
+    """A selection changes no pose: its snapshot shares the previous snapshot's shape (an 11M shape
+    is 265 MB a copy); a new pose gets its own, and every snapshot brings back its pose bit for bit."""
+    ed = HybridEditor(blob, cage_size=300, propagation="linear")
+    a, b = ends(ed.mesh)
+    ed.set_selection(b, fixed=a)
+    first = ed.save_state()
+    ed.set_selection(a, fixed=b)
+    second = ed.save_state()
+    assert second.shape is first.shape and second.rotations is first.rotations
+    ed.drag(translate=(0, 0.4, 0))
+    posed, posed_shape = ed.save_state(), ed.deformed_vertices.copy()
+    assert posed.shape is not first.shape and not np.array_equal(posed.shape, first.shape)
+    x = ed._out[1, 0]
+    ed._out[1, 0] = 0.0
+    plus = ed.save_state()
+    ed._out[1, 0] = -0.0  # (equal to 0.0 for array_equal, not the same bits)
+    minus = ed.save_state()
+    assert minus.shape is not plus.shape and np.signbit(minus.shape[1, 0]) and not np.signbit(plus.shape[1, 0])
+    ed._out[1, 0] = x
+    ed.restore_state(first)
+    assert np.array_equal(ed.deformed_vertices.view(np.uint8), first.shape.view(np.uint8))
+    ed.restore_state(posed)
+    assert np.array_equal(ed.deformed_vertices, posed_shape)
