@@ -137,35 +137,42 @@ def resubmit(client, job: Job, settings: BatchSettings, outdir: str, *, retries:
     return _job_task(client, job, settings, outdir, key, retries, bound)
 
 
-#: times a job whose task came back cancelled is submitted again before it is reported failed
+#: times a job whose task came back cancelled (or lost) is submitted again before it is reported failed
 CANCELLED_AGAIN = 2
 
 
 def results(futures: dict, settings: BatchSettings, *, again=None) -> Iterator[tuple[Job, dict]]:
     """(job, manifest row) for each task as it finishes, in the order they finish.
 
-    ``again`` (job -> future), when given, makes a job whose task came back cancelled again, up to
-    :data:`CANCELLED_AGAIN` times (:func:`resubmit`), instead of reporting it failed: nobody
-    cancels a batch's tasks but Dask itself, after losing a worker."""
+    ``again`` (job -> future), when given, makes a job whose task came back cancelled or lost again,
+    up to :data:`CANCELLED_AGAIN` times (:func:`resubmit`), instead of reporting it failed: nobody
+    cancels a batch's tasks but Dask itself, after losing a worker, and a finished task's row is lost
+    when the worker holding it dies before it is gathered (its output file is written by then; made
+    again, it is written again, atomically, the same)."""
     from distributed import as_completed
 
     tries: dict[str, int] = {}
     pending = as_completed(list(futures))
     for f in pending:
         job = futures.pop(f)
-        if f.status == "cancelled" and again is not None and tries.get(job.output, 0) < CANCELLED_AGAIN:
+        row = None
+        if f.status == "finished":
+            try:
+                row = f.result()
+            except Exception:  # noqa: BLE001 -- lost (or cancelled) since it finished: its worker died
+                row = None
+        if row is None and f.status != "error" and again is not None \
+                and tries.get(job.output, 0) < CANCELLED_AGAIN:
             tries[job.output] = tries.get(job.output, 0) + 1
             f.release()
             nf = again(job)
             futures[nf] = job
             pending.add(nf)
             continue
-        if f.status == "finished":
-            row = f.result()
-        else:
+        if row is None:  # the task's own error, or Dask gave up on it (cancelled, lost: no error)
             try:
-                error = f.exception()
-            except Exception as e:  # noqa: BLE001 -- a cancelled future raises here
+                error = f.exception() if f.status == "error" else None
+            except Exception as e:  # noqa: BLE001 -- (cancelled meanwhile)
                 error = e
             row = _failed(job, settings, error)
         f.release()
