@@ -96,33 +96,32 @@ def _box(P, skip, box):
 
 
 @njit(cache=True, inline="always")
-def _length(P, ends, t, out):
+def _edge_length(P, ends, t):
+    """Length of edge ``ends[t]`` (two rows of P)."""
     a, b = ends[t, 0], ends[t, 1]
     dx, dy, dz = P[b, 0] - P[a, 0], P[b, 1] - P[a, 1], P[b, 2] - P[a, 2]
-    out[t] = np.sqrt(dx * dx + dy * dy + dz * dz)
+    return np.sqrt(dx * dx + dy * dy + dz * dz)
 
 
 @njit(cache=True)
 def _lengths_serial(P, ends, out):
     """Length of each edge ``ends[t]`` (rows of P) into ``out[t]``: no (e, 3) temporaries."""
     for t in range(ends.shape[0]):
-        _length(P, ends, t, out)
+        out[t] = _edge_length(P, ends, t)
 
 
 @njit(cache=True, parallel=True)
 def _lengths_parallel(P, ends, out):
     for t in prange(ends.shape[0]):
-        _length(P, ends, t, out)
+        out[t] = _edge_length(P, ends, t)
 
 
 @njit(cache=True, inline="always")
 def _edge_term(P, ends, rest_len, t, e, terms):
-    a, b = ends[t, 0], ends[t, 1]
-    dx, dy, dz = P[b, 0] - P[a, 0], P[b, 1] - P[a, 1], P[b, 2] - P[a, 2]
     l0 = rest_len[t]
     new = 0.0
     if l0 > 0.0:
-        r = (np.sqrt(dx * dx + dy * dy + dz * dz) - l0) / l0
+        r = (_edge_length(P, ends, t) - l0) / l0
         new = r * r
     old = terms[e]
     terms[e] = new
@@ -269,14 +268,14 @@ class ShapeMetrics:
     def set_moving(self, moving: np.ndarray | None) -> None:
         """Restrict the updates to the shape vertices ``moving`` (k,) int (None: all of them)."""
         self._compact = None
-        if moving is None:  # (the faces and edges: all of them, numbered when a whole-shape pass needs them)
+        if moving is None:  # (the edges: all of them, numbered when a whole-shape pass needs them)
             self.moving = self.normal_vertices = self.stretch_vertices = self.all_vertices
-            self.moving_faces = self.moving_edges = None
+            self.moving_edges = None
             return
         n = self.n
         self.moving = unique_in_range(np.asarray(moving, dtype=np.int64), n)
-        self.moving_faces = _touching(self.vf_ptr, self.vf_idx, self.moving, len(self.faces))
-        self.normal_vertices = unique_in_range(self.faces[self.moving_faces], n) if len(self.moving_faces) \
+        moving_faces = _touching(self.vf_ptr, self.vf_idx, self.moving, len(self.faces))
+        self.normal_vertices = unique_in_range(self.faces[moving_faces], n) if len(moving_faces) \
             else self.moving
         self.moving_edges = _touching(self.ve_ptr, self.ve_idx, self.moving, len(self.edges))
         self.stretch_vertices = unique_in_range(self.edges[self.moving_edges], n) if len(self.moving_edges) \
