@@ -131,7 +131,7 @@ def _failed(job: Job, settings: BatchSettings, error: BaseException | None) -> d
 def resubmit(client, job: Job, settings: BatchSettings, outdir: str, *, retries: int = 2):
     """A new future that makes ``job`` alone (its binding made again for a pose): for a task Dask
     reported cancelled without anyone cancelling it (it can, when the worker holding a task's
-    dependency is killed as the task is handed on)."""
+    dependency is killed as the task is handed on), or whose row was lost with its worker."""
     key = uuid.uuid4().hex[:8] + "-again"
     bound = None if settings.mode == "edits" else _bind_task(client, job.input, settings, key, retries)
     return _job_task(client, job, settings, outdir, key, retries, bound)

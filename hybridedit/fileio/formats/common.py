@@ -165,17 +165,6 @@ def _token_count(text: bytes) -> int:
     return int(np.count_nonzero(space[:-1] & ~space[1:])) + int(not space[0])
 
 
-def _indented(text: bytes) -> bool:
-    """Whether a line of ``text`` starts with a space or a tab (one vectorised pass)."""
-    b = np.frombuffer(text, dtype=np.uint8)
-    if b.size == 0:
-        return False
-    if b[0] in (32, 9):
-        return True
-    after = b[1:][(b[:-1] == 10) | (b[:-1] == 13)]
-    return bool(np.any((after == 32) | (after == 9)))
-
-
 def _widths(lines: list[bytes]) -> np.ndarray:
     """Number of whitespace-separated tokens of each line, (k,) int64."""
     return np.fromiter(map(len, map(bytes.split, lines)), dtype=np.int64, count=len(lines))
