@@ -460,6 +460,52 @@ def test_ply_keeps_every_element_property_and_type(tmp_path: Path, fmt: str) -> 
     assert np.array_equal(n[far], np.column_stack([va["nx"], va["ny"], va["nz"]])[far])
 
 
+def _mapped(a: np.ndarray) -> bool:
+    """Whether ``a`` is or sees a memory mapping (of the file it was read from)."""
+    while a is not None:
+        if isinstance(a, np.memmap) or type(a).__name__ == "mmap":
+            return True
+        a = getattr(a, "base", None)
+    return False
+
+
+@pytest.mark.parametrize("order", ["<", ">"])
+@pytest.mark.parametrize("index", ["i4", "u4", "u2"])
+@pytest.mark.parametrize("coords", ["f8", "f4"])
+def test_binary_ply_triangles_read_off_the_mapping_and_written_back_the_same(tmp_path: Path, order: str,
+                                                                            index: str, coords: str) -> None:
+    # a binary file of triangles only (and x y z only) is read straight off its mapping: the same
+    # triangles and positions as plyfile's own record-by-record read, nothing left mapped, and
+    # written back byte for byte (the index type, count type and byte order kept)
+    m = bumpy_blob(2)
+    vertex = np.empty(m.n_vertices, dtype=[(a, order + coords) for a in "xyz"])
+    for k, a in enumerate("xyz"):
+        vertex[a] = m.vertices[:, k]
+    faces = np.empty(len(m.faces), dtype=[("vertex_indices", order + index, (3,))])
+    faces["vertex_indices"] = m.faces[:, ::-1]
+    path = tmp_path / "tri.ply"
+    plyfile.PlyData([plyfile.PlyElement.describe(vertex, "vertex"),
+                     plyfile.PlyElement.describe(faces, "face", len_types={"vertex_indices": "u1"})],
+                    byte_order=order).write(str(path))
+    ref = plyfile.PlyData.read(str(path))  # (no known list length: plyfile's record loop)
+    doc = read_document(path)
+    assert np.array_equal(doc.mesh.faces, np.stack(ref["face"].data["vertex_indices"]).astype(np.int64))
+    assert np.array_equal(doc.mesh.vertices, np.column_stack([ref["vertex"].data[a] for a in "xyz"]))
+    assert doc.mesh.faces.dtype == np.int64 and doc.mesh.vertices.dtype == np.float64
+    assert not _mapped(doc.mesh.faces) and not _mapped(doc.mesh.vertices)
+    assert not any(_mapped(el.data) for el in doc.native.data.elements)
+    write_document(tmp_path / "same.ply", doc)
+    assert (tmp_path / "same.ply").read_bytes() == path.read_bytes()
+    V = bend(doc.mesh.vertices)
+    write_document(tmp_path / "bent.ply", doc.with_vertices(V))
+    back = read_document(tmp_path / "bent.ply")
+    assert np.array_equal(back.mesh.faces, doc.mesh.faces)
+    assert np.array_equal(back.mesh.vertices, V.astype(coords).astype(np.float64))
+    assert np.array_equal(doc.mesh.vertices, read_document(path).mesh.vertices)  # (the read pose kept)
+    header = path.read_bytes().split(b"end_header")[0]
+    assert (tmp_path / "bent.ply").read_bytes().split(b"end_header")[0] == header
+
+
 def test_ply_polygons_and_strips_round_trip(tmp_path: Path) -> None:
     head = ("ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\n"
             "property float z\nelement face 2\nproperty list uchar int vertex_indices\n"

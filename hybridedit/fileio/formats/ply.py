@@ -70,7 +70,8 @@ def _read_plydata(path: str) -> plyfile.PlyData:
             with open(path, "rb") as f:
                 data = plyfile.PlyData.read(f, mmap="c", known_list_len=known)
                 for el in data.elements:  # off the mapping, so the file can be replaced
-                    el.data = np.array(el.data)
+                    if not _triangle_list(el):  # (converted straight off it by _faces)
+                        el.data = np.array(el.data)
                 rest = b"" if data.text else f.read()
         except plyfile.PlyElementParseError as exc:
             last = exc
@@ -94,6 +95,30 @@ def _check_ascii_records(path: str, data: plyfile.PlyData) -> None:
     if lines > records:
         raise _Bad(f"{lines - records} unexpected lines after the last element "
                    "(the header's element counts may be wrong)")
+
+
+def _triangle_list(el: plyfile.PlyElement) -> str | None:
+    """The name of ``el``'s index list when ``el`` is a binary ``face`` element of triangles and
+    nothing else, read memory-mapped (its only property a list of 3 integers); else None."""
+    props = el.properties
+    if el.name != "face" or len(props) != 1 or props[0].name not in _FACE_LISTS:
+        return None
+    col = getattr(el.data, "dtype", None)
+    field = None if col is None or col.names is None else col.fields.get(props[0].name)
+    if field is None or field[0].shape != (3,) or field[0].base.kind not in "iu":
+        return None
+    return props[0].name
+
+
+def _mapped_triangles(face: plyfile.PlyElement, name: str) -> np.ndarray:
+    """(m, 3) int64 triangles of a :func:`_triangle_list` element, cast in one pass straight off
+    the file's mapping (no copy of its records, no int32 copy of the indices: 1.6 GB less memory
+    touched at 22M faces). The element then holds these same int64 triangles as its records (off
+    the mapping; the writer casts them back to the file's index type)."""
+    tri = np.empty((face.count, 3), dtype=np.int64)
+    tri[...] = face.data[name]
+    face.data = tri.view(np.dtype([(name, np.int64, (3,))])).reshape(face.count)
+    return tri
 
 
 def _list_values(el: plyfile.PlyElement, name: str) -> tuple[np.ndarray, np.ndarray]:
@@ -222,10 +247,12 @@ def read(path: str, data: bytes) -> Document:
     except plyfile.PlyParseError as exc:
         raise _Bad(_plain_message(exc)) from None
     vertex, names = _vertex_element(ply)
-    vertices = np.empty((vertex.count, 3))  # (one array, each column converted into it)
-    with np.errstate(all="ignore"):
-        for k, a in enumerate("xyz"):
-            vertices[:, k] = vertex.data[a]
+    vertices = _xyz_records(vertex)
+    if vertices is None:
+        vertices = np.empty((vertex.count, 3))  # (one array, each column converted into it)
+        with np.errstate(all="ignore"):
+            for k, a in enumerate("xyz"):
+                vertices[:, k] = vertex.data[a]
     faces, polygons = _faces(ply)
     colors = _colors(vertex, names)
     vertex_uv = next((pair for pair in _VERTEX_UV if all(a in names for a in pair)), ())
@@ -258,13 +285,30 @@ def _vertex_element(ply: plyfile.PlyData) -> tuple[plyfile.PlyElement, list[str]
     return vertex, names
 
 
+def _xyz_records(vertex: plyfile.PlyElement) -> np.ndarray | None:
+    """The records of a ``vertex`` element of native float64 ``x y z`` and nothing else, seen as
+    the (n, 3) float64 positions (the same memory: no second copy of 265 MB at 11M); else None."""
+    d = vertex.data
+    if getattr(d, "dtype", None) is None or d.dtype.names != ("x", "y", "z") or d.ndim != 1 \
+            or not d.flags.c_contiguous or d.dtype.itemsize != 24:
+        return None
+    for offset, a in zip((0, 8, 16), "xyz"):
+        t, at = d.dtype.fields[a][:2]
+        if at != offset or t != np.dtype(np.float64) or not t.isnative:
+            return None
+    return d.view(np.float64).reshape(len(d), 3)
+
+
 def _faces(ply: plyfile.PlyData) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
     """(m, 3) int64 triangles of the ``face`` polygons (fanned) and ``tristrips``, and the polygons
     (counts, flat indices) to carry over: None when all are triangles or there are strips."""
     parts = [np.zeros((0, 3), dtype=np.int64)]
     polygons = None
     face = _element(ply, "face")
-    if face is not None and face.count:
+    if face is not None and face.count and (name := _triangle_list(face)) is not None \
+            and isinstance(face.data, np.memmap):
+        parts.append(_mapped_triangles(face, name))
+    elif face is not None and face.count:
         counts, flat = _list_values(face, _index_list(face))
         if counts.min() < 3:
             k = int(np.argmax(counts < 3))
