@@ -176,7 +176,8 @@ def _edit_session(mesh, say: Progress, label: str) -> None:
     from . import HybridEditor, rigid_transform
     from .binding.bind import bind
     from .deform.polish import ShapeARAP, polish
-    from .core.region_metrics import ShapeMetrics, points_box
+    from .core.bounds import points_box
+    from .core.region_metrics import ShapeMetrics
     from .core.row_copy import copy_rows
     from .core.up_axis import guess_up_axis
 

@@ -31,6 +31,7 @@ import numpy as np
 from .qem_worker import simplify_half
 from ..core.index_sets import unique_in_range
 from ..core.topology import group_rows
+from ..core.bounds import points_box
 
 __all__ = ["SPLIT_MIN_FACES", "MARGIN", "HalfWorker", "helper_python", "presimplify", "start_worker", "splits"]
 
@@ -228,7 +229,8 @@ def presimplify(vertices: np.ndarray, faces: np.ndarray, target_faces: int, *,
     m = len(f)
     if not splits(m, min_faces=min_faces) or MARGIN * target_faces > 0.5 * m:
         return v, f.astype(np.int32, copy=False)
-    axis = int(np.argmax(np.ptp(v, axis=0)))
+    lo, hi = points_box(v)
+    axis = int(np.argmax(hi - lo))
     key = v[f[:, 0], axis] + v[f[:, 1], axis] + v[f[:, 2], axis]
     first = key <= np.partition(key, m // 2)[m // 2]
     if first.all():  # every centroid on the median: no cut to make

@@ -16,6 +16,7 @@ from ..core.mesh import Mesh
 from .clean import clean_surface
 from .qem import HalfWorker, presimplify
 from .qem_worker import AGGRESSIVENESS
+from ..core.bounds import points_box
 
 __all__ = ["HALVES_SHARE", "simplify"]
 
@@ -51,7 +52,7 @@ def simplify(src: Mesh, target: int, *, progress: Callable[[float], None] | None
     # the simplifier has absolute thresholds and loses precision far from the origin:
     # a shape of extreme size or offset is simplified centred and scaled to a unit
     # diagonal (shapes of ordinary size are simplified as they are)
-    lo, hi = src.vertices.min(axis=0), src.vertices.max(axis=0)
+    lo, hi = points_box(src.vertices)
     center = 0.5 * (lo + hi)
     scale = float(np.linalg.norm(hi - lo)) or 1.0
     if 1e-2 <= scale <= 1e4 and float(np.abs(center).max()) <= 1e3 * scale:

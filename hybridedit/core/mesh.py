@@ -6,6 +6,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .bounds import points_box
+
 
 class MeshError(ValueError):
     """A mesh is malformed or unusable; the message says what and where."""
@@ -69,7 +71,7 @@ class Mesh:
         if self.n_vertices == 0:
             z = np.zeros(3)
             return z, z.copy()
-        return self.vertices.min(axis=0), self.vertices.max(axis=0)
+        return points_box(self.vertices)
 
     def bbox_diagonal(self) -> float:
         """Length of the bounding-box diagonal."""

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from .bounds import points_box
 from .index_sets import unique_sorted
 from .mesh import Mesh, MeshError
 from .topology import (connected_parts, degenerate_faces, edge_balance, edge_index, group_rows, half_edges,
@@ -35,7 +36,8 @@ def plural(n: int, word: str, many: str | None = None) -> str:
 def _diagonal(v: np.ndarray) -> float:
     if len(v) == 0:
         return 0.0
-    return float(np.linalg.norm(v.max(axis=0) - v.min(axis=0)))
+    lo, hi = points_box(v)
+    return float(np.linalg.norm(hi - lo))
 
 
 def _split_nonmanifold(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray, int, int]:
@@ -495,7 +497,7 @@ def box_cage(vertices: np.ndarray, pad: float = 0.05) -> Mesh:
     """A box around the points, padded by ``pad`` of the bounding-box diagonal
     (at least that fraction of the largest extent on every side): 8 vertices, 12
     outward triangles."""
-    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    lo, hi = points_box(vertices)
     d = float(np.linalg.norm(hi - lo))
     if not d > 0:
         d = max(1.0, float(np.abs(lo).max()) * 1e-6)

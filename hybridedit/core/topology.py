@@ -11,6 +11,7 @@ import numba
 import numpy as np
 
 from .parallel import pick
+from .bounds import points_box
 
 __all__ = [
     "DEGENERATE_RATIO",
@@ -402,7 +403,7 @@ def weld(vertices: np.ndarray, faces: np.ndarray, tol: float) -> tuple[np.ndarra
     used_mask[f.ravel()] = True
     used = np.flatnonzero(used_mask)
     v = v0[used]
-    lo = v.min(axis=0) if len(v) else np.zeros(3)
+    lo = points_box(v)[0] if len(v) else np.zeros(3)
     if tol > 0:
         key = np.floor((v - lo) / tol).astype(np.int64)
     else:

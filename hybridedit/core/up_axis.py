@@ -21,6 +21,7 @@ from numba import njit
 
 from ..fileio.atomic import atomic_write
 from .mesh import Mesh
+from .bounds import points_box
 
 AXES = ("+Y", "+Z", "-Y", "-Z", "+X", "-X")
 """The up axes a shape can have."""
@@ -81,7 +82,7 @@ def guess_up_axis(mesh: Mesh, *, path: str | Path | None = None) -> str:
     f = np.ascontiguousarray(mesh.faces, dtype=np.int64)
     if len(f) == 0:
         return DEFAULT
-    lo, hi = v.min(axis=0), v.max(axis=0)
+    lo, hi = points_box(v)
     extent = max(float(np.max(hi - lo)), 1e-300)
     # the bottom of the box along each axis, as the height measured down it goes
     bottom = np.array([lo[1], lo[2], -hi[1], -hi[2], lo[0], -hi[0]]) + FLAT_BAND * extent

@@ -14,6 +14,7 @@ from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
 from .selection import SelectionError
+from ..core.bounds import points_box
 
 AXES = {"x": 0, "y": 1, "z": 2}
 
@@ -65,7 +66,7 @@ class Mirror:
 
     def __init__(self, vertices: np.ndarray, plane, *, tolerance: float = TOLERANCE) -> None:
         v = np.asarray(vertices, dtype=np.float64)
-        lo, hi = v.min(axis=0), v.max(axis=0)
+        lo, hi = points_box(v)
         diag = float(np.linalg.norm(hi - lo)) or 1.0
         if isinstance(plane, str):
             if plane.lower() not in AXES:

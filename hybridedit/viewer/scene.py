@@ -33,7 +33,8 @@ from .palette import (
     BACKGROUND, CAGE_COLOR, POINT_ALPHA, ROLE_COLORS, SHAPE_COLOR, role_rows, shape_tint, stretch_colour_bar,
     stretch_lookup_table,
 )
-from ..core.region_metrics import ShapeMetrics, points_box
+from ..core.bounds import points_box
+from ..core.region_metrics import ShapeMetrics
 from .shapeparts import ShapeParts
 
 

@@ -113,20 +113,3 @@ def test_region_index_sets_equal_sorting_ones(monkeypatch):
         monkeypatch.setattr(rm, "MASK_SHARE", share)
         local = rm._renumbered(vertices, faces[expected], n)
         assert local.dtype == np.int32 and np.array_equal(vertices[local], faces[expected])
-
-
-def test_points_box_leaves_out_the_skipped_rows():
-    from hybridedit.core.region_metrics import points_box
-
-    rng = np.random.default_rng(5)
-    P = rng.standard_normal((500, 3)).astype(np.float32)
-    skip = rng.random(500) < 0.3
-    lo, hi = points_box(P, skip=skip)
-    assert lo.dtype == np.float64
-    assert np.array_equal(lo, P[~skip].min(axis=0)) and np.array_equal(hi, P[~skip].max(axis=0))
-    lo, hi = points_box(P)
-    assert np.array_equal(lo, P.min(axis=0)) and np.array_equal(hi, P.max(axis=0))
-    lo, hi = points_box(P, skip=np.ones(500, dtype=bool))  # nothing left: an empty box
-    assert np.all(lo == np.inf) and np.all(hi == -np.inf)
-    lo, hi = points_box(np.zeros((0, 3)))
-    assert np.all(lo > hi)
