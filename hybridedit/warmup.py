@@ -248,6 +248,20 @@ def _rare_paths(shape) -> None:
     obj.read(b"v 0 0 0\n  v 1 0 0\nv 0 1 0 1 1 1\nvn 0 0 1\nf 1//1 2//1 3//1\nf 1 2 3\n")
     obj.read(b"v 0 0 0\nv 1 0 0\nv 0 1 0\n\fo x\nf 1 2 3\n")
 
+    import tempfile
+
+    from .core.mesh import Mesh
+    from .fileio.meshfiles import read_mesh, write_mesh
+
+    # a binary PLY's triangles, cast off the file's mapping (int32 records into int64), on one
+    # thread and on two (a big file's)
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "warm.ply"
+        write_mesh(path, Mesh(np.vstack([np.eye(3), np.ones(3)]), np.array([[0, 1, 2], [2, 1, 3]])))  # (strided)
+        read_mesh(path)
+        with parallel_everywhere():
+            read_mesh(path)
+
 
 def run(progress: Progress | None = None) -> dict:
     """Compile (or load from the cache) every kernel; returns what happened.

@@ -27,6 +27,7 @@ import scipy.sparse as sp
 
 from ..binding.rig import Progress, Rig
 from ..core.mesh import Mesh
+from ..core.row_copy import copied
 from ..defaults import CAGE_SIZE, ITERATIONS, TRUNCATION
 from .arap import ARAPSolver
 from .base_pose import BasePose, current_base, fit_cage, propagate_from, propagated_residual, rest_base
@@ -173,7 +174,7 @@ class HybridEditor(RoleQueries, StateSnapshots, RecordedEdits, EditorFiles):
         #: the pose the current selection's drags start from; the rest pose first
         self._base = self._rest_base = rest_base(binding=M, cage=cage.vertices, residual=d_rest, blend=self._blend,
                                                  propagation=propagation, shape=mesh.vertices)
-        self._out = self._rest_base.shape.copy()
+        self._out = copied(self._rest_base.shape)  # (new memory: faulted in on two threads)
         self._moved = False  # the pose changed since the base was taken
         #: how the pose was made from the rest pose (the steps :attr:`edit` describes)
         self._record = PoseRecord()

@@ -29,6 +29,7 @@ import plyfile
 
 from ..document import Document, Material, Texturing, moved_vertices
 from ...core.normals import grouped_normals, vertex_normals
+from ...core.row_copy import rows_into
 from .common import TextPrecision, _Bad, _mesh, fan_triangles, _sample_rows, _truncated, _words
 
 __all__ = ["PlyNative", "read", "write"]
@@ -116,7 +117,7 @@ def _mapped_triangles(face: plyfile.PlyElement, name: str) -> np.ndarray:
     touched at 22M faces). The element then holds these same int64 triangles as its records (off
     the mapping; the writer casts them back to the file's index type)."""
     tri = np.empty((face.count, 3), dtype=np.int64)
-    tri[...] = face.data[name]
+    rows_into(face.data[name], tri)
     face.data = tri.view(np.dtype([(name, np.int64, (3,))])).reshape(face.count)
     return tri
 
