@@ -609,11 +609,11 @@ def _plain(doc: Document, mtl_name: str = "") -> bytes:
     vn_end = v_end + (nv / rows_total if doc.normals else 0.0)
     with span(0.0, v_end):
         if doc.colors is not None:
-            parts.append(_shortest_rows("v", mesh.vertices, tail=doc.colors[:, :3]))
+            parts += _shortest_rows("v", mesh.vertices, tail=doc.colors[:, :3])
         else:
-            parts.append(_shortest_rows("v", mesh.vertices))
+            parts += _shortest_rows("v", mesh.vertices)
     if has_uv:
-        parts.append(_shortest_rows("vt", tex.uv))
+        parts += _shortest_rows("vt", tex.uv)
     if doc.normals:
         with span(v_end, vn_end):
             parts.append(_format_rows("vn %.7g %.7g %.7g\n", vertex_normals(mesh.vertices, mesh.faces)))
