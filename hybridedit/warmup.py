@@ -250,6 +250,10 @@ def _rare_paths(shape) -> None:
     from dataclasses import replace
 
     obj.write(replace(obj.read(b"v 0.1 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1\n"), native=None))
+    # and a plain OFF: its compiled face lines (vertices as the OBJ's)
+    from .fileio.formats import off
+
+    off.write(replace(obj.read(b"v 0.1 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"), native=None))
 
 
 def run(progress: Progress | None = None) -> dict:

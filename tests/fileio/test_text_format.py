@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hybridedit.fileio.formats.text_format import face_lines, float_rows
+from hybridedit.fileio.formats.text_format import counted_lines, face_lines, float_rows
 
 
 def old_face_lines(counts: np.ndarray, table: np.ndarray, normals_only: bool) -> bytes:
@@ -133,3 +133,21 @@ def test_float_rows_lay_out_rows_as_percent_r(head: bytes) -> None:
         fmt = (head.decode() + " %r" * c if head else " ".join(["%r"] * c)) + "\n"
         assert float_rows(head, values).tobytes() == ((fmt * len(values)) % tuple(values.ravel().tolist())).encode()
     assert float_rows(head, np.zeros((0, 3))).size == 0
+
+
+# --------------------------------------------------------------------------- counted_lines
+
+
+def test_counted_lines_match_the_off_text() -> None:
+    rng = np.random.default_rng(5)
+    for trial in range(30):
+        p = int(rng.integers(0, 200))
+        counts = rng.integers(1, 12, p) if trial % 2 else np.full(p, 3)
+        flat = rng.integers(0, [10, 10 ** 6, 2 ** 62][trial % 3], int(counts.sum()))
+        starts = np.cumsum(counts) - counts
+        want = "".join(" ".join(map(str, [c, *flat[s: s + c].tolist()])) + "\n"
+                       for s, c in zip(starts.tolist(), counts.tolist()))
+        assert counted_lines(counts, flat).tobytes() == want.encode()
+    assert counted_lines(np.array([3]), np.array([0, 9, 10])).tobytes() == b"3 0 9 10\n"
+    with pytest.raises(ValueError):
+        counted_lines(np.array([3]), np.array([0, 1]))

@@ -2,6 +2,7 @@
 Python's formatting gives, many times faster.
 
 * :func:`face_lines`: OBJ face lines (``f 1/2/3 ...``), as ``%d``-formatting.
+* :func:`counted_lines`: OFF face lines (``3 0 1 2``), as ``%d``-formatting.
 * :func:`float_rows`: rows of float64 in their shortest exact form, as ``repr(float)`` (Ryu:
   Ulf Adams, "Ryu: fast float-to-string conversion", PLDI 2018; the shortest decimal that reads
   back to the value, the closest of them to it, ties to even: the digits of Python's
@@ -15,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["face_lines", "float_rows"]
+__all__ = ["counted_lines", "face_lines", "float_rows"]
 
 
 @njit(cache=True, inline="always")
@@ -122,6 +123,48 @@ def face_lines(counts: np.ndarray, table: np.ndarray, normals_only: bool = False
     if int(counts.sum()) != len(table):
         raise ValueError("face_lines: counts do not add up to the table's rows")
     return _face_lines(counts, table, 1 if normals_only else 0)
+
+
+@njit(cache=True)
+def _counted_lines(counts, flat):
+    size = 0
+    for f in range(counts.shape[0]):
+        size += _int_width(counts[f]) + 1
+    for c in range(flat.shape[0]):
+        size += _int_width(flat[c]) + 1
+    out = np.empty(size, dtype=np.uint8)
+    at = 0
+    c = 0
+    for f in range(counts.shape[0]):
+        at = _put_int(out, at, counts[f])
+        for j in range(counts[f]):
+            out[at] = 32
+            at = _put_int(out, at + 1, flat[c])
+            c += 1
+        out[at] = 10
+        at += 1
+    return out
+
+
+def counted_lines(counts: np.ndarray, flat: np.ndarray) -> np.ndarray:
+    """Polygons as OFF writes them: a line of each one's corner count and then its corners.
+
+    Parameters
+    ----------
+    counts : (p,) int64 array, every value >= 0
+    flat : (sum(counts),) int64 array, every value >= 0
+        The polygons' vertex indices, one polygon after another.
+
+    Returns
+    -------
+    (bytes,) uint8 array
+        The text of ``" ".join(map(str, [c, *corners])) + "\\n"`` for each polygon.
+    """
+    counts = np.ascontiguousarray(counts, dtype=np.int64)
+    flat = np.ascontiguousarray(flat, dtype=np.int64).ravel()
+    if int(counts.sum()) != len(flat):
+        raise ValueError("counted_lines: counts do not add up to the corners")
+    return _counted_lines(counts, flat)
 
 
 # --------------------------------------------------------------------------- shortest float64 text (Ryu)
