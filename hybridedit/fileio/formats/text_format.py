@@ -29,14 +29,37 @@ def _int_width(x):
     return n
 
 
+_POW10 = np.array([10 ** i for i in range(20)], dtype=np.uint64)
+_PAIRS = np.frombuffer(b"".join(b"%02d" % i for i in range(100)), dtype=np.uint8).copy()  # "00".."99"
+
+
 @njit(cache=True, inline="always")
 def _int_width_u(x):
     """Number of decimal digits of ``x`` (uint64)."""
     n = 1
-    while x >= np.uint64(10):
-        x //= np.uint64(10)
+    while n < 20 and x >= _POW10[n]:
         n += 1
     return n
+
+
+@njit(cache=True, inline="always")
+def _put_digits(out, end, x):
+    """Write the decimal digits of ``x`` (uint64) into ``out`` (uint8) so that they end before
+    ``end``, two at a time."""
+    hundred = np.uint64(100)
+    while x >= hundred:
+        q = x // hundred
+        r = np.int64(x - q * hundred)
+        out[end - 2] = _PAIRS[2 * r]
+        out[end - 1] = _PAIRS[2 * r + 1]
+        end -= 2
+        x = q
+    if x >= np.uint64(10):
+        r = np.int64(x)
+        out[end - 2] = _PAIRS[2 * r]
+        out[end - 1] = _PAIRS[2 * r + 1]
+    else:
+        out[end - 1] = 48 + np.int64(x)
 
 
 @njit(cache=True, inline="always")
@@ -361,14 +384,14 @@ def _put_float(out, at, x, bits):
     n = _int_width_u(digits)
     point = exponent + n  # the value is 0.d1d2...dn * 10**point
     if point < -3 or point > 16:  # d1.d2...dne[+-]XX
-        end = at + n + (1 if n > 1 else 0)
-        for i in range(end - 1, at + 1 if n > 1 else at, -1):
-            out[i] = 48 + np.int64(digits % np.uint64(10))
-            digits //= np.uint64(10)
-        out[at] = 48 + np.int64(digits)
-        if n > 1:
+        if n == 1:
+            out[at] = 48 + np.int64(digits)
+            at += 1
+        else:  # the digits one place on, then the first one back before the point
+            _put_digits(out, at + 1 + n, digits)
+            out[at] = out[at + 1]
             out[at + 1] = 46
-        at = end
+            at += n + 1
         out[at] = 101  # e
         e = point - 1
         out[at + 1] = 45 if e < 0 else 43
@@ -385,32 +408,22 @@ def _put_float(out, at, x, bits):
         for i in range(-point):
             out[at + i] = 48
         at += -point
-        end = at + n
-        for i in range(end - 1, at - 1, -1):
-            out[i] = 48 + np.int64(digits % np.uint64(10))
-            digits //= np.uint64(10)
-        return end
+        _put_digits(out, at + n, digits)
+        return at + n
     if point >= n:  # ddd000.0
         end = at + n
-        for i in range(end - 1, at - 1, -1):
-            out[i] = 48 + np.int64(digits % np.uint64(10))
-            digits //= np.uint64(10)
+        _put_digits(out, end, digits)
         for i in range(point - n):
             out[end + i] = 48
         end += point - n
         out[end] = 46
         out[end + 1] = 48
         return end + 2
-    end = at + n + 1  # dd.ddd
-    for i in range(end - 1, at + point, -1):
-        out[i] = 48 + np.int64(digits % np.uint64(10))
-        digits //= np.uint64(10)
+    _put_digits(out, at + 1 + n, digits)  # dd.ddd: the digits one place on, the first ones back
+    for i in range(point):
+        out[at + i] = out[at + 1 + i]
     out[at + point] = 46
-    for i in range(at + point - 1, at - 1, -1):
-        out[i] = 48 + np.int64(digits % np.uint64(10))
-        digits //= np.uint64(10)
-    return end
-
+    return at + n + 1
 
 #: the most bytes of one float's text: sign, 17 digits, point, e-308
 _FLOAT_ROOM = 24
