@@ -247,6 +247,14 @@ def _rare_paths(shape) -> None:
     # colour on one vertex, normals; then a plain one with a line led by a form feed
     obj.read(b"v 0 0 0\n  v 1 0 0\nv 0 1 0 1 1 1\nvn 0 0 1\nf 1//1 2//1 3//1\nf 1 2 3\n")
     obj.read(b"v 0 0 0\nv 1 0 0\nv 0 1 0\n\fo x\nf 1 2 3\n")
+    # a plain OBJ written (a conversion's): its compiled vertex (not float32: 0.1) and face lines
+    from dataclasses import replace
+
+    obj.write(replace(obj.read(b"v 0.1 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1\n"), native=None))
+    # and a plain OFF: its compiled face lines (vertices as the OBJ's)
+    from .fileio.formats import off
+
+    off.write(replace(obj.read(b"v 0.1 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"), native=None))
 
     import tempfile
 

@@ -10,6 +10,7 @@ import numpy as np
 from ...core.index_sets import unique_sorted
 from ...core.mesh import Mesh, MeshError
 from .reporting import report
+from .text_format import float_rows
 
 
 class MeshFileError(MeshError):
@@ -292,14 +293,30 @@ def _float32_texts(values: np.ndarray) -> np.ndarray:
     return out.reshape(values.shape)
 
 
-def _shortest_rows(head: str, values: np.ndarray, tail: np.ndarray | None = None) -> str:
+def _shortest_rows(head: str, values: np.ndarray, tail: np.ndarray | None = None) -> list:
     """``head`` and each row of ``values`` ((k, c) float64) in its shortest exact text, one line a
-    row (``tail`` columns after it with %.6g): float32 text when every value is a float32 (read
-    from a float32 PLY, STL or glTF), else float64's (repr). Progress is reported per chunk."""
+    row (``tail`` columns after it with %.6g), as pieces of text to join (``bytes`` or uint8
+    arrays): float32 text when every value is a float32 (read from a float32 PLY, STL or glTF),
+    else float64's (repr: compiled, :func:`~hybridedit.fileio.formats.text_format.float_rows`,
+    when there is no ``tail``). Progress is reported per chunk."""
     if len(values) and np.array_equal(values.astype(np.float32).astype(np.float64), values):
         texts = _float32_texts(values)
         table = texts if tail is None else np.concatenate([texts, tail.astype(object)], axis=1)
         fmt = head + " %s" * values.shape[1] + (" %.6g" * tail.shape[1] if tail is not None else "") + "\n"
-        return _format_rows(fmt, table)
-    fmt = head + " %r" * values.shape[1] + (" %.6g" * tail.shape[1] if tail is not None else "") + "\n"
-    return _format_rows(fmt, values if tail is None else np.column_stack([values, tail]))
+        return [_format_rows(fmt, table).encode()]
+    if tail is None:
+        return _float_chunks(head.encode(), values)
+    fmt = head + " %r" * values.shape[1] + " %.6g" * tail.shape[1] + "\n"
+    return [_format_rows(fmt, np.column_stack([values, tail])).encode()]
+
+
+def _float_chunks(head: bytes, values: np.ndarray) -> list[np.ndarray]:
+    """:func:`~hybridedit.fileio.formats.text_format.float_rows` of ``values`` ((k, c) float64),
+    a chunk of rows at a time, each reported to :func:`~hybridedit.fileio.formats.reporting.report`:
+    the texts (uint8 arrays), in order."""
+    out = []
+    for start in range(0, len(values), _ROWS_PER_CHUNK):
+        chunk = values[start: start + _ROWS_PER_CHUNK]
+        out.append(float_rows(head, chunk))
+        report((start + len(chunk)) / len(values))
+    return out

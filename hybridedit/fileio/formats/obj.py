@@ -27,6 +27,7 @@ from ...core.normals import grouped_normals, vertex_normals
 from .obj_materials import read_mtl
 from .common import TextPrecision, _Bad, _sample_rows, _shortest_rows, _mesh, fan_triangles, _format_rows, _numbers, _snippet, _token_count, _widths, _words
 from .reporting import report, span
+from .text_format import face_lines
 from .text_scan import BLANK, COMMENT, CR, CRLF, F, LF, OTHER, V, VN, VT, face_corners, gather, line_spans, token_counts
 
 _MARK = int(np.iinfo(np.int64).max)  # stands in for each line's "f" while parsing indices
@@ -608,11 +609,11 @@ def _plain(doc: Document, mtl_name: str = "") -> bytes:
     vn_end = v_end + (nv / rows_total if doc.normals else 0.0)
     with span(0.0, v_end):
         if doc.colors is not None:
-            parts.append(_shortest_rows("v", mesh.vertices, tail=doc.colors[:, :3]))
+            parts += _shortest_rows("v", mesh.vertices, tail=doc.colors[:, :3])
         else:
-            parts.append(_shortest_rows("v", mesh.vertices))
+            parts += _shortest_rows("v", mesh.vertices)
     if has_uv:
-        parts.append(_shortest_rows("vt", tex.uv))
+        parts += _shortest_rows("vt", tex.uv)
     if doc.normals:
         with span(v_end, vn_end):
             parts.append(_format_rows("vn %.7g %.7g %.7g\n", vertex_normals(mesh.vertices, mesh.faces)))
@@ -622,31 +623,21 @@ def _plain(doc: Document, mtl_name: str = "") -> bytes:
         columns.append(np.where(tex.corner_uv >= 0, tex.corner_uv + 1, 0))
     if doc.normals:
         columns.append(one)
-    corner_fmt = {1: "%d", 2: "%d/%d", 3: "%d/%d/%d"}[len(columns)]
-    if doc.normals and not has_uv:
-        corner_fmt = "%d//%d"
-    table = np.stack(columns, axis=1)  # (corners, 1..3)
+    table = one[:, None] if len(columns) == 1 else np.stack(columns, axis=1)  # (corners, 1..3)
     material = tex.face_material if has_mtl and tex.face_material is not None else np.full(nf, -1)
     cuts = np.flatnonzero(np.diff(material)) + 1
-    starts = np.cumsum(counts) - counts
+    starts = np.append(np.cumsum(counts) - counts, len(table))
+    text = [part.encode("utf-8") if isinstance(part, str) else part for part in parts]
     with span(vn_end, 1.0):
         for lo, hi in zip(np.r_[0, cuts].tolist(), np.r_[cuts, nf].tolist()):
-            if material[lo] >= 0:
-                parts.append(f"usemtl {tex.materials[material[lo]].name}\n")
-            c = counts[lo:hi]
-            block = table[starts[lo]: starts[hi - 1] + counts[hi - 1]] if hi > lo else table[:0]
-            if np.all(c == c[0]):
-                k = int(c[0])
-                rows = block.reshape(len(c), -1)
-                text = _format_rows("f " + " ".join([corner_fmt] * k) + "\n", rows)
-                if has_uv:  # a corner with no coordinates (index 0) has no vt index
-                    text = text.replace("/0/", "//").replace("/0 ", " ").replace("/0\n", "\n")
-                parts.append(text)
-            else:
-                for s, cc in zip((starts[lo:hi] - starts[lo]).tolist(), c.tolist()):
-                    words = [corner_fmt % tuple(r) for r in block[s: s + cc].tolist()]
-                    line = "f " + " ".join(words) + "\n"
-                    if has_uv:
-                        line = line.replace("/0/", "//").replace("/0 ", " ").replace("/0\n", "\n")
-                    parts.append(line)
-    return "".join(parts).encode("utf-8")
+            if hi > lo and material[lo] >= 0:
+                text.append(f"usemtl {tex.materials[material[lo]].name}\n".encode("utf-8"))
+            for a in range(lo, hi, _FACES_PER_CHUNK):  # compiled, a chunk at a time (for the progress)
+                b = min(a + _FACES_PER_CHUNK, hi)
+                text.append(face_lines(counts[a:b], table[starts[a]:starts[b]], doc.normals and not has_uv))
+                report(b / nf)
+    return b"".join(text)
+
+
+#: faces written between two progress reports
+_FACES_PER_CHUNK = 1 << 16

@@ -15,7 +15,9 @@ import numpy as np
 
 from ..document import Document, moved_vertices
 from ...core.normals import grouped_normals, vertex_normals
-from .common import TextPrecision, _Bad, _sample_rows, _mesh, fan_triangles, _format_rows, _numbers, _snippet, _truncated, _widths, _words
+from .common import TextPrecision, _Bad, _sample_rows, _mesh, fan_triangles, _float_chunks, _format_rows, _numbers, _snippet, _truncated, _widths, _words
+from .reporting import report
+from .text_format import counted_lines
 
 __all__ = ["OffNative", "read", "write"]
 
@@ -214,6 +216,7 @@ def _plain(doc: Document) -> bytes:
     """OFF, with N when ``doc`` had normals and C when it has colours; polygons kept."""
     mesh = doc.mesh
     counts, flat = doc.polygon_lists()
+    starts = np.append(np.cumsum(counts) - counts, len(flat))
     columns, fmt = [mesh.vertices], "%r %r %r"  # shortest exact
     kind = "OFF"
     if doc.colors is not None:
@@ -225,12 +228,17 @@ def _plain(doc: Document) -> bytes:
     if doc.colors is not None:
         columns.append(doc.colors)
         fmt += " %.6g %.6g %.6g %.6g"
-    parts = [f"{kind}\n{mesh.n_vertices} {len(counts)} 0\n",
-             _format_rows(fmt + "\n", np.column_stack(columns))]
-    if np.all(counts == 3):
-        parts.append(_format_rows("3 %d %d %d\n", flat.reshape(-1, 3)))
+    parts: list = [f"{kind}\n{mesh.n_vertices} {len(counts)} 0\n".encode("ascii")]
+    if len(columns) == 1:  # positions alone: compiled
+        parts += _float_chunks(b"", mesh.vertices)
     else:
-        starts = np.cumsum(counts) - counts
-        parts += [" ".join(map(str, [c, *flat[s: s + c].tolist()])) + "\n"
-                  for s, c in zip(starts.tolist(), counts.tolist())]
-    return "".join(parts).encode("ascii")
+        parts.append(_format_rows(fmt + "\n", np.column_stack(columns)).encode("ascii"))
+    for start in range(0, len(counts), _FACES_PER_CHUNK):  # compiled, a chunk at a time (for the progress)
+        stop = min(start + _FACES_PER_CHUNK, len(counts))
+        parts.append(counted_lines(counts[start:stop], flat[starts[start]:starts[stop]]))
+        report(stop / len(counts))
+    return b"".join(parts)
+
+
+#: faces written between two progress reports
+_FACES_PER_CHUNK = 1 << 16
