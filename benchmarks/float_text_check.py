@@ -7,7 +7,7 @@ coordinate of the shared meshes, then ``--count`` random doubles of each of five
 patterns over every exponent, mesh-like magnitudes, float32 values widened, dyadic rationals,
 decimals rounded to 0..16 places). Prints the mismatches (none expected) and their total.
 
-    python benchmarks/float_text_check.py [--count 10000000] [--seed 1]
+    python benchmarks/float_text_check.py [--count 10000000] [--seed 1] [--smoke]
 """
 
 from __future__ import annotations
@@ -64,7 +64,10 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--count", type=int, default=10_000_000, help="random values of each kind")
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--smoke", action="store_true", help="CI smoke run: 20,000 random values of each kind")
     args = ap.parse_args()
+    if args.smoke:
+        args.count = 20_000
     t0 = time.perf_counter()
     bad = 0
     for label, values in families().items():

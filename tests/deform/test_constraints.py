@@ -200,3 +200,22 @@ def test_place_is_the_affine_map_of_its_rows(monkeypatch, threshold):
     assert np.abs(out[rows] - (source[rows] @ T[:3, :3].T + T[:3, 3])).max() < 1e-14
     others = np.setdiff1d(np.arange(500), rows)
     assert np.array_equal(out[others], before[others])
+
+
+def test_the_band_is_every_free_vertex_near_the_seam(monkeypatch):
+    # the band a big region solves: exactly the free vertices within BAND_CAGE_EDGES cage edges of a
+    # seam vertex (the existing test checks only that none is farther)
+    from scipy.spatial import cKDTree
+
+    from hybridedit.deform import constraints as C
+
+    rng = np.random.default_rng(11)
+    P = rng.uniform(-1, 1, (20_000, 3))
+    free = np.flatnonzero(P[:, 0] > -0.2)
+    seam = np.flatnonzero(np.abs(P[:, 0] + 0.25) < 0.05)[:300]
+    for edge in (0.05, 0.1, 0.3):
+        band = C.region_to_solve(P, free, seam, edge)
+        d, _ = cKDTree(P[seam]).query(P[free], distance_upper_bound=C.BAND_CAGE_EDGES * edge)
+        want = free[np.isfinite(d)]
+        assert np.array_equal(band, want) and 0 < band.size < free.size
+    assert np.array_equal(C.region_to_solve(P, free[:100], seam, 0.05), free[:100])  # small: all of it
