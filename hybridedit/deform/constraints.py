@@ -31,6 +31,7 @@ from numba import njit, prange
 from ..core.index_sets import union_in_range, unique_in_range
 from ..core.linsolve import SPDSolver
 from ..core.parallel import pick
+from ..core.proximity import rows_near
 from ..core.row_copy import put_rows
 
 
@@ -249,12 +250,7 @@ def region_to_solve(points: np.ndarray, free: np.ndarray, seam: np.ndarray, cage
     free = np.asarray(free, dtype=np.int64)
     if free.size <= REGION_WHOLE_MAX or seam.size == 0:
         return free
-    from scipy.spatial import cKDTree
-
-    workers = pick("propagate", 1, -1, free.size)  # (every core when they are free)
-    d, _ = cKDTree(points[seam]).query(points[free], distance_upper_bound=BAND_CAGE_EDGES * cage_edge,
-                                       workers=workers)
-    return free[np.isfinite(d)]
+    return free[rows_near(points, free, seam, BAND_CAGE_EDGES * cage_edge)]
 
 
 class RegionStep:
