@@ -6,7 +6,9 @@ Python's formatting gives, many times faster.
 * :func:`float_rows`: rows of float64 in their shortest exact form, as ``repr(float)`` (Ryu:
   Ulf Adams, "Ryu: fast float-to-string conversion", PLDI 2018; the shortest decimal that reads
   back to the value, the closest of them to it, ties to even: the digits of Python's
-  ``repr``, laid out by its rules).
+  ``repr``, laid out by its rules). The digit generation follows the steps, constants and table
+  definitions of the paper's reference implementation (github.com/ulfjack/ryu, ``d2s.c``,
+  Apache-2.0 or Boost-1.0), written here for numba; the tables are computed at import.
 
 Pure compute (numba); the format modules call it per chunk of rows and report progress between.
 """
