@@ -21,25 +21,16 @@ from numba import njit
 __all__ = ["counted_lines", "face_lines", "float_rows"]
 
 
-@njit(cache=True, inline="always")
-def _int_width(x):
-    """Number of decimal digits of ``x`` (int64 >= 0)."""
-    n = 1
-    while x >= 10:
-        x //= 10
-        n += 1
-    return n
-
-
 _POW10 = np.array([10 ** i for i in range(20)], dtype=np.uint64)
 _PAIRS = np.frombuffer(b"".join(b"%02d" % i for i in range(100)), dtype=np.uint8).copy()  # "00".."99"
 
 
 @njit(cache=True, inline="always")
-def _int_width_u(x):
-    """Number of decimal digits of ``x`` (uint64)."""
+def _int_width(x):
+    """Number of decimal digits of ``x`` (an integer >= 0: int64 or uint64)."""
+    u = np.uint64(x)
     n = 1
-    while n < 20 and x >= _POW10[n]:
+    while n < 20 and u >= _POW10[n]:
         n += 1
     return n
 
@@ -67,11 +58,8 @@ def _put_digits(out, end, x):
 @njit(cache=True, inline="always")
 def _put_int(out, at, x):
     """Write ``x`` (int64 >= 0) in decimal at ``out[at:]`` (uint8); returns the index after it."""
-    n = _int_width(x)
-    end = at + n
-    for i in range(end - 1, at - 1, -1):
-        out[i] = 48 + x % 10
-        x //= 10
+    end = at + _int_width(x)
+    _put_digits(out, end, np.uint64(x))
     return end
 
 
@@ -276,6 +264,14 @@ def _mul_shift(m, mul_lo, mul_hi, j):
 
 
 @njit(cache=True, inline="always")
+def _scaled_bounds(mv, mm_shift, mul_lo, mul_hi, j):
+    """The value (4 m), its upper bound (4 m + 2) and lower bound (4 m - 1 - mm_shift), each times
+    the 128-bit ``mul`` and shifted right by ``j`` (:func:`_mul_shift`): (vr, vp, vm) uint64."""
+    return (_mul_shift(mv, mul_lo, mul_hi, j), _mul_shift(mv + np.uint64(2), mul_lo, mul_hi, j),
+            _mul_shift(mv - np.uint64(1) - mm_shift, mul_lo, mul_hi, j))
+
+
+@njit(cache=True, inline="always")
 def _pow5_factor(v):
     count = 0
     while v % np.uint64(5) == np.uint64(0):
@@ -311,11 +307,7 @@ def _shortest_digits(bits):
         e10 = q
         k = _POW5_INV_BITCOUNT + _pow5bits(q) - 1
         i = -e2 + q + k
-        lo = _POW5_INV_SPLIT[q, 0]
-        hi = _POW5_INV_SPLIT[q, 1]
-        vr = _mul_shift(mv, lo, hi, i)
-        vp = _mul_shift(mv + np.uint64(2), lo, hi, i)
-        vm = _mul_shift(mv - np.uint64(1) - mm_shift, lo, hi, i)
+        vr, vp, vm = _scaled_bounds(mv, mm_shift, _POW5_INV_SPLIT[q, 0], _POW5_INV_SPLIT[q, 1], i)
         if q <= 21:
             if mv % np.uint64(5) == np.uint64(0):
                 vr_trailing_zeros = _pow5_factor(mv) >= q
@@ -329,11 +321,7 @@ def _shortest_digits(bits):
         i = -e2 - q
         k = _pow5bits(i) - _POW5_BITCOUNT
         j = q - k
-        lo = _POW5_SPLIT[i, 0]
-        hi = _POW5_SPLIT[i, 1]
-        vr = _mul_shift(mv, lo, hi, j)
-        vp = _mul_shift(mv + np.uint64(2), lo, hi, j)
-        vm = _mul_shift(mv - np.uint64(1) - mm_shift, lo, hi, j)
+        vr, vp, vm = _scaled_bounds(mv, mm_shift, _POW5_SPLIT[i, 0], _POW5_SPLIT[i, 1], j)
         if q <= 1:
             vr_trailing_zeros = True
             if even:
@@ -407,7 +395,7 @@ def _put_float(out, at, x, bits):
         out[at + 2] = 102
         return at + 3
     digits, exponent = _shortest_digits(bits)
-    n = _int_width_u(digits)
+    n = _int_width(digits)
     point = exponent + n  # the value is 0.d1d2...dn * 10**point
     if point < -3 or point > 16:  # d1.d2...dne[+-]XX
         if n == 1:
