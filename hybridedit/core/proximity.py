@@ -1,5 +1,5 @@
 """Which points lie near a set of sites: a uniform grid of cells at least as wide as the distance,
-filled by a counting sort, so that each point looks only at its own cell and the 26 around it.
+filled by a counting sort (:func:`~hybridedit.core.topology.incidence`), so that each point looks only at its own cell and the 26 around it.
 
 A k-d tree answers the same question, but building it over the sites and searching it costs
 more than one compiled pass when the sites are many: the first selection of the 11M-vertex
@@ -14,6 +14,7 @@ from numba import njit, prange
 
 from .bounds import points_box
 from .parallel import pick
+from .topology import incidence
 
 #: the grid has at most this many cells per site (and at least 2**20 allowed): wider cells when
 #: the sites are few in a large box
@@ -31,21 +32,13 @@ def _cell(x, lo, c, n):
 
 
 @njit(cache=True)
-def _sort_sites(S, lo, c, dims, starts, order):  # pragma: no cover - compiled
+def _cell_keys(S, lo, c, dims, key):  # pragma: no cover - compiled
     n0, n1, n2 = dims[0], dims[1], dims[2]
-    key = np.empty(S.shape[0], dtype=np.int64)
     for s in range(S.shape[0]):
         i = min(max(_cell(S[s, 0], lo[0], c, n0), 0), n0 - 1)
         j = min(max(_cell(S[s, 1], lo[1], c, n1), 0), n1 - 1)
         k = min(max(_cell(S[s, 2], lo[2], c, n2), 0), n2 - 1)
-        key[s] = (i * n1 + j) * n2 + k
-        starts[key[s] + 1] += 1
-    for q in range(1, starts.shape[0]):
-        starts[q] += starts[q - 1]
-    fill = starts[:-1].copy()
-    for s in range(S.shape[0]):
-        order[fill[key[s]]] = s
-        fill[key[s]] += 1
+        key[s, 0] = (i * n1 + j) * n2 + k
 
 
 @njit(cache=True, inline="always")
@@ -113,9 +106,9 @@ def rows_near(points: np.ndarray, rows: np.ndarray, sites: np.ndarray, radius: f
     while np.prod(np.floor(extent / c) + 1.0) > cap:  # wider cells: still >= radius, so 27 suffice
         c *= 1.5
     dims = (np.floor(extent / c) + 1).astype(np.int64)
-    starts = np.zeros(int(np.prod(dims)) + 1, dtype=np.int64)
-    order = np.empty(len(S), dtype=np.int64)
-    _sort_sites(S, lo, c, dims, starts, order)
+    key = np.empty((len(S), 1), dtype=np.int64)
+    _cell_keys(S, lo, c, dims, key)
+    starts, order = incidence(key, int(np.prod(dims)))  # the sites cell by cell (a counting sort)
     G = np.ascontiguousarray(S[order])
     pick("propagate", _near_serial, _near_parallel, rows.shape[0])(P, rows, G, starts, lo, c, dims,
                                                                     float(radius) ** 2, out)

@@ -32,6 +32,7 @@ from numba import njit, prange
 from ..core.bounds import grow_box
 from ..core.index_sets import MASK_SHARE, union_in_range, unique_in_range
 from ..core.mesh import unique_edges
+from ..core.topology import incidence
 from ..core.normals import accumulate_corners, face_terms, write_unit_rows, write_vertex_normals
 from ..core.parallel import pick
 from ..core.row_copy import take_rows
@@ -138,27 +139,6 @@ def _pick(serial, parallel, items: np.ndarray):
     return pick("window", serial, parallel, items.shape[0])
 
 
-def _incidence(items: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """CSR of which rows of ``items`` ((m, k) vertex indices) touch each of n vertices: (n + 1,)
-    pointers (int64) and (m k,) rows (int32 below 2**31 rows: half the memory, 264 MB of the faces'
-    at 11M), each vertex's rows in increasing order (a counting sort: linear)."""
-    ptr = np.zeros(n + 1, dtype=np.int64)
-    np.cumsum(np.bincount(items.ravel(), minlength=n), out=ptr[1:])
-    rows = np.empty(items.size, dtype=np.int32 if len(items) < 2**31 else np.int64)
-    _fill_incidence(np.ascontiguousarray(items), ptr, rows)
-    return ptr, rows
-
-
-@njit(cache=True)
-def _fill_incidence(items, ptr, rows):
-    at = ptr[:-1].copy()
-    for i in range(items.shape[0]):
-        for j in range(items.shape[1]):
-            v = items[i, j]
-            rows[at[v]] = i
-            at[v] += 1
-
-
 def _touching(ptr: np.ndarray, idx: np.ndarray, verts: np.ndarray, m: int) -> np.ndarray:
     """Sorted unique items (all in ``[0, m)``) of the CSR rows ``verts``: marked in an m-long mask
     by one pass over those rows."""
@@ -225,8 +205,8 @@ class ShapeMetrics:
         self.rest_len = np.empty(len(self.edges))
         _pick(_lengths_serial, _lengths_parallel, self.edges)(self.rest, self.edges, self.rest_len)
         self.n_ok = int(np.count_nonzero(self.rest_len > 0))
-        self.vf_ptr, self.vf_idx = _incidence(self.faces, n)
-        self.ve_ptr, self.ve_idx = _incidence(self.edges, n)
+        self.vf_ptr, self.vf_idx = incidence(self.faces, n)
+        self.ve_ptr, self.ve_idx = incidence(self.edges, n)
         self.all_vertices = np.arange(n, dtype=np.int64)
         self.terms = np.zeros(len(self.edges))
         self.total = 0.0

@@ -22,6 +22,7 @@ __all__ = [
     "edge_face_counts",
     "edge_index",
     "group_rows",
+    "incidence",
     "half_edges",
     "is_closed_oriented",
     "weld",
@@ -377,6 +378,44 @@ def group_rows(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     group = np.empty(n, dtype=np.int64)
     group[order] = rank[gid_sorted]
     return first_sorted[by_first], group
+
+
+def incidence(items: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """CSR of which rows of ``items`` touch each of ``n`` keys, by a counting sort (linear).
+
+    Parameters
+    ----------
+    items : (m, k) int array, every value in ``[0, n)`` (vertex indices of faces or edges, or a
+        (m, 1) column of bucket numbers).
+    n : int, the number of keys.
+
+    Returns
+    -------
+    ptr : (n + 1,) int64 pointers.
+    rows : (m k,) int32 below 2**31 rows (half the memory: 264 MB of the faces' at 11M), else
+        int64; each key's rows in increasing order.
+
+    Examples
+    --------
+    >>> ptr, rows = incidence(np.array([[0, 1, 2], [2, 1, 3]]), 4)
+    >>> ptr.tolist(), rows.tolist()
+    ([0, 1, 3, 5, 6], [0, 0, 1, 0, 1, 1])
+    """
+    ptr = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(np.bincount(items.ravel(), minlength=n), out=ptr[1:])
+    rows = np.empty(items.size, dtype=np.int32 if len(items) < 2**31 else np.int64)
+    _fill_incidence(np.ascontiguousarray(items), ptr, rows)
+    return ptr, rows
+
+
+@numba.njit(cache=True)
+def _fill_incidence(items, ptr, rows):
+    at = ptr[:-1].copy()
+    for i in range(items.shape[0]):
+        for j in range(items.shape[1]):
+            v = items[i, j]
+            rows[at[v]] = i
+            at[v] += 1
 
 
 def weld(vertices: np.ndarray, faces: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:

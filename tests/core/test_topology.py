@@ -151,3 +151,18 @@ def test_edge_index_of_a_fan_and_of_nothing():
     assert np.array_equal(edges, want_e) and np.array_equal(inverse, want_i)
     e0, i0 = edge_index(np.zeros((0, 3), dtype=np.int64), 5)
     assert e0.shape == (0, 2) and i0.shape == (0,)
+
+
+def test_incidence_is_a_stable_sort_of_the_rows_by_key():
+    """The incidence (a counting sort) gives what sorting the rows by key gave, repeated corners
+    included, with int32 rows."""
+    from hybridedit.core.topology import incidence
+
+    rng = np.random.default_rng(3)
+    n = 300
+    faces = rng.integers(0, n, (900, 3))
+    faces[5] = [7, 7, 9]  # a corner repeated
+    ptr, rows = incidence(faces, n)
+    order = np.argsort(faces.ravel(), kind="stable")
+    assert rows.dtype == np.int32 and np.array_equal(rows, np.repeat(np.arange(len(faces)), 3)[order])
+    assert np.array_equal(ptr, np.r_[0, np.cumsum(np.bincount(faces.ravel(), minlength=n))])
