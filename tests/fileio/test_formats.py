@@ -671,7 +671,7 @@ def test_reading_and_writing_an_obj_report_their_progress(tmp_path: Path, monkey
     # an OBJ written in its own structure (its moved vertices' lines rewritten) reports too
     from hybridedit.fileio.formats import obj
 
-    monkeypatch.setattr(obj, "_ROWS_PER_REPORT", 300)
+    monkeypatch.setattr(obj, "_ROWS_PER_CHUNK", 300)
     seen.clear()
     write_document(tmp_path / "moved.obj", doc.with_vertices(doc.mesh.vertices * 1.5), progress=progress)
     fractions = [f for _, f in seen]

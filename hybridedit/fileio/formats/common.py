@@ -171,18 +171,24 @@ def _widths(lines: list[bytes]) -> np.ndarray:
     return np.fromiter(map(len, map(bytes.split, lines)), dtype=np.int64, count=len(lines))
 
 
+#: rows (lines, faces) a writer turns into text between two progress reports
 _ROWS_PER_CHUNK = 1 << 16
 
 
-def _format_rows(fmt: str, values: np.ndarray) -> str:
-    """Apply a %-format for one row to every row of a 2-d array, in chunks (each one reported
-    to :func:`hybridedit.fileio.formats.reporting.report`)."""
+def _in_chunks(values: np.ndarray, text) -> list:
+    """``text(chunk)`` of each chunk of :data:`_ROWS_PER_CHUNK` rows of ``values``, in order, each
+    reported to :func:`hybridedit.fileio.formats.reporting.report`."""
     out = []
     for start in range(0, len(values), _ROWS_PER_CHUNK):
         chunk = values[start: start + _ROWS_PER_CHUNK]
-        out.append((fmt * len(chunk)) % tuple(chunk.ravel().tolist()))
+        out.append(text(chunk))
         report((start + len(chunk)) / len(values))
-    return "".join(out)
+    return out
+
+
+def _format_rows(fmt: str, values: np.ndarray) -> str:
+    """Apply a %-format for one row to every row of a 2-d array, in chunks (:func:`_in_chunks`)."""
+    return "".join(_in_chunks(values, lambda chunk: (fmt * len(chunk)) % tuple(chunk.ravel().tolist())))
 
 
 # --------------------------------------------------------------------------- text precision
@@ -312,11 +318,5 @@ def _shortest_rows(head: str, values: np.ndarray, tail: np.ndarray | None = None
 
 def _float_chunks(head: bytes, values: np.ndarray) -> list[np.ndarray]:
     """:func:`~hybridedit.fileio.formats.text_format.float_rows` of ``values`` ((k, c) float64),
-    a chunk of rows at a time, each reported to :func:`~hybridedit.fileio.formats.reporting.report`:
-    the texts (uint8 arrays), in order."""
-    out = []
-    for start in range(0, len(values), _ROWS_PER_CHUNK):
-        chunk = values[start: start + _ROWS_PER_CHUNK]
-        out.append(float_rows(head, chunk))
-        report((start + len(chunk)) / len(values))
-    return out
+    a chunk of rows at a time (:func:`_in_chunks`): the texts (uint8 arrays), in order."""
+    return _in_chunks(values, lambda chunk: float_rows(head, chunk))

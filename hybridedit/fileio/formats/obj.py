@@ -25,7 +25,7 @@ import numpy as np
 from ..document import Document, Material, Texturing, moved_vertices
 from ...core.normals import grouped_normals, vertex_normals
 from .obj_materials import read_mtl
-from .common import TextPrecision, _Bad, _sample_rows, _shortest_rows, _mesh, fan_triangles, _format_rows, _numbers, _snippet, _token_count, _widths, _words
+from .common import _ROWS_PER_CHUNK, TextPrecision, _Bad, _sample_rows, _shortest_rows, _mesh, fan_triangles, _format_rows, _numbers, _snippet, _token_count, _widths, _words
 from .reporting import report, span
 from .text_format import face_lines
 from .text_scan import BLANK, COMMENT, CR, CRLF, F, LF, OTHER, V, VN, VT, face_corners, gather, line_spans, token_counts
@@ -421,12 +421,12 @@ def write(doc: Document) -> bytes:
     with span(0.0, 0.6):
         style = precision(nat) if len(rows) else None
         texts: list[bytes] = []
-        for start in range(0, len(rows), _ROWS_PER_REPORT):
-            chunk = rows[start:start + _ROWS_PER_REPORT]
+        for start in range(0, len(rows), _ROWS_PER_CHUNK):
+            chunk = rows[start:start + _ROWS_PER_CHUNK]
             xyz = V[chunk].ravel().tolist()  # (flat: a list per row made the collector run)
             for line, x, y, z in zip(nat.lines.pick(nat.v_lines[chunk]), xyz[0::3], xyz[1::3], xyz[2::3]):
                 texts.append(b" ".join([b"v", style.text(x), style.text(y), style.text(z), *line.split()[4:]]))
-            report((start + _ROWS_PER_REPORT) / len(rows))
+            report((start + _ROWS_PER_CHUNK) / len(rows))
         out.replace(nat.v_lines[rows], texts)
     if nat.corner_vn is not None and moved.any():
         _write_normals(doc, nat, V, moved, out)
@@ -496,10 +496,6 @@ def precision(nat: ObjNative) -> TextPrecision:
     """How the file writes its ``v`` coordinates (from up to 2,000 of its lines spread over it)."""
     lines = nat.lines.pick(nat.v_lines[_sample_rows(len(nat.v_lines))])
     return TextPrecision.of([t for line in lines for t in line.split()[1:4]])
-
-
-#: moved vertex lines rewritten between two progress reports
-_ROWS_PER_REPORT = 1 << 16
 
 
 #: A recomputed normal closer than this (radians) to its line's keeps the line.
@@ -632,12 +628,8 @@ def _plain(doc: Document, mtl_name: str = "") -> bytes:
         for lo, hi in zip(np.r_[0, cuts].tolist(), np.r_[cuts, nf].tolist()):
             if hi > lo and material[lo] >= 0:
                 text.append(f"usemtl {tex.materials[material[lo]].name}\n".encode("utf-8"))
-            for a in range(lo, hi, _FACES_PER_CHUNK):  # compiled, a chunk at a time (for the progress)
-                b = min(a + _FACES_PER_CHUNK, hi)
+            for a in range(lo, hi, _ROWS_PER_CHUNK):  # compiled, a chunk at a time (for the progress)
+                b = min(a + _ROWS_PER_CHUNK, hi)
                 text.append(face_lines(counts[a:b], table[starts[a]:starts[b]], doc.normals and not has_uv))
                 report(b / nf)
     return b"".join(text)
-
-
-#: faces written between two progress reports
-_FACES_PER_CHUNK = 1 << 16

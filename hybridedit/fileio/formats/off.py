@@ -15,7 +15,7 @@ import numpy as np
 
 from ..document import Document, moved_vertices
 from ...core.normals import grouped_normals, vertex_normals
-from .common import TextPrecision, _Bad, _sample_rows, _mesh, fan_triangles, _float_chunks, _format_rows, _numbers, _snippet, _truncated, _widths, _words
+from .common import _ROWS_PER_CHUNK, TextPrecision, _Bad, _sample_rows, _mesh, fan_triangles, _float_chunks, _format_rows, _numbers, _snippet, _truncated, _widths, _words
 from .reporting import report
 from .text_format import counted_lines
 
@@ -233,12 +233,8 @@ def _plain(doc: Document) -> bytes:
         parts += _float_chunks(b"", mesh.vertices)
     else:
         parts.append(_format_rows(fmt + "\n", np.column_stack(columns)).encode("ascii"))
-    for start in range(0, len(counts), _FACES_PER_CHUNK):  # compiled, a chunk at a time (for the progress)
-        stop = min(start + _FACES_PER_CHUNK, len(counts))
+    for start in range(0, len(counts), _ROWS_PER_CHUNK):  # compiled, a chunk at a time (for the progress)
+        stop = min(start + _ROWS_PER_CHUNK, len(counts))
         parts.append(counted_lines(counts[start:stop], flat[starts[start]:starts[stop]]))
         report(stop / len(counts))
     return b"".join(parts)
-
-
-#: faces written between two progress reports
-_FACES_PER_CHUNK = 1 << 16
