@@ -38,12 +38,6 @@ from ..core.region_metrics import ShapeMetrics
 from .shapeparts import ShapeParts
 
 
-def _bounds(P: np.ndarray, skip: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """(lo, hi) corners of the points P (k, 3) but the rows ``skip`` ((k,) bool) marks; an empty box
-    (lo > hi) for no points."""
-    return points_box(P, skip=skip)
-
-
 def _union(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     return np.minimum(a[0], b[0]), np.maximum(a[1], b[1])
 
@@ -110,7 +104,7 @@ class Scene:
         self.parts: ShapeParts | None = None
         self.look = None  # what the file says the shape looks like (.look.Look), or None
         self._shape_roles = np.zeros(0, dtype=np.int8)
-        self._shape_bounds = self._next_bounds = _bounds(np.zeros((0, 3)))
+        self._shape_bounds = self._next_bounds = points_box(np.zeros((0, 3)))
         self._still_bounds: tuple[np.ndarray, np.ndarray] | None = None  # the vertices a drag leaves
         self.cage_poly: pv.PolyData | None = None
         self.points_poly: pv.PolyData | None = None
@@ -170,7 +164,7 @@ class Scene:
         self._actors.append(actor)
         self.shape = poly
         self.points32 = poly.points
-        self._shape_bounds = self._next_bounds = self._cage_bounds = _bounds(self.points32)
+        self._shape_bounds = self._next_bounds = self._cage_bounds = points_box(self.points32)
         self._still_bounds = None
         self.reset_camera()
 
@@ -220,7 +214,7 @@ class Scene:
         self.parts = self._make_parts(mode)
         self._shape_roles = np.asarray(shape_roles).copy()
         self.parts.set_roles(shape_roles, self.points32, self.normals32, self.stretch32)
-        self._shape_bounds = self._next_bounds = _bounds(self.points32)
+        self._shape_bounds = self._next_bounds = points_box(self.points32)
         self._still_bounds = None
 
     def _make_parts(self, mode: str) -> ShapeParts:
@@ -268,7 +262,7 @@ class Scene:
         # the frame thread's own copy: its normals buffer is not shared with the UI thread's
         self._cage_metrics_frames = ShapeMetrics(self._cage_pos, self._cage_faces)
         self._cage_normals = None
-        self._cage_bounds = _bounds(self._cage_pos)
+        self._cage_bounds = points_box(self._cage_pos)
         self._cage_roles = np.asarray(cage_roles, dtype=np.int64).copy()
         self._near = np.zeros(cage.n_points, dtype=bool)
         self._shown_points = np.zeros(0, dtype=np.int64)
@@ -332,7 +326,7 @@ class Scene:
             if moving is not None:
                 in_motion = np.zeros(len(self.points32), dtype=bool)
                 in_motion[self.metrics.moving] = True
-                self._still_bounds = _bounds(self.points32, skip=in_motion)
+                self._still_bounds = points_box(self.points32, skip=in_motion)
 
     def update_shape(self, V: np.ndarray, *, everything: bool = False) -> tuple[float, float]:
         """Write shape positions (n, 3) and their normals into the buffers VTK draws, in place.
@@ -351,7 +345,7 @@ class Scene:
         t0 = time.perf_counter()
         self.metrics.write_points(V, self.points32, everything=everything)
         if everything or self._still_bounds is None:
-            self._next_bounds = _bounds(self.points32)
+            self._next_bounds = points_box(self.points32)
         else:
             self._next_bounds = _union(self._still_bounds, self.metrics.moving_box(self.points32))
         t1 = time.perf_counter()
@@ -371,7 +365,7 @@ class Scene:
         :meth:`update_cage`: the part of it that may run on the frame thread (no VTK calls)."""
         normals = np.zeros((len(P), 3), dtype=np.float32)
         self._cage_metrics_frames.write_normals(P, normals, everything=True)
-        return normals, _bounds(P)
+        return normals, points_box(P)
 
     def update_cage(self, P: np.ndarray, geometry=None) -> None:
         """Write a new cage pose (c, 3) into the wireframe and the points, in place; ``geometry``
@@ -451,7 +445,7 @@ class Scene:
             return
         direction, screen_up = view_directions(self.up_axis, view)
         cam = self.renderer.GetActiveCamera()
-        lo, hi = _bounds(self.points32)
+        lo, hi = points_box(self.points32)
         centre = 0.5 * (lo + hi)
         distance = max(float(np.linalg.norm(hi - lo)), 1e-9) * 2.0
         cam.SetFocalPoint(*centre)
@@ -515,7 +509,7 @@ class Scene:
         if self.shape is None:
             return
         if self._cage_bounds is None:
-            self._cage_bounds = _bounds(self._cage_pos)
+            self._cage_bounds = points_box(self._cage_pos)
         b = _union(self._shape_bounds, self._cage_bounds)
         g = self.gizmo
         if g.visible:
