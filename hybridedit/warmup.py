@@ -227,7 +227,7 @@ def _rare_paths(shape) -> None:
     """Binding rows wider than the fast kernel's row buffer, and public kernels the pipeline does not call."""
     from .binding.bind import bind
     from .binding.mvc import atan2_pos_array
-    from .core.rotations import closest_rotations
+    from .core.rotations import closest_rotation, closest_rotations
 
     bind(0.5 * shape.vertices[:8], shape, truncation=0.0)  # the shape as its own cage, untruncated
     import scipy.sparse as sp
@@ -239,6 +239,7 @@ def _rare_paths(shape) -> None:
     cap_rows(wide, 3)
 
     closest_rotations(np.tile(np.eye(3), (4, 1, 1)), np.empty((4, 3, 3)))
+    closest_rotation(np.eye(3), np.empty((3, 3)))  # (the frames turn theirs in lanes)
     from .core.proximity import rows_near
 
     rows_near(np.eye(3), np.arange(3), np.array([0]), 0.5)  # (a big region's band, from 8,000 free rows)

@@ -117,6 +117,36 @@ def _rotation_jacobi(a, out):
     out[2, 2] = p2 * x2 + q2 * y2 + r2 * z2
 
 
+#: most scaled Newton steps taken towards a polar factor
+NEWTON_STEPS = 40
+
+
+@njit(cache=True, inline="always")
+def by_svd(a) -> bool:
+    """True when the closest rotation to the (3, 3) ``a`` is not the limit of the Newton
+    iteration for its polar factor: ``a`` is zero (the identity is taken), near singular or a
+    reflection (det <= 0). Those are solved by :func:`rotation_by_svd`."""
+    nrm = (a[0, 0] * a[0, 0] + a[0, 1] * a[0, 1] + a[0, 2] * a[0, 2] + a[1, 0] * a[1, 0] + a[1, 1] * a[1, 1]
+           + a[1, 2] * a[1, 2] + a[2, 0] * a[2, 0] + a[2, 1] * a[2, 1] + a[2, 2] * a[2, 2])
+    return nrm == 0.0 or _det3(a) <= 1e-6 * nrm * np.sqrt(nrm)
+
+
+@njit(cache=True)
+def rotation_by_svd(a: np.ndarray, out: np.ndarray) -> None:
+    """The closest rotation to a (3, 3) ``a`` for which :func:`by_svd` holds, into ``out`` (which
+    may be ``a``): the identity for a zero matrix, else by Jacobi sweeps."""
+    nrm = 0.0
+    for i in range(3):
+        for j in range(3):
+            nrm += a[i, j] * a[i, j]
+    if nrm == 0.0:
+        for i in range(3):
+            for j in range(3):
+                out[i, j] = 1.0 if i == j else 0.0
+        return
+    _rotation_jacobi(a, out)
+
+
 @njit(cache=True)
 def closest_rotation(a: np.ndarray, out: np.ndarray) -> None:
     """Write to ``out`` the rotation R maximizing trace(R^T a).
@@ -133,20 +163,13 @@ def closest_rotation(a: np.ndarray, out: np.ndarray) -> None:
     a : (3, 3) float64 array
     out : (3, 3) float64 array, written
     """
+    if by_svd(a):
+        rotation_by_svd(a, out)
+        return
     x00, x01, x02 = a[0, 0], a[0, 1], a[0, 2]
     x10, x11, x12 = a[1, 0], a[1, 1], a[1, 2]
     x20, x21, x22 = a[2, 0], a[2, 1], a[2, 2]
-    nrm = (x00 * x00 + x01 * x01 + x02 * x02 + x10 * x10 + x11 * x11 + x12 * x12
-           + x20 * x20 + x21 * x21 + x22 * x22)
-    if nrm == 0.0:
-        for i in range(3):
-            for j in range(3):
-                out[i, j] = 1.0 if i == j else 0.0
-        return
-    if _det3(a) <= 1e-6 * nrm * np.sqrt(nrm):
-        _rotation_jacobi(a, out)
-        return
-    for _ in range(40):
+    for _ in range(NEWTON_STEPS):
         # cofactor matrix c = det(x) * inverse transpose of x
         c00 = x11 * x22 - x12 * x21
         c01 = x12 * x20 - x10 * x22
@@ -189,8 +212,132 @@ def closest_rotation(a: np.ndarray, out: np.ndarray) -> None:
     out[2, 0], out[2, 1], out[2, 2] = x20, x21, x22
 
 
+#: matrices whose Newton steps :func:`polar_lanes` takes side by side. The loop over them compiles
+#: to vector instructions (each lane's arithmetic is the scalar one, so every result is bitwise
+#: :func:`closest_rotation`'s); below about 16 lanes LLVM keeps it scalar. Measured on the 690K
+#: armadillo's cage covariances (about 6 steps each), one thread: 215 ns a matrix one at a time,
+#: 125 ns in lanes of 8 or 16, 41 ns in lanes of 32 or 64.
+LANES = 32
+
+
+@njit(cache=True, error_model="numpy")
+def _newton_lanes_step(x, done, nl):
+    """One scaled Newton step (as in :func:`closest_rotation`) of the lanes l < nl of x (9, LANES),
+    the row-major entries of a matrix per column, whose ``done[l]`` is 0; a lane whose step changed
+    it by less than 1e-9 gets ``done[l] = 1``. Returns True when every lane is done."""
+    for l in range(nl):
+        x00 = x[0, l]
+        x01 = x[1, l]
+        x02 = x[2, l]
+        x10 = x[3, l]
+        x11 = x[4, l]
+        x12 = x[5, l]
+        x20 = x[6, l]
+        x21 = x[7, l]
+        x22 = x[8, l]
+        c00 = x11 * x22 - x12 * x21
+        c01 = x12 * x20 - x10 * x22
+        c02 = x10 * x21 - x11 * x20
+        c10 = x02 * x21 - x01 * x22
+        c11 = x00 * x22 - x02 * x20
+        c12 = x01 * x20 - x00 * x21
+        c20 = x01 * x12 - x02 * x11
+        c21 = x02 * x10 - x00 * x12
+        c22 = x00 * x11 - x01 * x10
+        dx = x00 * c00 + x01 * c01 + x02 * c02
+        inv = 1.0 / dx
+        nx = (x00 * x00 + x01 * x01 + x02 * x02 + x10 * x10 + x11 * x11 + x12 * x12
+              + x20 * x20 + x21 * x21 + x22 * x22)
+        nc = (c00 * c00 + c01 * c01 + c02 * c02 + c10 * c10 + c11 * c11 + c12 * c12
+              + c20 * c20 + c21 * c21 + c22 * c22)
+        g = np.sqrt(np.sqrt(nc * inv * inv / nx))
+        ga = 0.5 * g
+        gb = 0.5 * inv / g
+        y00 = ga * x00 + gb * c00
+        y01 = ga * x01 + gb * c01
+        y02 = ga * x02 + gb * c02
+        y10 = ga * x10 + gb * c10
+        y11 = ga * x11 + gb * c11
+        y12 = ga * x12 + gb * c12
+        y20 = ga * x20 + gb * c20
+        y21 = ga * x21 + gb * c21
+        y22 = ga * x22 + gb * c22
+        change = ((y00 - x00) ** 2 + (y01 - x01) ** 2 + (y02 - x02) ** 2
+                  + (y10 - x10) ** 2 + (y11 - x11) ** 2 + (y12 - x12) ** 2
+                  + (y20 - x20) ** 2 + (y21 - x21) ** 2 + (y22 - x22) ** 2)
+        keep = done[l] != 0.0  # (selects, not branches: the loop stays one vector loop)
+        x[0, l] = x00 if keep else y00
+        x[1, l] = x01 if keep else y01
+        x[2, l] = x02 if keep else y02
+        x[3, l] = x10 if keep else y10
+        x[4, l] = x11 if keep else y11
+        x[5, l] = x12 if keep else y12
+        x[6, l] = x20 if keep else y20
+        x[7, l] = x21 if keep else y21
+        x[8, l] = x22 if keep else y22
+        done[l] = 1.0 if (keep or change < 1e-18) else 0.0
+    left = 0.0
+    for l in range(nl):
+        left += 1.0 - done[l]
+    return left == 0.0
+
+
+@njit(cache=True)
+def polar_lanes(x: np.ndarray, done: np.ndarray, nl: int) -> None:
+    """Polar factors of up to :data:`LANES` matrices at once, in place.
+
+    Parameters
+    ----------
+    x : (9, LANES) float64 array
+        Column l < nl holds a matrix's entries in row-major order; a column whose ``done`` is 0
+        must not satisfy :func:`by_svd` (its polar factor is its closest rotation). Overwritten by
+        the factors, each bitwise what :func:`closest_rotation` gives (the same steps).
+    done : (LANES,) float64 array
+        1.0 for a column to leave as it is (a matrix solved otherwise), 0.0 for one to solve;
+        all 1.0 on return.
+    nl : int
+        Columns in use.
+
+    Examples
+    --------
+    >>> x = np.zeros((9, LANES)); x[[0, 4, 8], 0] = 2.0
+    >>> done = np.ones(LANES); done[0] = 0.0
+    >>> polar_lanes(x, done, 1); x[:, 0].tolist()
+    [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
+    """
+    for _ in range(NEWTON_STEPS):
+        if _newton_lanes_step(x, done, nl):
+            return
+    done[:nl] = 1.0
+
+
+@njit(cache=True, inline="always")
+def _rotations_block(b, a, out, x, done):
+    """Closest rotations of matrices [b * LANES, (b + 1) * LANES) of a (k, 3, 3) into ``out``."""
+    r0 = b * LANES
+    nl = min(LANES, a.shape[0] - r0)
+    for l in range(nl):
+        m = a[r0 + l]
+        if by_svd(m):
+            rotation_by_svd(m, out[r0 + l])
+            done[l] = 1.0
+        else:
+            for i in range(3):
+                for j in range(3):
+                    x[3 * i + j, l] = m[i, j]
+            done[l] = 0.0
+    elsewhere = done.copy()  # (the matrices solved by SVD above)
+    polar_lanes(x, done, nl)
+    for l in range(nl):
+        if elsewhere[l] == 0.0:
+            for i in range(3):
+                for j in range(3):
+                    out[r0 + l, i, j] = x[3 * i + j, l]
+
+
 @njit(cache=True, parallel=True)
 def closest_rotations(a: np.ndarray, out: np.ndarray) -> None:
-    """Batched :func:`closest_rotation`: a and out are (k, 3, 3) float64."""
-    for k in prange(a.shape[0]):
-        closest_rotation(a[k], out[k])
+    """Batched :func:`closest_rotation` (in lanes, :func:`polar_lanes`): a and out are (k, 3, 3)
+    float64; ``out`` may be ``a``."""
+    for b in prange((a.shape[0] + LANES - 1) // LANES):
+        _rotations_block(b, a, out, np.empty((9, LANES)), np.empty(LANES))

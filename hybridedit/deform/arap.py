@@ -11,7 +11,7 @@ from numba import njit, prange
 from ..core.linsolve import SPDSolver
 from ..core.parallel import pick
 from ..core.mesh import unique_edges
-from ..core.rotations import closest_rotation
+from ..core.rotations import LANES, by_svd, polar_lanes, rotation_by_svd
 from ..core.row_copy import put_rows, take_rows
 from ..core.index_sets import union_in_range, unique_in_range, unique_sorted
 from ..core.topology import edge_index
@@ -90,8 +90,8 @@ def laplacian(n: int, edges: np.ndarray, weights: np.ndarray) -> sp.csr_matrix:
 
 
 @njit(cache=True, inline="always")
-def _rotation_of(i, rest, cur, indptr, indices, wts, rots):
-    """R_i = closest rotation to sum_j w_ij (p'_i - p'_j)(p_i - p_j)^T."""
+def _covariance_of(i, rest, cur, indptr, indices, wts, r):
+    """r (3, 3) = sum_j w_ij (p'_i - p'_j)(p_i - p_j)^T, whose closest rotation is R_i."""
     a00 = a01 = a02 = a10 = a11 = a12 = a20 = a21 = a22 = 0.0
     for k in range(indptr[i], indptr[i + 1]):
         j = indices[k]
@@ -111,7 +111,6 @@ def _rotation_of(i, rest, cur, indptr, indices, wts, rots):
         a20 += d2 * e0
         a21 += d2 * e1
         a22 += d2 * e2
-    r = rots[i]
     r[0, 0] = a00
     r[0, 1] = a01
     r[0, 2] = a02
@@ -121,19 +120,49 @@ def _rotation_of(i, rest, cur, indptr, indices, wts, rots):
     r[2, 0] = a20
     r[2, 1] = a21
     r[2, 2] = a22
-    closest_rotation(r, r)
+
+
+@njit(cache=True, inline="always")
+def _rotations_of_block(b, rest, cur, indptr, indices, wts, rots, rows, x, done, elsewhere):
+    """R_i of the vertices i = rows[b * LANES: (b + 1) * LANES] into ``rots``: each covariance
+    (:func:`_covariance_of`) turned into its closest rotation, the polar factors side by side
+    (:func:`~hybridedit.core.rotations.polar_lanes`), the others by SVD. Bitwise
+    :func:`~hybridedit.core.rotations.closest_rotation` of each covariance."""
+    r0 = b * LANES
+    nl = min(LANES, rows.shape[0] - r0)
+    for l in range(nl):
+        r = rots[rows[r0 + l]]
+        _covariance_of(rows[r0 + l], rest, cur, indptr, indices, wts, r)
+        if by_svd(r):
+            rotation_by_svd(r, r)
+            done[l] = 1.0
+        else:
+            for p in range(3):
+                for q in range(3):
+                    x[3 * p + q, l] = r[p, q]
+            done[l] = 0.0
+        elsewhere[l] = done[l]
+    polar_lanes(x, done, nl)
+    for l in range(nl):
+        if elsewhere[l] == 0.0:
+            r = rots[rows[r0 + l]]
+            for p in range(3):
+                for q in range(3):
+                    r[p, q] = x[3 * p + q, l]
 
 
 @njit(cache=True)
 def _local_step_serial(rest, cur, indptr, indices, wts, rots, rows):
-    for r in range(rows.shape[0]):
-        _rotation_of(rows[r], rest, cur, indptr, indices, wts, rots)
+    x, done, elsewhere = np.empty((9, LANES)), np.empty(LANES), np.empty(LANES)
+    for b in range((rows.shape[0] + LANES - 1) // LANES):
+        _rotations_of_block(b, rest, cur, indptr, indices, wts, rots, rows, x, done, elsewhere)
 
 
 @njit(cache=True, parallel=True)
 def _local_step_parallel(rest, cur, indptr, indices, wts, rots, rows):
-    for r in prange(rows.shape[0]):
-        _rotation_of(rows[r], rest, cur, indptr, indices, wts, rots)
+    for b in prange((rows.shape[0] + LANES - 1) // LANES):
+        _rotations_of_block(b, rest, cur, indptr, indices, wts, rots, rows, np.empty((9, LANES)), np.empty(LANES),
+                            np.empty(LANES))
 
 
 def _local_step(rest, cur, indptr, indices, wts, rots, rows):

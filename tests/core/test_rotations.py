@@ -89,3 +89,52 @@ def test_the_jacobi_decomposition_alone_matches_svd_on_general_matrices():
     b = a.copy()
     jacobi_all(b, b)
     assert np.array_equal(b, out)
+
+
+def _one_at_a_time(a):
+    from numba import njit
+
+    @njit
+    def each(a, out):
+        for k in range(a.shape[0]):
+            closest_rotation(a[k], out[k])
+
+    out = np.empty_like(a)
+    each(a, out)
+    return out
+
+
+def test_rotations_in_lanes_are_bitwise_the_ones_taken_one_at_a_time():
+    from hybridedit.core.rotations import LANES
+
+    rng = np.random.default_rng(7)
+    general = rng.normal(size=(3 * LANES + 5, 3, 3))  # a last block of 5 lanes; reflections among them
+    general[::7] = 0.0  # zero matrices (the identity) in the middle of blocks
+    slow = rng.normal(size=(LANES, 3, 3))
+    slow[:, 0] *= 1e-4  # ill-conditioned lanes needing more steps than their block's others
+    a = np.concatenate([general, near_planar(2 * LANES + 1, 9), slow, Rotation.random(3, random_state=2).as_matrix()])
+    ref = _one_at_a_time(a)
+    out = np.empty_like(a)
+    closest_rotations(a, out)
+    assert np.array_equal(out, ref)
+    inplace = a.copy()
+    closest_rotations(inplace, inplace)
+    assert np.array_equal(inplace, ref)
+
+
+def test_polar_lanes_solves_only_the_lanes_not_done():
+    from hybridedit.core.rotations import LANES, polar_lanes
+
+    rng = np.random.default_rng(3)
+    m = rng.normal(size=(LANES, 3, 3))
+    m[np.linalg.det(m) < 0, 0] *= -1.0  # polar factors are the closest rotations
+    x = np.ascontiguousarray(m.reshape(LANES, 9).T)
+    done = np.zeros(LANES)
+    done[1] = 1.0  # left as it is
+    polar_lanes(x, done, 4)  # and lanes 4.. are not in use
+    assert np.all(done[:4] == 1.0)
+    ref = _one_at_a_time(m[:4])
+    for lane in (0, 2, 3):
+        assert np.array_equal(x[:, lane].reshape(3, 3), ref[lane])
+    assert np.array_equal(x[:, 1], m[1].ravel())
+    assert np.array_equal(x[:, 4:], m[4:].reshape(-1, 9).T)

@@ -220,3 +220,41 @@ def test_a_solve_given_slots_moves_only_those_and_equals_a_full_solve():
         s.solve(target, slots=slots)
     with pytest.raises(ValueError, match="slots"):
         s.solve(target[:1], slots=[len(c)])
+
+
+def test_the_local_step_is_each_covariances_closest_rotation_on_either_twin():
+    # the rotations are turned in lanes (core.rotations.polar_lanes): bit for bit the closest
+    # rotation of each vertex's covariance taken one at a time, on one thread or two, for rows in
+    # any order and a last block that is not full
+    from hybridedit.core.rotations import closest_rotation
+    from hybridedit.deform.arap import _local_step_parallel, _local_step_serial
+
+    m, s = blob_solver("cotangent")
+    rng = np.random.default_rng(5)
+    cur = m.vertices @ rigid_transform(axis=(1, 1, 0), degrees=30)[:3, :3].T + 0.05 * rng.normal(size=m.vertices.shape)
+    rows = rng.permutation(m.n_vertices)[: m.n_vertices - 7]
+    ref = np.full((m.n_vertices, 3, 3), 7.0)
+    L = sp.csr_matrix(s.L)
+    for i in rows:
+        a = np.zeros((3, 3))
+        for j in L.indices[L.indptr[i]:L.indptr[i + 1]]:
+            if j != i:
+                a += -L[i, j] * np.outer(cur[i] - cur[j], m.vertices[i] - m.vertices[j])
+        closest_rotation(a, ref[i])
+    from numba import njit
+
+    from hybridedit.deform.arap import _covariance_of
+
+    @njit
+    def one_at_a_time(rest, cur, indptr, indices, wts, rots, rows):
+        for i in rows:
+            _covariance_of(i, rest, cur, indptr, indices, wts, rots[i])
+            closest_rotation(rots[i], rots[i])
+
+    exact = np.full((m.n_vertices, 3, 3), 7.0)
+    one_at_a_time(s.reference, cur, s._indptr, s._indices, s._wts, exact, rows)
+    assert np.abs(exact - ref).max() < 1e-12
+    for twin in (_local_step_serial, _local_step_parallel):
+        out = np.full((m.n_vertices, 3, 3), 7.0)  # rows not asked for are not written
+        twin(s.reference, cur, s._indptr, s._indices, s._wts, out, rows)
+        assert np.array_equal(out, exact)
