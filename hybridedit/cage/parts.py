@@ -15,6 +15,7 @@ from typing import Callable
 import numpy as np
 
 from ..core.mesh import Mesh
+from ..core.spatial_order import morton_order
 from ..defaults import CAGE_SIZE, check_cage_size
 from .clean import clean_surface, is_usable_piece
 from .qem import HalfWorker, start_worker
@@ -137,7 +138,7 @@ def _cage_parts(mesh: Mesh, size: int | float, said: list[str], say: Callable[[f
         piece, kind, closed = _cage_piece(part, want, known_closed=source.closed, progress=part_progress,
                                           worker=worker)
         holes += closed
-        pieces.append(piece)
+        pieces.append(_in_spatial_order(piece, kind))
         kinds.append(kind)
         done += part.n_vertices
         part_progress(1.0)
@@ -197,6 +198,27 @@ def _owners(mesh: Mesh, src: Mesh, vmap: np.ndarray, count: int, labels: np.ndar
 
             owner[~ok] = labels[cKDTree(src.vertices).query(mesh.vertices[~ok])[1]]
     return owner
+
+
+def _in_spatial_order(piece: Mesh, kind: str) -> Mesh:
+    """The piece with its vertices in Morton order (:func:`hybridedit.core.spatial_order.morton_order`):
+    the cage vertices a drag frees are then a few runs of rows, and a frame's gathers over them
+    hit the cache (the 2.77M armadillo's canonical edit: the local step 0.99 -> 0.88 ms, the
+    global step's right-hand side 0.48 -> 0.28 ms, side by side). A shell keeps its layout (top
+    vertex i, its bottom twin i + k: :func:`hybridedit.cage.shell.shell_pairs`): its top is
+    ordered and the bottom follows. A part that is its own cage keeps the part's order (each shape
+    vertex bound to its own cage vertex in the same order), and a box is 8 vertices."""
+    if kind in ("own", "box"):
+        return piece
+    if kind == "shell":
+        k = piece.n_vertices // 2
+        top = morton_order(piece.vertices[:k])
+        order = np.concatenate([top, top + k])
+    else:
+        order = morton_order(piece.vertices)
+    rank = np.empty_like(order)
+    rank[order] = np.arange(order.size)
+    return Mesh(piece.vertices[order], rank[piece.faces], name=piece.name)
 
 
 def _split_parts(src: Mesh, count: int, labels: np.ndarray):

@@ -430,3 +430,19 @@ def test_many_small_parts_are_bound_each_to_its_own_piece():
     near = np.abs(M @ cage.vertices - m.vertices).max(axis=1)
     sizes = np.array([np.ptp(p[0], axis=0).max() for p in parts])
     assert np.all(near <= 0.05 * np.repeat(sizes, [len(p[0]) for p in parts]))  # each at its own scale
+
+
+def test_simplified_pieces_are_in_morton_order_and_a_part_that_is_its_own_cage_keeps_its_order():
+    from hybridedit.core.spatial_order import morton_order
+
+    m = _union(_sphere([0, 0, 0], 1.0, sub=4), _sphere([3, 0, 0], 0.05, sub=1))
+    parts = cage_parts(m, 0.05)
+    assert parts.kinds == ("simplified", "own")
+    o = parts.offsets
+    big = parts.cage.vertices[o[0]:o[1]]
+    assert np.array_equal(morton_order(big), np.arange(len(big)))
+    small = parts.cage.vertices[o[1]:o[2]]
+    assert np.array_equal(small, m.vertices[m.vertices[:, 0] > 2])  # the part's own vertices, as given
+    faces = parts.cage.faces[parts.cage.faces.max(1) < o[1]]  # the reordered piece is still the sphere's cage
+    t = trimesh.Trimesh(big, faces, process=False)
+    assert t.is_watertight and t.is_winding_consistent and abs(t.volume - 4 / 3 * np.pi) < 0.15
