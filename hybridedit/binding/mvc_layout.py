@@ -16,9 +16,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.index_sets import difference_in_range, unique_sorted
+from ..core.spatial_order import morton_order
 
 __all__ = ["CageData", "FACE_TILE", "FAST_BLOCK", "FastCageData", "FastPlan", "LANES", "fast_destinations",
-           "morton_order", "plan_fast", "prepare_cage", "prepare_fast_cage"]
+           "plan_fast", "prepare_cage", "prepare_fast_cage"]
 
 #: Faces per tile of the per-point loops (keeps a tile's data in cache).
 FACE_TILE = 512
@@ -90,19 +91,6 @@ class CageData:
         return int(self.edges.shape[0])
 
 
-def morton_order(points: np.ndarray) -> np.ndarray:
-    """Indices sorting ``points`` (k, 3) along a 3D Morton (Z-order) curve."""
-    lo = points.min(axis=0)
-    ext = points.max(axis=0) - lo
-    ext[ext <= 0] = 1.0
-    q = np.clip(((points - lo) / ext * 1023.0).astype(np.int64), 0, 1023).astype(np.uint64)
-    code = np.zeros(len(points), dtype=np.uint64)
-    for bit in range(10):
-        for axis in range(3):
-            code |= ((q[:, axis] >> np.uint64(bit)) & np.uint64(1)) << np.uint64(3 * bit + axis)
-    return np.argsort(code, kind="stable")
-
-
 def prepare_cage(cage_vertices: np.ndarray, cage_faces: np.ndarray) -> CageData:
     """Validate a cage and precompute the kernel's arrays (see :class:`CageData`)."""
     v = np.asarray(cage_vertices)
@@ -125,7 +113,7 @@ def prepare_cage(cage_vertices: np.ndarray, cage_faces: np.ndarray) -> CageData:
     if nv >= 2**31 or len(f) >= 2**31:
         raise ValueError("cage too large for the kernels (2^31 elements)")
 
-    order = morton_order(v[f].mean(axis=1))
+    order = morton_order(v[f].mean(axis=1), bits=10, per_axis=True)
     f = f[order]
     nf = len(f)
 
@@ -326,7 +314,7 @@ def plan_fast(points: np.ndarray, cage: FastCageData) -> FastPlan:
     n = points.shape[0]
     if n == 0:
         return FastPlan(np.zeros(0, dtype=np.int64), np.zeros((0, 3, LANES)), np.zeros((0, 4)))
-    order = morton_order(points).astype(np.int64)
+    order = morton_order(points, bits=10, per_axis=True)
     nbatch = -(-n // LANES)
     pos = np.minimum(np.arange(nbatch * LANES), n - 1)
     pb = ((points[order[pos]] - cage.origin) / cage.unit).reshape(nbatch, LANES, 3)

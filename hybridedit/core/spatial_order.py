@@ -27,12 +27,17 @@ def _spread(q: np.ndarray) -> np.ndarray:
     return q
 
 
-def morton_order(points: np.ndarray) -> np.ndarray:
+def morton_order(points: np.ndarray, *, bits: int = BITS, per_axis: bool = False) -> np.ndarray:
     """The permutation that puts ``points`` in Morton (Z-curve) order of their bounding box.
 
     Parameters
     ----------
     points : (n, 3) float array, finite
+    bits : int in [1, 21]
+        Bits of each coordinate in the key (the box cut into ``2**bits`` cells a side).
+    per_axis : bool
+        Scale each axis to the box's extent along it (cells shaped like the box) rather than
+        all three by its largest extent (cubic cells).
 
     Returns
     -------
@@ -44,12 +49,17 @@ def morton_order(points: np.ndarray) -> np.ndarray:
     >>> morton_order(np.array([[1.0, 1.0, 1.0], [0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])).tolist()
     [1, 2, 0]
     """
+    if not 1 <= bits <= BITS:
+        raise ValueError(f"bits must lie in [1, {BITS}], got {bits}")
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     if p.shape[0] == 0:
         return np.zeros(0, dtype=np.int64)
     lo, hi = points_box(p)
-    extent = float(np.max(hi - lo))
-    scale = (2**BITS - 1) / extent if extent > 0.0 else 0.0
-    q = np.clip(np.floor((p - lo) * scale), 0, 2**BITS - 1).astype(np.uint64)
+    ext = hi - lo
+    if not per_axis:
+        ext = np.full(3, ext.max())
+    ext[ext <= 0.0] = 1.0
+    top = 2**bits - 1
+    q = np.clip(((p - lo) / ext * float(top)).astype(np.int64), 0, top).astype(np.uint64)
     key = _spread(q[:, 0]) | (_spread(q[:, 1]) << np.uint64(1)) | (_spread(q[:, 2]) << np.uint64(2))
     return np.argsort(key, kind="stable").astype(np.int64, copy=False)

@@ -1,4 +1,5 @@
 import numpy as np
+import pytest
 
 from hybridedit.core.spatial_order import _spread, morton_order
 
@@ -39,3 +40,13 @@ def test_near_points_end_up_near_in_memory():
     o = morton_order(p)
     step = np.linalg.norm(np.diff(p[o], axis=0), axis=1)
     assert np.median(step) < 0.1 * np.median(np.linalg.norm(np.diff(p, axis=0), axis=1))
+
+
+def test_cells_shaped_like_the_box_and_fewer_bits():
+    # a long flat box, 10 x 1 x 0, two cells a side: cubic cells (10 wide) put every point with
+    # x < 10 in the first cell; cells shaped like the box split y too, and x = 10 comes before y = 1
+    p = np.array([[0.0, 0.9, 0.0], [10.0, 0.0, 0.0], [6.0, 0.1, 0.0], [0.0, 1.0, 0.0]])
+    assert morton_order(p, bits=1).tolist() == [0, 2, 3, 1]
+    assert morton_order(p, bits=1, per_axis=True).tolist() == [0, 2, 1, 3]
+    with pytest.raises(ValueError, match="bits"):
+        morton_order(p, bits=22)
