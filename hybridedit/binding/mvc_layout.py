@@ -19,7 +19,7 @@ from ..core.index_sets import difference_in_range, unique_sorted
 from ..core.spatial_order import morton_order
 
 __all__ = ["CageData", "FACE_TILE", "FAST_BLOCK", "FastCageData", "FastPlan", "LANES", "fast_destinations",
-           "plan_fast", "prepare_cage", "prepare_fast_cage"]
+           "plan_fast", "plan_groups", "prepare_cage", "prepare_fast_cage"]
 
 #: Faces per tile of the per-point loops (keeps a tile's data in cache).
 FACE_TILE = 512
@@ -323,6 +323,50 @@ def plan_fast(points: np.ndarray, cage: FastCageData) -> FastPlan:
     bx = np.ascontiguousarray(pb.transpose(0, 2, 1))
     bsph = np.ascontiguousarray(np.concatenate([center, radius[:, None]], axis=1))
     return FastPlan(order=order, bx=bx, bsph=bsph)
+
+
+def plan_groups(points: np.ndarray, cage: FastCageData, radius: float) -> tuple[FastPlan, np.ndarray]:
+    """A plan whose batches hold only points near each other: along the Morton curve, a batch
+    takes the next point while it lies within ``radius`` (in the cage's unit box, as
+    :attr:`FastPlan.bsph`) of the batch's first point and the batch has room; its unused lanes
+    repeat its last point, and its sphere's radius is at least ``radius``. For rows that batches
+    of Morton neighbours, spread wide, left undecided (see :func:`hybridedit.binding.bind.bind`).
+
+    Returns
+    -------
+    plan : FastPlan
+        ``order`` (nbatch * LANES,): the point at each sorted position (repeated in unused lanes).
+    position : (k,) int64
+        The sorted position whose row is point i's.
+    """
+    k = points.shape[0]
+    if k == 0:
+        return FastPlan(np.zeros(0, dtype=np.int64), np.zeros((0, 3, LANES)), np.zeros((0, 4))), np.zeros(0, np.int64)
+    curve = morton_order(points, bits=10, per_axis=True)
+    pu = (points[curve] - cage.origin) / cage.unit
+    starts = []
+    i = 0
+    while i < k:  # (a few thousand points at most: the rows left undecided)
+        starts.append(i)
+        d = np.linalg.norm(pu[i:i + LANES] - pu[i], axis=1)
+        far = np.flatnonzero(d > radius)
+        i += int(far[0]) if far.size else min(LANES, k - i)
+    first = np.asarray(starts, dtype=np.int64)
+    size = np.diff(np.append(first, k))
+    nbatch = first.size
+    lane = np.minimum(np.arange(LANES)[None, :], size[:, None] - 1)
+    at = first[:, None] + lane  # (nbatch, LANES) curve positions
+    pb = pu[at]
+    center = 0.5 * (pb.min(axis=1) + pb.max(axis=1))
+    # each batch's sphere at least ``radius``: the hierarchy's tests then separate nodes from it as
+    # from a typical batch of the first pass, and its far field is as accurate
+    rad = np.maximum(np.linalg.norm(pb - center[:, None, :], axis=2).max(axis=1), radius)
+    plan = FastPlan(order=curve[at].ravel(), bx=np.ascontiguousarray(pb.transpose(0, 2, 1)),
+                    bsph=np.ascontiguousarray(np.concatenate([center, rad[:, None]], axis=1)))
+    position = np.empty(k, dtype=np.int64)
+    batch = np.repeat(np.arange(nbatch), size)
+    position[curve] = batch * LANES + (np.arange(k) - first[batch])
+    return plan, position
 
 
 def fast_destinations(plan: "FastPlan", start: int, stop: int) -> tuple[int, int, np.ndarray]:

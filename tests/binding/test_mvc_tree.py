@@ -231,3 +231,28 @@ def test_points_at_cage_vertices_and_next_to_face_planes_stay_off_the_flat_kerne
     assert same.size >= 0.9 * len(pts)
     assert abs(M[same] - Mf[same]).max() <= 1e-4
     assert sum(flat_rows) <= 0.02 * len(pts), sum(flat_rows)
+
+
+def test_plan_groups_batches_only_near_points_and_finds_each_points_row():
+    from hybridedit.binding.mvc_layout import LANES, plan_groups, prepare_fast_cage
+
+    cv, cf = sphere(2, radius=1.0)
+    fast = prepare_fast_cage(cv, cf)
+    rng = np.random.default_rng(4)
+    clusters = rng.uniform(-0.5, 0.5, (5, 3))
+    pts = np.vstack([c + 0.01 * rng.normal(size=(int(n), 3)) for c, n in zip(clusters, (3, 40, 1, 70, 9))])
+    pts = pts[rng.permutation(len(pts))]
+    radius = 0.1 / fast.unit  # (the plan's unit box)
+    plan, position = plan_groups(pts, fast, radius)
+    nb = plan.bx.shape[0]
+    assert plan.order.shape == (nb * LANES,) and plan.bsph.shape == (nb, 4)
+    # each point's position holds it, and every lane of a batch holds a point of its own cluster
+    lanes = plan.bx.transpose(0, 2, 1).reshape(-1, 3)
+    assert np.allclose(lanes[position] * fast.unit + fast.origin, pts)
+    assert np.array_equal(plan.order[position], np.arange(len(pts)))
+    label = np.argmin(np.linalg.norm(pts[:, None] - clusters[None], axis=2), axis=1)
+    assert all(len(set(label[plan.order[b * LANES:(b + 1) * LANES]])) == 1 for b in range(nb))
+    assert nb == sum(-(-n // LANES) for n in (3, 40, 1, 70, 9))  # 1 + 2 + 1 + 3 + 1
+    # spheres hold their lanes and are at least the radius given
+    d = np.linalg.norm(plan.bx - plan.bsph[:, :3, None], axis=1).max(axis=1)
+    assert np.all(d <= plan.bsph[:, 3] + 1e-12) and np.all(plan.bsph[:, 3] >= radius)
