@@ -73,8 +73,11 @@ from .truncation import TOO_WIDE, UNDECIDED, keep_row, store_kept
 __all__ = ["compute_tree_truncated", "tree_scratch", "THETA", "MAX_OPEN"]
 
 #: Largest ratio of a node's radius to its distance from a batch for which
-#: the node is aggregated.
-THETA = 0.3
+#: the node is aggregated. On 20,000 rows of the 690K armadillo against the flat kernel's: 0.3 and
+#: 0.4 both give rows within 2.3e-6 of its (where both keep the same entries: 98.1% and 97.5% of
+#: rows) and the same reconstruction error (1.54e-4); 0.4 binds in 4.5 s instead of 5.3-5.7 s,
+#: and 0.5 is no faster.
+THETA = 0.4
 #: Most cage vertices a batch may open (more: its rows are undecided).
 MAX_OPEN = 4096
 
