@@ -324,6 +324,51 @@ def _weight_moments(verts, vmom, order, lo, hi, geo):
     return aux
 
 
+@njit(cache=True, error_model="numpy")
+def _vertex_moments(verts, faces, fnorm, farea):
+    """(c, 39) moments of each vertex's hat function about the vertex, summed over its corners:
+    per corner, with e1, e2 the edges from it, A the face's area and n its unit normal,
+    ``int phi n = A/3 n`` (3), ``int phi n y^T = A/12 n (e1 + e2)^T`` (9, row-major) and
+    ``int phi n y y^T = n (A/30 (e1 e1^T + e2 e2^T) + A/60 (e1 e2^T + e2 e1^T))`` (27). Summed
+    corner by corner in face order, a sum per corner position (as numpy's bincount of each
+    corner position's terms, added in turn)."""
+    c = verts.shape[0]
+    out = np.zeros((c, 39))
+    acc = np.empty((c, 39))
+    part = np.empty(39)
+    e1 = np.empty(3)
+    e2 = np.empty(3)
+    for m in range(3):
+        acc[:] = 0.0
+        for f in range(faces.shape[0]):
+            v = faces[f, m]
+            a = faces[f, (m + 1) % 3]
+            b = faces[f, (m + 2) % 3]
+            for i in range(3):
+                e1[i] = verts[a, i] - verts[v, i]
+                e2[i] = verts[b, i] - verts[v, i]
+            A = farea[f]
+            for i in range(3):
+                part[i] = A / 3.0 * fnorm[f, i]
+            for i in range(3):
+                y1 = A / 12.0 * (e1[0] + e2[0]), A / 12.0 * (e1[1] + e2[1]), A / 12.0 * (e1[2] + e2[2])
+                for j in range(3):
+                    part[3 + 3 * i + j] = fnorm[f, i] * y1[j]
+            for j in range(3):
+                for k in range(3):
+                    S = (e1[j] * e1[k] + e2[j] * e2[k]) / 30.0
+                    S += (e1[j] * e2[k] + e2[j] * e1[k]) / 60.0
+                    S *= A
+                    for i in range(3):
+                        part[12 + 9 * i + 3 * j + k] = fnorm[f, i] * S
+            for q in range(39):
+                acc[v, q] += part[q]
+        for j in range(c):
+            for q in range(39):
+                out[j, q] += acc[j, q]
+    return out
+
+
 def prepare_tree_cage(fast: FastCageData) -> TreeCage:
     """The hierarchy over the vertices of a prepared fast cage (see :class:`TreeCage`)."""
     verts = np.ascontiguousarray(fast.verts_t.T)
@@ -345,22 +390,7 @@ def prepare_tree_cage(fast: FastCageData) -> TreeCage:
     # with e1, e2 the edges from it and A the area,
     #   int phi n = A/3 n,  int phi n y^T = A/12 n (e1 + e2)^T,
     #   int phi n y y^T = n (A/30 (e1 e1^T + e2 e2^T) + A/60 (e1 e2^T + e2 e1^T)).
-    vmom = np.zeros((c, 39))
-    tri = verts[faces]  # (f, 3, 3)
-    for m in range(3):
-        e1 = tri[:, (m + 1) % 3] - tri[:, m]
-        e2 = tri[:, (m + 2) % 3] - tri[:, m]
-        A = farea[:, None]
-        m0 = A / 3.0 * fnorm
-        y1 = A / 12.0 * (e1 + e2)
-        S = (np.einsum("fi,fj->fij", e1, e1) + np.einsum("fi,fj->fij", e2, e2)) / 30.0
-        S += (np.einsum("fi,fj->fij", e1, e2) + np.einsum("fi,fj->fij", e2, e1)) / 60.0
-        S *= A[:, :, None]
-        m1 = np.einsum("fa,fb->fab", fnorm, y1).reshape(nf, 9)
-        m2 = np.einsum("fa,fbc->fabc", fnorm, S).reshape(nf, 27)
-        part = np.concatenate([m0, m1, m2], axis=1)
-        for q in range(39):
-            vmom[:, q] += np.bincount(faces[:, m], weights=part[:, q], minlength=c)
+    vmom = _vertex_moments(verts, faces, fnorm, farea)
     order, lo, hi, left, right = _build_nodes(verts, LEAF_SIZE)
     geo, mom, aux = _node_data(verts, vmom, star_ptr, star_faces, faces, star_area,
                           order, lo, hi, left, right)
