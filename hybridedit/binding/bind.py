@@ -375,8 +375,7 @@ class _Rows:
             self.hier = prepare_tree_cage(self.fast)
             self.tscratch = tree_scratch(self.hier, n_workers)
             self.flat_scratch: dict = {}
-            # the second pass's batches are no wider than a typical first-pass one
-            self.second_radius = float(np.median(self.plan.bsph[:, 3]))
+            self.second_radius = SECOND_RADIUS * float(np.median(self.plan.bsph[:, 3]))
         if self.sparse or self.tree:
             cap = min(c, SPARSE_ROW_CAP)
             self.counts_buf = np.empty(chunk, dtype=np.int64)
@@ -454,6 +453,10 @@ def _tree_chunk(plan, hier, ratio, scratch, t, start, stop, counts_buf, cols_buf
 
 #: Opening ratios of the second pass (:func:`_second_pass_rows`), tried in turn.
 SECOND_THETAS = (0.5 * THETA, 0.25 * THETA, 0.125 * THETA)
+#: Radius of the second pass's batches, in median first-pass batch radii. The 100K creature
+#: leaves 12% of its rows undecided: in batches of 1 median radius, the second pass took its bind
+#: from 0.57 to 1.5 s; of 2, 1.13 s (4: 1.05 s, but more rows left for smaller ratios elsewhere).
+SECOND_RADIUS = 2.0
 #: Batches of the second pass computed at a time (their rows in buffers).
 SECOND_BATCHES = 256
 
@@ -466,11 +469,11 @@ def _second_pass_rows(points, hier, ratio, scratch, t, width, radius, flat_scrat
     curve) opens more vertices than its buffers hold; and a point that sees much of the cage from
     afar (inside a round cage) has more aggregated mass than the truncation may drop. Batched
     again along the curve, a chunk's undecided points lie far apart: every batch is wide. So
-    here a batch holds only points within ``radius`` of its first (a typical first-pass batch
-    radius: :func:`hybridedit.binding.mvc_layout.plan_groups`), and the opening ratio is
+    here a batch holds only points within ``radius`` of its first (:data:`SECOND_RADIUS` typical
+    first-pass batch radii: :func:`hybridedit.binding.mvc_layout.plan_groups`), and the opening ratio is
     lowered step by step (:data:`SECOND_THETAS`: fewer nodes aggregated). On the 690K armadillo
-    the first step decides all 1,067 points, in 188 batches and 0.12 s (batched 32 at a time
-    along the curve, they left 728 rows to the flat kernel: 0.63 s). What is still undecided goes
+    (first pass at 0.3) the first step decided all 1,067 points, in 188 batches and 0.12 s;
+    batched 32 at a time along the curve, they had left 728 rows to the flat kernel (0.63 s). What is still undecided goes
     to the flat kernel (a pass over every cage face: O(c) a row, the part of the binding that grew
     faster than the shape).
     """

@@ -318,11 +318,16 @@ def plan_fast(points: np.ndarray, cage: FastCageData) -> FastPlan:
     nbatch = -(-n // LANES)
     pos = np.minimum(np.arange(nbatch * LANES), n - 1)
     pb = ((points[order[pos]] - cage.origin) / cage.unit).reshape(nbatch, LANES, 3)
+    return FastPlan(order=order, **_batches(pb))
+
+
+def _batches(pb: np.ndarray, min_radius: float = 0.0) -> dict:
+    """``bx`` and ``bsph`` of :class:`FastPlan` for the lanes ``pb`` (nbatch, LANES, 3): each batch's
+    sphere about its box's centre, of radius at least ``min_radius``."""
     center = 0.5 * (pb.min(axis=1) + pb.max(axis=1))
-    radius = np.linalg.norm(pb - center[:, None, :], axis=2).max(axis=1)
-    bx = np.ascontiguousarray(pb.transpose(0, 2, 1))
-    bsph = np.ascontiguousarray(np.concatenate([center, radius[:, None]], axis=1))
-    return FastPlan(order=order, bx=bx, bsph=bsph)
+    radius = np.maximum(np.linalg.norm(pb - center[:, None, :], axis=2).max(axis=1), min_radius)
+    return {"bx": np.ascontiguousarray(pb.transpose(0, 2, 1)),
+            "bsph": np.ascontiguousarray(np.concatenate([center, radius[:, None]], axis=1))}
 
 
 def plan_groups(points: np.ndarray, cage: FastCageData, radius: float) -> tuple[FastPlan, np.ndarray]:
@@ -356,13 +361,9 @@ def plan_groups(points: np.ndarray, cage: FastCageData, radius: float) -> tuple[
     nbatch = first.size
     lane = np.minimum(np.arange(LANES)[None, :], size[:, None] - 1)
     at = first[:, None] + lane  # (nbatch, LANES) curve positions
-    pb = pu[at]
-    center = 0.5 * (pb.min(axis=1) + pb.max(axis=1))
     # each batch's sphere at least ``radius``: the hierarchy's tests then separate nodes from it as
     # from a typical batch of the first pass, and its far field is as accurate
-    rad = np.maximum(np.linalg.norm(pb - center[:, None, :], axis=2).max(axis=1), radius)
-    plan = FastPlan(order=curve[at].ravel(), bx=np.ascontiguousarray(pb.transpose(0, 2, 1)),
-                    bsph=np.ascontiguousarray(np.concatenate([center, rad[:, None]], axis=1)))
+    plan = FastPlan(order=curve[at].ravel(), **_batches(pu[at], radius))
     position = np.empty(k, dtype=np.int64)
     batch = np.repeat(np.arange(nbatch), size)
     position[curve] = batch * LANES + (np.arange(k) - first[batch])
