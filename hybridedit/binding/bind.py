@@ -138,18 +138,42 @@ def _truncate_into_csr_parts(
     return counts, data, indices
 
 
-def _assemble(parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]], n: int, c: int) -> sp.csr_matrix:
+@njit(cache=True, parallel=True)
+def _rows_to_points(src_ptr, src_data, src_idx, row_of, ptr, data, indices):  # pragma: no cover - compiled
+    """Row k of the (src_ptr, src_data, src_idx) CSR into row ``row_of[k]`` of (ptr, data, indices)."""
+    for k in prange(row_of.shape[0]):
+        a = src_ptr[k]
+        o = ptr[row_of[k]]
+        for q in range(src_ptr[k + 1] - a):
+            data[o + q] = src_data[a + q]
+            indices[o + q] = src_idx[a + q]
+
+
+def _assemble(parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]], n: int, c: int,
+              row_of: np.ndarray | None = None) -> sp.csr_matrix:
+    """The (n, c) CSR of the chunks' rows ``parts`` (counts, data, indices), row k the k-th row of
+    the chunks, or with ``row_of`` (n,) (a permutation) row ``row_of[k]``."""
     counts = np.concatenate([p[0] for p in parts]) if parts else np.zeros(0, dtype=np.int64)
     nnz = int(counts.sum())
     idx_dtype = np.int32 if (nnz < 2**31 and c < 2**31) else np.int64
     indptr = np.zeros(n + 1, dtype=idx_dtype)
-    np.cumsum(counts, out=indptr[1:])
     data = np.concatenate([p[1] for p in parts]) if parts else np.zeros(0)
     indices = (
         np.concatenate([p[2] for p in parts]).astype(idx_dtype, copy=False)
         if parts
         else np.zeros(0, dtype=idx_dtype)
     )
+    if row_of is not None:  # (the chunks ran in the plan's order: each row goes to its point)
+        src_ptr = np.zeros(n + 1, dtype=np.int64)
+        np.cumsum(counts, out=src_ptr[1:])
+        per_point = np.empty_like(counts)
+        per_point[row_of] = counts
+        np.cumsum(per_point, out=indptr[1:])
+        out_data, out_indices = np.empty_like(data), np.empty_like(indices)
+        _rows_to_points(src_ptr, data, indices, row_of, indptr, out_data, out_indices)
+        data, indices = out_data, out_indices
+    else:
+        np.cumsum(counts, out=indptr[1:])
     M = sp.csr_matrix((data, indices, indptr), shape=(n, c))
     M.has_sorted_indices = True
     return M
@@ -314,10 +338,7 @@ def bind(
         parts.append(rows.chunk(start, stop))
         if progress is not None:
             progress(stop / n)
-    M = _assemble(parts, n, c)
-    if rows.row_of is not None:
-        M = M[np.argsort(rows.row_of)]
-        M.has_sorted_indices = True
+    M = _assemble(parts, n, c, rows.row_of)
     if t > 0.0 and max_row is not None:
         M = cap_rows(M, int(max_row))
     return M
