@@ -395,7 +395,7 @@ class _Rows:
         if self.tree:
             self.hier = prepare_tree_cage(self.fast)
             self.tscratch = tree_scratch(self.hier, n_workers)
-            self.flat_scratch: dict = {}
+            self.vertex_tree: dict = {}  # (the cage vertices' KD-tree, made on first use: _at_cage_vertex)
             self.second_radius = SECOND_RADIUS * float(np.median(self.plan.bsph[:, 3]))
         if self.sparse or self.tree:
             cap = min(c, SPARSE_ROW_CAP)
@@ -415,7 +415,7 @@ class _Rows:
         elif self.tree:
             counts, vals, cols = _tree_chunk(self.plan, self.hier, ratio, self.tscratch, t, start, stop,
                                              self.counts_buf, self.cols_buf, self.vals_buf, self.p,
-                                             self.second_radius, self.flat_scratch)
+                                             self.second_radius, self.vertex_tree)
         elif not self.sparse:
             # Rows kept whole: restore their exact linear precision (see
             # hybridedit.binding.mvc_flat). When truncating, that correction (~1e-5
@@ -439,7 +439,7 @@ class _Rows:
 
 
 def _tree_chunk(plan, hier, ratio, scratch, t, start, stop, counts_buf, cols_buf, vals_buf, p, radius,
-                flat_scratch):
+                vertex_tree):
     """(counts, data, indices) of sorted positions [start, stop), hierarchical kernel.
 
     Rows it leaves undecided (or too wide for the buffers) are the unit row of a cage vertex they
@@ -459,7 +459,7 @@ def _tree_chunk(plan, hier, ratio, scratch, t, start, stop, counts_buf, cols_buf
     if not redo.size:
         return counts, data, indices
     # points at a cage vertex: the unit row, not the flat kernel
-    at, col = _at_cage_vertex(p[plan.order[start + redo]], hier.fast, flat_scratch)
+    at, col = _at_cage_vertex(p[plan.order[start + redo]], hier.fast, vertex_tree)
     if at.size:
         ones = np.ones(at.size, dtype=np.int64)
         counts, data, indices = _splice_rows(counts, data, indices, redo[at], ones, np.ones(at.size),
@@ -467,8 +467,7 @@ def _tree_chunk(plan, hier, ratio, scratch, t, start, stop, counts_buf, cols_buf
         redo = np.delete(redo, at)
         if not redo.size:
             return counts, data, indices
-    sub = _second_pass_rows(p[plan.order[start + redo]], hier, ratio, scratch, t, cols_buf.shape[1], radius,
-                            flat_scratch)
+    sub = _second_pass_rows(p[plan.order[start + redo]], hier, ratio, scratch, t, cols_buf.shape[1], radius)
     return _splice_rows(counts, data, indices, redo, *sub)
 
 
@@ -482,7 +481,7 @@ SECOND_RADIUS = 2.0
 SECOND_BATCHES = 256
 
 
-def _second_pass_rows(points, hier, ratio, scratch, t, width, radius, flat_scratch):
+def _second_pass_rows(points, hier, ratio, scratch, t, width, radius):
     """(counts, data, indices) of the (k, 3) ``points`` (rows in their order) that the first pass
     left undecided.
 
@@ -530,9 +529,9 @@ def _second_pass_rows(points, hier, ratio, scratch, t, width, radius, flat_scrat
     sub_plan = plan_fast(points[redo], fast)
     kk = len(redo)
     bufs = (np.empty(kk, dtype=np.int64), np.empty((kk, width), dtype=np.int32), np.empty((kk, width)))
-    if "arrays" not in flat_scratch:
-        flat_scratch["arrays"] = fast_scratch(fast, 2 * numba.get_num_threads())
-    sub = _fast_truncated_chunk(sub_plan, fast, ratio, flat_scratch["arrays"], t, 0, kk, *bufs)
+    # (work arrays for as many workers as batches, made for this call: they hold a few rows of the
+    # whole cage per worker, 150 MB a worker at 2.77M, and few rows ever come here)
+    sub = _fast_truncated_chunk(sub_plan, fast, ratio, None, t, 0, kk, *bufs)
     return _splice_rows(counts, data, indices, redo[sub_plan.order], *sub)
 
 
