@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from hybridedit.core.spatial_order import _spread, morton_order
+from hybridedit.core.spatial_order import _radix_argsort, _spread_one, morton_order
 
 
 def test_the_key_interleaves_the_bits_of_the_three_coordinates():
@@ -9,7 +9,16 @@ def test_the_key_interleaves_the_bits_of_the_three_coordinates():
     want = []
     for v in q.tolist():
         want.append(sum(((v >> k) & 1) << (3 * k) for k in range(21)))
-    assert _spread(q).tolist() == want
+    assert [int(_spread_one(v)) for v in q] == want
+
+
+def test_the_radix_sort_is_numpys_stable_argsort():
+    rng = np.random.default_rng(2)
+    for bits in (1, 11, 12, 30, 63):
+        key = rng.integers(0, 2**bits, 5000, dtype=np.uint64)
+        key[100:400] = key[7]  # ties keep their order
+        assert np.array_equal(_radix_argsort(key, bits), np.argsort(key, kind="stable"))
+    assert _radix_argsort(np.zeros(0, dtype=np.uint64), 30).shape == (0,)
 
 
 def test_a_grid_in_morton_order_visits_each_octant_whole():
