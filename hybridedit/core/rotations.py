@@ -312,32 +312,38 @@ def polar_lanes(x: np.ndarray, done: np.ndarray, nl: int) -> None:
 
 
 @njit(cache=True, inline="always")
-def _rotations_block(b, a, out, x, done):
-    """Closest rotations of matrices [b * LANES, (b + 1) * LANES) of a (k, 3, 3) into ``out``."""
-    r0 = b * LANES
-    nl = min(LANES, a.shape[0] - r0)
+def rotations_in_place(m, rows, r0, nl, x, done, elsewhere):
+    """Each (3, 3) matrix ``m[rows[r0 + l]]``, l < nl <= :data:`LANES`, replaced by its closest
+    rotation: bitwise :func:`closest_rotation`'s, the polar factors side by side
+    (:func:`polar_lanes`), the others by SVD. ``x`` (9, LANES), ``done`` and ``elsewhere``
+    (LANES,) float64 are work arrays."""
     for l in range(nl):
-        m = a[r0 + l]
-        if by_svd(m):
-            rotation_by_svd(m, out[r0 + l])
+        r = m[rows[r0 + l]]
+        if by_svd(r):
+            rotation_by_svd(r, r)
             done[l] = 1.0
         else:
-            for i in range(3):
-                for j in range(3):
-                    x[3 * i + j, l] = m[i, j]
+            for p in range(3):
+                for q in range(3):
+                    x[3 * p + q, l] = r[p, q]
             done[l] = 0.0
-    elsewhere = done.copy()  # (the matrices solved by SVD above)
+        elsewhere[l] = done[l]
     polar_lanes(x, done, nl)
     for l in range(nl):
         if elsewhere[l] == 0.0:
-            for i in range(3):
-                for j in range(3):
-                    out[r0 + l, i, j] = x[3 * i + j, l]
+            r = m[rows[r0 + l]]
+            for p in range(3):
+                for q in range(3):
+                    r[p, q] = x[3 * p + q, l]
 
 
 @njit(cache=True, parallel=True)
 def closest_rotations(a: np.ndarray, out: np.ndarray) -> None:
-    """Batched :func:`closest_rotation` (in lanes, :func:`polar_lanes`): a and out are (k, 3, 3)
-    float64; ``out`` may be ``a``."""
+    """Batched :func:`closest_rotation` (in lanes, :func:`rotations_in_place`): a and out are
+    (k, 3, 3) float64; ``out`` may be ``a``."""
+    out[:] = a
+    rows = np.arange(a.shape[0])
     for b in prange((a.shape[0] + LANES - 1) // LANES):
-        _rotations_block(b, a, out, np.empty((9, LANES)), np.empty(LANES))
+        r0 = b * LANES
+        rotations_in_place(out, rows, r0, min(LANES, a.shape[0] - r0), np.empty((9, LANES)), np.empty(LANES),
+                           np.empty(LANES))

@@ -11,7 +11,7 @@ from numba import njit, prange
 from ..core.linsolve import SPDSolver
 from ..core.parallel import pick
 from ..core.mesh import unique_edges
-from ..core.rotations import LANES, by_svd, polar_lanes, rotation_by_svd
+from ..core.rotations import LANES, rotations_in_place
 from ..core.row_copy import put_rows, take_rows
 from ..core.index_sets import union_in_range, unique_in_range, unique_sorted
 from ..core.topology import edge_index
@@ -125,30 +125,13 @@ def _covariance_of(i, rest, cur, indptr, indices, wts, r):
 @njit(cache=True, inline="always")
 def _rotations_of_block(b, rest, cur, indptr, indices, wts, rots, rows, x, done, elsewhere):
     """R_i of the vertices i = rows[b * LANES: (b + 1) * LANES] into ``rots``: each covariance
-    (:func:`_covariance_of`) turned into its closest rotation, the polar factors side by side
-    (:func:`~hybridedit.core.rotations.polar_lanes`), the others by SVD. Bitwise
-    :func:`~hybridedit.core.rotations.closest_rotation` of each covariance."""
+    (:func:`_covariance_of`) turned into its closest rotation, in lanes
+    (:func:`~hybridedit.core.rotations.rotations_in_place`)."""
     r0 = b * LANES
     nl = min(LANES, rows.shape[0] - r0)
     for l in range(nl):
-        r = rots[rows[r0 + l]]
-        _covariance_of(rows[r0 + l], rest, cur, indptr, indices, wts, r)
-        if by_svd(r):
-            rotation_by_svd(r, r)
-            done[l] = 1.0
-        else:
-            for p in range(3):
-                for q in range(3):
-                    x[3 * p + q, l] = r[p, q]
-            done[l] = 0.0
-        elsewhere[l] = done[l]
-    polar_lanes(x, done, nl)
-    for l in range(nl):
-        if elsewhere[l] == 0.0:
-            r = rots[rows[r0 + l]]
-            for p in range(3):
-                for q in range(3):
-                    r[p, q] = x[3 * p + q, l]
+        _covariance_of(rows[r0 + l], rest, cur, indptr, indices, wts, rots[rows[r0 + l]])
+    rotations_in_place(rots, rows, r0, nl, x, done, elsewhere)
 
 
 @njit(cache=True)
