@@ -32,6 +32,7 @@ from numba import njit, prange
 
 from ..defaults import TRUNCATION
 from ..core.mesh import Mesh
+from ..core.parallel import pick
 from ..core.topology import check_closed
 from .mvc_exact import as_points, compute_into, n_blocks
 from .mvc_flat import FAR_RATIO, check_far_ratio, compute_fast_sorted, compute_fast_truncated, fast_scratch
@@ -138,15 +139,26 @@ def _truncate_into_csr_parts(
     return counts, data, indices
 
 
-@njit(cache=True, parallel=True)
-def _rows_to_points(src_ptr, src_data, src_idx, row_of, ptr, data, indices):  # pragma: no cover - compiled
+@njit(cache=True, inline="always")
+def _row_to_point(k, src_ptr, src_data, src_idx, row_of, ptr, data, indices):
     """Row k of the (src_ptr, src_data, src_idx) CSR into row ``row_of[k]`` of (ptr, data, indices)."""
+    a = src_ptr[k]
+    o = ptr[row_of[k]]
+    for q in range(src_ptr[k + 1] - a):
+        data[o + q] = src_data[a + q]
+        indices[o + q] = src_idx[a + q]
+
+
+@njit(cache=True)
+def _rows_to_points_serial(src_ptr, src_data, src_idx, row_of, ptr, data, indices):  # pragma: no cover
+    for k in range(row_of.shape[0]):
+        _row_to_point(k, src_ptr, src_data, src_idx, row_of, ptr, data, indices)
+
+
+@njit(cache=True, parallel=True)
+def _rows_to_points_parallel(src_ptr, src_data, src_idx, row_of, ptr, data, indices):  # pragma: no cover
     for k in prange(row_of.shape[0]):
-        a = src_ptr[k]
-        o = ptr[row_of[k]]
-        for q in range(src_ptr[k + 1] - a):
-            data[o + q] = src_data[a + q]
-            indices[o + q] = src_idx[a + q]
+        _row_to_point(k, src_ptr, src_data, src_idx, row_of, ptr, data, indices)
 
 
 def _assemble(parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]], n: int, c: int,
@@ -170,7 +182,8 @@ def _assemble(parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]], n: int, c:
         per_point[row_of] = counts
         np.cumsum(per_point, out=indptr[1:])
         out_data, out_indices = np.empty_like(data), np.empty_like(indices)
-        _rows_to_points(src_ptr, data, indices, row_of, indptr, out_data, out_indices)
+        pick("copy", _rows_to_points_serial, _rows_to_points_parallel, n)(src_ptr, data, indices, row_of, indptr,
+                                                                          out_data, out_indices)
         data, indices = out_data, out_indices
     else:
         np.cumsum(counts, out=indptr[1:])

@@ -474,3 +474,28 @@ def test_dominant_cage_vertex_is_the_row_argmax_of_the_magnitudes():
         want = np.asarray(abs(M).argmax(axis=1)).ravel()  # scipy's (slow) definition; ties: lowest index
         assert np.array_equal(dominant_cage_vertex(M), want)
         assert dominant_cage_vertex(M)[-1] == 3 and dominant_cage_vertex(M)[-2] == 0
+
+
+def test_rows_go_to_their_points_on_either_twin():
+    from hybridedit.binding.bind import _assemble, _rows_to_points_parallel, _rows_to_points_serial
+    from hybridedit.core.parallel import all_parallel
+
+    rng = np.random.default_rng(6)
+    n, c = 500, 40
+    counts = rng.integers(0, 5, n)
+    parts, start = [], 0
+    for stop in (120, 121, 500):  # chunks of rows, one of a single row
+        k = counts[start:stop]
+        parts.append((k, rng.random(int(k.sum())), rng.integers(0, c, int(k.sum())).astype(np.int32)))
+        start = stop
+    row_of = rng.permutation(n)
+    M = _assemble(parts, n, c, row_of)
+    plain = _assemble(parts, n, c)
+    P = sp.csr_matrix((np.ones(n), (row_of, np.arange(n))), shape=(n, n))
+    assert abs(M - P @ plain).max() == 0 and np.array_equal(np.diff(M.indptr), counts[np.argsort(row_of)])
+    with all_parallel():
+        assert np.array_equal(_assemble(parts, n, c, row_of).data, M.data)
+    for twin in (_rows_to_points_serial, _rows_to_points_parallel):
+        data, idx = np.empty_like(plain.data), np.empty_like(plain.indices)
+        twin(plain.indptr.astype(np.int64), plain.data, plain.indices, row_of, M.indptr, data, idx)
+        assert np.array_equal(data, M.data) and np.array_equal(idx, M.indices)
