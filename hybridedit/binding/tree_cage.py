@@ -350,8 +350,8 @@ def _vertex_moments(verts, faces, fnorm, farea):
             A = farea[f]
             for i in range(3):
                 part[i] = A / 3.0 * fnorm[f, i]
+            y1 = A / 12.0 * (e1[0] + e2[0]), A / 12.0 * (e1[1] + e2[1]), A / 12.0 * (e1[2] + e2[2])
             for i in range(3):
-                y1 = A / 12.0 * (e1[0] + e2[0]), A / 12.0 * (e1[1] + e2[1]), A / 12.0 * (e1[2] + e2[2])
                 for j in range(3):
                     part[3 + 3 * i + j] = fnorm[f, i] * y1[j]
             for j in range(3):
@@ -386,10 +386,6 @@ def prepare_tree_cage(fast: FastCageData) -> TreeCage:
     star_ptr = np.zeros(c + 1, dtype=np.int64)
     np.cumsum(np.bincount(corner_v, minlength=c), out=star_ptr[1:])
     star_area = np.bincount(corner_v, weights=np.repeat(farea, 3), minlength=c)
-    # Moments of each vertex's hat function about the vertex: per corner,
-    # with e1, e2 the edges from it and A the area,
-    #   int phi n = A/3 n,  int phi n y^T = A/12 n (e1 + e2)^T,
-    #   int phi n y y^T = n (A/30 (e1 e1^T + e2 e2^T) + A/60 (e1 e2^T + e2 e1^T)).
     vmom = _vertex_moments(verts, faces, fnorm, farea)
     order, lo, hi, left, right = _build_nodes(verts, LEAF_SIZE)
     geo, mom, aux = _node_data(verts, vmom, star_ptr, star_faces, faces, star_area,
