@@ -451,6 +451,18 @@ class _Rows:
         return counts, vals, cols
 
 
+def _decided_rows(counts, cols, vals):
+    """(counts, data, indices, redo): the rows of ``cols`` / ``vals`` whose ``counts`` are >= 0
+    packed (a copy of ``counts``, 0 for the others), and ``redo`` the others (undecided, too wide)."""
+    redo = np.flatnonzero(counts < 0)
+    counts = counts.copy()
+    counts[redo] = 0
+    data = np.empty(int(counts.sum()))
+    indices = np.empty(data.size, dtype=np.int32)
+    _pack_rows(counts, cols, vals, indices, data)
+    return counts, data, indices, redo
+
+
 def _tree_chunk(plan, hier, ratio, scratch, t, start, stop, counts_buf, cols_buf, vals_buf, p, radius,
                 vertex_tree):
     """(counts, data, indices) of sorted positions [start, stop), hierarchical kernel.
@@ -462,13 +474,7 @@ def _tree_chunk(plan, hier, ratio, scratch, t, start, stop, counts_buf, cols_buf
     m = stop - start
     counts = counts_buf[:m]
     compute_tree_truncated(plan, hier, start, stop, t, MIN_KEPT_SUM, counts, cols_buf, vals_buf, ratio, scratch)
-    redo = np.flatnonzero(counts < 0)
-    counts = counts.copy()
-    counts[redo] = 0
-    nnz = int(counts.sum())
-    data = np.empty(nnz)
-    indices = np.empty(nnz, dtype=np.int32)
-    _pack_rows(counts, cols_buf, vals_buf, indices, data)
+    counts, data, indices, redo = _decided_rows(counts, cols_buf, vals_buf)
     if not redo.size:
         return counts, data, indices
     # points at a cage vertex: the unit row, not the flat kernel
@@ -506,9 +512,9 @@ def _second_pass_rows(points, hier, ratio, scratch, t, width, radius):
     first-pass batch radii: :func:`hybridedit.binding.mvc_layout.plan_groups`), and the opening ratio is
     lowered step by step (:data:`SECOND_THETAS`: fewer nodes aggregated). On the 690K armadillo
     (first pass at 0.3) the first step decided all 1,067 points, in 188 batches and 0.12 s;
-    batched 32 at a time along the curve, they had left 728 rows to the flat kernel (0.63 s). What is still undecided goes
-    to the flat kernel (a pass over every cage face: O(c) a row, the part of the binding that grew
-    faster than the shape).
+    batched 32 at a time along the curve, they had left 728 rows to the flat kernel (0.63 s).
+    What is still undecided goes to the flat kernel (a pass over every cage face: O(c) a row, the
+    part of the binding that grew faster than the shape).
     """
     fast = hier.fast
     k = points.shape[0]
@@ -532,11 +538,7 @@ def _second_pass_rows(points, hier, ratio, scratch, t, width, radius):
             counts[redo[mine]] = c_buf[at]
             cols[redo[mine]] = i_buf[at]
             vals[redo[mine]] = v_buf[at]
-    redo = np.flatnonzero(counts < 0)
-    counts[redo] = 0
-    data = np.empty(int(counts.sum()))
-    indices = np.empty(data.size, dtype=np.int32)
-    _pack_rows(counts, cols, vals, indices, data)
+    counts, data, indices, redo = _decided_rows(counts, cols, vals)
     if not redo.size:
         return counts, data, indices
     sub_plan = plan_fast(points[redo], fast)
