@@ -182,6 +182,9 @@ def _edit_session(mesh, say: Progress, label: str) -> None:
     from .core.up_axis import guess_up_axis
 
     say(f"{label}: cage and binding", 0.0)
+    from .cage.qem import presimplify
+
+    presimplify(mesh.vertices, mesh.faces, mesh.n_faces // 8, min_faces=8)  # (a big surface cut in halves)
     guess_up_axis(mesh)  # (what the window asks of a shape it opens)
     import tempfile
 

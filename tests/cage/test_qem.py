@@ -7,6 +7,7 @@ from scipy.spatial import cKDTree
 
 from hybridedit.cage import qem
 from hybridedit.cage.build import build_cage
+from hybridedit.core.parallel import all_parallel as qem_all_parallel
 from hybridedit.core.topology import is_closed_oriented
 
 from shapes import bumpy_blob
@@ -116,3 +117,20 @@ def test_the_cage_build_reports_its_progress_in_steps(big_blob, monkeypatch):
     assert seen == sorted(seen) and seen[-1] == 1.0
     assert REPAIR_SHARE in seen
     assert REPAIR_SHARE + (1 - REPAIR_SHARE) * HALVES_SHARE in seen
+
+
+@pytest.mark.parametrize("dtype", [np.int32, np.int64])
+def test_the_cut_into_halves_is_the_faces_each_side_of_the_median_compacted(big_blob, dtype):
+    v, f = big_blob.vertices, big_blob.faces.astype(dtype)
+    axis = 0
+    key = qem._face_keys(v, f, axis)
+    with qem_all_parallel():
+        assert np.array_equal(qem._face_keys(v, f, axis), key)
+    assert np.array_equal(key, v[f[:, 0], axis] + v[f[:, 1], axis] + v[f[:, 2], axis])
+    pivot = np.partition(key, len(f) // 2)[len(f) // 2]
+    (v0, f0), (v1, f1) = qem._halves(v, f, key, pivot)
+    for (vh, fh), side in (((v0, f0), key <= pivot), ((v1, f1), key > pivot)):
+        want_v, want_f = _compact(v, f[side])
+        assert fh.dtype == np.int32 and vh.dtype == np.float64
+        assert np.array_equal(vh, want_v) and np.array_equal(fh, want_f)
+    assert len(f0) + len(f1) == len(f) and len(f0) > len(f) // 2 and len(f1) > 0  # (ties go first)
