@@ -483,14 +483,27 @@ def test_rows_go_to_their_points_on_either_twin():
     rng = np.random.default_rng(6)
     n, c = 500, 40
     counts = rng.integers(0, 5, n)
+    later = rng.choice(n, 30, replace=False)  # rows a first pass leaves empty, made in parts of their own
     parts, start = [], 0
     for stop in (120, 121, 500):  # chunks of rows, one of a single row
-        k = counts[start:stop]
-        parts.append((k, rng.random(int(k.sum())), rng.integers(0, c, int(k.sum())).astype(np.int32)))
+        k = counts[start:stop].copy()
+        k[np.isin(np.arange(start, stop), later)] = 0
+        parts.append((np.arange(start, stop), k, rng.random(int(k.sum())),
+                      rng.integers(0, c, int(k.sum())).astype(np.int32)))
         start = stop
+    for half in (later[:10], later[10:]):
+        k = counts[half]
+        parts.append((half, k, rng.random(int(k.sum())), rng.integers(0, c, int(k.sum())).astype(np.int32)))
     row_of = rng.permutation(n)
     M = _assemble(parts, n, c, row_of)
     plain = _assemble(parts, n, c)
+    assert np.array_equal(np.diff(plain.indptr), counts)
+    for pos, k, data, idx in parts:  # each row where its part put it
+        ptr = np.concatenate([[0], np.cumsum(k)])
+        for j in np.flatnonzero(k):
+            r = pos[j]
+            assert np.array_equal(plain.data[plain.indptr[r]:plain.indptr[r + 1]], data[ptr[j]:ptr[j + 1]])
+            assert np.array_equal(plain.indices[plain.indptr[r]:plain.indptr[r + 1]], idx[ptr[j]:ptr[j + 1]])
     P = sp.csr_matrix((np.ones(n), (row_of, np.arange(n))), shape=(n, n))
     assert abs(M - P @ plain).max() == 0 and np.array_equal(np.diff(M.indptr), counts[np.argsort(row_of)])
     with all_parallel():
@@ -499,3 +512,20 @@ def test_rows_go_to_their_points_on_either_twin():
         data, idx = np.empty_like(plain.data), np.empty_like(plain.indices)
         twin(plain.indptr.astype(np.int64), plain.data, plain.indices, row_of, M.indptr, data, idx)
         assert np.array_equal(data, M.data) and np.array_equal(idx, M.indices)
+
+
+def test_packed_rows_on_either_twin():
+    from hybridedit.binding.bind import _pack_rows_parallel, _pack_rows_serial
+
+    rng = np.random.default_rng(7)
+    cols = rng.integers(0, 99, (50, 8)).astype(np.int32)
+    vals = rng.random((50, 8))
+    counts = rng.integers(0, 9, 50)
+    counts[3] = 12  # too wide for the buffers: room left, filled by the caller
+    ptr = np.concatenate([[0], np.cumsum(counts)])
+    want = np.concatenate([vals[r, :counts[r]] if counts[r] <= 8 else np.full(counts[r], -1.0) for r in range(50)])
+    for twin in (_pack_rows_serial, _pack_rows_parallel):
+        data, idx = np.full(ptr[-1], -1.0), np.full(ptr[-1], -1, dtype=np.int32)
+        twin(ptr, counts, cols, vals, idx, data)
+        assert np.array_equal(data, want)
+        assert np.array_equal(idx[ptr[4]:ptr[5]], cols[4, :counts[4]])
