@@ -39,7 +39,7 @@ from .mvc_flat import FAR_RATIO, check_far_ratio, compute_fast_sorted, compute_f
 from .mvc_layout import LANES, plan_fast, plan_groups, prepare_cage, prepare_fast_cage
 from .mvc_tree import THETA, compute_tree_truncated, tree_scratch
 from .tree_cage import prepare_tree_cage
-from .truncation import MAX_ROW, MIN_KEPT_SUM, UNDECIDED, cap_rows, check_truncation, truncate_row
+from .truncation import MAX_ROW, MIN_KEPT_SUM, cap_rows, check_truncation, truncate_row
 
 __all__ = ["bind", "truncate_rows", "dominant_cage_vertex", "MIN_KEPT_SUM", "METHODS"]
 
@@ -99,33 +99,37 @@ def _gather_rows_permuted(buf, col_of, indptr, data, indices):
 
 
 @njit(cache=True, inline="always")
-def _pack_row(r, ptr, counts, cols, vals, indices, data):
-    """The first ``counts[r]`` entries of row r of cols / vals at ``ptr[r]`` (a row wider than the
-    buffers is filled in separately)."""
+def _pack_row(r, rows, ptr, counts, cols, vals, indices, data):
+    """The first ``counts[r]`` entries of row ``rows[r]`` of cols / vals at ``ptr[r]`` (a row wider
+    than the buffers is filled in separately)."""
     n = counts[r]
     if n > cols.shape[1]:
         return
     k = ptr[r]
+    b = rows[r]
     for m in range(n):
-        indices[k + m] = cols[r, m]
-        data[k + m] = vals[r, m]
+        indices[k + m] = cols[b, m]
+        data[k + m] = vals[b, m]
 
 
 @njit(cache=True)
-def _pack_rows_serial(ptr, counts, cols, vals, indices, data):  # pragma: no cover - compiled
+def _pack_rows_serial(rows, ptr, counts, cols, vals, indices, data):  # pragma: no cover - compiled
     for r in range(counts.shape[0]):
-        _pack_row(r, ptr, counts, cols, vals, indices, data)
+        _pack_row(r, rows, ptr, counts, cols, vals, indices, data)
 
 
 @njit(cache=True, parallel=True)
-def _pack_rows_parallel(ptr, counts, cols, vals, indices, data):  # pragma: no cover - compiled
+def _pack_rows_parallel(rows, ptr, counts, cols, vals, indices, data):  # pragma: no cover - compiled
     for r in prange(counts.shape[0]):
-        _pack_row(r, ptr, counts, cols, vals, indices, data)
+        _pack_row(r, rows, ptr, counts, cols, vals, indices, data)
 
 
-def _pack_rows(counts: np.ndarray, cols: np.ndarray, vals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(data, indices): the first ``counts[r]`` (>= 0) entries of every row of the buffers ``cols``
-    (m, w) / ``vals`` concatenated; a row of more than w entries gets room, filled by the caller."""
+def _pack_rows(counts: np.ndarray, cols: np.ndarray, vals: np.ndarray,
+               rows: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(data, indices): the first ``counts[r]`` (>= 0) entries of row ``rows[r]`` (by default r) of
+    the buffers ``cols`` (m, w) / ``vals`` concatenated; a row of more than w entries gets room,
+    filled by the caller."""
+    rows = np.arange(counts.shape[0]) if rows is None else rows
     ptr = np.zeros(counts.shape[0] + 1, dtype=np.int64)
     np.cumsum(counts, out=ptr[1:])
     data = np.empty(int(ptr[-1]))
@@ -133,8 +137,8 @@ def _pack_rows(counts: np.ndarray, cols: np.ndarray, vals: np.ndarray) -> tuple[
     # (sized by the buffers' entries, not the few copied: each row is a buffer row apart, a cache
     # miss or two; a 2.77M bind's chunk of 21,845 rows 256 wide packed in 4.4 ms on one thread, 2.0
     # on two)
-    pick("copy", _pack_rows_serial, _pack_rows_parallel, cols.shape[0] * cols.shape[1])(
-        ptr, counts, cols, vals, indices, data)
+    pick("copy", _pack_rows_serial, _pack_rows_parallel, counts.shape[0] * cols.shape[1])(
+        rows, ptr, counts, cols, vals, indices, data)
     return data, indices
 
 
@@ -370,6 +374,8 @@ def bind(
     for start in range(0, n, chunk):
         stop = min(n, start + chunk)
         parts.extend(rows.chunk(start, stop))
+        if stop == n:
+            parts.extend(rows.leftovers())
         if progress is not None:
             progress(stop / n)
     M = _assemble(parts, n, c, rows.row_of)
@@ -429,7 +435,7 @@ class _Rows:
         if self.tree:
             self.hier = prepare_tree_cage(self.fast)
             self.tscratch = tree_scratch(self.hier, n_workers)
-            self.vertex_tree: dict = {}  # (the cage vertices' KD-tree, made on first use: _at_cage_vertex)
+            self.undecided: list[np.ndarray] = []  # positions each chunk left undecided (made in leftovers())
             self.second_radius = SECOND_RADIUS * float(np.median(self.plan.bsph[:, 3]))
         if self.sparse or self.tree:
             cap = min(c, SPARSE_ROW_CAP)
@@ -448,8 +454,10 @@ class _Rows:
             compute_into(self.p[start:stop], self.data, view)
             parts = [(np.arange(start, stop), *_truncate_into_csr_parts(view, t))]
         elif self.tree:
-            parts = _tree_chunk(self.plan, self.hier, ratio, self.tscratch, t, start, stop, self.counts_buf,
-                                self.cols_buf, self.vals_buf, self.p, self.second_radius, self.vertex_tree)
+            part, redo = _tree_chunk(self.plan, self.hier, ratio, self.tscratch, t, start, stop, self.counts_buf,
+                                     self.cols_buf, self.vals_buf)
+            parts = [part]
+            self.undecided.append(redo)
         elif not self.sparse:
             # Rows kept whole: restore their exact linear precision (see
             # hybridedit.binding.mvc_flat). When truncating, that correction (~1e-5
@@ -462,6 +470,22 @@ class _Rows:
             parts = [(np.arange(start, stop), *_fast_truncated_chunk(
                 self.plan, self.fast, ratio, self.scratch, t, start, stop, self.counts_buf, self.cols_buf,
                 self.vals_buf))]
+        return self._checked(parts)
+
+    def leftovers(self) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
+        """The rows the chunks of the hierarchical kernel left undecided, all made at once after
+        the last chunk (:func:`_undecided_rows`), as parts of :func:`_assemble`; [] otherwise."""
+        if not self.tree or not self.undecided:
+            return []
+        redo = np.concatenate(self.undecided)
+        self.undecided = []
+        if not redo.size:
+            return []
+        return self._checked(_undecided_rows(redo, self.plan, self.hier, self.ratio, self.tscratch, self.t,
+                                              self.cols_buf.shape[1], self.p, self.second_radius))
+
+    def _checked(self, parts):
+        """``parts``; ValueError naming the point of a row that is not finite."""
         for pos, counts, _, _ in parts:
             if counts.size and counts.min() < 0:
                 bad = int(pos[np.flatnonzero(counts < 0)[0]])
@@ -484,32 +508,39 @@ def _decided_rows(counts, cols, vals):
     return counts, data, indices, redo
 
 
-def _tree_chunk(plan, hier, ratio, scratch, t, start, stop, counts_buf, cols_buf, vals_buf, p, radius,
-                vertex_tree):
-    """The rows of sorted positions [start, stop), hierarchical kernel, as parts of
-    :func:`_assemble`.
-
-    Rows it leaves undecided (or too wide for the buffers) are the unit row of a cage vertex they
-    sit on, else computed again in batches of points within ``radius`` of each other only
-    (:func:`_second_pass_rows`): parts of their own.
+def _tree_chunk(plan, hier, ratio, scratch, t, start, stop, counts_buf, cols_buf, vals_buf):
+    """The rows of sorted positions [start, stop) the hierarchical kernel decides, as a part of
+    :func:`_assemble` (0 entries for the others), and the positions of the others (undecided or
+    too wide for the buffers: :func:`_undecided_rows` makes them after the last chunk).
     """
     m = stop - start
     counts = counts_buf[:m]
     compute_tree_truncated(plan, hier, start, stop, t, MIN_KEPT_SUM, counts, cols_buf, vals_buf, ratio, scratch)
     counts, data, indices, redo = _decided_rows(counts, cols_buf, vals_buf)
-    parts = [(np.arange(start, stop), counts, data, indices)]
-    if not redo.size:
-        return parts
-    # points at a cage vertex: the unit row, not the flat kernel
-    at, col = _at_cage_vertex(p[plan.order[start + redo]], hier.fast, vertex_tree)
+    return (np.arange(start, stop), counts, data, indices), start + redo
+
+
+def _undecided_rows(redo, plan, hier, ratio, scratch, t, width, p, radius):
+    """The rows of sorted positions ``redo`` (k,) that the first pass left undecided, as parts of
+    :func:`_assemble`: the unit row of a cage vertex a point sits on, else computed again in
+    batches of points within ``radius`` of each other only (:func:`_second_pass_rows`).
+
+    They are made once, after the last chunk, rather than chunk by chunk: a chunk's few hundred
+    undecided points made a few small kernel calls that kept one core of two busy, and the steps
+    around them (the curve, the batches, the vertex look-up) ran on one core 500 times at 11M.
+    """
+    points = p[plan.order[redo]]
+    at, col = _at_cage_vertex(points, hier.fast)
+    parts = []
     if at.size:
-        parts.append((start + redo[at], np.ones(at.size, dtype=np.int64), np.ones(at.size), col.astype(np.int32)))
-        redo = np.delete(redo, at)
+        parts.append((redo[at], np.ones(at.size, dtype=np.int64), np.ones(at.size), col.astype(np.int32)))
+        keep = np.ones(redo.size, dtype=bool)
+        keep[at] = False
+        redo, points = redo[keep], points[keep]
         if not redo.size:
             return parts
-    for local, *rows in _second_pass_rows(p[plan.order[start + redo]], hier, ratio, scratch, t,
-                                          cols_buf.shape[1], radius):
-        parts.append((start + redo[local], *rows))
+    for local, *rows in _second_pass_rows(points, hier, ratio, scratch, t, width, radius):
+        parts.append((redo[local], *rows))
     return parts
 
 
@@ -540,29 +571,28 @@ def _second_pass_rows(points, hier, ratio, scratch, t, width, radius):
     part of the binding that grew faster than the shape).
     """
     fast = hier.fast
-    k = points.shape[0]
-    counts = np.full(k, UNDECIDED, dtype=np.int64)
-    cols = np.empty((k, width), dtype=np.int32)
-    vals = np.empty((k, width))
+    parts = []
+    redo = np.arange(points.shape[0])
     for theta in SECOND_THETAS:
-        redo = np.flatnonzero(counts < 0)
         if not redo.size:
             break
         plan, position = plan_groups(points[redo], fast, radius)
         nbatch = plan.bx.shape[0]
         n = min(nbatch, SECOND_BATCHES) * LANES
         c_buf, i_buf, v_buf = np.empty(n, dtype=np.int64), np.empty((n, width), dtype=np.int32), np.empty((n, width))
+        left = []
         for b0 in range(0, nbatch, SECOND_BATCHES):
             b1 = min(nbatch, b0 + SECOND_BATCHES)
             compute_tree_truncated(plan, hier, b0 * LANES, b1 * LANES, t, MIN_KEPT_SUM, c_buf, i_buf, v_buf, ratio,
                                    scratch, theta=theta)
             mine = np.flatnonzero((position >= b0 * LANES) & (position < b1 * LANES))
             at = position[mine] - b0 * LANES
-            counts[redo[mine]] = c_buf[at]
-            cols[redo[mine]] = i_buf[at]
-            vals[redo[mine]] = v_buf[at]
-    counts, data, indices, redo = _decided_rows(counts, cols, vals)
-    parts = [(np.arange(k), counts, data, indices)]
+            counts = c_buf[at]
+            decided = counts >= 0
+            counts[~decided] = 0
+            parts.append((redo[mine], counts, *_pack_rows(counts, i_buf, v_buf, at)))
+            left.append(redo[mine[~decided]])
+        redo = np.concatenate(left)
     if not redo.size:
         return parts
     sub_plan = plan_fast(points[redo], fast)
@@ -574,7 +604,7 @@ def _second_pass_rows(points, hier, ratio, scratch, t, width, radius):
     return parts + [(redo[sub_plan.order], *sub)]
 
 
-def _at_cage_vertex(points: np.ndarray, fast, scratch: dict) -> tuple[np.ndarray, np.ndarray]:
+def _at_cage_vertex(points: np.ndarray, fast) -> tuple[np.ndarray, np.ndarray]:
     """Which of the (k, 3) ``points`` lie at a cage vertex (within the on-cage vertex tolerance of
     :func:`hybridedit.binding.mvc_faces.tolerances`), and the caller's column of that vertex.
 
@@ -587,10 +617,8 @@ def _at_cage_vertex(points: np.ndarray, fast, scratch: dict) -> tuple[np.ndarray
 
     from .mvc_faces import tolerances
 
-    if "vertex_tree" not in scratch:
-        scratch["vertex_tree"] = cKDTree(fast.verts_t.T)
     x = (points - fast.origin) / fast.unit  # (as plan_fast places them)
-    d, j = scratch["vertex_tree"].query(x)
+    d, j = cKDTree(fast.verts_t.T).query(x)
     at = np.flatnonzero(d <= tolerances(fast.scale)[0])
     return at, fast.perm[j[at]]
 

@@ -515,17 +515,20 @@ def test_rows_go_to_their_points_on_either_twin():
 
 
 def test_packed_rows_on_either_twin():
-    from hybridedit.binding.bind import _pack_rows_parallel, _pack_rows_serial
+    from hybridedit.binding.bind import _pack_rows, _pack_rows_parallel, _pack_rows_serial
 
     rng = np.random.default_rng(7)
     cols = rng.integers(0, 99, (50, 8)).astype(np.int32)
     vals = rng.random((50, 8))
-    counts = rng.integers(0, 9, 50)
+    rows = rng.permutation(50)[:30]  # some rows of the buffers, in any order
+    counts = rng.integers(0, 9, 30)
     counts[3] = 12  # too wide for the buffers: room left, filled by the caller
     ptr = np.concatenate([[0], np.cumsum(counts)])
-    want = np.concatenate([vals[r, :counts[r]] if counts[r] <= 8 else np.full(counts[r], -1.0) for r in range(50)])
+    want = np.concatenate([vals[b, :k] if k <= 8 else np.full(k, -1.0) for b, k in zip(rows, counts)])
     for twin in (_pack_rows_serial, _pack_rows_parallel):
         data, idx = np.full(ptr[-1], -1.0), np.full(ptr[-1], -1, dtype=np.int32)
-        twin(ptr, counts, cols, vals, idx, data)
+        twin(rows, ptr, counts, cols, vals, idx, data)
         assert np.array_equal(data, want)
-        assert np.array_equal(idx[ptr[4]:ptr[5]], cols[4, :counts[4]])
+        assert np.array_equal(idx[ptr[4]:ptr[5]], cols[rows[4], :counts[4]])
+    data, idx = _pack_rows(counts[:3], cols, vals)  # rows 0, 1, 2 by default
+    assert np.array_equal(data, np.concatenate([vals[r, :counts[r]] for r in range(3)]))
