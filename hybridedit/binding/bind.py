@@ -51,6 +51,12 @@ CHUNK_BYTES = 64 * 2**20
 #: Nonzeros per row the fast method's truncating kernel stores (rows that
 #: keep more are recomputed through the dense buffer).
 SPARSE_ROW_CAP = 256
+#: Nonzeros per row the hierarchical kernel's first pass stores (rows that keep more are made
+#: with the others it leaves undecided, :data:`SPARSE_ROW_CAP` wide). Rows keep 3-12 entries and
+#: a binding at most :data:`hybridedit.binding.truncation.MAX_ROW`: buffer rows 256 wide lay the
+#: kept entries 1-2 KB apart, and packing a chunk's rows cost a page-table miss a row (11M: 3.5 s
+#: on one core in all).
+FIRST_PASS_ROW_CAP = 64
 
 
 @njit(cache=True, fastmath=False, error_model="numpy", parallel=True)
@@ -392,7 +398,7 @@ def _chunk_rows(chunk_size: int | None, method: str, t: float, c: int) -> int:
             raise ValueError(f"chunk_size must be a positive integer, got {chunk_size!r}")
         return int(chunk_size)
     if t > 0.0 and method in ("fast", "flat"):  # truncated as made: sparse buffers
-        chunk = max(1, CHUNK_BYTES // (12 * min(c, SPARSE_ROW_CAP)))
+        chunk = max(1, CHUNK_BYTES // (12 * min(c, FIRST_PASS_ROW_CAP if method == "fast" else SPARSE_ROW_CAP)))
     else:
         chunk = max(1, CHUNK_BYTES // (8 * c))
     if method in ("fast", "flat"):
@@ -438,7 +444,7 @@ class _Rows:
             self.undecided: list[np.ndarray] = []  # positions each chunk left undecided (made in leftovers())
             self.second_radius = SECOND_RADIUS * float(np.median(self.plan.bsph[:, 3]))
         if self.sparse or self.tree:
-            cap = min(c, SPARSE_ROW_CAP)
+            cap = min(c, FIRST_PASS_ROW_CAP if self.tree else SPARSE_ROW_CAP)
             self.counts_buf = np.empty(chunk, dtype=np.int64)
             self.cols_buf = np.empty((chunk, cap), dtype=np.int32)
             self.vals_buf = np.empty((chunk, cap))
@@ -482,7 +488,8 @@ class _Rows:
         if not redo.size:
             return []
         return self._checked(_undecided_rows(redo, self.plan, self.hier, self.ratio, self.tscratch, self.t,
-                                              self.cols_buf.shape[1], self.p, self.second_radius))
+                                              min(self.fast.n_vertices, SPARSE_ROW_CAP), self.p,
+                                              self.second_radius))
 
     def _checked(self, parts):
         """``parts``; ValueError naming the point of a row that is not finite."""

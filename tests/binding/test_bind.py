@@ -532,3 +532,41 @@ def test_packed_rows_on_either_twin():
         assert np.array_equal(idx[ptr[4]:ptr[5]], cols[rows[4], :counts[4]])
     data, idx = _pack_rows(counts[:3], cols, vals)  # rows 0, 1, 2 by default
     assert np.array_equal(data, np.concatenate([vals[r, :counts[r]] for r in range(3)]))
+
+
+def test_rows_too_wide_for_the_first_pass_are_made_with_the_undecided_ones(monkeypatch):
+    """The hierarchical kernel's first pass stores FIRST_PASS_ROW_CAP entries a row; wider rows are
+    made after the last chunk, with the rows it left undecided, SPARSE_ROW_CAP wide."""
+    from hybridedit.binding import bind as binding
+
+    from hybridedit.cage.build import build_cage
+
+    from shapes import bumpy_blob
+
+    shape = bumpy_blob(4)
+    pts, cage = shape.vertices, build_cage(shape, 0.1)  # a cage close to the shape: narrow rows
+    flat = bind(pts, cage, truncation=0.03, method="flat", max_row=None)
+    later = []
+    real = binding._undecided_rows
+
+    def counting(redo, *args):
+        later.append(len(redo))
+        return real(redo, *args)
+
+    monkeypatch.setattr(binding, "_undecided_rows", counting)
+    made = {}
+    for cap in (256, 3):
+        monkeypatch.setattr(binding, "FIRST_PASS_ROW_CAP", cap)
+        later.clear()
+        made[cap] = bind(pts, cage, truncation=0.03, chunk_size=64, max_row=None)
+        made[cap, "later"] = sum(later)
+    wide = np.diff(flat.indptr) > 3
+    assert wide.sum() > 0.1 * len(pts) and made[256, "later"] < 0.1 * len(pts)
+    assert made[3, "later"] >= 0.9 * wide.sum() + made[256, "later"]
+    # as close to the flat kernel's rows as the first pass's own: the same kept entries for nearly
+    # every row, and the same values there
+    for M in (made[256], made[3]):
+        same = [r for r in range(len(pts)) if np.array_equal(M[r].indices, flat[r].indices)]
+        assert len(same) >= 0.9 * len(pts)
+        assert abs(M[same] - flat[same]).max() <= 1e-4
+        assert np.allclose(np.asarray(M.sum(axis=1)).ravel(), 1.0)
