@@ -233,6 +233,7 @@ def _rare_paths(shape) -> None:
     from .core.rotations import closest_rotation, closest_rotations
 
     bind(0.5 * shape.vertices[:8], shape, truncation=0.0)  # the shape as its own cage, untruncated
+    bind(shape.vertices[shape.faces[:4]].mean(axis=1), shape)  # points on the cage's faces: their face's rows
     import scipy.sparse as sp
 
     from .binding.truncation import cap_rows

@@ -19,7 +19,7 @@ from .mvc_layout import FAST_BLOCK, LANES, FastCageData, FastPlan, fast_destinat
 from .truncation import truncate_row_sparse
 
 __all__ = ["fast_scratch", "compute_fast_sorted", "compute_fast_truncated", "check_far_ratio", "fast_tolerances",
-           "FAR_RATIO", "MAX_CORRECTION"]
+           "on_cage_truncated", "FAR_RATIO", "MAX_CORRECTION"]
 
 exact_face_lanes = compile_exact_face_lanes()
 
@@ -557,6 +557,60 @@ def compute_fast_truncated(plan: "FastPlan", cage: "FastCageData", start: int, s
         return
     _run_fast_kernel(plan, cage, start, stop, far_ratio, False, scratch, truncation=truncation,
                      min_kept_sum=min_kept_sum, counts=counts, cols=cols, vals=vals)
+
+
+@njit(cache=True, fastmath=False, error_model="numpy")
+def _on_cage_kernel(x, ptr, faces, verts_t, far_idx, planes, eps_v, eps_plane, eps_near, truncation, min_kept_sum,
+                    col_of_slot, counts, cols, vals):  # pragma: no cover - compiled
+    """Row i: point ``x[i]``'s row on the first of its candidate faces ``faces[ptr[i]:ptr[i + 1]]``
+    (ascending) that it lies on, truncated; ``counts[i]`` is left as it was when it lies on none."""
+    c = verts_t.shape[1]
+    row = np.zeros(c)
+    fq = np.empty(planes.shape[1])
+    surv = np.empty(c, dtype=np.int64)
+    work = np.empty(c)
+    idx = np.empty(c, dtype=np.int64)
+    for i in range(x.shape[0]):
+        for q in range(ptr[i], ptr[i + 1]):
+            f = faces[q]
+            if near_block(x[i, 0], x[i, 1], x[i, 2], verts_t, far_idx, planes, fq, eps_v, eps_plane, eps_near, f,
+                          f + 1, row):
+                counts[i] = truncate_row_sparse(row, truncation, min_kept_sum, col_of_slot, surv, work, idx,
+                                                cols[i], vals[i])
+                break
+
+
+def on_cage_truncated(points: np.ndarray, cage: FastCageData, truncation: float, min_kept_sum: float,
+                      counts: np.ndarray, cols: np.ndarray, vals: np.ndarray) -> None:
+    """The truncated rows of the (k, 3) ``points`` that lie on the cage's surface, as the flat
+    kernel makes them, without its pass over every face.
+
+    A point on a face (within the on-cage tolerances) has that face's row: the unit row of a
+    vertex it sits on, else its barycentric coordinates (:func:`hybridedit.binding.mvc_faces.near_block`
+    on the first face in the kernel's order that it lies on, as the flat kernel finds it). Only the
+    faces whose bounding sphere holds the point are tried. Row i goes to ``counts[i]``,
+    ``cols[i]``, ``vals[i]`` as in :func:`compute_fast_truncated`; ``counts[i]`` is left as it was
+    (the caller sets it negative) for a point on no face.
+    """
+    from scipy.spatial import cKDTree
+
+    k = points.shape[0]
+    if k == 0:
+        return
+    eps_v, eps_plane, eps_near = fast_tolerances(cage)
+    x = np.ascontiguousarray((points - cage.origin) / cage.unit)  # (as plan_fast places them)
+    geo = cage.face_geo
+    near = cKDTree(np.ascontiguousarray(geo[:3].T)).query_ball_point(x, float(geo[3].max()) + eps_near)
+    lists = []
+    for i in range(k):
+        f = np.asarray(near[i], dtype=np.int64)
+        d = np.linalg.norm(geo[:3, f].T - x[i], axis=1)
+        lists.append(np.sort(f[d <= geo[3, f] + eps_near]))
+    ptr = np.zeros(k + 1, dtype=np.int64)
+    np.cumsum([len(f) for f in lists], out=ptr[1:])
+    faces = np.concatenate(lists) if ptr[-1] else np.zeros(0, dtype=np.int64)
+    _on_cage_kernel(x, ptr, faces, cage.verts_t, cage.far_idx, cage.exact.planes, eps_v, eps_plane, eps_near,
+                    float(truncation), float(min_kept_sum), cage.perm, counts, cols, vals)
 
 
 def check_far_ratio(far_ratio: float) -> float:

@@ -570,3 +570,37 @@ def test_rows_too_wide_for_the_first_pass_are_made_with_the_undecided_ones(monke
         assert len(same) >= 0.9 * len(pts)
         assert abs(M[same] - flat[same]).max() <= 1e-4
         assert np.allclose(np.asarray(M.sum(axis=1)).ravel(), 1.0)
+
+
+def test_rows_left_only_on_the_cage_skip_the_flat_kernel(monkeypatch):
+    """Points on the cage's faces that the hierarchy leaves undecided get their face's row, the flat
+    kernel's bitwise, without its pass over every face; with a point off the cage among them, they
+    all go to the flat kernel as before."""
+    from hybridedit.binding import bind as binding
+
+    _, cage = bumpy_shape_and_cage()
+    rng = np.random.default_rng(8)
+    f = cage.faces[rng.choice(cage.n_faces, 40, replace=False)]
+    on = np.einsum("ij,ijk->ik", rng.dirichlet([2.0, 2.0, 2.0], size=40), cage.vertices[f])
+    calls = []
+    real = binding._fast_truncated_chunk
+
+    def counting(plan, *args):
+        calls.append(plan.n_points)
+        return real(plan, *args)
+
+    monkeypatch.setattr(binding, "_fast_truncated_chunk", counting)
+    M = bind(on, cage)
+    assert calls == []
+    monkeypatch.undo()
+    assert abs(M - bind(on, cage, method="flat")).max() == 0
+    want = np.zeros((40, cage.n_vertices))
+    np.put_along_axis(want, f, 1.0, axis=1)
+    assert np.array_equal(M.toarray() > 0, want > 0)  # (barycentric: the face's three vertices)
+    # no second pass: every undecided row reaches the last step; a point inside is not on the cage
+    monkeypatch.setattr(binding, "_fast_truncated_chunk", counting)
+    monkeypatch.setattr(binding, "SECOND_THETAS", ())
+    inside = np.vstack([on, [[0.05, 0.02, 0.01]]])
+    mixed = bind(inside, cage)
+    assert calls[-1] >= 2  # with the points on the cage, as before
+    assert abs(mixed[:40] - M).max() == 0

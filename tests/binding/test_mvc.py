@@ -577,3 +577,40 @@ def test_fast_rejects_bad_arguments():
     with pytest.raises(ValueError, match="closed"):
         mean_value_coordinates(np.zeros((1, 3)), v, f[1:], method="fast")
     assert mean_value_coordinates(np.zeros((0, 3)), v, f, method="fast").shape == (0, 8)
+
+
+@pytest.mark.parametrize("make", [cube_cage, sphere_cage, star_cage, l_cage])
+def test_rows_on_the_cage_without_the_pass_over_every_face_are_the_flat_kernels(make):
+    """``on_cage_truncated`` gives a point on a face, an edge or a vertex the flat kernel's truncated
+    row bitwise, and leaves the rows of points off the cage alone."""
+    from hybridedit.binding.mvc_flat import compute_fast_truncated, on_cage_truncated
+    from hybridedit.binding.truncation import UNDECIDED
+
+    v, f = make()
+    rng = np.random.default_rng(25)
+    sel = rng.choice(len(f), size=min(30, len(f)), replace=False)
+    tri = v[f[sel]]
+    on_face = np.einsum("ij,ijk->ik", rng.dirichlet([2.0, 2.0, 2.0], size=len(sel)), tri)
+    on_edge = 0.3 * tri[:, 0] + 0.7 * tri[:, 1]
+    near_vertex = v + 1e-14 * bbox_diag(v)
+    off = v.mean(axis=0) + 0.1 * bbox_diag(v) * rng.standard_normal((10, 3))
+    off = np.concatenate([off, on_face[:5] + 1e-3 * bbox_diag(v)])  # (a hair off is off)
+    pts = np.concatenate([on_face, on_edge, near_vertex, off])
+    fast = mvc.prepare_fast_cage(v, f)
+    for t in (0.03, 0.4):
+        k, w = len(pts), min(len(v), 16)
+        got = (np.full(k, UNDECIDED, dtype=np.int64), np.zeros((k, w), dtype=np.int32), np.zeros((k, w)))
+        on_cage_truncated(pts, fast, t, 0.5, *got)
+        plan = mvc.plan_fast(np.ascontiguousarray(pts), fast)
+        flat = (np.empty(k, dtype=np.int64), np.zeros((k, w), dtype=np.int32), np.zeros((k, w)))
+        compute_fast_truncated(plan, fast, 0, k, t, 0.5, *flat)
+        row = np.empty(k, dtype=np.int64)
+        row[plan.order] = np.arange(k)  # the flat kernel's row of each point
+        n_on = len(pts) - len(off)
+        assert np.all(got[0][:n_on] >= 1) and np.all(got[0][:n_on] <= 3)
+        assert np.all(got[0][n_on:] == UNDECIDED)
+        for i in range(n_on):
+            n = got[0][i]
+            assert n == flat[0][row[i]]
+            assert np.array_equal(got[1][i, :n], flat[1][row[i], :n])
+            assert np.array_equal(got[2][i, :n], flat[2][row[i], :n])
