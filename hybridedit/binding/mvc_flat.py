@@ -590,7 +590,9 @@ def on_cage_truncated(points: np.ndarray, cage: FastCageData, truncation: float,
     on the first face in the kernel's order that it lies on, as the flat kernel finds it). Only the
     faces whose bounding sphere holds the point are tried. Row i goes to ``counts[i]``,
     ``cols[i]``, ``vals[i]`` as in :func:`compute_fast_truncated`; ``counts[i]`` is left as it was
-    (the caller sets it negative) for a point on no face.
+    (the caller sets it negative) for a point on no face. When the faces to try would be more than
+    the flat kernel's pass visits (a cage with a face as large as the cage, a shell or a box:
+    every face is near every point), nothing is done.
     """
     from scipy.spatial import cKDTree
 
@@ -600,7 +602,12 @@ def on_cage_truncated(points: np.ndarray, cage: FastCageData, truncation: float,
     eps_v, eps_plane, eps_near = fast_tolerances(cage)
     x = np.ascontiguousarray((points - cage.origin) / cage.unit)  # (as plan_fast places them)
     geo = cage.face_geo
-    near = cKDTree(np.ascontiguousarray(geo[:3].T)).query_ball_point(x, float(geo[3].max()) + eps_near)
+    tree = cKDTree(np.ascontiguousarray(geo[:3].T))
+    reach = float(geo[3].max()) + eps_near
+    nf = geo.shape[1]
+    if int(tree.query_ball_point(x, reach, return_length=True).sum()) > nf * -(-k // LANES):
+        return
+    near = tree.query_ball_point(x, reach)
     lists = []
     for i in range(k):
         f = np.asarray(near[i], dtype=np.int64)

@@ -600,7 +600,8 @@ def test_rows_on_the_cage_without_the_pass_over_every_face_are_the_flat_kernels(
     for t in (0.03, 0.4):
         k, w = len(pts), min(len(v), 16)
         got = (np.full(k, UNDECIDED, dtype=np.int64), np.zeros((k, w), dtype=np.int32), np.zeros((k, w)))
-        on_cage_truncated(pts, fast, t, 0.5, *got)
+        for i in range(k):  # (one at a time: on these small cages every face is near every point)
+            on_cage_truncated(pts[i:i + 1], fast, t, 0.5, got[0][i:i + 1], got[1][i:i + 1], got[2][i:i + 1])
         plan = mvc.plan_fast(np.ascontiguousarray(pts), fast)
         flat = (np.empty(k, dtype=np.int64), np.zeros((k, w), dtype=np.int32), np.zeros((k, w)))
         compute_fast_truncated(plan, fast, 0, k, t, 0.5, *flat)
@@ -614,3 +615,20 @@ def test_rows_on_the_cage_without_the_pass_over_every_face_are_the_flat_kernels(
             assert n == flat[0][row[i]]
             assert np.array_equal(got[1][i, :n], flat[1][row[i], :n])
             assert np.array_equal(got[2][i, :n], flat[2][row[i], :n])
+
+
+def test_rows_on_the_cage_are_left_to_the_flat_kernel_when_every_face_is_near():
+    """A cage with a face as large as itself: every face is a candidate for every point, more work
+    than the flat kernel's pass; nothing is done (the rows stay undecided)."""
+    from hybridedit.binding.mvc_flat import on_cage_truncated
+    from hybridedit.binding.truncation import UNDECIDED
+
+    v, f = cube_cage()  # 12 faces, each as large as a side of the cube
+    fast = mvc.prepare_fast_cage(v, f)
+    rng = np.random.default_rng(26)
+    pts = np.einsum("ij,ijk->ik", rng.dirichlet([2.0, 2.0, 2.0], size=40), v[f[rng.integers(0, 12, 40)]])
+    got = (np.full(40, UNDECIDED, dtype=np.int64), np.zeros((40, 8), dtype=np.int32), np.zeros((40, 8)))
+    on_cage_truncated(pts, fast, 0.03, 0.5, *got)  # 40 points x 12 faces > 12 faces x 2 batches
+    assert np.all(got[0] == UNDECIDED)
+    on_cage_truncated(pts[:1], fast, 0.03, 0.5, *got)  # 12 <= 12 x 1: made
+    assert got[0][0] >= 1
