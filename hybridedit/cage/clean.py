@@ -53,16 +53,12 @@ def clean_surface(vertices: np.ndarray, faces: np.ndarray) -> Mesh:
         m0 = len(f)
         f = f[~degenerate_faces(v, f)]
         if len(f) and repeats_a_face(f, len(v)):
-            key = np.sort(f, axis=1)
+            key, axis = np.sort(f, axis=1), 0
             if len(v) < 2**21:  # the three indices packed in one int64, in the same order (rows of 3 sort
                 # as a structured type: 0.85 s for the 11M armadillo's 1.1M cage faces)
-                key = (key[:, 0] << 42) | (key[:, 1] << 21) | key[:, 2]
-                _, first, inverse, counts = np.unique(key, return_index=True, return_inverse=True,
-                                                      return_counts=True)
-            else:
-                _, first, inverse, counts = np.unique(
-                    key, axis=0, return_index=True, return_inverse=True, return_counts=True
-                )
+                key, axis = (key[:, 0] << 42) | (key[:, 1] << 21) | key[:, 2], None
+            _, first, inverse, counts = np.unique(key, axis=axis, return_index=True, return_inverse=True,
+                                                  return_counts=True)
             inverse = inverse.reshape(-1)
             # a vertex set used twice: same orientation is a duplicate (keep one),
             # opposite orientation is a fin (drop both)
