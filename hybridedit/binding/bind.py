@@ -583,7 +583,7 @@ def _second_pass_rows(points, hier, ratio, scratch, t, width, radius):
     Two things leave a row undecided. A wide batch (one straddling a thin part or a jump of the
     curve) opens more vertices than its buffers hold; and a point that sees much of the cage from
     afar (inside a round cage) has more aggregated mass than the truncation may drop. Batched
-    again along the curve, a chunk's undecided points lie far apart: every batch is wide. So
+    again along the curve, the undecided points lie far apart: every batch is wide. So
     here a batch holds only points within ``radius`` of its first (:data:`SECOND_RADIUS` typical
     first-pass batch radii: :func:`hybridedit.binding.mvc_layout.plan_groups`), and the opening ratio is
     lowered step by step (:data:`SECOND_THETAS`: fewer nodes aggregated). On the 690K armadillo
