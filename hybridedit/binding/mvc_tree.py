@@ -39,7 +39,7 @@ A node well separated from the batch's own size as well (``R <= LOCAL_RATIO * (|
 is not evaluated at every point: its total and magnitude are evaluated at ten points of the batch's
 sphere (its centre, the six ends of its axes, three points between them), summed over all such
 nodes, and the sums are interpolated by one quadratic at the batch's points (the remainder is of
-order ``(R / |C - c|)^3`` of those nodes' share); its vertex bound is taken at the batch's sphere,
+order ``20 (R / |C - c|)^3`` of those nodes' share); its vertex bound is taken at the batch's sphere,
 ``A_j / 3 / (|C - c| - R - r)^3``. These numbers only decide which entries a row keeps and whether
 the rule is shown to hold: a row's values come from its open vertices, rescaled to sum to 1.
 
@@ -93,10 +93,14 @@ MAX_OPEN = 4096
 #: Largest ratio of a batch's radius to an aggregated node's distance for which the node counts
 #: through the batch's ten-point quadratic (see the module docstring) instead of at each point. A
 #: node's ten evaluations then cost as much as three of the lanes' 32 (the sums are evaluated in
-#: the same vector loop). 11M armadillo, first 500K rows, one kernel side by side: 4.31 -> 3.89
-#: us a row (0.3: 3.84, 0.4: 3.75). 690K armadillo, first 200K rows: the same entries kept in
-#: 99.997% of the rows, in the same rows (6 differ), values equal within 3.4e-16, and undecided
-#: rows 864 -> 958 (0.3: 1,270; 0.4: 1,539: the batch-wide bound is looser).
+#: the same vector loop). The fit's remainder for a 1 / d^3 decay is at most about 20 (R / d)^3 of
+#: those nodes' share (16% at 0.2, 2% at 0.1), of the order of the nodes' own expansion at
+#: :data:`THETA`. Side by side with every node at every point, the 11M armadillo's bind (cached
+#: cage): 58.9 -> 55.3-56.1 s at 0.1, 58.5-61.0 -> 52.9-53.4 s at 0.2. The 690K armadillo's first
+#: 200K rows: at 0.1 each keeps the same entries (values within 3.4e-16) and 864 are left undecided
+#: as before; at 0.2, 6 keep other entries (as many as a change of THETA from 0.4 to 0.3 moves)
+#: and 958 are left undecided (the batch-wide bound is looser), which the second pass makes. The
+#: whole 690K binding's reconstruction RMS / diagonal: 1.0292830e-4 -> 1.0293572e-4.
 LOCAL_RATIO = 0.2
 _D = math.sqrt(0.5)
 #: the ten points where the quadratic is fitted, on the unit sphere (two more, copies of the centre,

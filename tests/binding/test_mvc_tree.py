@@ -256,3 +256,52 @@ def test_plan_groups_batches_only_near_points_and_finds_each_points_row():
     # spheres hold their lanes and are at least the radius given
     d = np.linalg.norm(plan.bx - plan.bsph[:, :3, None], axis=1).max(axis=1)
     assert np.all(d <= plan.bsph[:, 3] + 1e-12) and np.all(plan.bsph[:, 3] >= radius)
+
+
+@pytest.mark.parametrize("h", [1e-6, 0.3, 40.0])
+def test_batch_quadratic_reproduces_any_quadratic(h):
+    """The far nodes' ten-point fit is exact for a quadratic: its values at the stencil scaled by
+    ``h`` about a centre give back the quadratic at every point of the sphere (and a cubic's
+    remainder shrinks like h^3)."""
+    rng = np.random.default_rng(7)
+    c = rng.normal(size=3) * 5.0
+    a0, g, H = rng.normal(), rng.normal(size=3), rng.normal(size=(3, 3))
+    H = H + H.T
+
+    def quad(p):
+        y = p - c
+        return a0 + y @ g + 0.5 * np.einsum("...i,ij,...j->...", y, H, y)
+
+    stencil = c + h * mvc_tree._STENCIL.T
+    S = quad(stencil)
+    dirs = rng.normal(size=(32, 3))
+    X = c + h * rng.uniform(0, 1, size=(32, 1)) * dirs / np.linalg.norm(dirs, axis=1, keepdims=True)
+    acc = np.full(32, 2.5)
+    mvc_tree._add_quadratic(S, h, np.ascontiguousarray(X.T), c[0], c[1], c[2], acc)
+    scale = abs(a0) + np.abs(g).sum() * h + np.abs(H).sum() * h * h
+    assert np.abs(acc - 2.5 - quad(X)).max() <= 1e-12 * scale
+
+
+def test_batch_quadratic_of_a_far_field_is_close():
+    """Fitted to 1 / |p - C|^3 (a far node's decay) at a batch of radius LOCAL_RATIO |C - c|, the
+    quadratic is within 20 (R / d)^3 of it at the batch's points, and the error falls like the
+    cube of the radius."""
+    C = np.array([10.0, -3.0, 4.0])
+    c = np.zeros(3)
+    d = np.linalg.norm(C - c)
+
+    def field(p):
+        return 1.0 / np.linalg.norm(p - C, axis=-1) ** 3
+
+    rng = np.random.default_rng(3)
+    dirs = rng.normal(size=(32, 3))
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    errs = []
+    for ratio in (mvc_tree.LOCAL_RATIO, 0.1 * mvc_tree.LOCAL_RATIO):
+        h = ratio * d
+        X = c + h * dirs
+        acc = np.zeros(32)
+        mvc_tree._add_quadratic(field(c + h * mvc_tree._STENCIL.T), h, np.ascontiguousarray(X.T), 0.0, 0.0, 0.0, acc)
+        errs.append(np.abs(acc / field(X) - 1.0).max())
+    assert errs[0] <= 20 * mvc_tree.LOCAL_RATIO ** 3
+    assert errs[1] <= errs[0] * 2e-3
