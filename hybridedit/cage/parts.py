@@ -104,7 +104,7 @@ def cage_parts(
     size = check_cage_size(size)
     # a big shape is simplified in halves on two cores: the helper process starts now,
     # to be ready when the repair pass is done (see hybridedit.cage.qem)
-    worker = start_worker(mesh.n_faces)
+    worker = start_worker(mesh.n_faces, mesh.n_vertices)
     try:
         return _cage_parts(mesh, size, said, say, worker)
     finally:

@@ -171,3 +171,54 @@ def test_the_helper_sees_the_import_path_this_process_was_given(tmp_path, monkey
     run = subprocess.run([sys.executable, "-c", "import only_here_probe; print(only_here_probe.VALUE)"],
                          env=qem._helper_env(), capture_output=True, text=True)
     assert run.returncode == 0 and run.stdout.strip() == "42", run.stderr
+
+
+@pytest.mark.parametrize("sizes", [(10, 10), (100_000, 200_000), (0, 0)])
+def test_a_reserve_header_before_the_surface_changes_nothing(sizes):
+    """Sizes announced first (smaller or larger than the surface, or none) only grow the
+    simplifier's buffers: the surface that follows is simplified exactly as without them."""
+    v, f = _open_half()
+    reserve = np.array([*sizes, qem_worker.RESERVE], dtype=np.int64).tobytes()
+    head = np.array([len(v), len(f), 600], dtype=np.int64).tobytes()
+    run = _run(reserve + head + v.astype(np.float64).tobytes() + f.astype(np.int32).tobytes())
+    assert run.returncode == 0, run.stderr
+    nv, nf = np.frombuffer(run.stdout[:16], dtype=np.int64)
+    got_v = np.frombuffer(run.stdout, dtype=np.float64, count=3 * nv, offset=16).reshape(-1, 3)
+    got_f = np.frombuffer(run.stdout, dtype=np.int32, count=3 * nf, offset=16 + 24 * nv).reshape(-1, 3)
+    want_v, want_f = qem_worker.simplify_half(v, f, 600)
+    assert np.array_equal(got_v, want_v) and np.array_equal(got_f, want_f)
+
+
+def test_a_reserve_header_alone_ends_it_quietly():
+    run = _run(np.array([1000, 2000, qem_worker.RESERVE], dtype=np.int64).tobytes())
+    assert run.returncode == 0 and run.stdout == b""
+
+
+def test_the_worker_takes_its_share_and_the_cut_does_not_depend_on_it(monkeypatch):
+    """The worker's half has WORKER_SHARE of the faces, whether it grew its buffers ahead or not;
+    a worker that reads the sizes, then dies, leaves both halves of the same cut to this process,
+    which makes the same surface (the simplification is deterministic)."""
+    big = bumpy_blob(5)
+    sizes = []
+    real = qem.simplify_half
+
+    def counting(v, f, target):
+        sizes.append(len(f))
+        return real(v, f, target)
+
+    monkeypatch.setattr(qem, "simplify_half", counting)
+    results = []
+    for command in (None, [sys.executable, "-c", "import sys; sys.stdin.buffer.read(24); sys.exit(3)"]):
+        monkeypatch.setattr(qem, "WORKER", command)
+        sizes.clear()
+        w = qem.HalfWorker(expect=(big.n_vertices, big.n_faces))
+        try:
+            results.append(qem.presimplify(big.vertices, big.faces, 1000, min_faces=0, worker=w))
+        finally:
+            w.close()
+        mine = sizes[0]
+        assert abs((big.n_faces - mine) / big.n_faces - qem.WORKER_SHARE) <= 0.01
+        assert len(sizes) == (1 if command is None else 2)
+    plain = qem.presimplify(big.vertices, big.faces, 1000, min_faces=0)  # a worker started here
+    for v, f in results:
+        assert np.array_equal(v, plain[0]) and np.array_equal(f, plain[1])
