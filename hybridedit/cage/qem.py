@@ -46,8 +46,8 @@ MARGIN = 1.25
 #: the share of the faces the worker's half has (the rest are simplified in this process). A worker
 #: started early grows its buffers while this process repairs the shape (see :func:`start_worker`)
 #: and then simplifies a face faster. The cut does not depend on whether the worker runs, so that
-#: the cage is the same with or without it. The 11M armadillo's cut in equal halves
-#: left the worker waiting for this process; at 0.55 its cage took 29.1 / 27.8 s instead of 29.5 /
+#: the cage is the same with or without it. Cut in equal halves, the 11M armadillo's worker
+#: finished first and sat idle while this process finished its half; at 0.55 its cage took 29.1 / 27.8 s instead of 29.5 /
 #: 29.8 s (this process's half: 20.4 / 19.0 s instead of 21.6 / 21.2 s, the worker's result in
 #: 0.3 s after it); at 0.6 the worker's half was the longer (this process then waited 3.1 s).
 WORKER_SHARE = 0.55
