@@ -520,13 +520,14 @@ class _Rows:
         return parts
 
 
-def _decided_rows(counts, cols, vals):
-    """(counts, data, indices, redo): the rows of ``cols`` / ``vals`` whose ``counts`` are >= 0
-    packed (a copy of ``counts``, 0 for the others), and ``redo`` the others (undecided, too wide)."""
+def _decided_rows(counts, cols, vals, rows=None):
+    """(counts, data, indices, redo): the rows whose ``counts`` are >= 0 packed (a copy of
+    ``counts``, 0 for the others; row k is row ``rows[k]``, by default k, of ``cols`` / ``vals``),
+    and ``redo`` the indices k of the others (undecided, too wide)."""
     redo = np.flatnonzero(counts < 0)
     counts = counts.copy()
     counts[redo] = 0
-    data, indices = _pack_rows(counts, cols, vals)
+    data, indices = _pack_rows(counts, cols, vals, rows)
     return counts, data, indices, redo
 
 
@@ -609,11 +610,9 @@ def _second_pass_rows(points, hier, ratio, scratch, t, width, radius):
                                    scratch, theta=theta)
             mine = np.flatnonzero((position >= b0 * LANES) & (position < b1 * LANES))
             at = position[mine] - b0 * LANES
-            counts = c_buf[at]
-            decided = counts >= 0
-            counts[~decided] = 0
-            parts.append((redo[mine], counts, *_pack_rows(counts, i_buf, v_buf, at)))
-            left.append(redo[mine[~decided]])
+            counts, data, indices, undecided = _decided_rows(c_buf[at], i_buf, v_buf, at)
+            parts.append((redo[mine], counts, data, indices))
+            left.append(redo[mine[undecided]])
         redo = np.concatenate(left)
     if not redo.size:
         return parts
