@@ -203,10 +203,8 @@ def _owners(mesh: Mesh, src: Mesh, vmap: np.ndarray, count: int, labels: np.ndar
 def _in_spatial_order(piece: Mesh, kind: str) -> Mesh:
     """The piece with its vertices in Morton order (:func:`hybridedit.core.spatial_order.morton_order`):
     the cage vertices a drag frees are then a few runs of rows, and a frame's gathers over them
-    hit the cache (the 2.77M armadillo's canonical edit: the local step 0.99 -> 0.88 ms, the
-    global step's right-hand side 0.48 -> 0.28 ms, side by side). A shell keeps its layout (top
-    vertex i, its bottom twin i + k: :func:`hybridedit.cage.shell.shell_pairs`): its top is
-    ordered and the bottom follows. A part that is its own cage keeps the part's order (each shape
+    hit the cache. A shell keeps its layout (top vertex i, its bottom twin i + k:
+    :func:`hybridedit.cage.shell.shell_pairs`): its top is ordered and the bottom follows. A part that is its own cage keeps the part's order (each shape
     vertex bound to its own cage vertex in the same order), and a box is 8 vertices."""
     if kind in ("own", "box"):
         return piece

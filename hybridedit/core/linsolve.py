@@ -127,10 +127,9 @@ def _mode_option(factor, simplicial: bool) -> dict:
 
 #: Largest system factored simplicial by default. The systems solved every frame are mesh
 #: Laplacians (the cage's, the edited region's), whose simplicial solves are 2-5x faster than
-#: supernodal ones at every size measured (a 2,925-unknown cage block 0.30 -> 0.07 ms with 3
-#: right-hand sides, a 170K-vertex shape 50 -> 20 ms) at about the same factorization time; from
-#: several hundred thousand unknowns the supernodal factorization is faster (690K: 6.3 s against
-#: 7.7 s) and is kept. (scikit-sparse only: cholespy is always simplicial.)
+#: supernodal ones at about the same factorization time; from several hundred thousand unknowns
+#: the supernodal factorization is faster and is kept. (scikit-sparse only: cholespy is always
+#: simplicial.)
 SIMPLICIAL_MAX = 200_000
 
 

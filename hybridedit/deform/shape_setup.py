@@ -1,13 +1,13 @@
 """What an editor derives from a rig once, made or read from the on-disk cache.
 
-Opening a shape whose cage and binding come from the cache used to rebuild, every time, what
-depends only on the shape, its cage and its binding: the shape's cotangent Laplacian (the
-region step's matrix), the residual and the rotation blend of the residual propagation (the
-top k coordinates of each row), the cage vertex each shape vertex depends on most and the
-shape vertex nearest each cage vertex (a KD-tree over the shape). At 2.77M vertices that was
-most of a cached open. :func:`shape_setup` makes them once and keeps them beside the rig's
-cache entry (:func:`hybridedit.binding.cache.store_arrays`, checksummed like the entry); the
-next open reads them.
+An editor needs, besides its cage and binding, what depends only on the shape, its cage and its
+binding: the shape's cotangent Laplacian (the region step's matrix), the residual and the
+rotation blend of the residual propagation (the top k coordinates of each row), the cage vertex
+each shape vertex depends on most and the shape vertex nearest each cage vertex (a KD-tree over
+the shape). Rebuilt at every open, they would be most of a cached open at 2.77M vertices.
+:func:`shape_setup` makes them once and keeps them beside the rig's cache entry
+(:func:`hybridedit.binding.cache.store_arrays`, checksummed like the entry); the next open reads
+them.
 
 Pure compute; no Qt or VTK.
 """
@@ -87,7 +87,7 @@ def make_shape_setup(rig: Rig, *, k: int = DEFAULT_K) -> ShapeSetup:
         return laplacian(mesh.n_vertices, e, wt)
 
     # the Laplacian on a second thread beside the binding's parts (numba, scipy and the KD-tree let
-    # go of the GIL): both cores busy, as the issue of large shapes asks of every build stage
+    # go of the GIL): both cores busy through this stage of the build, as through the others
     with ThreadPoolExecutor(max_workers=1) as pool:
         lap = pool.submit(shape_laplacian)
         d, idx, w = residual_setup(M, mesh.vertices, cage.vertices, k=k)
