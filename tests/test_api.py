@@ -37,6 +37,7 @@ print(json.dumps({
 """
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("first", ["package", "engine"])
 def test_every_name_is_the_same_object_in_every_import_order(first: str) -> None:
     """A name of the package is its module's object whether the package's names or the engine's

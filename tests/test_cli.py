@@ -279,6 +279,7 @@ def test_the_default_mesh_is_found_in_a_checkout_and_in_an_installed_package(tmp
     assert cli._default_mesh(tmp_path / "elsewhere" / "hybridedit") == tmp_path / "elsewhere" / "data" / "creature.ply"
 
 
+@pytest.mark.slow
 def test_info_into_a_closed_pipe_exits_quietly(mesh_file):
     """`hybridedit info FILE | head -1`: the reader may go away before the report is written."""
     import subprocess

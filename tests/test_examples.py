@@ -23,6 +23,9 @@ from hybridedit.fileio.meshfiles import read_mesh, write_mesh
 
 from shapes import SHARED_MESHES, bumpy_blob
 
+# slow: each example is a process of its own that imports the engine, builds a cage and binds
+pytestmark = pytest.mark.slow
+
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 CAGE = "100"
 

@@ -55,6 +55,7 @@ def wheel(tmp_path_factory) -> Path:
     return whl
 
 
+@pytest.mark.slow
 def test_the_wheel_ships_the_default_mesh_and_every_module(wheel):
     with zipfile.ZipFile(wheel) as z:
         names = set(z.namelist())
@@ -64,6 +65,7 @@ def test_the_wheel_ships_the_default_mesh_and_every_module(wheel):
     assert not any(n.startswith(("tests/", "benchmarks/", "data/")) for n in names)
 
 
+@pytest.mark.slow
 def test_the_wheel_metadata(wheel):
     with zipfile.ZipFile(wheel) as z:
         info = next(n for n in z.namelist() if n.endswith(".dist-info/METADATA"))
@@ -102,6 +104,7 @@ def installed(wheel, tmp_path_factory) -> Path:
     return target
 
 
+@pytest.mark.slow
 def test_an_installed_wheel_opens_its_default_mesh(installed, tmp_path):
     """From an installed wheel (no checkout around it), ``hybridedit`` with no argument has its
     mesh: the copy inside the package, which reads as the creature."""
@@ -115,6 +118,7 @@ def test_an_installed_wheel_opens_its_default_mesh(installed, tmp_path):
     assert int(n) == 100_576
 
 
+@pytest.mark.slow
 def test_a_read_only_installation_keeps_its_kernels_in_the_user_cache(installed, tmp_path):
     """Where the package folder cannot be written (an installation owned by root), numba's cache
     goes to the user cache folder, and a kernel compiled there is found there again.
@@ -145,6 +149,7 @@ def test_a_read_only_installation_keeps_its_kernels_in_the_user_cache(installed,
     assert {p: p.stat().st_mtime_ns for p in (cache / "numba").rglob("*.nbc")} == stamps
 
 
+@pytest.mark.slow
 def test_a_writable_installation_keeps_its_kernels_beside_the_code(installed, tmp_path):
     code = "import os, hybridedit; print(os.environ.get('NUMBA_CACHE_DIR', 'beside the code'))"
     run = _run_installed(installed, code, tmp_path, HYBRIDEDIT_CACHE_DIR=str(tmp_path / "c"))

@@ -186,6 +186,7 @@ def repaired_file(name, catalog, tmp_path, capsys):
     assert np.abs(d.vertices - mesh.vertices).max() < diag
 
 
+@pytest.mark.slow
 def test_two_million_faces(tmp_path, capsys, monkeypatch):
     """About 2M faces (1M vertices), generated in a second or two: read it and run info, which
     reports on the mesh and the repairs its cage would need without simplifying one.

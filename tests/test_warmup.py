@@ -6,6 +6,8 @@ import subprocess
 import sys
 import textwrap
 
+import pytest
+
 from hybridedit import warmup
 
 AFTER_WARMUP = textwrap.dedent("""
@@ -38,6 +40,7 @@ AFTER_WARMUP = textwrap.dedent("""
 """)
 
 
+@pytest.mark.slow
 def test_nothing_compiles_after_the_warmup(tmp_path):
     env_cache = {"HYBRIDEDIT_CACHE_DIR": str(tmp_path)}
     import os

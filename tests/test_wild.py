@@ -12,7 +12,9 @@ from hybridedit.binding.truncation import MAX_ROW
 
 import wild_corpus
 
-pytestmark = pytest.mark.skipif(not wild_corpus.available(), reason="../shared/meshes not present")
+# slow: the corpus is built from the armadillo and every case bound (about 80 s on 2 cores)
+pytestmark = [pytest.mark.skipif(not wild_corpus.available(), reason="../shared/meshes not present"),
+              pytest.mark.slow]
 
 #: Mean coordinates a vertex the binding may keep on any case (closed scans: 3-12).
 MEAN_NNZ = 16

@@ -177,6 +177,7 @@ def _slow_row(job, seconds):
     return {"output": job.output, "status": "done"}
 
 
+@pytest.mark.slow
 def test_a_task_dask_cancels_is_made_again_not_reported_failed():
     # Dask can hand a batch a cancelled future when a worker dies as the task's dependency moves;
     # nobody cancels a batch's tasks otherwise, so the job is made again (a bounded number of times)

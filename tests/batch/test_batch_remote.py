@@ -13,6 +13,7 @@ import time
 from pathlib import Path
 
 import pyarrow.parquet as pq
+import pytest
 
 import hybridedit as he
 
@@ -51,6 +52,7 @@ def wait_for(what, timeout: float, step: float = 0.1):
     raise AssertionError(f"timed out after {timeout} s")
 
 
+@pytest.mark.slow
 def test_a_worker_killed_mid_run_loses_no_output(inputs, tmp_path, cage):
     from distributed import Client
 

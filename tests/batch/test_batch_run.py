@@ -59,6 +59,7 @@ def test_replaying_an_outputs_edit_makes_the_same_file(posed, tmp_path, cage):
         assert all(h.rotate is not None and abs(h.rotate["degrees"]) <= 45 for h in edit.handles)
 
 
+@pytest.mark.slow
 def test_the_same_seed_makes_the_same_files_with_one_worker(inputs, posed, tmp_path, cage):
     """One worker, inputs given in the other order: the same bytes as two workers made."""
     out, table = posed

@@ -225,6 +225,7 @@ def check_truncated(M, exact, t):
             assert np.abs(exact[i, dropped]).max() <= np.abs(exact[i, cols]).min()
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not ARMADILLO.exists(), reason=f"{ARMADILLO} not available")
 @pytest.mark.parametrize("method", ["flat", "exact"])
 def test_bind_real_simplified_mesh(method):
@@ -302,6 +303,7 @@ def bend(v, angle):
     return out
 
 
+@pytest.mark.slow
 def test_fast_binding_accuracy_against_exact():
     """The accuracy bar of the fast method, on a shape whose cage is well inside
     the quadrature's regime (most faces far from most points)."""

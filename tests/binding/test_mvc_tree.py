@@ -122,6 +122,7 @@ def kept_sets(M):
     return [tuple(M.indices[M.indptr[i]:M.indptr[i + 1]]) for i in range(M.shape[0])]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", shapes(), ids=lambda c: c[0])
 def test_hierarchical_rows_against_exact(case):
     _, pts, cage = case

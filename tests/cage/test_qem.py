@@ -119,6 +119,7 @@ def test_the_cage_build_reports_its_progress_in_steps(big_blob, monkeypatch):
     assert REPAIR_SHARE + (1 - REPAIR_SHARE) * HALVES_SHARE in seen
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("dtype", [np.int32, np.int64])
 def test_the_cut_into_halves_is_the_faces_each_side_of_the_median_compacted(big_blob, dtype):
     v, f = big_blob.vertices, big_blob.faces.astype(dtype)

@@ -135,6 +135,7 @@ def test_the_description_names_the_backend_and_its_package(monkeypatch):
     assert linsolve.backend_description().startswith("cholespy (CHOLMOD via cholespy 2.")
 
 
+@pytest.mark.slow
 def test_the_engine_runs_on_each_backend_alike():
     """The same drag on each backend (a fresh process each, HYBRIDEDIT_SOLVER set): the same pose."""
     code = (

@@ -55,6 +55,7 @@ def test_degenerate_triangles_add_nothing():
     assert np.allclose(vertex_normals(V, np.vstack([m.faces, sliver]))[:-1], vertex_normals(V, m.faces)[:-1])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("parallel", [False, True])
 def test_the_gather_the_scatter_and_the_groups_agree(parallel):
     m = icosphere(3)

@@ -33,6 +33,7 @@ def reference_normals(V, F):
     return acc / np.linalg.norm(acc, axis=1, keepdims=True)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("parallel", [False, True])
 def test_region_updates_equal_whole_mesh_results(make_blob, parallel):
     with all_parallel() if parallel else contextlib.nullcontext():

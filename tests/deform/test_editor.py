@@ -375,6 +375,7 @@ def test_fixed_and_handle_are_exact(blob, cage, kind):
     assert np.all(ed.vertex_roles[b] == 1)
 
 
+@pytest.mark.slow
 def test_exact_on_a_scan(armadillo_path):
     import sys
 
