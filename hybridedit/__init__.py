@@ -27,7 +27,7 @@ def _numba_cache_where_writable() -> None:
     pycache = _os.path.join(here, "__pycache__")
     if _os.access(pycache if _os.path.isdir(pycache) else here, _os.W_OK):
         return
-    from .binding.cache import default_cache_dir
+    from .core.cache_dir import default_cache_dir
 
     folder = str(default_cache_dir() / "numba")
     _os.environ["NUMBA_CACHE_DIR"] = folder

@@ -22,6 +22,7 @@ from ..defaults import CAGE_SIZE, TRUNCATION
 from . import cache as bindcache
 from ..cage.build import cage_and_binding
 from ..cage.links import cage_links
+from ..core.cache_dir import default_cache_dir
 from ..core.mesh import Mesh
 
 Progress = Callable[[str, float], None]
@@ -137,7 +138,7 @@ def build_rig(
         Fraction of each row's coordinate magnitude dropped (the paper: 0.03).
     cache : bool or path
         Reuse cage and binding from the on-disk cache (True: the user cache folder,
-        :func:`hybridedit.binding.cache.default_cache_dir`; a path: that folder), keyed by
+        :func:`hybridedit.core.cache_dir.default_cache_dir`; a path: that folder), keyed by
         the shape and the settings; store them there after computing them. Ignored
         when ``cage`` or ``binding`` is given.
     progress : callable(stage, fraction), optional
@@ -161,7 +162,7 @@ def build_rig(
     discarded: list[str] = []  # cache entries not used: said on this rig only, never stored with the entry
     folder = key = None
     if cache and cage is None:
-        folder = bindcache.default_cache_dir() if cache is True else Path(cache)
+        folder = default_cache_dir() if cache is True else Path(cache)
         key = bindcache.cache_key(mesh, cage_size, float(truncation))
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", bindcache.CacheEntryDiscarded)

@@ -49,6 +49,7 @@ from pathlib import Path
 import numpy as np
 
 from .atomic import atomic_write
+from ..core.fingerprint import shape_bytes
 from ..core.transforms import decompose_rigid, rigid_transform
 
 FORMAT = "hybridedit-edit"
@@ -234,13 +235,14 @@ def _symmetry_json(s):
 
 
 def mesh_fingerprint(mesh) -> dict:
-    """Vertex and face counts, a hash of the faces, bounding box and centroid of ``mesh``."""
-    v = np.asarray(mesh.vertices, dtype=np.float64)
-    f = np.ascontiguousarray(mesh.faces, dtype="<i8")
+    """Vertex and face counts, a hash of the faces, bounding box and centroid of ``mesh`` (the hash:
+    of the faces' :func:`~hybridedit.core.fingerprint.shape_bytes`, 16 hex digits, as edit files
+    have always stored it)."""
+    _, v, f = shape_bytes(mesh.vertices, mesh.faces)
     return {
         "vertices": int(len(v)),
         "faces": int(len(f)),
-        "topology": hashlib.sha256(f.tobytes()).hexdigest()[:16],
+        "topology": hashlib.sha256(f).hexdigest()[:16],
         "bbox": [float(x) for x in np.concatenate([v.min(axis=0), v.max(axis=0)])] if len(v) else [],
         "centroid": [float(x) for x in v.mean(axis=0)] if len(v) else [],
     }
