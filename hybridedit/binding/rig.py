@@ -20,9 +20,10 @@ import scipy.sparse as sp
 
 from ..defaults import CAGE_SIZE, TRUNCATION
 from . import cache as bindcache
-from ..cage.build import cage_and_binding
+from .assemble import cage_and_binding
 from ..cage.links import cage_links
 from ..core.cache_dir import default_cache_dir
+from ..core.edge_weights import edge_weights
 from ..core.mesh import Mesh
 
 Progress = Callable[[str, float], None]
@@ -87,12 +88,10 @@ class Rig:
     @property
     def cage_weights(self) -> tuple[np.ndarray, np.ndarray]:
         """The cage's edges (e, 2) int64 and their cotangent ARAP weights (e,) float64
-        (:func:`hybridedit.deform.arap.edge_weights`), made once: a cached rig checks them on
+        (:func:`hybridedit.core.edge_weights.edge_weights`), made once: a cached rig checks them on
         loading and its editor's ARAP solver takes the same arrays."""
         cached = self.__dict__.get("_cage_weights")
         if cached is None:
-            from ..deform.arap import edge_weights
-
             cached = edge_weights(self.cage.vertices, self.cage.faces, "cotangent")
             object.__setattr__(self, "_cage_weights", cached)
         return cached
