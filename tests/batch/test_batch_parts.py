@@ -10,12 +10,12 @@ import pyarrow.parquet as pq
 import pytest
 
 import hybridedit as he
-from hybridedit.batching.manifest import COLUMNS, JOURNAL, MANIFEST, Manifest, new_row
+from hybridedit.batching.manifest import COLUMNS, JOURNAL, MANIFEST, Manifest, file_sha256, new_row
 from hybridedit.batching.plan import InputError, find_inputs, plan_jobs
 from hybridedit.batching.poses import centre_of_mass, draw_limbs, find_skeleton, pose_rng
 from hybridedit.batching.progress import BatchProgress
 from hybridedit.batching.settings import BatchSettings, PoseSettings
-from hybridedit.batching.tasks import bind_input, file_sha256
+from hybridedit.batching.tasks import bind_input
 
 from shapes import bumpy_blob
 
