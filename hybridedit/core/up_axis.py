@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 
+from .face_geometry import face_vector
 from .mesh import Mesh
 from .bounds import points_box
 
@@ -106,9 +107,8 @@ def _face_sums(v, f, bottom, cos):
     sign = (1.0, 1.0, -1.0, -1.0, 1.0, -1.0)
     for t in range(f.shape[0]):
         a, b, c = f[t, 0], f[t, 1], f[t, 2]
-        ux, uy, uz = v[b, 0] - v[a, 0], v[b, 1] - v[a, 1], v[b, 2] - v[a, 2]
-        wx, wy, wz = v[c, 0] - v[a, 0], v[c, 1] - v[a, 1], v[c, 2] - v[a, 2]
-        nx, ny, nz = 0.5 * (uy * wz - uz * wy), 0.5 * (uz * wx - ux * wz), 0.5 * (ux * wy - uy * wx)
+        cx, cy, cz = face_vector(v, f, t)
+        nx, ny, nz = 0.5 * cx, 0.5 * cy, 0.5 * cz
         area = np.sqrt(nx * nx + ny * ny + nz * nz)
         total += area
         summed[0] += nx
