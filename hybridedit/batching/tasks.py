@@ -22,10 +22,12 @@ from pathlib import Path
 import numpy as np
 
 from ..core.command_line import one_line
+from ..core.face_geometry import centre_of_mass
 from ..defaults import CAGE_SIZE, SETTLE_FRAMES
+from ..deform.skeleton import Skeleton, find_skeleton
 from .manifest import file_sha256, new_row
 from .plan import Job
-from .poses import Skeleton, centre_of_mass, draw_pose, find_skeleton, pose_rng
+from .poses import draw_pose, pose_rng
 from .settings import BatchSettings
 
 __all__ = ["Bound", "bind_input", "pose_output", "replay_output", "edge_errors"]
