@@ -45,7 +45,7 @@ def shape_bytes(vertices, faces, vertex_dtype: str = "<f8") -> tuple[bytes, np.n
     Examples
     --------
     >>> count, v, f = shape_bytes(np.zeros((4, 3)), np.array([[0, 1, 2]], dtype=np.int32))
-    >>> np.frombuffer(count, np.int64)[0], v.dtype.str, f.dtype.str
+    >>> int(np.frombuffer(count, np.int64)[0]), v.dtype.str, f.dtype.str
     (4, '<f8', '<i8')
     """
     v = np.ascontiguousarray(vertices, dtype=vertex_dtype)
