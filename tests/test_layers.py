@@ -1,6 +1,6 @@
 """The layers: every module imports only from its own floor or the floors below it.
 
-The floors, lowest first (docs/api.md, "Layers"):
+The floors, lowest first (as the comment on ``hybridedit._WHERE`` states them):
 
 0. ``defaults`` -- the settings several floors share (plain Python);
 1. ``core`` -- meshes, topology, normals, the shared small rules (the cache folder, shape

@@ -33,7 +33,7 @@ from ..core.fingerprint import shape_bytes
 from ..core.mesh import Mesh
 
 #: Bump when the cage or binding algorithms change: old files stop matching.
-FORMAT = "hybridedit-binding-8"  # 2: fast binding; 3: notes; 4: checksum, versions; 5: links; 6: digest per array; 7: rows at cage vertices; 8: large arrays digested in pieces
+FORMAT = "hybridedit-binding-8"
 
 #: the arrays of an entry, in the order the checksum reads them
 PAYLOAD = ("cage_vertices", "cage_faces", "shape", "data", "indices", "indptr", "notes", "links")

@@ -31,7 +31,7 @@ MIN_ROUNDNESS = 0.2
 #: half the thickness of the shell cage of an open surface, in mean cage edge lengths: mean value
 #: coordinates of a point between the layers reach about 6 half-thicknesses along the shell before
 #: the truncation drops the rest, so a thin shell keeps rows local (mountain, 5% cage: 7 coordinates
-#: a vertex at 0.05, 16 at 0.1, 70 at 0.25, 326 at 1)
+#: a vertex at 0.05, 326 at 1)
 SHELL_HALF_THICKNESS = 0.05
 
 
