@@ -27,7 +27,7 @@ def _numba_cache_where_writable() -> None:
     pycache = _os.path.join(here, "__pycache__")
     if _os.access(pycache if _os.path.isdir(pycache) else here, _os.W_OK):
         return
-    from .binding.cache import default_cache_dir
+    from .core.cache_dir import default_cache_dir
 
     folder = str(default_cache_dir() / "numba")
     _os.environ["NUMBA_CACHE_DIR"] = folder
@@ -43,6 +43,9 @@ _numba_cache_where_writable()
 # runtime loads, which is after this line; a user's own setting wins.
 _os.environ.setdefault("OMP_WAIT_POLICY", "passive")
 
+#: each public name and the module it lives in. The package sits on floors, each importing only from
+#: its own or lower ones: defaults < core < fileio < cage < binding < deform < batching < the top
+#: (cli, viewer, warmup, and this table, which names every floor); tests/test_layers.py holds them
 _WHERE = {
     "ARAPSolver": "deform.arap",
     "Document": "fileio.document",

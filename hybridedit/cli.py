@@ -20,7 +20,7 @@ from .fileio.meshfiles import SUPPORTED_EXTENSIONS, MeshFileError, read_document
 from .core.mesh import MeshError, edge_error_stats, rrms_edge_error
 from .fileio.outpaths import OutputPathError, check_outputs
 from .defaults import CAGE_SIZE, ITERATIONS, POLISH_MAX_ITERATIONS, SETTLE_FRAMES, TRUNCATION
-from .defaults import parse_cage_size as _parse_cage_size
+from .core.command_line import CLIError, one_line, parse_cage_size
 from .core.progress import SHOW_AFTER_SECONDS, TextProgress
 
 if TYPE_CHECKING:
@@ -36,19 +36,6 @@ def _default_mesh(here: Path | None = None) -> Path:
 
 
 DEFAULT_MESH = _default_mesh()
-
-
-class CLIError(Exception):
-    """A problem the user can fix; printed as one line, exit status 2."""
-
-
-def parse_cage_size(text: str) -> int | float:
-    """'2000' -> 2000 vertices, '0.05' or '5%' -> a fraction of the shape's vertices
-    (:func:`hybridedit.defaults.parse_cage_size`, as argparse takes it)."""
-    try:
-        return _parse_cage_size(text)
-    except ValueError as e:
-        raise argparse.ArgumentTypeError(str(e)) from None
 
 
 _PROGRESS: list[TextProgress] = []
@@ -174,7 +161,7 @@ def _replay(ed: "HybridEditor", edit, args: argparse.Namespace, editor_on, say) 
     except EditFileError:
         raise
     except ValueError as e:  # SelectionError, or a transform the editor refuses
-        raise CLIError(f"{args.edit}: {_one_line(e)}") from None
+        raise CLIError(f"{args.edit}: {one_line(e)}") from None
     if not np.all(np.isfinite(V)):
         raise CLIError("the deformation produced non-finite positions; the edit is too extreme")
     return V
@@ -449,7 +436,7 @@ def main(argv: list[str] | None = None) -> int:
         return _run(args)
     except (CLIError, MeshError, MeshFileError, EditFileError, SelectionError, WriteError,
             OutputPathError) as e:
-        print(f"hybridedit: error: {_one_line(e)}", file=sys.stderr)
+        print(f"hybridedit: error: {one_line(e)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("hybridedit: interrupted", file=sys.stderr)
@@ -467,12 +454,12 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as e:  # a bad value that slipped past the checks above: still the user's input
         if os.environ.get("HYBRIDEDIT_DEBUG") == "1":
             raise
-        print(f"hybridedit: error: {_input_name(args)}{_one_line(e)}", file=sys.stderr)
+        print(f"hybridedit: error: {_input_name(args)}{one_line(e)}", file=sys.stderr)
         return 2
     except Exception as e:  # noqa: BLE001 -- one line, never a traceback (HYBRIDEDIT_DEBUG=1 shows it)
         if os.environ.get("HYBRIDEDIT_DEBUG") == "1":
             raise
-        print(f"hybridedit: internal error: {_input_name(args)}{type(e).__name__}: {_one_line(e)} "
+        print(f"hybridedit: internal error: {_input_name(args)}{type(e).__name__}: {one_line(e)} "
               "(set HYBRIDEDIT_DEBUG=1 for the traceback)", file=sys.stderr)
         return 1
 
@@ -500,11 +487,6 @@ def _run(args: argparse.Namespace) -> int:
 def _input_name(args: argparse.Namespace) -> str:
     name = getattr(args, "input", None) or getattr(args, "mesh", None)
     return f"{Path(name).name}: " if name else ""
-
-
-def _one_line(e: BaseException) -> str:
-    text = " ".join(str(e).split())
-    return text or type(e).__name__
 
 
 if __name__ == "__main__":

@@ -313,7 +313,7 @@ def stamp_path() -> Path:
     """The file that says the warm-up ran for this code, numba and Python (in the user cache folder)."""
     import numba
 
-    from .binding.cache import default_cache_dir
+    from .core.cache_dir import default_cache_dir
 
     h = hashlib.sha256()
     h.update(f"{numba.__version__} {sys.version} {sys.platform} {PACKAGE_DIR}".encode())

@@ -18,6 +18,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import threading
 import time
 
@@ -32,6 +33,17 @@ _busy = False  # our own writes (and an undo in progress) trigger depsgraph upda
 _object_count = -1
 LAST_PROBLEMS: list[tuple[str, str]] = []  # (level, message) waiting for the report timer
 BACKGROUND_BINDS: list[tuple[BindJob, threading.Thread]] = []
+
+
+@contextlib.contextmanager
+def own_writes():
+    """Inside: the depsgraph updates our own writes trigger are ignored (``_busy``), restored after."""
+    global _busy
+    was, _busy = _busy, True
+    try:
+        yield
+    finally:
+        _busy = was
 
 
 # ------------------------------------------------------------------ messages
@@ -179,13 +191,8 @@ def solve_async(s: S.Session, T: dict) -> None:
 
 def _write_if_dirty(s: S.Session, obj) -> None:
     if s.dirty and obj is not None and obj.mode != "EDIT":
-        global _busy
-        _busy = True
-        try:
-            with S.ENGINE:
-                s.write(obj)
-        finally:
-            _busy = False
+        with own_writes(), S.ENGINE:
+            s.write(obj)
 
 
 def tick():
@@ -333,16 +340,12 @@ def _check_copies() -> None:
 
 @persistent
 def on_depsgraph_update(scene, depsgraph):
-    global _busy
     if _busy or not SESSIONS:
         return
-    _busy = True
-    try:
+    with own_writes():
         _check_copies()
         for s in list(SESSIONS.values()):
             step(s)
-    finally:
-        _busy = False
 
 
 # ------------------------------------------------------------------ animation and renders
@@ -371,17 +374,13 @@ def pose_frame(s: S.Session, obj, depsgraph) -> bool:
 @persistent
 def on_frame_change(scene, depsgraph=None):
     """Every frame the viewport or a render evaluates (Blender evaluates again what this tags)."""
-    global _busy
     if not SESSIONS:
         return
-    was, _busy = _busy, True
-    try:
+    with own_writes():
         for s in list(SESSIONS.values()):
             obj = object_of(s)
             if obj is not None and scene.objects.get(obj.name) is not None:
                 pose_frame(s, obj, depsgraph)
-    finally:
-        _busy = was
 
 
 # ------------------------------------------------------------------ undo, redo
@@ -447,15 +446,10 @@ def restore(s: S.Session, obj) -> None:
     if kb is not None:
         s.buf = S.read_key(kb, s.n)  # what undo restored, until the solve replaces it
         s.written = s.buf.copy()
-    global _busy
-    _busy = True
-    try:
-        with S.ENGINE:
-            hit = s.from_cache(T)
-            if hit:
-                s.write(obj)
-    finally:
-        _busy = False
+    with own_writes(), S.ENGINE:
+        hit = s.from_cache(T)
+        if hit:
+            s.write(obj)
     if not hit:
         solve_async(s, T)
 

@@ -57,6 +57,22 @@ def _mesh_poll(context):
     return context.object is not None and context.object.type == "MESH"
 
 
+def _empties_rest_here(obj) -> None:
+    """Each handle's rest is its Empty's matrix now (as Blender holds it: it rounds what was set)."""
+    for h in obj.hybrid_arap.handles:
+        if h.empty is not None:
+            h.rest = S.matrix_flat(S.matrix_np(h.empty.matrix_world))
+
+
+def _selection(op, obj, what: str) -> np.ndarray | None:
+    """The selected vertices of ``obj`` (edit mode's selection), or None, reported, when there are none."""
+    rows = _selected_rows(obj)
+    if len(rows) == 0:
+        op.report({"ERROR"}, f"Hybrid ARAP: no vertex selected for the {what}")
+        return None
+    return rows
+
+
 class HYBRIDARAP_OT_report(bpy.types.Operator):
     """Report a message (used for problems found while following the Empties)"""
 
@@ -130,31 +146,23 @@ class HYBRIDARAP_OT_apply(bpy.types.Operator):
     _s = None
 
     def execute(self, context):
-        s = _session(self, context)
-        if s is None:
-            return {"CANCELLED"}
-        live.finish(s)
         return self._apply(context)
 
     def _apply(self, context):
-        s = _checked(self, context)
+        """Apply once any settle has finished (the session checked, reported when unusable)."""
+        s = _settled_and_checked(self, context)
         if s is None:
             return {"CANCELLED"}
         obj = context.object
-        live._busy = True
-        try:
+        with live.own_writes():
             digest, rest, basis = bake_into_basis(s, obj)
             T = live.transforms_now(s, obj)
             if isinstance(T, str):
                 self.report({"ERROR"}, f"Hybrid ARAP: {T}")
                 return {"CANCELLED"}
-            st = obj.hybrid_arap
-            for h in st.handles:
-                h.rest = S.matrix_flat(S.matrix_np(h.empty.matrix_world))
-            st.bound = digest
+            _empties_rest_here(obj)
+            obj.hybrid_arap.bound = digest
             rebase_async(s, obj, digest, rest, basis)
-        finally:
-            live._busy = False
         self.report({"INFO"}, f"Hybrid ARAP: pose applied to '{obj.name}'")
         return {"FINISHED"}
 
@@ -163,7 +171,6 @@ class HYBRIDARAP_OT_apply(bpy.types.Operator):
         if s is None:
             return {"CANCELLED"}
         if s.thread is None or not s.thread.is_alive():
-            live.finish(s)
             return self._apply(context)
         self._s = s  # a settle is running: wait for it with its progress in the status bar
         wm = context.window_manager
@@ -186,7 +193,6 @@ class HYBRIDARAP_OT_apply(bpy.types.Operator):
             return {"RUNNING_MODAL"}
         context.window_manager.event_timer_remove(self._timer)
         context.workspace.status_text_set(None)
-        live.finish(s)
         return self._apply(context)
 
 
@@ -205,22 +211,16 @@ class HYBRIDARAP_OT_reset(bpy.types.Operator):
         if s is None:
             return {"CANCELLED"}
         obj = context.object
-        live._busy = True
-        try:
+        with live.own_writes():
             for h in obj.hybrid_arap.handles:
                 if h.empty is not None:
                     h.empty.matrix_world = Matrix(S.matrix_np(h.rest).tolist())
             s.zero()
             s.write(obj)
             context.view_layer.update()
-            # the Empties' matrices as Blender holds them now (it rounds what was set) are their rests
-            for h in obj.hybrid_arap.handles:
-                if h.empty is not None:
-                    h.rest = S.matrix_flat(S.matrix_np(h.empty.matrix_world))
+            _empties_rest_here(obj)
             T = live.transforms_now(s, obj)
             s.last_transforms = T if isinstance(T, dict) else {}
-        finally:
-            live._busy = False
         return {"FINISHED"}
 
 
@@ -392,9 +392,8 @@ class HYBRIDARAP_OT_roi_from_selection(bpy.types.Operator):
 
     def execute(self, context):
         obj = context.object
-        rows = _selected_rows(obj)
-        if len(rows) == 0:
-            self.report({"ERROR"}, "Hybrid ARAP: no vertex selected for the ROI")
+        rows = _selection(self, obj, "ROI")
+        if rows is None:
             return {"CANCELLED"}
         st = obj.hybrid_arap
         name = st.roi_group or "Hybrid ROI"
@@ -415,9 +414,8 @@ class HYBRIDARAP_OT_add_handle(bpy.types.Operator):
 
     def execute(self, context):
         obj = context.object
-        rows = _selected_rows(obj)
-        if len(rows) == 0:
-            self.report({"ERROR"}, "Hybrid ARAP: no vertex selected for the handle")
+        rows = _selection(self, obj, "handle")
+        if rows is None:
             return {"CANCELLED"}
         st = obj.hybrid_arap
         taken = {h.group for h in st.handles}

@@ -1,9 +1,10 @@
 """One bound mesh object: hybridedit's editor, its rest pose and the Empties that drive it.
 
-Everything here reaches hybridedit through its public API only (``Mesh``,
+Everything here reaches hybridedit through its public API (``Mesh``,
 ``build_rig``, ``HybridEditor``: ``set_selection``, ``drag``, ``set_pose``,
-``moving_vertices``, ``save_state`` / ``restore_state``) and Blender through plain
-RNA reads and ``foreach_get`` / ``foreach_set``.
+``moving_vertices``, ``save_state`` / ``restore_state``) and its shape fingerprint
+(:mod:`hybridedit.core.fingerprint`), and Blender through plain RNA reads and
+``foreach_get`` / ``foreach_set``.
 
 The pose lives beside the mesh, in a shape key (``KEY``) relative to the basis: the
 base coordinates never change until Apply. The key holds ``basis + (pose - rest)``
@@ -20,7 +21,6 @@ back to local coordinates by ``P^-1``. With a uniform scale ``P`` is left out.
 
 from __future__ import annotations
 
-import hashlib
 import threading
 import time
 from collections import OrderedDict
@@ -154,12 +154,12 @@ def topology_counts(me) -> tuple[int, int, int]:
 
 
 def fingerprint(positions32: np.ndarray, tris: np.ndarray) -> str:
-    """SHA-256 of the positions (float32, as Blender holds them) and the triangles."""
-    h = hashlib.sha256()
-    h.update(np.int64(len(positions32) // 3).tobytes())
-    h.update(np.ascontiguousarray(positions32, dtype="<f4").tobytes())
-    h.update(np.ascontiguousarray(tris, dtype="<i8").tobytes())
-    return h.hexdigest()
+    """SHA-256 of the positions (float32, as Blender holds them) and the triangles: the engine's
+    one shape fingerprint (:func:`hybridedit.core.fingerprint.shape_digest`), as .blend files
+    already store it in ``hybrid_arap.bound``."""
+    from hybridedit.core.fingerprint import shape_digest
+
+    return shape_digest(positions32, tris, "<f4")
 
 
 def triangles_digest(tris: np.ndarray) -> str:

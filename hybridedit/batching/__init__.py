@@ -2,7 +2,8 @@
 
 One module a job: :mod:`~hybridedit.batching.settings` (the arguments, checked),
 :mod:`~hybridedit.batching.plan` (inputs found, one job per output), :mod:`~hybridedit.batching.poses`
-(plausible random poses: extremities, regions, joints, seeded draws),
+(plausible random poses: regions, rotations and seeded draws on the limb skeleton of
+:mod:`hybridedit.deform.skeleton`),
 :mod:`~hybridedit.batching.tasks` (what the workers run), :mod:`~hybridedit.batching.graph` (the task
 graph and its results), :mod:`~hybridedit.batching.manifest` (``manifest.parquet``),
 :mod:`~hybridedit.batching.progress` (the terminal line), :mod:`~hybridedit.batching.cluster` (the

@@ -1,7 +1,7 @@
 """``hybridedit batch``: its arguments (:func:`add_parser`) and what it runs (:func:`run_batch`).
 
 The command's exit statuses: 0 when every output is done, 1 when any failed (the manifest says
-which and why), 2 for bad arguments (one line, raised as :class:`hybridedit.cli.CLIError` and
+which and why), 2 for bad arguments (one line, raised as :class:`hybridedit.core.command_line.CLIError` and
 printed by :func:`hybridedit.cli.main`, before any work).
 """
 
@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ..cli import CLIError, _one_line, parse_cage_size
+from ..core.command_line import CLIError, one_line, parse_cage_size
 from ..defaults import CAGE_SIZE
 
 __all__ = ["add_parser", "run_batch"]
@@ -36,7 +36,7 @@ def run_batch(args: argparse.Namespace) -> int:
         result = run(args.inputs, args.output, settings=settings, scheduler=args.scheduler, workers=args.workers,
                      retries=args.retries, progress=not args.quiet)
     except (ClusterError, ValueError) as e:  # InputError: an input that names nothing
-        raise CLIError(_one_line(e)) from None
+        raise CLIError(one_line(e)) from None
     if not args.quiet:
         total = result.made + result.failed + result.skipped
         print(f"hybridedit: batch: {total} output{'s' if total != 1 else ''}: {result.made} made, "
@@ -62,7 +62,7 @@ def _batch_settings(args: argparse.Namespace):
         return BatchSettings(poses=args.poses, edits=args.edits, seed=value["seed"], cage_size=value["cage"],
                              output_format=args.format, pose=pose)
     except ValueError as e:  # "max_degrees must be ...": said with the option's name
-        text = _one_line(e)
+        text = one_line(e)
         name = text.split(" ", 1)[0]
         flag = "--format" if name == "output_format" else "--" + name.replace("_", "-")
         raise CLIError(flag + text[len(name):] if name in (*_POSE_OPTIONS, "poses", "output_format") else text) from None

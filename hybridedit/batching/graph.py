@@ -16,10 +16,10 @@ from __future__ import annotations
 import uuid
 from typing import Iterator
 
-from .manifest import Manifest, new_row, verified
+from .manifest import Manifest, file_sha256, new_row, verified
 from .plan import Job
 from .settings import BatchSettings
-from .tasks import bind_input, file_sha256, pose_output, replay_output
+from .tasks import bind_input, pose_output, replay_output
 
 __all__ = ["outputs_done", "submit", "results"]
 

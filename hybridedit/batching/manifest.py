@@ -23,6 +23,7 @@ Examples
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import time
@@ -30,7 +31,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Iterable
 
-__all__ = ["COLUMNS", "MANIFEST", "JOURNAL", "new_row", "Manifest", "schema", "to_table"]
+__all__ = ["COLUMNS", "MANIFEST", "JOURNAL", "new_row", "Manifest", "schema", "to_table", "verified", "file_sha256"]
 
 MANIFEST = "manifest.parquet"
 JOURNAL = ".manifest.journal.jsonl"
@@ -212,8 +213,23 @@ class Manifest:
 
 def verified(row: dict, folder: str | os.PathLike[str]) -> bool:
     """Whether a done row's output and edit files are in ``folder`` with the hashes it records."""
-    from .tasks import file_sha256
-
     f = Path(folder)
     return (row.get("output_sha256") is not None and file_sha256(f / row["output"]) == row["output_sha256"]
             and row.get("edit_sha256") is not None and file_sha256(f / row["edit"]) == row["edit_sha256"])
+
+
+def file_sha256(path: str | Path) -> str | None:
+    """The SHA-256 (hex) of a file's bytes, or None when it cannot be read.
+
+    Parameters
+    ----------
+    path : str or Path
+    """
+    h = hashlib.sha256()
+    try:
+        with open(path, "rb") as f:
+            for block in iter(lambda: f.read(1 << 20), b""):
+                h.update(block)
+    except OSError:
+        return None
+    return h.hexdigest()

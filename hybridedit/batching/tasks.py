@@ -13,7 +13,6 @@ very file (read back as ``hybridedit deform`` reads it) on the editor ``deform``
 
 from __future__ import annotations
 
-import hashlib
 import json
 import shutil
 import time
@@ -22,37 +21,19 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.command_line import one_line
+from ..core.face_geometry import centre_of_mass
 from ..defaults import CAGE_SIZE, SETTLE_FRAMES
+from ..deform.skeleton import Skeleton, find_skeleton
+from .manifest import file_sha256, new_row
 from .plan import Job
-from .poses import Skeleton, centre_of_mass, draw_pose, find_skeleton, pose_rng
+from .poses import draw_pose, pose_rng
 from .settings import BatchSettings
 
-__all__ = ["file_sha256", "Bound", "bind_input", "pose_output", "replay_output", "edge_errors"]
+__all__ = ["Bound", "bind_input", "pose_output", "replay_output", "edge_errors"]
 
 #: the engine's errors that mean "this input cannot be served" (a failed row, no retry)
 _READ_ERRORS: tuple[type[BaseException], ...] = (OSError, ValueError, MemoryError, RecursionError)
-
-
-def file_sha256(path: str | Path) -> str | None:
-    """The SHA-256 (hex) of a file's bytes, or None when it cannot be read.
-
-    Parameters
-    ----------
-    path : str or Path
-    """
-    h = hashlib.sha256()
-    try:
-        with open(path, "rb") as f:
-            for block in iter(lambda: f.read(1 << 20), b""):
-                h.update(block)
-    except OSError:
-        return None
-    return h.hexdigest()
-
-
-def _one_line(e: BaseException) -> str:
-    text = " ".join(str(e).split())
-    return text or type(e).__name__
 
 
 def _worker_name() -> str:
@@ -73,13 +54,13 @@ def edge_errors(rest: np.ndarray, posed: np.ndarray, edges: np.ndarray) -> tuple
     rest, posed : (n, 3) float64
     edges : (e, 2) int64
     """
-    import hybridedit as he
+    from ..core.mesh import rrms_edge_error
 
     l0 = np.linalg.norm(rest[edges[:, 1]] - rest[edges[:, 0]], axis=1)
     l1 = np.linalg.norm(posed[edges[:, 1]] - posed[edges[:, 0]], axis=1)
     ok = l0 > 0
     stretch = float(np.abs((l1[ok] - l0[ok]) / l0[ok]).max() * 100.0) if ok.any() else 0.0
-    return float(he.rrms_edge_error(rest, posed, edges)), stretch
+    return float(rrms_edge_error(rest, posed, edges)), stretch
 
 
 @dataclass
@@ -132,7 +113,8 @@ def bind_input(path: str, cage_size: int | float = CAGE_SIZE) -> Bound:
     Bound
         With ``failure`` set (one line) when the file cannot be read or bound.
     """
-    import hybridedit as he
+    from ..binding.rig import build_rig
+    from ..fileio.meshfiles import read_document
 
     name = Path(path).name
     sha = file_sha256(path)
@@ -140,14 +122,14 @@ def bind_input(path: str, cage_size: int | float = CAGE_SIZE) -> Bound:
         return Bound(path, None, failure=f"{name}: cannot be read")
     t0 = time.perf_counter()
     try:
-        doc = he.read_document(path)
+        doc = read_document(path)
     except _READ_ERRORS as e:
-        return Bound(path, sha, failure=_one_line(e), read_seconds=time.perf_counter() - t0)
+        return Bound(path, sha, failure=one_line(e), read_seconds=time.perf_counter() - t0)
     t1 = time.perf_counter()
     try:
-        rig = he.build_rig(doc.mesh, cage_size=cage_size, cache=True)
+        rig = build_rig(doc.mesh, cage_size=cage_size, cache=True)
     except _READ_ERRORS as e:
-        return Bound(path, sha, failure=f"{name}: no cage or binding: {_one_line(e)}", read_seconds=t1 - t0,
+        return Bound(path, sha, failure=f"{name}: no cage or binding: {one_line(e)}", read_seconds=t1 - t0,
                      bind_seconds=time.perf_counter() - t1)
     edges = np.concatenate([rig.cage.edges(), np.asarray(rig.links, dtype=np.int64).reshape(-1, 2)])
     mesh = doc.mesh
@@ -159,8 +141,6 @@ def bind_input(path: str, cage_size: int | float = CAGE_SIZE) -> Bound:
 
 def _row(job: Job, settings: BatchSettings, **fields) -> dict:
     """A manifest row of ``job`` (the columns not given are empty)."""
-    from .manifest import new_row
-
     return new_row(input=job.input, output=job.output, edit=job.edit, pose=job.pose,
                    seed=settings.seed if settings.mode == "poses" else None, settings=settings.key(),
                    worker=_worker_name(), **fields)
@@ -184,11 +164,11 @@ def _replay(editor, edit, *, name: str, editor_for_cage=None) -> np.ndarray:
 
 def _write(outdir: Path, job: Job, document, V: np.ndarray) -> tuple[str, list[str]]:
     """The posed document written to the job's output (atomically); (its SHA-256, the writer's notes)."""
-    import hybridedit as he
+    from ..fileio.meshfiles import write_document
 
     dst = outdir / job.output
     dst.parent.mkdir(parents=True, exist_ok=True)
-    notes = he.write_document(dst, document.with_vertices(V))
+    notes = write_document(dst, document.with_vertices(V))
     return file_sha256(dst) or "", list(notes)
 
 
@@ -209,7 +189,7 @@ def _draw(bound: Bound, job: Job, settings: BatchSettings, editor, cage: dict, f
         try:
             V = _replay(editor, edit, name=job.edit)
         except ValueError as e:  # a selection the editor refuses, a pose that blew up
-            reason = _one_line(e)
+            reason = one_line(e)
             continue
         rrms, stretch = edge_errors(mesh.vertices, V, bound.edges)
         if stretch <= p.max_stretch:
@@ -239,8 +219,8 @@ def pose_output(bound: Bound, job: Job, settings: BatchSettings, outdir: str) ->
     dict
         The manifest row.
     """
-    import hybridedit as he
-    from ..fileio.editfile import mesh_fingerprint
+    from ..deform.editor import HybridEditor
+    from ..fileio.editfile import mesh_fingerprint, save_edit
 
     common = dict(input_sha256=bound.sha256, read_seconds=bound.read_seconds, bind_seconds=bound.bind_seconds,
                   cache_hit=bound.cache_hit)
@@ -251,7 +231,7 @@ def pose_output(bound: Bound, job: Job, settings: BatchSettings, outdir: str) ->
                     **common)
     t0 = time.perf_counter()
     rig = bound.rig
-    editor = he.HybridEditor(rig)
+    editor = HybridEditor(rig)
     cage = {"size": rig.cage_size, "vertices": int(rig.cage.n_vertices)}
     edit, V, rrms, stretch, draws = _draw(bound, job, settings, editor, cage, mesh_fingerprint(rig.mesh))
     t1 = time.perf_counter()
@@ -260,7 +240,7 @@ def pose_output(bound: Bound, job: Job, settings: BatchSettings, outdir: str) ->
                     pose_seconds=t1 - t0, **common)
     out = Path(outdir)
     (out / job.edit).parent.mkdir(parents=True, exist_ok=True)
-    he.save_edit(out / job.edit, edit)
+    save_edit(out / job.edit, edit)
     sha, notes = _write(out, job, bound.document, V)
     return _row(job, settings, status="done", message="; ".join(notes), output_sha256=sha,
                 edit_sha256=file_sha256(out / job.edit), draws=draws, edge_error=rrms, max_stretch=stretch,
@@ -283,7 +263,10 @@ def replay_output(job: Job, settings: BatchSettings, outdir: str) -> dict:
     dict
         The manifest row.
     """
-    import hybridedit as he
+    from ..binding.rig import build_rig
+    from ..deform.editor import HybridEditor
+    from ..fileio.editfile import load_edit
+    from ..fileio.meshfiles import read_document
 
     name = Path(job.input).name
     sha = file_sha256(job.input)
@@ -294,10 +277,10 @@ def replay_output(job: Job, settings: BatchSettings, outdir: str) -> dict:
                     message=f"{name}: no edit file for it in the --edits folder")
     t0 = time.perf_counter()
     try:
-        edit = he.load_edit(job.source_edit)
-        doc = he.read_document(job.input)
+        edit = load_edit(job.source_edit)
+        doc = read_document(job.input)
     except _READ_ERRORS as e:
-        return _row(job, settings, status="failed", input_sha256=sha, message=_one_line(e),
+        return _row(job, settings, status="failed", input_sha256=sha, message=one_line(e),
                     read_seconds=time.perf_counter() - t0)
     t1 = time.perf_counter()
     mesh = doc.mesh
@@ -305,14 +288,14 @@ def replay_output(job: Job, settings: BatchSettings, outdir: str) -> dict:
     size = recorded[-1]["size"] if recorded else CAGE_SIZE
 
     def editor_on(cage_size):
-        return he.HybridEditor(he.build_rig(mesh, cage_size=cage_size, cache=True))
+        return HybridEditor(build_rig(mesh, cage_size=cage_size, cache=True))
 
     try:
         editor = editor_on(size)
         t2 = time.perf_counter()
         V = _replay(editor, edit, name=job.source_edit, editor_for_cage=lambda c: editor_on(c["size"]))
     except _READ_ERRORS as e:
-        return _row(job, settings, status="failed", input_sha256=sha, message=_one_line(e), read_seconds=t1 - t0,
+        return _row(job, settings, status="failed", input_sha256=sha, message=one_line(e), read_seconds=t1 - t0,
                     bind_seconds=time.perf_counter() - t1)
     t3 = time.perf_counter()
     out = Path(outdir)

@@ -29,10 +29,11 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..fileio.atomic import atomic_write
+from ..core.fingerprint import shape_bytes
 from ..core.mesh import Mesh
 
 #: Bump when the cage or binding algorithms change: old files stop matching.
-FORMAT = "hybridedit-binding-8"  # 2: fast binding; 3: notes; 4: checksum, versions; 5: links; 6: digest per array; 7: rows at cage vertices; 8: large arrays digested in pieces
+FORMAT = "hybridedit-binding-8"
 
 #: the arrays of an entry, in the order the checksum reads them
 PAYLOAD = ("cage_vertices", "cage_faces", "shape", "data", "indices", "indptr", "notes", "links")
@@ -152,24 +153,16 @@ def read_entry_file(path: Path) -> dict[str, np.ndarray]:
     return out
 
 
-def default_cache_dir() -> Path:
-    """$HYBRIDEDIT_CACHE_DIR, else the user cache folder (e.g. ~/.cache/hybridedit)."""
-    env = os.environ.get("HYBRIDEDIT_CACHE_DIR")
-    if env:
-        return Path(env)
-    from platformdirs import user_cache_dir
-
-    return Path(user_cache_dir("hybridedit", appauthor=False))
-
-
 def cache_key(mesh: Mesh, cage_size: int | float, truncation: float, extra: str = "") -> str:
-    """Hex digest naming the cage + binding of ``mesh`` for these settings."""
+    """Hex digest naming the cage + binding of ``mesh`` for these settings: the format, the settings,
+    then the shape's :func:`~hybridedit.core.fingerprint.shape_bytes` (the vertices and faces each
+    digested in pieces, :func:`_digests`)."""
     h = hashlib.sha256()
     h.update(FORMAT.encode())
     h.update(repr((type(cage_size).__name__, cage_size, float(truncation), extra)).encode())
-    h.update(np.int64(mesh.n_vertices).tobytes())
-    for digest in _digests([np.ascontiguousarray(mesh.vertices, dtype="<f8"),
-                            np.ascontiguousarray(mesh.faces, dtype="<i8")]):
+    count, vertices, faces = shape_bytes(mesh.vertices, mesh.faces)
+    h.update(count)
+    for digest in _digests([vertices, faces]):
         h.update(digest)
     return h.hexdigest()
 

@@ -20,8 +20,10 @@ import scipy.sparse as sp
 
 from ..defaults import CAGE_SIZE, TRUNCATION
 from . import cache as bindcache
-from ..cage.build import cage_and_binding
+from .assemble import cage_and_binding
 from ..cage.links import cage_links
+from ..core.cache_dir import default_cache_dir
+from ..core.edge_weights import edge_weights
 from ..core.mesh import Mesh
 
 Progress = Callable[[str, float], None]
@@ -86,12 +88,10 @@ class Rig:
     @property
     def cage_weights(self) -> tuple[np.ndarray, np.ndarray]:
         """The cage's edges (e, 2) int64 and their cotangent ARAP weights (e,) float64
-        (:func:`hybridedit.deform.arap.edge_weights`), made once: a cached rig checks them on
+        (:func:`hybridedit.core.edge_weights.edge_weights`), made once: a cached rig checks them on
         loading and its editor's ARAP solver takes the same arrays."""
         cached = self.__dict__.get("_cage_weights")
         if cached is None:
-            from ..deform.arap import edge_weights
-
             cached = edge_weights(self.cage.vertices, self.cage.faces, "cotangent")
             object.__setattr__(self, "_cage_weights", cached)
         return cached
@@ -137,7 +137,7 @@ def build_rig(
         Fraction of each row's coordinate magnitude dropped (the paper: 0.03).
     cache : bool or path
         Reuse cage and binding from the on-disk cache (True: the user cache folder,
-        :func:`hybridedit.binding.cache.default_cache_dir`; a path: that folder), keyed by
+        :func:`hybridedit.core.cache_dir.default_cache_dir`; a path: that folder), keyed by
         the shape and the settings; store them there after computing them. Ignored
         when ``cage`` or ``binding`` is given.
     progress : callable(stage, fraction), optional
@@ -161,7 +161,7 @@ def build_rig(
     discarded: list[str] = []  # cache entries not used: said on this rig only, never stored with the entry
     folder = key = None
     if cache and cage is None:
-        folder = bindcache.default_cache_dir() if cache is True else Path(cache)
+        folder = default_cache_dir() if cache is True else Path(cache)
         key = bindcache.cache_key(mesh, cage_size, float(truncation))
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", bindcache.CacheEntryDiscarded)

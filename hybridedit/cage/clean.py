@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.face_geometry import signed_volume
 from ..core.index_sets import unique_sorted
 from ..core.mesh import Mesh
 from ..core.topology import check_closed, degenerate_faces, repeats_a_face
@@ -27,9 +28,7 @@ def is_usable_piece(cage: Mesh) -> bool:
     except ValueError:
         return False
     v = cage.vertices
-    c = v.mean(axis=0)
-    p0, p1, p2 = (v[cage.faces[:, k]] - c for k in range(3))
-    vol = float(np.einsum("ij,ij->i", p0, np.cross(p1, p2)).sum()) / 6.0
+    vol = signed_volume(v, cage.faces)
     d = float(np.linalg.norm(np.ptp(v, axis=0)))
     return bool(np.isfinite(vol) and vol > 1e-6 * d ** 3)
 

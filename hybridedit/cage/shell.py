@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.face_geometry import face_vectors, signed_volume, surface_area
 from ..core.mesh import Mesh
 from .clean import clean_surface, is_usable_piece
 
@@ -30,7 +31,7 @@ MIN_ROUNDNESS = 0.2
 #: half the thickness of the shell cage of an open surface, in mean cage edge lengths: mean value
 #: coordinates of a point between the layers reach about 6 half-thicknesses along the shell before
 #: the truncation drops the rest, so a thin shell keeps rows local (mountain, 5% cage: 7 coordinates
-#: a vertex at 0.05, 16 at 0.1, 70 at 0.25, 326 at 1)
+#: a vertex at 0.05, 326 at 1)
 SHELL_HALF_THICKNESS = 0.05
 
 
@@ -49,19 +50,11 @@ def is_sheet(part: Mesh) -> bool:
     return cap_share(part) >= MAX_CAP_SHARE and _roundness(close_holes(part)[0]) < MIN_ROUNDNESS
 
 
-def _area(mesh: Mesh) -> float:
-    v, f = mesh.vertices, mesh.faces
-    return 0.5 * float(np.linalg.norm(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=1).sum())
-
-
 def _roundness(closed: Mesh) -> float:
     """Isoperimetric quotient 36 pi V^2 / A^3 of a closed surface: 1 for a sphere,
     about 0.5 for a cube, 0 for a flat one."""
-    v, f = closed.vertices, closed.faces
-    c = v.mean(axis=0)
-    p0, p1, p2 = (v[f[:, k]] - c for k in range(3))
-    vol = float(np.einsum("ij,ij->i", p0, np.cross(p1, p2)).sum()) / 6.0
-    area = _area(closed)
+    vol = signed_volume(closed.vertices, closed.faces)
+    area = surface_area(closed.vertices, closed.faces)
     if not (area > 0 and np.isfinite(vol)):
         return 0.0
     return 36.0 * np.pi * vol * vol / area ** 3
@@ -73,10 +66,11 @@ def cap_share(part: Mesh) -> float:
     terrain (0.81 for the shared mountain); inf for a part of no area."""
     from ..core.repair import close_holes
 
-    area = _area(part)
+    area = surface_area(part.vertices, part.faces)
     if not area > 0:
         return np.inf
-    return (_area(close_holes(part)[0]) - area) / area
+    closed = close_holes(part)[0]
+    return (surface_area(closed.vertices, closed.faces) - area) / area
 
 
 def thicken(surface: Mesh, half_thickness: float | None = None) -> Mesh | None:
@@ -107,7 +101,7 @@ def thicken(surface: Mesh, half_thickness: float | None = None) -> Mesh | None:
     v = s.vertices
     f, _, _ = orient_faces(v, s.faces)
     k = len(v)
-    fn = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])  # area-weighted
+    fn = face_vectors(v, f)  # area-weighted
     vn = np.zeros_like(v)
     for j in range(3):
         np.add.at(vn, f[:, j], fn)

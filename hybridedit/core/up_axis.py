@@ -1,4 +1,4 @@
-"""Which way is up for a shape: guessed from the file and the geometry, remembered per shape.
+"""Which way is up for a shape: guessed from the file and the geometry.
 
 The window opens a shape standing the right way up, and its front, side and top views
 follow that axis. glTF says it in its specification (+Y up). Otherwise the geometry
@@ -6,20 +6,17 @@ tells, when it can: an open scan (a statue scanned on its base, a terrain) has i
 outward normals summing to the side it is open away from, which is up; a closed shape
 standing on a flat base has a flat patch of faces at one end of its bounding box facing
 down. Nothing telling: +Y, the convention of most scans and of this window. What the
-user chooses (View ▸ Up Axis) is remembered per shape in the user cache folder, keyed
-by the shape's vertices and faces, so a file opens the way it was last shown.
+user chooses (View ▸ Up Axis) is remembered per shape by :mod:`hybridedit.fileio.up_axes`.
 """
 
 from __future__ import annotations
 
-import hashlib
-import json
 from pathlib import Path
 
 import numpy as np
 from numba import njit
 
-from ..fileio.atomic import atomic_write
+from .face_geometry import face_vector
 from .mesh import Mesh
 from .bounds import points_box
 
@@ -110,9 +107,8 @@ def _face_sums(v, f, bottom, cos):
     sign = (1.0, 1.0, -1.0, -1.0, 1.0, -1.0)
     for t in range(f.shape[0]):
         a, b, c = f[t, 0], f[t, 1], f[t, 2]
-        ux, uy, uz = v[b, 0] - v[a, 0], v[b, 1] - v[a, 1], v[b, 2] - v[a, 2]
-        wx, wy, wz = v[c, 0] - v[a, 0], v[c, 1] - v[a, 1], v[c, 2] - v[a, 2]
-        nx, ny, nz = 0.5 * (uy * wz - uz * wy), 0.5 * (uz * wx - ux * wz), 0.5 * (ux * wy - uy * wx)
+        cx, cy, cz = face_vector(v, f, t)
+        nx, ny, nz = 0.5 * cx, 0.5 * cy, 0.5 * cz
         area = np.sqrt(nx * nx + ny * ny + nz * nz)
         total += area
         summed[0] += nx
@@ -128,58 +124,3 @@ def _face_sums(v, f, bottom, cos):
             if facing_down > cos and height <= bottom[k]:
                 flat[k] += area
     return total, summed, flat
-
-
-# ---------------------------------------------------------------------------- remembered per shape
-
-FILE_NAME = "up-axes.json"
-"""The file in the cache folder that remembers the up axis chosen for each shape."""
-
-
-def shape_key(mesh: Mesh) -> str:
-    """Hex digest naming a shape by its vertices and faces (the key it is remembered under)."""
-    h = hashlib.sha256()
-    h.update(np.int64(mesh.n_vertices).tobytes())
-    h.update(np.ascontiguousarray(mesh.vertices, dtype="<f8").tobytes())
-    h.update(np.ascontiguousarray(mesh.faces, dtype="<i8").tobytes())
-    return h.hexdigest()[:40]
-
-
-def _read(folder: Path) -> dict:
-    try:
-        data = json.loads((folder / FILE_NAME).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return {}
-    return data if isinstance(data, dict) else {}
-
-
-def remembered_up_axis(key: str, *, folder: Path | None = None) -> str | None:
-    """The up axis last chosen for the shape ``key`` (:func:`shape_key`), or None."""
-    from ..binding.cache import default_cache_dir
-
-    axis = _read(folder or default_cache_dir()).get(key)
-    return axis if axis in AXES else None
-
-
-def remember_up_axis(key: str, axis: str, *, folder: Path | None = None) -> bool:
-    """Remember ``axis`` for the shape ``key``; False when the cache folder cannot be written."""
-    from ..binding.cache import default_cache_dir
-
-    axis_vector(axis)  # (checks the name)
-    folder = folder or default_cache_dir()
-    data = _read(folder)
-    data[key] = axis
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-        with atomic_write(folder / FILE_NAME, "w") as fh:
-            json.dump(data, fh, indent=0, sort_keys=True)
-    except OSError:
-        return False
-    return True
-
-
-def up_axis_of(mesh: Mesh, *, path: str | Path | None = None, key: str | None = None) -> tuple[str, bool]:
-    """(axis, remembered): the axis chosen last for this shape, else the guess."""
-    key = key or shape_key(mesh)
-    got = remembered_up_axis(key)
-    return (got, True) if got is not None else (guess_up_axis(mesh, path=path), False)

@@ -49,6 +49,7 @@ from pathlib import Path
 import numpy as np
 
 from .atomic import atomic_write
+from ..core.fingerprint import shape_bytes
 from ..core.transforms import decompose_rigid, rigid_transform
 
 FORMAT = "hybridedit-edit"
@@ -234,13 +235,14 @@ def _symmetry_json(s):
 
 
 def mesh_fingerprint(mesh) -> dict:
-    """Vertex and face counts, a hash of the faces, bounding box and centroid of ``mesh``."""
-    v = np.asarray(mesh.vertices, dtype=np.float64)
-    f = np.ascontiguousarray(mesh.faces, dtype="<i8")
+    """Vertex and face counts, a hash of the faces, bounding box and centroid of ``mesh`` (the hash:
+    of the faces' :func:`~hybridedit.core.fingerprint.shape_bytes`, 16 hex digits, as edit files
+    have always stored it)."""
+    _, v, f = shape_bytes(mesh.vertices, mesh.faces)
     return {
         "vertices": int(len(v)),
         "faces": int(len(f)),
-        "topology": hashlib.sha256(f.tobytes()).hexdigest()[:16],
+        "topology": hashlib.sha256(f).hexdigest()[:16],
         "bbox": [float(x) for x in np.concatenate([v.min(axis=0), v.max(axis=0)])] if len(v) else [],
         "centroid": [float(x) for x in v.mean(axis=0)] if len(v) else [],
     }
@@ -296,6 +298,15 @@ def _indices(path: str, key: str, value) -> np.ndarray:
     return np.asarray(value, dtype=np.int64)
 
 
+def _known_keys(path: str, d: dict, allowed, key: str = "", allowed_in: str = "") -> None:
+    """Refuse (EditFileError) an object ``d`` (at ``key``; the top level: "") with keys not in
+    ``allowed``, naming them and the ones allowed."""
+    unknown = set(d) - set(allowed)
+    if unknown:
+        where = f" in \"{key}\":" if key else ""
+        raise EditFileError(f"{path}: unknown keys{where} {sorted(unknown)}; allowed{allowed_in}: {sorted(allowed)}")
+
+
 def _vector(path: str, key: str, value) -> np.ndarray:
     if not (isinstance(value, list) and len(value) == 3 and all(_is_number(x) for x in value)):
         raise EditFileError(f"{path}: \"{key}\" must be a list of 3 finite numbers")
@@ -305,9 +316,7 @@ def _vector(path: str, key: str, value) -> np.ndarray:
 def _rotate(path: str, key: str, r) -> dict:
     if not isinstance(r, dict) or "axis" not in r or "degrees" not in r:
         raise EditFileError(f"{path}: \"{key}\" must be {{\"axis\": [x,y,z], \"degrees\": a, \"center\": [x,y,z]}}")
-    extra = set(r) - {"axis", "degrees", "center"}
-    if extra:
-        raise EditFileError(f"{path}: unknown keys in \"{key}\": {sorted(extra)}")
+    _known_keys(path, r, {"axis", "degrees", "center"}, key)
     axis = _vector(path, f"{key}.axis", r["axis"])
     if not np.any(axis):
         raise EditFileError(f"{path}: \"{key}.axis\" must not be zero")
@@ -323,9 +332,7 @@ def _handle(path: str, k: int, h, inherited: np.ndarray | None = None, prefix: s
     key = f"{prefix}handles[{k}]"
     if not isinstance(h, dict):
         raise EditFileError(f"{path}: \"{key}\" must be an object with \"indices\"")
-    extra = set(h) - _HANDLE_KEYS
-    if extra:
-        raise EditFileError(f"{path}: unknown keys in \"{key}\": {sorted(extra)}; allowed: {sorted(_HANDLE_KEYS)}")
+    _known_keys(path, h, _HANDLE_KEYS, key)
     if inherited is not None:
         if "indices" in h:
             raise EditFileError(f"{path}: \"{key}\" gives \"indices\" in a step that continues the one before "
@@ -405,9 +412,7 @@ def _step(path: str, k: int, d, previous: Edit | None) -> Edit:
     where = f"steps[{k}]."
     if not isinstance(d, dict):
         raise EditFileError(f"{path}: \"steps[{k}]\" must be an object (a selection and its handles)")
-    unknown = set(d) - _STEP_KEYS
-    if unknown:
-        raise EditFileError(f"{path}: unknown keys in \"steps[{k}]\": {sorted(unknown)}; allowed: {sorted(_STEP_KEYS)}")
+    _known_keys(path, d, _STEP_KEYS, f"steps[{k}]")
     continues = d.get("continues", False)
     if not isinstance(continues, bool):
         raise EditFileError(f"{path}: \"{where}continues\" must be true or false")
@@ -442,9 +447,7 @@ def parse_edit(data: object, path: str = "<edit>") -> Edit:
         return _parse_v3(data, path)
     v2 = "handles" in data or "format" in data
     allowed = _KEYS_V2 if v2 else _KEYS_V1
-    unknown = set(data) - allowed
-    if unknown:
-        raise EditFileError(f"{path}: unknown keys {sorted(unknown)}; allowed: {sorted(allowed)}")
+    _known_keys(path, data, allowed)
     if v2:
         _check_header(data, path)
         if "handles" not in data:
@@ -476,9 +479,7 @@ def _check_header(data: dict, path: str) -> None:
 
 
 def _parse_v3(data: dict, path: str) -> Edit:
-    unknown = set(data) - _KEYS_V3
-    if unknown:
-        raise EditFileError(f"{path}: unknown keys {sorted(unknown)}; allowed in version 3: {sorted(_KEYS_V3)}")
+    _known_keys(path, data, _KEYS_V3, allowed_in=" in version 3")
     _check_header(data, path)
     if data.get("version", VERSION) != 3:
         raise EditFileError(f"{path}: \"steps\" is a version 3 key; this file says version {data.get('version')}")

@@ -10,12 +10,12 @@ import pyarrow.parquet as pq
 import pytest
 
 import hybridedit as he
-from hybridedit.batching.manifest import COLUMNS, JOURNAL, MANIFEST, Manifest, new_row
+from hybridedit.batching.manifest import COLUMNS, JOURNAL, MANIFEST, Manifest, file_sha256, new_row
 from hybridedit.batching.plan import InputError, find_inputs, plan_jobs
-from hybridedit.batching.poses import centre_of_mass, draw_limbs, find_skeleton, pose_rng
+from hybridedit.batching.poses import draw_limbs, pose_rng
 from hybridedit.batching.progress import BatchProgress
 from hybridedit.batching.settings import BatchSettings, PoseSettings
-from hybridedit.batching.tasks import bind_input, file_sha256
+from hybridedit.batching.tasks import bind_input
 
 from shapes import bumpy_blob
 
@@ -33,7 +33,7 @@ def test_the_extremities_are_farthest_points_from_the_centre(bound):
     farthest from the centre and those before it, while that is at least MIN_SPREAD of the first."""
     from scipy.sparse.csgraph import dijkstra
 
-    from hybridedit.batching.poses import MIN_SPREAD, _edge_graph
+    from hybridedit.deform.skeleton import MIN_SPREAD, _edge_graph
 
     s = bound.skeleton
     cage = bound.rig.cage
@@ -44,19 +44,6 @@ def test_the_extremities_are_farthest_points_from_the_centre(bound):
     for k in range(1, len(s.extremities)):
         spread = np.minimum(from_centre, s.distances[:k].min(axis=0))
         assert spread[s.extremities[k]] == spread.max() >= MIN_SPREAD * s.reach[0]
-
-
-def test_a_cage_in_two_parts_keeps_to_the_centres_part():
-    v = np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0], [10, 0, 0], [11, 0, 0]], dtype=float)
-    s = find_skeleton(v, np.array([[0, 1], [1, 2], [3, 4]]), centre_point=np.zeros(3))
-    assert s.centre == 0 and s.extremities[0] == 2 and np.isinf(s.distances[:, 3:]).all()
-    assert set(s.extremities.tolist()) <= {1, 2}  # none on the other part
-
-
-def test_centre_of_mass_weighs_by_area():
-    m = he.Mesh(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [5, 5, 0], [5.001, 5, 0], [5, 5.001, 0]], float),
-                np.array([[0, 1, 2], [3, 4, 5]]))
-    assert np.linalg.norm(centre_of_mass(m.vertices, m.faces) - [1 / 3, 1 / 3, 0]) < 1e-4
 
 
 def test_a_draw_depends_on_seed_hash_and_index_only(bound):

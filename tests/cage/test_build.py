@@ -193,7 +193,7 @@ def test_box_cage_is_closed_and_outward():
 # ------------------------------------------------------------------ parts, sheets, tiny meshes
 
 from hybridedit import HybridEditor  # noqa: E402
-from hybridedit.cage.build import cage_and_binding  # noqa: E402
+from hybridedit.binding.assemble import cage_and_binding  # noqa: E402
 from hybridedit.cage.links import cage_links  # noqa: E402
 from hybridedit.cage.parts import cage_parts  # noqa: E402
 from hybridedit.cage.shell import shell_pairs, thicken  # noqa: E402

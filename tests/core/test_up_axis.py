@@ -1,4 +1,4 @@
-"""Which way is up (hybridedit.core.up_axis): guessed from the format and the geometry, remembered per shape."""
+"""Which way is up (hybridedit.core.up_axis): guessed from the format and the geometry."""
 
 from __future__ import annotations
 
@@ -7,8 +7,7 @@ import pytest
 import trimesh
 
 from hybridedit.core.mesh import Mesh
-from hybridedit.core.up_axis import (AXES, axis_vector, guess_up_axis, remember_up_axis, remembered_up_axis, shape_key,
-                                up_axis_of)
+from hybridedit.core.up_axis import AXES, axis_vector, guess_up_axis
 
 from shapes import bumpy_blob
 
@@ -62,18 +61,3 @@ def test_nothing_telling_is_y_up_and_gltf_is_y_up_by_its_specification():
     z_up_statue = turned(statue_on_a_base(), "+Z")
     assert guess_up_axis(z_up_statue, path="statue.glb") == "+Y"  # the format says so
     assert guess_up_axis(z_up_statue, path="statue.ply") == "+Z"
-
-
-def test_the_axis_chosen_is_remembered_per_shape(tmp_path, monkeypatch):
-    monkeypatch.setenv("HYBRIDEDIT_CACHE_DIR", str(tmp_path))
-    blob, other = bumpy_blob(3), bumpy_blob(2)
-    key = shape_key(blob)
-    assert remembered_up_axis(key) is None and up_axis_of(blob) == ("+Y", False)
-    assert remember_up_axis(key, "-X")
-    assert up_axis_of(blob) == ("-X", True) and up_axis_of(other) == ("+Y", False)
-    moved = Mesh(blob.vertices + 1e-9, blob.faces)  # another shape, however close
-    assert shape_key(moved) != key
-    (tmp_path / "up-axes.json").write_text("{not json")  # a damaged file is no memory, not an error
-    assert remembered_up_axis(key) is None
-    with pytest.raises(ValueError, match="up axis"):
-        remember_up_axis(key, "up")

@@ -37,9 +37,9 @@ def test_a_cached_open_makes_nothing_the_cache_holds(blob, tmp_path, monkeypatch
     monkeypatch.setattr(S, "edge_weights", rebuilt)
     monkeypatch.setattr(S, "cKDTree", rebuilt)
     monkeypatch.setattr(S, "dominant_cage_vertex", rebuilt)
-    import hybridedit.cage.build as build
+    import hybridedit.binding.rig as rig_module
 
-    monkeypatch.setattr(build, "cage_and_binding", rebuilt)
+    monkeypatch.setattr(rig_module, "cage_and_binding", rebuilt)
     again = he.HybridEditor(blob, 80, cache=tmp_path)
     assert again.cache_hit and again.setup_cached
     # and the editor is the same: same rest pose, same drag

@@ -913,3 +913,21 @@ def test_file_lines_join_like_the_list_of_lines(text: bytes) -> None:
         expected = newline.join(out) + (newline if final else b"")
         rows = np.array(sorted(new), dtype=np.int64)
         assert lines.joined(rows, [new[i] for i in rows.tolist()], at, added, final) == expected
+
+
+@pytest.mark.parametrize("name, text, says", [
+    ("a.obj", b"v 0 0 0\nv 1 0 0 0.5\nv 0 1 x\nf 1 2 3\n", "line 3: cannot read vertex coordinates 'v 0 1 x'"),
+    ("b.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 z\n", "line 5: cannot read face indices 'f 1 2 z'"),
+    ("c.off", b"OFF\n3 1 0\n0 0 0\n1 0 0 7\n0 q 0\n3 0 1 2\n", "line 5: cannot read vertex coordinates '0 q 0'"),
+])
+def test_the_text_formats_slow_path_names_the_line_that_is_not_numbers(tmp_path, name, text, says):
+    """Rows of different widths leave the compiled reader for the one slow path OBJ and OFF share
+    (common._token_rows), which names the first bad line."""
+    from hybridedit.fileio.formats.common import MeshFileError
+
+    (tmp_path / name).write_bytes(text)
+    with pytest.raises(MeshFileError, match=f"{name}: {says}"):
+        read_mesh(tmp_path / name)
+    good = text.replace(b" x", b" 0").replace(b" z", b" 3").replace(b" q", b" 1")
+    (tmp_path / name).write_bytes(good)
+    assert read_mesh(tmp_path / name).vertices.tolist() == [[0, 0, 0], [1, 0, 0], [0, 1, 0]]

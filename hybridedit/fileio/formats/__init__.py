@@ -107,6 +107,17 @@ def unsupported(name: str, ext: str, action: str) -> MeshFileError:
     return MeshFileError(f"{name}: unsupported file extension '{ext}' (use one of {supported})")
 
 
+def _named(path: str | os.PathLike[str], doing: str) -> tuple[str, str, str]:
+    """(the path as a string, its base name, its extension) of a file to read or write (``doing``);
+    MeshFileError, before the disk is touched, when no format has that extension."""
+    p = os.fspath(path)
+    name = os.path.basename(p) or p
+    ext = extension(name)
+    if ext not in FORMATS:
+        raise unsupported(name, ext, doing)
+    return p, name, ext
+
+
 def read_document(path: str | os.PathLike[str], *,
                   progress: Callable[[str, float], None] | None = None) -> Document:
     """Read a mesh file, choosing the format by extension (any letter case).
@@ -130,11 +141,7 @@ def read_document(path: str | os.PathLike[str], *,
     MeshFileError
         For any problem with the file; the message starts with the file name.
     """
-    p = os.fspath(path)
-    name = os.path.basename(p) or p
-    ext = extension(name)
-    if ext not in FORMATS:
-        raise unsupported(name, ext, "read")
+    p, name, ext = _named(path, "read")
     fmt = FORMATS[ext]
     step = f"reading {name}"
     tell = None if progress is None else (lambda fraction: progress(step, fraction))
@@ -238,11 +245,7 @@ def write_document(path: str | os.PathLike[str], doc: Document, *,
     hybridedit.fileio.atomic.WriteError
         The file could not be written; the message names the path and cause.
     """
-    p = os.fspath(path)
-    name = os.path.basename(p) or p
-    ext = extension(name)
-    if ext not in FORMATS:
-        raise unsupported(name, ext, "write")
+    p, name, ext = _named(path, "write")
     if not isinstance(doc, Document):
         raise TypeError(f"write_document expects a Document, got {type(doc).__name__}")
     fmt = FORMATS[ext]

@@ -153,6 +153,23 @@ def _numbers(text: bytes, dtype: type, expected: int) -> np.ndarray | None:
     return vals if vals.size == expected else None
 
 
+def _token_rows(rows: list[list[bytes]], dtype: type, lines: list[bytes], line_at, what: str) -> np.ndarray:
+    """Every token of ``rows`` (words of ``lines``, at 0-based line numbers ``line_at``) as one flat
+    ``dtype`` array, read by numpy: the text formats' slow path, after :func:`_numbers` refused a
+    block. Raises _Bad naming the first line with a token that is not a number ("line 7: cannot
+    read {what} '...'")."""
+    flat = [t for row in rows for t in row]
+    try:
+        return (np.array(flat) if flat else np.zeros(0, "S1")).astype(dtype)
+    except ValueError:
+        for k, row in enumerate(rows):
+            try:
+                (np.array(row) if row else np.zeros(0, "S1")).astype(dtype)
+            except ValueError:
+                raise _Bad(f"line {line_at[k] + 1}: cannot read {what} '{_snippet(lines[k])}'") from None
+        raise
+
+
 def _is_space(b: np.ndarray) -> np.ndarray:
     """Which bytes are ASCII whitespace (space, \\t \\n \\v \\f \\r: 32 and 9-13), as bytes.split sees it."""
     return (b == 32) | ((b >= 9) & (b <= 13))

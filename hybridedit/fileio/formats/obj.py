@@ -25,7 +25,7 @@ import numpy as np
 from ..document import Document, Material, Texturing, moved_vertices
 from ...core.normals import grouped_normals, vertex_normals
 from .obj_materials import read_mtl
-from .common import _ROWS_PER_CHUNK, TextPrecision, _Bad, _sample_rows, _shortest_rows, _mesh, fan_triangles, _format_rows, _numbers, _snippet, _token_count, _widths, _words
+from .common import _ROWS_PER_CHUNK, TextPrecision, _Bad, _sample_rows, _shortest_rows, _mesh, fan_triangles, _format_rows, _numbers, _snippet, _token_count, _token_rows, _widths, _words
 from .reporting import report, span
 from .text_format import face_lines
 from .text_scan import BLANK, COMMENT, CR, CRLF, F, LF, OTHER, V, VN, VT, face_corners, gather, line_spans, token_counts
@@ -70,16 +70,7 @@ def _vertices_slowly(vlines: list[bytes], line_at: np.ndarray) -> np.ndarray:
     """x y z of the "v" lines ``vlines`` (at 0-based line numbers ``line_at``) in Python, (n, 3)
     float64; raises _Bad naming the first line that is not numbers."""
     rows = [line.split()[1:4] for line in vlines]
-    try:
-        return np.array(rows).astype(np.float64)
-    except ValueError:
-        for k, row in enumerate(rows):
-            try:
-                [float(t) for t in row]
-            except ValueError:
-                raise _Bad(f"line {line_at[k] + 1}: cannot read "
-                           f"vertex coordinates '{_snippet(vlines[k])}'") from None
-        raise
+    return _token_rows(rows, np.float64, vlines, line_at, "vertex coordinates").reshape(-1, 3)
 
 
 def _obj_faces(data: bytes, heads: np.ndarray, ends: np.ndarray, line_at: np.ndarray,
@@ -115,17 +106,7 @@ def _obj_corners(flines: list[bytes], line_at: np.ndarray) -> tuple[np.ndarray, 
     # slow path, which can name the line that is wrong
     rows = [line.split()[1:] for line in joined.split(b"\n")] if flines else []
     counts = _widths([b" ".join(r) for r in rows])
-    flat = [t for r in rows for t in r]
-    try:
-        return counts, (np.array(flat) if flat else np.zeros(0, "S1")).astype(np.int64)
-    except ValueError:
-        for k, row in enumerate(rows):
-            try:
-                [int(t) for t in row]
-            except ValueError:
-                raise _Bad(f"line {line_at[k] + 1}: cannot read "
-                           f"face indices '{_snippet(flines[k])}'") from None
-        raise
+    return counts, _token_rows(rows, np.int64, flines, line_at, "face indices")
 
 
 

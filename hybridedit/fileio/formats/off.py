@@ -15,7 +15,7 @@ import numpy as np
 
 from ..document import Document, moved_vertices
 from ...core.normals import grouped_normals, vertex_normals
-from .common import _ROWS_PER_CHUNK, TextPrecision, _Bad, _sample_rows, _mesh, fan_triangles, _float_chunks, _format_rows, _numbers, _snippet, _truncated, _widths, _words
+from .common import _ROWS_PER_CHUNK, TextPrecision, _Bad, _sample_rows, _mesh, fan_triangles, _float_chunks, _format_rows, _numbers, _snippet, _token_rows, _truncated, _widths, _words
 from .reporting import report
 from .text_format import counted_lines
 
@@ -39,16 +39,7 @@ def _off_vertices(vlines: list[bytes], numbers: list[int]) -> np.ndarray:
         if vals is not None:
             return np.ascontiguousarray(vals.reshape(-1, w)[:, :3])
     rows = [line.split()[:3] for line in vlines]
-    try:
-        return np.array(rows).astype(np.float64)
-    except ValueError:
-        for k, row in enumerate(rows):
-            try:
-                [float(x) for x in row]
-            except ValueError:
-                raise _Bad(f"line {numbers[k] + 1}: cannot read vertex coordinates "
-                           f"'{_snippet(vlines[k])}'") from None
-        raise
+    return _token_rows(rows, np.float64, vlines, numbers, "vertex coordinates").reshape(-1, 3)
 
 
 def _off_faces(flines: list[bytes], numbers: list[int]) -> tuple[np.ndarray, np.ndarray]:

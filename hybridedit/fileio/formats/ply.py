@@ -113,8 +113,8 @@ def _triangle_list(el: plyfile.PlyElement) -> str | None:
 
 def _mapped_triangles(face: plyfile.PlyElement, name: str) -> np.ndarray:
     """(m, 3) int64 triangles of a :func:`_triangle_list` element, cast in one pass straight off
-    the file's mapping (no copy of its records, no int32 copy of the indices: 0.55 GB less new
-    memory at 22M faces, half of it). The element then holds these same int64 triangles as its records (off
+    the file's mapping (no copy of its records, no int32 copy of the indices: half the new memory
+    at 22M faces). The element then holds these same int64 triangles as its records (off
     the mapping; the writer casts them back to the file's index type)."""
     tri = np.empty((face.count, 3), dtype=np.int64)
     rows_into(face.data[name], tri)

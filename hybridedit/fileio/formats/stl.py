@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...core.face_geometry import face_normals
 from ..document import Document, moved_vertices
 from .common import _Bad, fan_triangles, _mesh, _snippet, _weld, _words
 
@@ -108,19 +109,13 @@ def read(data: bytes) -> Document:
     return Document(mesh=_mesh(vertices, faces), format="stl", native=native, extras=extras)
 
 
-def _facet_normals(corners: np.ndarray) -> np.ndarray:
-    n = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    length = np.linalg.norm(n, axis=1, keepdims=True)
-    return np.divide(n, length, out=np.zeros_like(n), where=length > 0)
-
-
 def write(doc: Document) -> bytes:
     """Binary STL (ASCII when ``doc`` was read from an ASCII STL)."""
     mesh = doc.mesh
     nat = doc.native if isinstance(doc.native, StlNative) else None
     corners = mesh.vertices[mesh.faces]  # (m, 3, 3)
     if nat is not None and nat.records is None:
-        normals = _facet_normals(corners)
+        normals = face_normals(mesh.vertices, mesh.faces)
         name = nat.name
         rows = np.concatenate([normals[:, None, :], corners], axis=1).reshape(-1, 12)
         facet = ("facet normal %r %r %r\n outer loop\n  vertex %r %r %r\n  vertex %r %r %r\n"
@@ -131,11 +126,11 @@ def write(doc: Document) -> bytes:
         rec = nat.records.copy()
         moved = moved_vertices(nat.rest, mesh.vertices)[mesh.faces].any(axis=1)
         rec["corners"][moved] = corners[moved]
-        rec["normal"][moved] = _facet_normals(corners[moved])
+        rec["normal"][moved] = face_normals(mesh.vertices, mesh.faces[moved])
         header = nat.header
     else:
         rec = np.zeros(mesh.n_faces, dtype=_STL_RECORD)
-        rec["normal"] = _facet_normals(corners)
+        rec["normal"] = face_normals(mesh.vertices, mesh.faces)
         rec["corners"] = corners
         # the header must not start with "solid", or readers may take it for ASCII
         header = b"binary STL written by hybridedit".ljust(80, b" ")
