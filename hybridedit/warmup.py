@@ -55,21 +55,27 @@ def kernel_modules() -> list[str]:
         except OSError:
             continue
         # (@intrinsic: hand-written IR the kernels compile in, so that its edits change the stamp too)
-        if any(mark in text for mark in ("@njit", "@numba.njit", "@jit", "@numba.jit", "@intrinsic")):
+        if any(mark in text for mark in ("@njit", "@numba.njit", "@jit", "@numba.jit", "@intrinsic", "@twins")):
             names.append(info.name)
     return sorted(names)
 
 
 def kernels() -> dict[str, object]:
-    """Every numba dispatcher defined at module level in :func:`kernel_modules`, by qualified name."""
+    """Every numba dispatcher defined at module level in :func:`kernel_modules`, by qualified name
+    (a pair of :func:`~hybridedit.core.twins.twins` named ``k`` gives ``k.serial`` and ``k.parallel``)."""
     from numba.core.registry import CPUDispatcher
+
+    from .core.twins import Twins
 
     out = {}
     for name in kernel_modules():
         mod = importlib.import_module(name)
         for attr, obj in vars(mod).items():
-            if isinstance(obj, CPUDispatcher) and getattr(obj, "__module__", name) == name:
-                out[f"{name}.{attr}"] = obj
+            pair = isinstance(obj, Twins)
+            found = {f"{attr}.{twin}": d for twin, d in obj._asdict().items()} if pair else {attr: obj}
+            for qual, disp in found.items():
+                if isinstance(disp, CPUDispatcher) and getattr(disp, "__module__", name) == name:
+                    out[f"{name}.{qual}"] = disp
     return out
 
 
@@ -93,7 +99,7 @@ def entry_kernels() -> dict[str, object]:
     for qual, disp in ks.items():
         if disp.targetoptions.get("inline", "never") == "always":
             continue
-        name = qual.rsplit(".", 1)[1]
+        name = qual[len(disp.__module__) + 1:].split(".")[0]  # (the module's name for it)
         if any(name in _code_names(d.py_func.__code__) for q, d in ks.items() if q != qual):
             continue
         out[qual] = disp

@@ -34,6 +34,7 @@ from ..core.index_sets import unique_in_range
 from ..core.topology import group_rows
 from ..core.bounds import points_box
 from ..core.parallel import pick
+from ..core.twins import twins
 
 __all__ = ["SPLIT_MIN_FACES", "MARGIN", "HalfWorker", "helper_python", "presimplify", "start_worker", "splits"]
 
@@ -293,14 +294,8 @@ def _face_key(v, f, axis, key, i):
     key[i] = v[f[i, 0], axis] + v[f[i, 1], axis] + v[f[i, 2], axis]
 
 
-@njit(cache=True)
-def _face_keys_serial(v, f, axis, key):  # pragma: no cover - compiled
-    for i in range(f.shape[0]):
-        _face_key(v, f, axis, key, i)
-
-
-@njit(cache=True, parallel=True)
-def _face_keys_parallel(v, f, axis, key):  # pragma: no cover - compiled
+@twins()
+def _face_keys_twins(v, f, axis, key):  # pragma: no cover - compiled
     for i in prange(f.shape[0]):
         _face_key(v, f, axis, key, i)
 
@@ -308,7 +303,7 @@ def _face_keys_parallel(v, f, axis, key):  # pragma: no cover - compiled
 def _face_keys(v: np.ndarray, f: np.ndarray, axis: int) -> np.ndarray:
     """(m,) three times each face's centroid coordinate along ``axis``."""
     key = np.empty(f.shape[0])
-    pick("faces", _face_keys_serial, _face_keys_parallel, f.shape[0])(v, f, axis, key)
+    pick("faces", *_face_keys_twins, f.shape[0])(v, f, axis, key)
     return key
 
 
