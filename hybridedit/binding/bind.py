@@ -33,6 +33,7 @@ from numba import njit, prange
 from ..defaults import TRUNCATION
 from ..core.mesh import Mesh
 from ..core.parallel import pick
+from ..core.twins import twins
 from ..core.topology import check_closed
 from .mvc_exact import as_points, compute_into, n_blocks
 from .mvc_flat import (FAR_RATIO, check_far_ratio, compute_fast_sorted, compute_fast_truncated, fast_scratch,
@@ -119,14 +120,8 @@ def _pack_row(r, rows, ptr, counts, cols, vals, indices, data):
         data[k + m] = vals[b, m]
 
 
-@njit(cache=True)
-def _pack_rows_serial(rows, ptr, counts, cols, vals, indices, data):  # pragma: no cover - compiled
-    for r in range(counts.shape[0]):
-        _pack_row(r, rows, ptr, counts, cols, vals, indices, data)
-
-
-@njit(cache=True, parallel=True)
-def _pack_rows_parallel(rows, ptr, counts, cols, vals, indices, data):  # pragma: no cover - compiled
+@twins()
+def _pack_rows_twins(rows, ptr, counts, cols, vals, indices, data):  # pragma: no cover - compiled
     for r in prange(counts.shape[0]):
         _pack_row(r, rows, ptr, counts, cols, vals, indices, data)
 
@@ -144,7 +139,7 @@ def _pack_rows(counts: np.ndarray, cols: np.ndarray, vals: np.ndarray,
     # (sized by the buffers' entries, not the few copied: each row is a buffer row apart, a cache
     # miss or two; a 2.77M bind's chunk of 21,845 rows 256 wide packed in 4.4 ms on one thread, 2.0
     # on two)
-    pick("copy", _pack_rows_serial, _pack_rows_parallel, counts.shape[0] * cols.shape[1])(
+    pick("copy", *_pack_rows_twins, counts.shape[0] * cols.shape[1])(
         rows, ptr, counts, cols, vals, indices, data)
     return data, indices
 
@@ -185,14 +180,8 @@ def _row_to_point(k, src_ptr, src_data, src_idx, row_of, ptr, data, indices):
         indices[o + q] = src_idx[a + q]
 
 
-@njit(cache=True)
-def _rows_to_points_serial(src_ptr, src_data, src_idx, row_of, ptr, data, indices):  # pragma: no cover
-    for k in range(row_of.shape[0]):
-        _row_to_point(k, src_ptr, src_data, src_idx, row_of, ptr, data, indices)
-
-
-@njit(cache=True, parallel=True)
-def _rows_to_points_parallel(src_ptr, src_data, src_idx, row_of, ptr, data, indices):  # pragma: no cover
+@twins()
+def _rows_to_points(src_ptr, src_data, src_idx, row_of, ptr, data, indices):  # pragma: no cover
     for k in prange(row_of.shape[0]):
         _row_to_point(k, src_ptr, src_data, src_idx, row_of, ptr, data, indices)
 
@@ -216,7 +205,7 @@ def _assemble(parts: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]
     np.cumsum(per_point, out=indptr[1:])
     data = np.empty(nnz)
     indices = np.empty(nnz, dtype=idx_dtype)
-    copy = pick("copy", _rows_to_points_serial, _rows_to_points_parallel, n)
+    copy = pick("copy", *_rows_to_points, n)
     for dest, (_, k, part_data, part_indices) in zip(dests, parts):
         if part_data.size:
             src_ptr = np.zeros(k.size + 1, dtype=np.int64)
