@@ -25,7 +25,6 @@ import contextlib
 import hashlib
 import importlib
 import os
-import pkgutil
 import sys
 import time
 from pathlib import Path
@@ -44,20 +43,12 @@ Progress = Callable[[str, float], None]
 
 
 def kernel_modules() -> list[str]:
-    """Names of the hybridedit modules that define numba kernels or intrinsics (found from their source)."""
-    names = []
-    for info in pkgutil.walk_packages([str(PACKAGE_DIR)], prefix="hybridedit."):
-        if info.ispkg:
-            continue
-        path = PACKAGE_DIR.joinpath(*info.name.split(".")[1:]).with_suffix(".py")
-        try:
-            text = path.read_text(encoding="utf-8")
-        except OSError:
-            continue
-        # (@intrinsic: hand-written IR the kernels compile in, so that its edits change the stamp too)
-        if any(mark in text for mark in ("@njit", "@numba.njit", "@jit", "@numba.jit", "@intrinsic", "@twins")):
-            names.append(info.name)
-    return sorted(names)
+    """Names of the hybridedit modules that define numba kernels or intrinsics
+    (:func:`hybridedit.kernel_cache.kernel_files`)."""
+    from .kernel_cache import kernel_files
+
+    names = (p.relative_to(PACKAGE_DIR).with_suffix("").parts for p in kernel_files(PACKAGE_DIR))
+    return sorted(".".join(("hybridedit", *parts)) for parts in names)
 
 
 def kernels() -> dict[str, object]:
@@ -321,11 +312,12 @@ def stamp_path() -> Path:
 
     from .binding.cache import default_cache_dir
 
+    from .kernel_cache import sources_stamp
+
     h = hashlib.sha256()
     h.update(f"{numba.__version__} {sys.version} {sys.platform} {PACKAGE_DIR}".encode())
     h.update(os.environ.get("NUMBA_CACHE_DIR", "").encode())
-    for name in kernel_modules():
-        h.update(PACKAGE_DIR.joinpath(*name.split(".")[1:]).with_suffix(".py").read_bytes())
+    h.update(sources_stamp(PACKAGE_DIR).encode())
     return default_cache_dir() / f"kernels-{h.hexdigest()[:20]}.ready"
 
 
