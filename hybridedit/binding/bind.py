@@ -137,8 +137,7 @@ def _pack_rows(counts: np.ndarray, cols: np.ndarray, vals: np.ndarray,
     data = np.empty(int(ptr[-1]))
     indices = np.empty(data.size, dtype=np.int32)
     # (sized by the buffers' entries, not the few copied: each row is a buffer row apart, a cache
-    # miss or two; a 2.77M bind's chunk of 21,845 rows 256 wide packed in 4.4 ms on one thread, 2.0
-    # on two)
+    # miss or two, which two threads take side by side in half the time)
     pick("copy", *_pack_rows_twins, counts.shape[0] * cols.shape[1])(
         rows, ptr, counts, cols, vals, indices, data)
     return data, indices
@@ -558,9 +557,9 @@ def _undecided_rows(redo, plan, hier, ratio, scratch, t, width, p, radius):
 
 #: Opening ratios of the second pass (:func:`_second_pass_rows`), tried in turn.
 SECOND_THETAS = (0.5 * THETA, 0.25 * THETA, 0.125 * THETA)
-#: Radius of the second pass's batches, in median first-pass batch radii. The 100K creature
-#: leaves 12% of its rows undecided: in batches of 1 median radius, the second pass took its bind
-#: from 0.57 to 1.5 s; of 2, 1.13 s (4: 1.05 s, but more rows left for smaller ratios elsewhere).
+#: Radius of the second pass's batches, in median first-pass batch radii: a batch twice as wide
+#: holds more of the scattered undecided points (the 100K creature's bind 1.13 s instead of 1.5 s
+#: at one radius); much wider ones leave more rows to the smaller ratios.
 SECOND_RADIUS = 2.0
 #: Batches of the second pass computed at a time (their rows in buffers).
 SECOND_BATCHES = 256
@@ -576,9 +575,8 @@ def _second_pass_rows(points, hier, ratio, scratch, t, width, radius):
     again along the curve, the undecided points lie far apart: every batch is wide. So
     here a batch holds only points within ``radius`` of its first (:data:`SECOND_RADIUS` typical
     first-pass batch radii: :func:`hybridedit.binding.mvc_layout.plan_groups`), and the opening ratio is
-    lowered step by step (:data:`SECOND_THETAS`: fewer nodes aggregated). On the 690K armadillo
-    (first pass at 0.3) the first step decided all 1,067 points, in 188 batches and 0.12 s;
-    batched 32 at a time along the curve, they had left 728 rows to the flat kernel (0.63 s).
+    lowered step by step (:data:`SECOND_THETAS`: fewer nodes aggregated); batched along the curve,
+    most of these rows went on to the flat kernel (728 of the 690K armadillo's 1,067).
     What is still undecided goes to the flat kernel (a pass over every cage face: O(c) a row, the
     part of the binding that grew faster than the shape).
     """
