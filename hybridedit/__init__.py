@@ -12,30 +12,12 @@ from __future__ import annotations
 import importlib
 import importlib.util
 import os as _os
-import sys as _sys
 
 __version__ = "0.1.0"
 
+from . import kernel_cache as _kernel_cache  # noqa: E402 -- (before numba loads; cheap: no numpy)
 
-def _numba_cache_where_writable() -> None:
-    """Compiled kernels are cached next to the code; where the user cannot write there (an
-    installation owned by root), point numba at the user cache folder instead, so that they
-    compile once, not at every run. Runs before numba is first imported."""
-    if _os.environ.get("NUMBA_CACHE_DIR"):
-        return
-    here = _os.path.dirname(_os.path.abspath(__file__))
-    pycache = _os.path.join(here, "__pycache__")
-    if _os.access(pycache if _os.path.isdir(pycache) else here, _os.W_OK):
-        return
-    from .core.cache_dir import default_cache_dir
-
-    folder = str(default_cache_dir() / "numba")
-    _os.environ["NUMBA_CACHE_DIR"] = folder
-    if "numba" in _sys.modules:  # imported before us: numba read its settings already
-        _sys.modules["numba"].config.CACHE_DIR = folder
-
-
-_numba_cache_where_writable()
+_kernel_cache.use_folder_of_these_sources()  # (compiled kernels cached per version of their sources)
 
 # OpenMP threads (numba's parallel kernels, CHOLMOD) wait for work asleep rather than spinning
 # (GNU OpenMP spins up to ~0.3 s by default): a spinning worker holds a core that the frame's other

@@ -25,7 +25,6 @@ import contextlib
 import hashlib
 import importlib
 import os
-import pkgutil
 import sys
 import time
 from pathlib import Path
@@ -44,32 +43,30 @@ Progress = Callable[[str, float], None]
 
 
 def kernel_modules() -> list[str]:
-    """Names of the hybridedit modules that define numba kernels or intrinsics (found from their source)."""
-    names = []
-    for info in pkgutil.walk_packages([str(PACKAGE_DIR)], prefix="hybridedit."):
-        if info.ispkg:
-            continue
-        path = PACKAGE_DIR.joinpath(*info.name.split(".")[1:]).with_suffix(".py")
-        try:
-            text = path.read_text(encoding="utf-8")
-        except OSError:
-            continue
-        # (@intrinsic: hand-written IR the kernels compile in, so that its edits change the stamp too)
-        if any(mark in text for mark in ("@njit", "@numba.njit", "@jit", "@numba.jit", "@intrinsic")):
-            names.append(info.name)
-    return sorted(names)
+    """Names of the hybridedit modules that define numba kernels or intrinsics
+    (:func:`hybridedit.kernel_cache.kernel_files`)."""
+    from .kernel_cache import kernel_files
+
+    names = (p.relative_to(PACKAGE_DIR).with_suffix("").parts for p in kernel_files(PACKAGE_DIR))
+    return sorted(".".join(("hybridedit", *parts)) for parts in names)
 
 
 def kernels() -> dict[str, object]:
-    """Every numba dispatcher defined at module level in :func:`kernel_modules`, by qualified name."""
+    """Every numba dispatcher defined at module level in :func:`kernel_modules`, by qualified name
+    (a pair of :func:`~hybridedit.core.twins.twins` named ``k`` gives ``k.serial`` and ``k.parallel``)."""
     from numba.core.registry import CPUDispatcher
+
+    from .core.twins import Twins
 
     out = {}
     for name in kernel_modules():
         mod = importlib.import_module(name)
         for attr, obj in vars(mod).items():
-            if isinstance(obj, CPUDispatcher) and getattr(obj, "__module__", name) == name:
-                out[f"{name}.{attr}"] = obj
+            pair = isinstance(obj, Twins)
+            found = {f"{attr}.{twin}": d for twin, d in obj._asdict().items()} if pair else {attr: obj}
+            for qual, disp in found.items():
+                if isinstance(disp, CPUDispatcher) and getattr(disp, "__module__", name) == name:
+                    out[f"{name}.{qual}"] = disp
     return out
 
 
@@ -93,7 +90,7 @@ def entry_kernels() -> dict[str, object]:
     for qual, disp in ks.items():
         if disp.targetoptions.get("inline", "never") == "always":
             continue
-        name = qual.rsplit(".", 1)[1]
+        name = qual[len(disp.__module__) + 1:].split(".")[0]  # (the module's name for it)
         if any(name in _code_names(d.py_func.__code__) for q, d in ks.items() if q != qual):
             continue
         out[qual] = disp
@@ -315,11 +312,12 @@ def stamp_path() -> Path:
 
     from .core.cache_dir import default_cache_dir
 
+    from .kernel_cache import sources_stamp
+
     h = hashlib.sha256()
     h.update(f"{numba.__version__} {sys.version} {sys.platform} {PACKAGE_DIR}".encode())
     h.update(os.environ.get("NUMBA_CACHE_DIR", "").encode())
-    for name in kernel_modules():
-        h.update(PACKAGE_DIR.joinpath(*name.split(".")[1:]).with_suffix(".py").read_bytes())
+    h.update(sources_stamp(PACKAGE_DIR).encode())
     return default_cache_dir() / f"kernels-{h.hexdigest()[:20]}.ready"
 
 

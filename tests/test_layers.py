@@ -4,7 +4,8 @@ The floors, lowest first (as the comment on ``hybridedit._WHERE`` states them):
 
 0. ``defaults`` -- the settings several floors share (plain Python);
 1. ``core`` -- meshes, topology, normals, the shared small rules (the cache folder, shape
-   fingerprints, one-line messages);
+   fingerprints, one-line messages), and beside it ``kernel_cache`` (the folder numba caches the
+   kernels in, chosen by the package's ``__init__`` before numba loads);
 2. ``fileio`` -- mesh files, edit files, atomic writes;
 3. ``cage`` -- the QEM cage;
 4. ``binding`` -- mean value coordinates, the rig (cage and binding assembled) and its cache;
@@ -27,7 +28,7 @@ import pytest
 import hybridedit
 
 PACKAGE = Path(hybridedit.__file__).resolve().parent
-FLOORS = {"defaults": 0, "core": 1, "fileio": 2, "cage": 3, "binding": 4, "deform": 5, "batching": 6,
+FLOORS = {"defaults": 0, "core": 1, "kernel_cache": 1, "fileio": 2, "cage": 3, "binding": 4, "deform": 5, "batching": 6,
           "cli": 7, "viewer": 7, "warmup": 7, "__main__": 7, "__init__": 7}
 ENGINE = ["core", "cage", "binding", "deform", "fileio", "batching"]
 GUI = ("PySide6", "qtpy", "pyvista", "pyvistaqt", "vtk", "vtkmodules")

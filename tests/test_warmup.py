@@ -57,8 +57,8 @@ def test_nothing_compiles_after_the_warmup(tmp_path):
 
 def test_every_entry_kernel_is_found():
     names = warmup.entry_kernels()
-    assert "hybridedit.deform.propagate._csr_times_xyz_parallel" in names
-    assert "hybridedit.core.normals._gather_serial" in names
+    assert "hybridedit.deform.propagate._csr_times_xyz.parallel" in names
+    assert "hybridedit.core.normals._gather.serial" in names
     assert "hybridedit.core.normals.accumulate_corners" in names
     assert "hybridedit.deform.propagate._row" not in names  # inlined into the entry kernels
     assert "hybridedit.core.region_metrics" in warmup.kernel_modules()

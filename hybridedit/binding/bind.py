@@ -33,6 +33,7 @@ from numba import njit, prange
 from ..defaults import TRUNCATION
 from ..core.mesh import Mesh
 from ..core.parallel import pick
+from ..core.twins import twins
 from ..core.topology import check_closed
 from .mvc_exact import as_points, compute_into, n_blocks
 from .mvc_flat import (FAR_RATIO, check_far_ratio, compute_fast_sorted, compute_fast_truncated, fast_scratch,
@@ -119,14 +120,8 @@ def _pack_row(r, rows, ptr, counts, cols, vals, indices, data):
         data[k + m] = vals[b, m]
 
 
-@njit(cache=True)
-def _pack_rows_serial(rows, ptr, counts, cols, vals, indices, data):  # pragma: no cover - compiled
-    for r in range(counts.shape[0]):
-        _pack_row(r, rows, ptr, counts, cols, vals, indices, data)
-
-
-@njit(cache=True, parallel=True)
-def _pack_rows_parallel(rows, ptr, counts, cols, vals, indices, data):  # pragma: no cover - compiled
+@twins()
+def _pack_rows_twins(rows, ptr, counts, cols, vals, indices, data):  # pragma: no cover - compiled
     for r in prange(counts.shape[0]):
         _pack_row(r, rows, ptr, counts, cols, vals, indices, data)
 
@@ -142,9 +137,8 @@ def _pack_rows(counts: np.ndarray, cols: np.ndarray, vals: np.ndarray,
     data = np.empty(int(ptr[-1]))
     indices = np.empty(data.size, dtype=np.int32)
     # (sized by the buffers' entries, not the few copied: each row is a buffer row apart, a cache
-    # miss or two; a 2.77M bind's chunk of 21,845 rows 256 wide packed in 4.4 ms on one thread, 2.0
-    # on two)
-    pick("copy", _pack_rows_serial, _pack_rows_parallel, counts.shape[0] * cols.shape[1])(
+    # miss or two, which two threads take side by side in half the time)
+    pick("copy", *_pack_rows_twins, counts.shape[0] * cols.shape[1])(
         rows, ptr, counts, cols, vals, indices, data)
     return data, indices
 
@@ -185,14 +179,8 @@ def _row_to_point(k, src_ptr, src_data, src_idx, row_of, ptr, data, indices):
         indices[o + q] = src_idx[a + q]
 
 
-@njit(cache=True)
-def _rows_to_points_serial(src_ptr, src_data, src_idx, row_of, ptr, data, indices):  # pragma: no cover
-    for k in range(row_of.shape[0]):
-        _row_to_point(k, src_ptr, src_data, src_idx, row_of, ptr, data, indices)
-
-
-@njit(cache=True, parallel=True)
-def _rows_to_points_parallel(src_ptr, src_data, src_idx, row_of, ptr, data, indices):  # pragma: no cover
+@twins()
+def _rows_to_points(src_ptr, src_data, src_idx, row_of, ptr, data, indices):  # pragma: no cover
     for k in prange(row_of.shape[0]):
         _row_to_point(k, src_ptr, src_data, src_idx, row_of, ptr, data, indices)
 
@@ -216,7 +204,7 @@ def _assemble(parts: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]
     np.cumsum(per_point, out=indptr[1:])
     data = np.empty(nnz)
     indices = np.empty(nnz, dtype=idx_dtype)
-    copy = pick("copy", _rows_to_points_serial, _rows_to_points_parallel, n)
+    copy = pick("copy", *_rows_to_points, n)
     for dest, (_, k, part_data, part_indices) in zip(dests, parts):
         if part_data.size:
             src_ptr = np.zeros(k.size + 1, dtype=np.int64)
@@ -569,9 +557,9 @@ def _undecided_rows(redo, plan, hier, ratio, scratch, t, width, p, radius):
 
 #: Opening ratios of the second pass (:func:`_second_pass_rows`), tried in turn.
 SECOND_THETAS = (0.5 * THETA, 0.25 * THETA, 0.125 * THETA)
-#: Radius of the second pass's batches, in median first-pass batch radii. The 100K creature
-#: leaves 12% of its rows undecided: in batches of 1 median radius, the second pass took its bind
-#: from 0.57 to 1.5 s; of 2, 1.13 s (4: 1.05 s, but more rows left for smaller ratios elsewhere).
+#: Radius of the second pass's batches, in median first-pass batch radii: a batch twice as wide
+#: holds more of the scattered undecided points (the 100K creature's bind 1.13 s instead of 1.5 s
+#: at one radius); much wider ones leave more rows to the smaller ratios.
 SECOND_RADIUS = 2.0
 #: Batches of the second pass computed at a time (their rows in buffers).
 SECOND_BATCHES = 256
@@ -587,9 +575,8 @@ def _second_pass_rows(points, hier, ratio, scratch, t, width, radius):
     again along the curve, the undecided points lie far apart: every batch is wide. So
     here a batch holds only points within ``radius`` of its first (:data:`SECOND_RADIUS` typical
     first-pass batch radii: :func:`hybridedit.binding.mvc_layout.plan_groups`), and the opening ratio is
-    lowered step by step (:data:`SECOND_THETAS`: fewer nodes aggregated). On the 690K armadillo
-    (first pass at 0.3) the first step decided all 1,067 points, in 188 batches and 0.12 s;
-    batched 32 at a time along the curve, they had left 728 rows to the flat kernel (0.63 s).
+    lowered step by step (:data:`SECOND_THETAS`: fewer nodes aggregated); batched along the curve,
+    most of these rows went on to the flat kernel (728 of the 690K armadillo's 1,067).
     What is still undecided goes to the flat kernel (a pass over every cage face: O(c) a row, the
     part of the binding that grew faster than the shape).
     """

@@ -7,9 +7,8 @@ writes do not overlap, and the run-time overlap checks LLVM then inserts before 
 loop cost more than the loop itself. Every operation is the plain IEEE one, in the order
 written (no fused multiply-add, no reassociation).
 
-Numba's on-disk cache keys a kernel on its own source file only: after changing this
-module, clear the cache (``__pycache__/*.nbi``, ``*.nbc``) or the kernels that use it keep
-their old code.
+The kernels that compile these in are cached in a folder that follows every kernel source,
+this one included (:mod:`hybridedit.kernel_cache`): an edit here recompiles them.
 """
 
 from __future__ import annotations

@@ -19,6 +19,7 @@ from numba import njit, prange
 
 from ..core.index_sets import difference_in_range, unique_sorted
 from ..core.parallel import pick
+from ..core.twins import twins
 from ..core.spatial_order import morton_order
 
 __all__ = ["CageData", "FACE_TILE", "FAST_BLOCK", "FastCageData", "FastPlan", "LANES", "fast_destinations",
@@ -355,14 +356,8 @@ def _batch_at(b, points, idx, origin, unit, min_radius, bx, bsph):
     bsph[b, 3] = max(r, min_radius)
 
 
-@njit(cache=True)
-def _batches_serial(points, idx, origin, unit, min_radius, bx, bsph):  # pragma: no cover - compiled
-    for b in range(idx.shape[0]):
-        _batch_at(b, points, idx, origin, unit, min_radius, bx, bsph)
-
-
-@njit(cache=True, parallel=True)
-def _batches_parallel(points, idx, origin, unit, min_radius, bx, bsph):  # pragma: no cover - compiled
+@twins()
+def _batches_twins(points, idx, origin, unit, min_radius, bx, bsph):  # pragma: no cover - compiled
     for b in prange(idx.shape[0]):
         _batch_at(b, points, idx, origin, unit, min_radius, bx, bsph)
 
@@ -376,7 +371,7 @@ def _batches(points: np.ndarray, idx: np.ndarray, cage: FastCageData, min_radius
     bsph = np.empty((nbatch, 4))
     p = np.ascontiguousarray(points, dtype=np.float64)
     origin = np.ascontiguousarray(cage.origin, dtype=np.float64)
-    pick("copy", _batches_serial, _batches_parallel, nbatch * LANES)(
+    pick("copy", *_batches_twins, nbatch * LANES)(
         p, np.ascontiguousarray(idx, dtype=np.int64), origin, float(cage.unit), float(min_radius), bx, bsph)
     return {"bx": bx, "bsph": bsph}
 

@@ -80,13 +80,10 @@ from .truncation import TOO_WIDE, UNDECIDED, keep_row, store_kept
 
 __all__ = ["compute_tree_truncated", "tree_scratch", "THETA", "MAX_OPEN"]
 
-#: Largest ratio of a node's radius to its distance from a batch for which
-#: the node is aggregated. On 20,000 rows of the 690K armadillo against the flat kernel's: 0.3 and
-#: 0.4 both give rows within 2.3e-6 of its (where both keep the same entries: 98.1% and 97.5% of
-#: rows) and the same reconstruction error (1.54e-4); 0.4 binds in 4.5 s instead of 5.3-5.7 s
-#: (2.77M: 22.7 -> 18.9 s), and 0.5 is no faster. A small cage gains nothing: the 100K creature's
-#: first pass takes as long and leaves 12% of its rows to the second pass instead of 6% (its
-#: binding 1.07 -> 1.2-1.3 s).
+#: Largest ratio of a node's radius to its distance from a batch for which the node is aggregated.
+#: 0.4 makes rows as close to the flat kernel's as 0.3 (the same reconstruction error) and binds
+#: faster (the 690K armadillo in 4.5 s instead of 5.3); 0.5 is no faster. (A small cage gains
+#: nothing: its first pass takes as long and leaves more rows to the second.)
 THETA = 0.4
 #: Most cage vertices a batch may open (more: its rows are undecided).
 MAX_OPEN = 4096
@@ -94,13 +91,10 @@ MAX_OPEN = 4096
 #: through the batch's ten-point quadratic (see the module docstring) instead of at each point. A
 #: node's ten evaluations then cost as much as three of the lanes' 32 (the sums are evaluated in
 #: the same vector loop). The fit's remainder for a 1 / d^3 decay is at most about 20 (R / d)^3 of
-#: those nodes' share (16% at 0.2, 2% at 0.1), of the order of the nodes' own expansion at
-#: :data:`THETA`. Side by side with every node at every point, the 11M armadillo's bind (cached
-#: cage): 58.9 -> 55.3-56.1 s at 0.1, 58.5-61.0 -> 52.9-53.4 s at 0.2. The 690K armadillo's first
-#: 200K rows: at 0.1 each keeps the same entries (values within 3.4e-16) and 864 are left undecided
-#: as before; at 0.2, 6 keep other entries (as many as a change of THETA from 0.4 to 0.3 moves)
-#: and 958 are left undecided (the batch-wide bound is looser), which the second pass makes. The
-#: whole 690K binding's reconstruction RMS / diagonal: 1.0292830e-4 -> 1.0293572e-4.
+#: those nodes' share, of the order of the nodes' own expansion at :data:`THETA`. At 0.2 the 11M
+#: armadillo binds about 10% faster than with every node at every point, as accurately: a few rows
+#: keep other entries (as a change of THETA from 0.4 to 0.3 moves), and the rows the looser
+#: batch-wide bound leaves undecided go to the second pass.
 LOCAL_RATIO = 0.2
 _D = math.sqrt(0.5)
 #: the ten points where the quadratic is fitted, on the unit sphere (two more, copies of the centre,

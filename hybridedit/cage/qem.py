@@ -34,6 +34,7 @@ from ..core.index_sets import unique_in_range
 from ..core.topology import group_rows
 from ..core.bounds import points_box
 from ..core.parallel import pick
+from ..core.twins import twins
 
 __all__ = ["SPLIT_MIN_FACES", "MARGIN", "HalfWorker", "helper_python", "presimplify", "start_worker", "splits"]
 
@@ -45,12 +46,9 @@ SPLIT_MIN_FACES = 300_000
 MARGIN = 1.25
 #: the share of the faces the worker's half has (the rest are simplified in this process). A worker
 #: started early grows its buffers while this process repairs the shape (see :func:`start_worker`)
-#: and then simplifies a face faster. The cut does not depend on whether the worker runs, so that
-#: the cage is the same with or without it. Cut in equal halves, the 11M armadillo's worker
-#: finished first and sat idle while this process finished its half; at 0.55 its cage took 29.1 /
-#: 27.8 s instead of 29.5 / 29.8 s (this process's half: 20.4 / 19.0 s instead of 21.6 / 21.2 s,
-#: the worker's result in 0.3 s after it); at 0.6 the worker's half was the longer (this process
-#: then waited 3.1 s).
+#: and then simplifies a face faster: in equal halves it finished first and sat idle, at 0.55 both
+#: halves end about together (at 0.6 the worker's is the longer). The cut does not depend on whether
+#: the worker runs, so that the cage is the same with or without it.
 WORKER_SHARE = 0.55
 #: the command that runs a half in another process (the worker's path is appended); None: the
 #: interpreter :func:`helper_python` finds, or no helper when it finds none
@@ -293,14 +291,8 @@ def _face_key(v, f, axis, key, i):
     key[i] = v[f[i, 0], axis] + v[f[i, 1], axis] + v[f[i, 2], axis]
 
 
-@njit(cache=True)
-def _face_keys_serial(v, f, axis, key):  # pragma: no cover - compiled
-    for i in range(f.shape[0]):
-        _face_key(v, f, axis, key, i)
-
-
-@njit(cache=True, parallel=True)
-def _face_keys_parallel(v, f, axis, key):  # pragma: no cover - compiled
+@twins()
+def _face_keys_twins(v, f, axis, key):  # pragma: no cover - compiled
     for i in prange(f.shape[0]):
         _face_key(v, f, axis, key, i)
 
@@ -308,7 +300,7 @@ def _face_keys_parallel(v, f, axis, key):  # pragma: no cover - compiled
 def _face_keys(v: np.ndarray, f: np.ndarray, axis: int) -> np.ndarray:
     """(m,) three times each face's centroid coordinate along ``axis``."""
     key = np.empty(f.shape[0])
-    pick("faces", _face_keys_serial, _face_keys_parallel, f.shape[0])(v, f, axis, key)
+    pick("faces", *_face_keys_twins, f.shape[0])(v, f, axis, key)
     return key
 
 

@@ -21,6 +21,7 @@ import numpy as np
 from numba import njit, prange
 
 from .parallel import pick
+from .twins import twins
 
 __all__ = ["csr_check", "FAULTS"]
 
@@ -63,14 +64,8 @@ def _row_code(i, indptr, indices, data, n_columns, row_sum, tol, check_sum, out)
     out[i] = code
 
 
-@njit(cache=True)
-def _codes_serial(indptr, indices, data, n_columns, row_sum, tol, check_sum, out):  # pragma: no cover
-    for i in range(out.shape[0]):
-        _row_code(i, indptr, indices, data, n_columns, row_sum, tol, check_sum, out)
-
-
-@njit(cache=True, parallel=True)
-def _codes_parallel(indptr, indices, data, n_columns, row_sum, tol, check_sum, out):  # pragma: no cover
+@twins()
+def _codes(indptr, indices, data, n_columns, row_sum, tol, check_sum, out):  # pragma: no cover
     for i in prange(out.shape[0]):
         _row_code(i, indptr, indices, data, n_columns, row_sum, tol, check_sum, out)
 
@@ -101,7 +96,7 @@ def csr_check(indptr: np.ndarray, indices: np.ndarray, data: np.ndarray, *, n_co
         return FAULTS[1], False
     n = indptr.size - 1
     out = np.zeros(n, dtype=np.uint8)
-    kernel = pick("propagate", _codes_serial, _codes_parallel, n)
+    kernel = pick("propagate", *_codes, n)
     kernel(indptr, indices, data, int(n_columns), float(row_sum or 0.0), float(tol), row_sum is not None, out)
     top = int(out.max(initial=0))
     unsorted = top >= _UNSORTED

@@ -23,6 +23,7 @@ import numpy as np
 from numba import njit, prange
 
 from .parallel import pick
+from .twins import twins
 
 __all__ = ["vertex_normals", "grouped_normals", "face_terms", "write_vertex_normals",
            "accumulate_corners", "write_unit_rows"]
@@ -125,15 +126,8 @@ def write_unit_rows(acc, at, rows, out):
         _write_unit(acc, at[t], out, rows[t])
 
 
-@njit(cache=True)
-def _face_terms_serial(V, F, faces, ft):
-    for t in range(faces.shape[0]):
-        f = faces[t]
-        ft[f, 0], ft[f, 1], ft[f, 2], ft[f, 3], ft[f, 4], ft[f, 5] = _face_terms(V, F, f)
-
-
-@njit(cache=True, parallel=True)
-def _face_terms_parallel(V, F, faces, ft):
+@twins()
+def _face_terms_twins(V, F, faces, ft):
     for t in prange(faces.shape[0]):
         f = faces[t]
         ft[f, 0], ft[f, 1], ft[f, 2], ft[f, 3], ft[f, 4], ft[f, 5] = _face_terms(V, F, f)
@@ -153,14 +147,8 @@ def _gather_vertex(F, ft, vf_ptr, vf_idx, v, out):
     _store_unit(x, y, z, out, v)
 
 
-@njit(cache=True)
-def _gather_serial(F, ft, vf_ptr, vf_idx, verts, out):
-    for t in range(verts.shape[0]):
-        _gather_vertex(F, ft, vf_ptr, vf_idx, verts[t], out)
-
-
-@njit(cache=True, parallel=True)
-def _gather_parallel(F, ft, vf_ptr, vf_idx, verts, out):
+@twins()
+def _gather(F, ft, vf_ptr, vf_idx, verts, out):
     for t in prange(verts.shape[0]):
         _gather_vertex(F, ft, vf_ptr, vf_idx, verts[t], out)
 
@@ -174,7 +162,7 @@ def face_terms(V: np.ndarray, F: np.ndarray, faces: np.ndarray, ft: np.ndarray) 
     faces : (k,) int64, the rows of F to compute
     ft : (m, 6) float64; rows ``faces`` get the unit normal (3) and the angles at the three corners (3)
     """
-    pick("normals", _face_terms_serial, _face_terms_parallel, faces.shape[0])(V, F, faces, ft)
+    pick("normals", *_face_terms_twins, faces.shape[0])(V, F, faces, ft)
 
 
 def write_vertex_normals(F: np.ndarray, ft: np.ndarray, vf_ptr: np.ndarray, vf_idx: np.ndarray,
@@ -188,7 +176,7 @@ def write_vertex_normals(F: np.ndarray, ft: np.ndarray, vf_ptr: np.ndarray, vf_i
     vf_ptr, vf_idx : (n + 1,) int64, (3 m,) int32 or int64, the triangles at each vertex (CSR)
     verts : (k,) int64; out : (n, 3) float array, rows ``verts`` written
     """
-    pick("normals", _gather_serial, _gather_parallel, verts.shape[0])(F, ft, vf_ptr, vf_idx, verts, out)
+    pick("normals", *_gather, verts.shape[0])(F, ft, vf_ptr, vf_idx, verts, out)
 
 
 def grouped_normals(vertices: np.ndarray, triangles: np.ndarray, groups: np.ndarray,

@@ -1,16 +1,16 @@
 """When a kernel runs on every core: one table of sizes, one way to choose.
 
-Many compiled kernels come in twins, a serial loop and a ``prange`` one. Starting numba's thread
-pool costs more than small work, so each kind of work switches to its parallel twin from a size
-measured for it (:data:`THRESHOLDS`, items of the loop: rows, vertices, faces). And a parallel pass
-ends when its slowest thread does: on a machine whose other programs keep the cores busy, the
-second thread waits for a time slice and a 5 ms frame takes 20 (the 173K armadillo's canonical
-edit beside a busy core). So a kind goes parallel only where a second core is actually free
-(:func:`free_cores`: the cores the *other* processes left idle over the last fraction of a
-second) and where the calling thread may use more than one (``numba.get_num_threads``). Every
-caller chooses through :func:`pick`; a size of 0 means parallel whatever the load, and
-:func:`all_parallel` sets every size to zero for a while (``python -m hybridedit.warmup``
-compiles the parallel twins that way, tests compare the twins so).
+Many compiled kernels come in twins, one loop compiled serial and parallel
+(:func:`hybridedit.core.twins.twins`). Starting numba's thread pool costs more than small work, so
+each kind of work switches to its parallel twin from a size measured for it (:data:`THRESHOLDS`,
+items of the loop: rows, vertices, faces). And a parallel pass ends when its slowest thread does:
+on a machine whose other programs keep the cores busy, the second thread waits for a time slice and
+a 5 ms frame takes 20 (the 173K armadillo's canonical edit beside a busy core). So a kind goes
+parallel only where a second core is actually free (:func:`free_cores`: the cores the *other*
+processes left idle over the last fraction of a second) and where the calling thread may use more
+than one (``numba.get_num_threads``). Every caller chooses through :func:`pick`; a size of 0 means
+parallel whatever the load, and :func:`all_parallel` sets every size to zero for a while
+(``python -m hybridedit.warmup`` compiles the parallel twins that way, tests compare the twins so).
 
 The waiting itself is passive: :mod:`hybridedit` sets ``OMP_WAIT_POLICY=passive`` (unless the
 user set it) before the OpenMP runtime loads, so an idle worker sleeps instead of spinning on a
@@ -37,13 +37,13 @@ K = TypeVar("K")
 
 THRESHOLDS: dict[str, int] = {
     # a cage vertex's rotation (a 3x3 polar decomposition) is work enough that two threads win from
-    # about a thousand: the local step of a 2,163-vertex cage 0.61 -> 0.33 ms, of 8,650 2.6 -> 1.3 ms
+    # about a thousand (a 2,163-vertex cage's local step in half the time)
     "rotations": 1_000,
-    # the region step's right-hand side (rotation blend, then the ARAP right-hand side): the canonical
-    # edit's region at 173K (5.9K vertices) 0.26 ms on one thread, 0.21 on two; at 690K (12K) 0.37 -> 0.20
+    # the region step's right-hand side (rotation blend, then the ARAP right-hand side): two threads
+    # gain little at 6K rows and halve the time at 12K (the 690K canonical edit's region)
     "region_step": 8_000,
     # constrained rows placed exactly: they lie scattered through the shape and two threads wait on
-    # memory side by side (the 52K handle rows at 690K 0.22-0.9 ms -> 0.1-0.46 ms)
+    # memory side by side (the 690K armadillo's 52K handle rows in half the time)
     "place": 20_000,
     # rows of x' = M y' (plus the rotated residual): a few multiply-adds each
     "propagate": 20_000,
@@ -56,8 +56,7 @@ THRESHOLDS: dict[str, int] = {
     # vertex normals of a whole shape (the window's full update, a file's normals)
     "normals": 50_000,
     # rows of a shape-sized array copied into new memory: on this VM a new page costs more than the
-    # copy (numpy asks for huge pages), and two threads fault pages in side by side (265 MB, 11M
-    # rows of three float64: 0.66 s -> 0.34 s)
+    # copy (numpy asks for huge pages), and two threads fault pages in side by side (half the time)
     "copy": 1_000_000,
 }
 

@@ -14,6 +14,7 @@ from numba import njit, prange
 
 from .bounds import points_box
 from .parallel import pick
+from .twins import twins
 from .topology import incidence
 
 #: the grid has at most this many cells per site (and at least 2**20 allowed): wider cells when
@@ -61,14 +62,8 @@ def _near_one(t, P, rows, G, starts, lo, c, dims, r2, out):
                         return
 
 
-@njit(cache=True)
-def _near_serial(P, rows, G, starts, lo, c, dims, r2, out):  # pragma: no cover - compiled
-    for t in range(rows.shape[0]):
-        _near_one(t, P, rows, G, starts, lo, c, dims, r2, out)
-
-
-@njit(cache=True, parallel=True)
-def _near_parallel(P, rows, G, starts, lo, c, dims, r2, out):  # pragma: no cover - compiled
+@twins()
+def _near(P, rows, G, starts, lo, c, dims, r2, out):  # pragma: no cover - compiled
     for t in prange(rows.shape[0]):
         _near_one(t, P, rows, G, starts, lo, c, dims, r2, out)
 
@@ -110,6 +105,5 @@ def rows_near(points: np.ndarray, rows: np.ndarray, sites: np.ndarray, radius: f
     _cell_keys(S, lo, c, dims, key)
     starts, order = incidence(key, int(np.prod(dims)))  # the sites cell by cell (a counting sort)
     G = np.ascontiguousarray(S[order])
-    pick("propagate", _near_serial, _near_parallel, rows.shape[0])(P, rows, G, starts, lo, c, dims,
-                                                                    float(radius) ** 2, out)
+    pick("propagate", *_near, rows.shape[0])(P, rows, G, starts, lo, c, dims, float(radius) ** 2, out)
     return out

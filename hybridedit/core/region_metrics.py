@@ -35,6 +35,7 @@ from ..core.mesh import unique_edges
 from ..core.topology import incidence
 from ..core.normals import accumulate_corners, face_terms, write_unit_rows, write_vertex_normals
 from ..core.parallel import pick
+from ..core.twins import Twins, twins
 from ..core.row_copy import take_rows
 
 
@@ -45,14 +46,8 @@ def _write_row(V, r, out):
     out[r, 2] = V[r, 2]
 
 
-@njit(cache=True)
-def _write_rows_serial(V, rows, out):
-    for t in range(rows.shape[0]):
-        _write_row(V, rows[t], out)
-
-
-@njit(cache=True, parallel=True)
-def _write_rows_parallel(V, rows, out):
+@twins()
+def _write_rows(V, rows, out):
     for t in prange(rows.shape[0]):
         _write_row(V, rows[t], out)
 
@@ -71,15 +66,9 @@ def _edge_length(P, ends, t):
     return np.sqrt(dx * dx + dy * dy + dz * dz)
 
 
-@njit(cache=True)
-def _lengths_serial(P, ends, out):
+@twins()
+def _lengths(P, ends, out):
     """Length of each edge ``ends[t]`` (rows of P) into ``out[t]``: no (e, 3) temporaries."""
-    for t in range(ends.shape[0]):
-        out[t] = _edge_length(P, ends, t)
-
-
-@njit(cache=True, parallel=True)
-def _lengths_parallel(P, ends, out):
     for t in prange(ends.shape[0]):
         out[t] = _edge_length(P, ends, t)
 
@@ -96,18 +85,10 @@ def _edge_term(P, ends, rest_len, t, e, terms):
     return new - old
 
 
-@njit(cache=True)
-def _edge_terms_serial(P, ends, rest_len, eidx, terms):
+@twins()
+def _edge_terms(P, ends, rest_len, eidx, terms):
     """Squared relative length changes of the edges ``eidx`` into ``terms[eidx]``; returns the change of
     their sum. Edge ``eidx[t]`` joins rows ``ends[t]`` of P and had length ``rest_len[t]``."""
-    delta = 0.0
-    for t in range(eidx.shape[0]):
-        delta += _edge_term(P, ends, rest_len, t, eidx[t], terms)
-    return delta
-
-
-@njit(cache=True, parallel=True)
-def _edge_terms_parallel(P, ends, rest_len, eidx, terms):
     delta = 0.0
     for t in prange(eidx.shape[0]):
         delta += _edge_term(P, ends, rest_len, t, eidx[t], terms)
@@ -123,20 +104,14 @@ def _stretch_of(terms, ve_ptr, ve_idx, v, out):
     out[v] = 100.0 * s / n if n > 0 else 0.0
 
 
-@njit(cache=True)
-def _stretch_serial(terms, ve_ptr, ve_idx, verts, out):
-    for t in range(verts.shape[0]):
-        _stretch_of(terms, ve_ptr, ve_idx, verts[t], out)
-
-
-@njit(cache=True, parallel=True)
-def _stretch_parallel(terms, ve_ptr, ve_idx, verts, out):
+@twins()
+def _stretch(terms, ve_ptr, ve_idx, verts, out):
     for t in prange(verts.shape[0]):
         _stretch_of(terms, ve_ptr, ve_idx, verts[t], out)
 
 
-def _pick(serial, parallel, items: np.ndarray):
-    return pick("window", serial, parallel, items.shape[0])
+def _pick(kernels: Twins, items: np.ndarray):
+    return pick("window", *kernels, items.shape[0])
 
 
 def _touching(ptr: np.ndarray, idx: np.ndarray, verts: np.ndarray, m: int) -> np.ndarray:
@@ -203,7 +178,7 @@ class ShapeMetrics:
         self.edges = unique_edges(self.faces)
         # (as mesh.edge_lengths, in one compiled pass: its (e, 3) temporaries took 11 s at 11M)
         self.rest_len = np.empty(len(self.edges))
-        _pick(_lengths_serial, _lengths_parallel, self.edges)(self.rest, self.edges, self.rest_len)
+        _pick(_lengths, self.edges)(self.rest, self.edges, self.rest_len)
         self.n_ok = int(np.count_nonzero(self.rest_len > 0))
         self.vf_ptr, self.vf_idx = incidence(self.faces, n)
         self.ve_ptr, self.ve_idx = incidence(self.edges, n)
@@ -233,7 +208,7 @@ class ShapeMetrics:
     def write_points(self, V: np.ndarray, out: np.ndarray, *, everything: bool = False) -> None:
         """Copy the moving rows of V (n, 3) into ``out`` (n, 3), e.g. a float32 VTK buffer."""
         rows = self.all_vertices if everything else self.moving
-        _pick(_write_rows_serial, _write_rows_parallel, rows)(V, rows, out)
+        _pick(_write_rows, rows)(V, rows, out)
 
     def moving_box(self, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(lo, hi) (3,) float64 corners of the box around the moving rows of P (n, 3) (float32)."""
@@ -269,13 +244,11 @@ class ShapeMetrics:
             self.total = 0.0
         if everything or c is None:
             eidx = np.arange(len(self.edges))
-            self.total += _pick(_edge_terms_serial, _edge_terms_parallel, eidx)(V, self.edges, self.rest_len,
-                                                                                eidx, self.terms)
+            self.total += _pick(_edge_terms, eidx)(V, self.edges, self.rest_len, eidx, self.terms)
         else:
             eidx = self.moving_edges
             take_rows(V, c.vertices, out=c.P)
-            self.total += _pick(_edge_terms_serial, _edge_terms_parallel, eidx)(c.P, c.edges, c.rest_len, eidx,
-                                                                                self.terms)
+            self.total += _pick(_edge_terms, eidx)(c.P, c.edges, c.rest_len, eidx, self.terms)
         if self.n_ok == 0:
             return 0.0
         return float(np.sqrt(max(self.total, 0.0) / self.n_ok) * 100.0)
@@ -284,4 +257,4 @@ class ShapeMetrics:
         """Per vertex mean |relative edge-length change| in percent into ``out`` (n,), from the
         terms of the last :meth:`update_error` (call it first with the same pose)."""
         verts = self.all_vertices if everything else self.stretch_vertices
-        _pick(_stretch_serial, _stretch_parallel, verts)(self.terms, self.ve_ptr, self.ve_idx, verts, out)
+        _pick(_stretch, verts)(self.terms, self.ve_ptr, self.ve_idx, verts, out)

@@ -180,9 +180,8 @@ def closest_rotation(a: np.ndarray, out: np.ndarray) -> None:
 
 #: matrices whose Newton steps :func:`polar_lanes` takes side by side. The loop over them compiles
 #: to vector instructions (each lane's arithmetic is the scalar one, so every result is bitwise
-#: :func:`closest_rotation`'s); below about 16 lanes LLVM keeps it scalar. Measured on the 690K
-#: armadillo's cage covariances (about 6 steps each), one thread: 215 ns a matrix one at a time,
-#: 125 ns in lanes of 8 or 16, 41 ns in lanes of 32 or 64.
+#: :func:`closest_rotation`'s); below about 16 lanes LLVM keeps it scalar. In lanes of 32 a matrix
+#: takes a fifth of its time alone (the 690K armadillo's cage covariances, one thread); 64 gain nothing.
 LANES = 32
 
 

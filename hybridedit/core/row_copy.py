@@ -18,6 +18,7 @@ import numpy as np
 from numba import njit, prange
 
 from .parallel import pick
+from .twins import twins
 
 __all__ = ["take_rows", "put_rows", "copy_rows", "rows_into", "copied"]
 
@@ -92,13 +93,8 @@ def _into_block(src, out, b, blocks):
         out[i, 2] = src[i, 2]
 
 
-@njit(cache=True)
-def _into_serial(src, out):  # pragma: no cover - compiled
-    _into_block(src, out, 0, 1)
-
-
-@njit(cache=True, parallel=True)
-def _into_parallel(src, out):  # pragma: no cover - compiled
+@twins()
+def _into(src, out):  # pragma: no cover - compiled
     for b in prange(_COPY_BLOCKS):
         _into_block(src, out, b, _COPY_BLOCKS)
 
@@ -120,7 +116,7 @@ def rows_into(src: np.ndarray, out: np.ndarray) -> None:
             or pair not in ((np.dtype(np.float64), np.dtype(np.float64)), (np.dtype(np.int32), np.dtype(np.int64))):
         out[...] = src
         return
-    pick("copy", _into_serial, _into_parallel, src.shape[0])(src, out)
+    pick("copy", *_into, src.shape[0])(src, out)
 
 
 def copied(src: np.ndarray) -> np.ndarray:

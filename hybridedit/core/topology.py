@@ -11,6 +11,7 @@ import numba
 import numpy as np
 
 from .parallel import pick
+from .twins import twins
 from .bounds import points_box
 
 __all__ = [
@@ -240,7 +241,7 @@ def is_closed_oriented(faces: np.ndarray, n_vertices: int) -> bool:
     if not _outgoing(f, n, start, out):
         return False
     bad = np.zeros(n, dtype=np.bool_)
-    pick("faces", _pairs_serial, _pairs_parallel, len(f))(start, out, bad)
+    pick("faces", *_pairs, len(f))(start, out, bad)
     return not bool(bad.any())
 
 
@@ -284,27 +285,15 @@ def _pairs_at(a, start, out, bad):
             return
 
 
-@numba.njit(cache=True)
-def _pairs_serial(start, out, bad):  # pragma: no cover - compiled
-    for a in range(bad.shape[0]):
-        _pairs_at(a, start, out, bad)
-
-
-@numba.njit(cache=True, parallel=True)
-def _pairs_parallel(start, out, bad):  # pragma: no cover - compiled
+@twins()
+def _pairs(start, out, bad):  # pragma: no cover - compiled
     for a in numba.prange(bad.shape[0]):
         _pairs_at(a, start, out, bad)
 
 
-@numba.njit(cache=True, parallel=True)
-def _degenerate_parallel(v, f, ratio, out):  # pragma: no cover - compiled
+@twins()
+def _degenerate(v, f, ratio, out):  # pragma: no cover - compiled
     for i in numba.prange(f.shape[0]):
-        _degenerate_one(v, f, ratio, out, i)
-
-
-@numba.njit(cache=True)
-def _degenerate_serial(v, f, ratio, out):  # pragma: no cover - compiled
-    for i in range(f.shape[0]):
         _degenerate_one(v, f, ratio, out, i)
 
 
@@ -351,7 +340,7 @@ def degenerate_faces(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     out = np.zeros(len(f), dtype=bool)
     if len(f):
         # below THRESHOLDS["faces"] on one thread: starting the pool costs more than the work
-        pick("faces", _degenerate_serial, _degenerate_parallel, len(f))(v, f, DEGENERATE_RATIO, out)
+        pick("faces", *_degenerate, len(f))(v, f, DEGENERATE_RATIO, out)
     return out
 
 

@@ -11,6 +11,7 @@ from numba import njit, prange
 from ..core.linsolve import SPDSolver
 from ..core.parallel import pick
 from ..core.edge_weights import WEIGHTS, edge_weights  # noqa: F401  (in core: the rig's cage weights need them)
+from ..core.twins import twins
 from ..core.rotations import LANES, rotations_in_place
 from ..core.row_copy import put_rows, take_rows
 from ..core.index_sets import union_in_range, unique_in_range, unique_sorted
@@ -71,15 +72,9 @@ def _rotations_of_block(b, rest, cur, indptr, indices, wts, rots, rows, x, done,
     rotations_in_place(rots, rows, r0, nl, x, done, elsewhere)
 
 
-@njit(cache=True)
-def _local_step_serial(rest, cur, indptr, indices, wts, rots, rows):
-    x, done, elsewhere = np.empty((9, LANES)), np.empty(LANES), np.empty(LANES)
-    for b in range((rows.shape[0] + LANES - 1) // LANES):
-        _rotations_of_block(b, rest, cur, indptr, indices, wts, rots, rows, x, done, elsewhere)
-
-
-@njit(cache=True, parallel=True)
-def _local_step_parallel(rest, cur, indptr, indices, wts, rots, rows):
+@twins()
+def _local_step_twins(rest, cur, indptr, indices, wts, rots, rows):
+    # (each block makes its own work arrays, so that threads share none: on one thread that costs ~1%)
     for b in prange((rows.shape[0] + LANES - 1) // LANES):
         _rotations_of_block(b, rest, cur, indptr, indices, wts, rots, rows, np.empty((9, LANES)), np.empty(LANES),
                             np.empty(LANES))
@@ -87,8 +82,7 @@ def _local_step_parallel(rest, cur, indptr, indices, wts, rots, rows):
 
 def _local_step(rest, cur, indptr, indices, wts, rots, rows):
     """Rotations R_i of the vertices ``rows`` (the ARAP local step), into ``rots`` (n, 3, 3)."""
-    pick("rotations", _local_step_serial, _local_step_parallel, rows.shape[0])(rest, cur, indptr, indices, wts, rots,
-                                                                             rows)
+    pick("rotations", *_local_step_twins, rows.shape[0])(rest, cur, indptr, indices, wts, rots, rows)
 
 
 @njit(cache=True, inline="always")
@@ -115,21 +109,15 @@ def _rhs_of(r, rest, indptr, indices, wts, rots, rows, out):
     out[r, 2] = b2
 
 
-@njit(cache=True)
-def _rhs_serial(rest, indptr, indices, wts, rots, rows, out):
-    for r in range(rows.shape[0]):
-        _rhs_of(r, rest, indptr, indices, wts, rots, rows, out)
-
-
-@njit(cache=True, parallel=True)
-def _rhs_parallel(rest, indptr, indices, wts, rots, rows, out):
+@twins()
+def _rhs_twins(rest, indptr, indices, wts, rots, rows, out):
     for r in prange(rows.shape[0]):
         _rhs_of(r, rest, indptr, indices, wts, rots, rows, out)
 
 
 def _rhs(rest, indptr, indices, wts, rots, rows, out):
     """The global step's right-hand side for the vertices ``rows``, into ``out``."""
-    pick("rotations", _rhs_serial, _rhs_parallel, rows.shape[0])(rest, indptr, indices, wts, rots, rows, out)
+    pick("rotations", *_rhs_twins, rows.shape[0])(rest, indptr, indices, wts, rots, rows, out)
 
 
 @njit(cache=True, parallel=True)

@@ -31,6 +31,7 @@ from numba import njit, prange
 from ..core.index_sets import union_in_range, unique_in_range
 from ..core.linsolve import SPDSolver
 from ..core.parallel import pick
+from ..core.twins import twins
 from ..core.proximity import rows_near
 from ..core.row_copy import put_rows
 
@@ -165,16 +166,8 @@ def _region_rhs_of(r, rots, free_local, indptr, indices, he, s, cptr, cidx, cw, 
     b[r, 2] = b2
 
 
-@njit(cache=True)
-def _region_rhs_serial(idx, w, cage_rots, rots, free_local, indptr, indices, he, s, cptr, cidx, cw, x, b):
-    for i in range(rots.shape[0]):
-        _blend_one(i, idx, w, cage_rots, rots)
-    for r in range(free_local.shape[0]):
-        _region_rhs_of(r, rots, free_local, indptr, indices, he, s, cptr, cidx, cw, x, b)
-
-
-@njit(cache=True, parallel=True)
-def _region_rhs_parallel(idx, w, cage_rots, rots, free_local, indptr, indices, he, s, cptr, cidx, cw, x, b):
+@twins()
+def _region_rhs(idx, w, cage_rots, rots, free_local, indptr, indices, he, s, cptr, cidx, cw, x, b):
     for i in prange(rots.shape[0]):
         _blend_one(i, idx, w, cage_rots, rots)
     for r in prange(free_local.shape[0]):
@@ -196,7 +189,7 @@ def region_rhs(idx, w, cage_rots, rots, free_local, indptr, indices, he, s, cptr
     b : (f, 3) output (any memory order): sum_j w_ij/2 (R_i + R_j)(p_i - p_j) + sum_{j boundary} w_ij x_j.
     """
     args = (idx, w, cage_rots, rots, free_local, indptr, indices, he, s, cptr, cidx, cw, x, b)
-    pick("region_step", _region_rhs_serial, _region_rhs_parallel, rots.shape[0])(*args)
+    pick("region_step", *_region_rhs, rots.shape[0])(*args)
 
 
 @njit(cache=True, inline="always")
@@ -206,14 +199,8 @@ def _place_one(i, source, T, out):
         out[i, p] = T[p, 0] * x0 + T[p, 1] * x1 + T[p, 2] * x2 + T[p, 3]
 
 
-@njit(cache=True)
-def _place_serial(rows, source, T, out):
-    for r in range(rows.shape[0]):
-        _place_one(rows[r], source, T, out)
-
-
-@njit(cache=True, parallel=True)
-def _place_parallel(rows, source, T, out):
+@twins()
+def _place(rows, source, T, out):
     for r in prange(rows.shape[0]):
         _place_one(rows[r], source, T, out)
 
@@ -223,7 +210,7 @@ def _place_parallel(rows, source, T, out):
 def place(rows, source, T, out):
     """out[i] = T applied to source[i] for i in rows ((4, 4) affine T): the exact
     position of constrained vertices, in one pass."""
-    pick("place", _place_serial, _place_parallel, rows.shape[0])(rows, source, T, out)
+    pick("place", *_place, rows.shape[0])(rows, source, T, out)
 
 
 #: A free region up to this many vertices is solved whole every frame; a larger one

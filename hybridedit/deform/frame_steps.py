@@ -33,6 +33,7 @@ from numba import njit, prange
 
 from ..core.index_sets import difference_in_range, union_in_range
 from ..core.parallel import pick
+from ..core.twins import twins
 from ..core.row_copy import take_rows
 
 from .constraints import RegionStep, SeamSpread, place, region_to_solve
@@ -138,8 +139,8 @@ class TurnRotations:
     def run(self, frame: Frame) -> None:
         Rs = np.array([T[:3, :3] for T in frame.transforms], dtype=np.float64).reshape(-1, 3, 3)
         n = self.free.size + self._members.size
-        pick("place", _turn_serial, _turn_parallel, n)(frame.rotations, frame.cage_rotations, self.free,
-                                                      self._members, self._group_of, Rs)
+        pick("place", *_turn, n)(frame.rotations, frame.cage_rotations, self.free, self._members,
+                                 self._group_of, Rs)
 
 
 @njit(cache=True, inline="always")
@@ -158,14 +159,8 @@ def _turn_one(q, out, cage_rots, free, members, group_of, Rs):
                 out[i, a, b] = Rs[g, a, b]
 
 
-@njit(cache=True)
-def _turn_serial(out, cage_rots, free, members, group_of, Rs):  # pragma: no cover - compiled
-    for q in range(free.shape[0] + members.shape[0]):
-        _turn_one(q, out, cage_rots, free, members, group_of, Rs)
-
-
-@njit(cache=True, parallel=True)
-def _turn_parallel(out, cage_rots, free, members, group_of, Rs):  # pragma: no cover - compiled
+@twins()
+def _turn(out, cage_rots, free, members, group_of, Rs):  # pragma: no cover - compiled
     for q in prange(free.shape[0] + members.shape[0]):
         _turn_one(q, out, cage_rots, free, members, group_of, Rs)
 

@@ -7,6 +7,7 @@ import scipy.sparse as sp
 from numba import njit, prange
 
 from ..core.parallel import pick
+from ..core.twins import twins
 
 _ALL_ROWS: dict[int, np.ndarray] = {}
 
@@ -37,14 +38,8 @@ def _row(i, o, indptr, indices, data, y, out):
     out[o, 2] = a2
 
 
-@njit(cache=True)
-def _csr_times_xyz_serial(indptr, indices, data, y, out, rows, dest):
-    for r in range(rows.shape[0]):
-        _row(rows[r], dest[r], indptr, indices, data, y, out)
-
-
-@njit(cache=True, parallel=True)
-def _csr_times_xyz_parallel(indptr, indices, data, y, out, rows, dest):
+@twins()
+def _csr_times_xyz(indptr, indices, data, y, out, rows, dest):
     for r in prange(rows.shape[0]):
         _row(rows[r], dest[r], indptr, indices, data, y, out)
 
@@ -76,6 +71,5 @@ def propagate(
         out = np.empty((M.shape[0], 3))
     rows = all_rows(M.shape[0]) if rows is None else rows
     dest = rows if dest is None else dest
-    pick("propagate", _csr_times_xyz_serial, _csr_times_xyz_parallel, rows.shape[0])(M.indptr, M.indices, M.data, y,
-                                                                                      out, rows, dest)
+    pick("propagate", *_csr_times_xyz, rows.shape[0])(M.indptr, M.indices, M.data, y, out, rows, dest)
     return out

@@ -24,6 +24,7 @@ import scipy.sparse as sp
 from numba import njit, prange
 
 from ..core.parallel import pick
+from ..core.twins import twins
 from .propagate import all_rows, propagate
 from .propagate import _row as _linear_row
 
@@ -62,14 +63,8 @@ def _top_k_row(i, o, indptr, indices, data, k, idx, w):
             w[o, t] = 0.0
 
 
-@njit(cache=True)
-def _top_k_serial(indptr, indices, data, k, r0, r1, idx, w):  # pragma: no cover - compiled
-    for i in range(r0, r1):
-        _top_k_row(i, i - r0, indptr, indices, data, k, idx, w)
-
-
-@njit(cache=True, parallel=True)
-def _top_k_parallel(indptr, indices, data, k, r0, r1, idx, w):  # pragma: no cover - compiled
+@twins()
+def _top_k(indptr, indices, data, k, r0, r1, idx, w):  # pragma: no cover - compiled
     for i in prange(r0, r1):
         _top_k_row(i, i - r0, indptr, indices, data, k, idx, w)
 
@@ -103,7 +98,7 @@ def residual_setup(
     idx = np.zeros((n, k), dtype=np.int32)
     w = np.zeros((n, k), dtype=np.float32)
     shares = np.empty((min(n, _TOP_K_ROWS), k))
-    kernel = pick("propagate", _top_k_serial, _top_k_parallel, n)
+    kernel = pick("propagate", *_top_k, n)
     for r0 in range(0, n, _TOP_K_ROWS):
         r1 = min(n, r0 + _TOP_K_ROWS)
         kernel(M.indptr, M.indices, M.data, k, r0, r1, idx, shares)
@@ -140,14 +135,8 @@ def _row(i, o, indptr, indices, data, y, rots, idx, w, d, out):
     out[o, 2] += a2
 
 
-@njit(cache=True)
-def _serial(indptr, indices, data, y, rots, idx, w, d, out, rows, dest):
-    for r in range(rows.shape[0]):
-        _row(rows[r], dest[r], indptr, indices, data, y, rots, idx, w, d, out)
-
-
-@njit(cache=True, parallel=True)
-def _parallel(indptr, indices, data, y, rots, idx, w, d, out, rows, dest):
+@twins()
+def _rows(indptr, indices, data, y, rots, idx, w, d, out, rows, dest):
     for r in prange(rows.shape[0]):
         _row(rows[r], dest[r], indptr, indices, data, y, rots, idx, w, d, out)
 
@@ -180,7 +169,7 @@ def propagate_with_residual(
     rows = all_rows(M.shape[0]) if rows is None else rows
     dest = rows if dest is None else dest
     args = (M.indptr, M.indices, M.data, y, rotations, idx, w, d, out, rows, dest)
-    pick("propagate", _serial, _parallel, rows.shape[0])(*args)
+    pick("propagate", *_rows, rows.shape[0])(*args)
     return out
 
 

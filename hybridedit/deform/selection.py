@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING
 
 from ..core.index_sets import union_in_range, unique_in_range
 from ..core.parallel import pick
+from ..core.twins import twins
 from .roles import FIXED, FREE
 
 if TYPE_CHECKING:  # (annotations only: symmetry.py reads SelectionError from here)
@@ -423,7 +424,7 @@ def rows_that_can_move(binding: sp.csr_matrix, changing: np.ndarray, *, blend_id
     n = M.shape[0]
     mask = np.zeros(n, dtype=bool)
     blend = np.zeros((n, 0), dtype=np.int64) if blend_idx is None else blend_idx
-    kernel = pick("propagate", _rows_touching_serial, _rows_touching_parallel, n)
+    kernel = pick("propagate", *_rows_touching, n)
     kernel(M.indptr, M.indices, np.ascontiguousarray(changing, dtype=np.bool_), blend, mask)
     return np.flatnonzero(mask).astype(np.int64)
 
@@ -440,14 +441,8 @@ def _row_touches(i, indptr, indices, changing, blend, mask):
             return
 
 
-@njit(cache=True)
-def _rows_touching_serial(indptr, indices, changing, blend, mask):  # pragma: no cover - compiled
-    for i in range(mask.shape[0]):
-        _row_touches(i, indptr, indices, changing, blend, mask)
-
-
-@njit(cache=True, parallel=True)
-def _rows_touching_parallel(indptr, indices, changing, blend, mask):  # pragma: no cover - compiled
+@twins()
+def _rows_touching(indptr, indices, changing, blend, mask):  # pragma: no cover - compiled
     for i in prange(mask.shape[0]):
         _row_touches(i, indptr, indices, changing, blend, mask)
 

@@ -479,7 +479,7 @@ def test_dominant_cage_vertex_is_the_row_argmax_of_the_magnitudes():
 
 
 def test_rows_go_to_their_points_on_either_twin():
-    from hybridedit.binding.bind import _assemble, _rows_to_points_parallel, _rows_to_points_serial
+    from hybridedit.binding.bind import _assemble, _rows_to_points
     from hybridedit.core.parallel import all_parallel
 
     rng = np.random.default_rng(6)
@@ -510,14 +510,14 @@ def test_rows_go_to_their_points_on_either_twin():
     assert abs(M - P @ plain).max() == 0 and np.array_equal(np.diff(M.indptr), counts[np.argsort(row_of)])
     with all_parallel():
         assert np.array_equal(_assemble(parts, n, c, row_of).data, M.data)
-    for twin in (_rows_to_points_serial, _rows_to_points_parallel):
+    for twin in _rows_to_points:
         data, idx = np.empty_like(plain.data), np.empty_like(plain.indices)
         twin(plain.indptr.astype(np.int64), plain.data, plain.indices, row_of, M.indptr, data, idx)
         assert np.array_equal(data, M.data) and np.array_equal(idx, M.indices)
 
 
 def test_packed_rows_on_either_twin():
-    from hybridedit.binding.bind import _pack_rows, _pack_rows_parallel, _pack_rows_serial
+    from hybridedit.binding.bind import _pack_rows, _pack_rows_twins
 
     rng = np.random.default_rng(7)
     cols = rng.integers(0, 99, (50, 8)).astype(np.int32)
@@ -527,7 +527,7 @@ def test_packed_rows_on_either_twin():
     counts[3] = 12  # too wide for the buffers: room left, filled by the caller
     ptr = np.concatenate([[0], np.cumsum(counts)])
     want = np.concatenate([vals[b, :k] if k <= 8 else np.full(k, -1.0) for b, k in zip(rows, counts)])
-    for twin in (_pack_rows_serial, _pack_rows_parallel):
+    for twin in _pack_rows_twins:
         data, idx = np.full(ptr[-1], -1.0), np.full(ptr[-1], -1, dtype=np.int32)
         twin(rows, ptr, counts, cols, vals, idx, data)
         assert np.array_equal(data, want)

@@ -34,7 +34,7 @@ def test_batches_are_numpys_bitwise_in_both_twins(cage, parallel, min_radius):
     points = rng.normal(5.0, 2.0, size=(1000, 3))
     idx = rng.integers(0, len(points), size=(40, LANES))
     idx[7] = idx[7, 0]  # a batch of one point repeated: radius 0 (or the least)
-    kernel = mvc_layout._batches_parallel if parallel else mvc_layout._batches_serial
+    kernel = mvc_layout._batches_twins.parallel if parallel else mvc_layout._batches_twins.serial
     bx = np.empty((40, 3, LANES))
     bsph = np.empty((40, 4))
     kernel(points, idx, cage.origin, float(cage.unit), min_radius, bx, bsph)

@@ -81,3 +81,34 @@ def test_importing_hybridedit_makes_openmp_threads_wait_asleep():
     env["OMP_WAIT_POLICY"] = "active"  # the user's own choice wins
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "active"
+
+
+TWINS_FROM_THE_CACHE = """
+import json, numba, numpy as np
+from hybridedit.core.region_metrics import _write_rows
+def layer():
+    try:
+        return numba.threading_layer()
+    except ValueError:  # (no parallel kernel has run)
+        return None
+V, rows, seen = np.arange(12.0).reshape(4, 3), np.array([3, 1]), []
+for twin in _write_rows:
+    out = np.zeros((4, 3))
+    twin(V, rows, out)
+    seen.append([out.tolist(), sum(twin._cache_hits.values()), layer() is not None])
+print(json.dumps(seen))
+"""
+
+
+def test_each_twin_has_its_own_cache_entry_and_the_parallel_one_runs_in_parallel():
+    """numba names a cache entry by the function, not its flags: the parallel twin is a renamed
+    copy (core.twins), so that in a fresh process each loads its own code."""
+    import json
+
+    for _ in range(2):  # (the first run may compile them)
+        r = subprocess.run([sys.executable, "-c", TWINS_FROM_THE_CACHE], capture_output=True, text=True, check=True)
+    (serial, hits_s, pool_s), (parallel, hits_p, pool_p) = json.loads(r.stdout)
+    want = [[0.0] * 3, [3.0, 4.0, 5.0], [0.0] * 3, [9.0, 10.0, 11.0]]
+    assert serial == parallel == want
+    assert (hits_s, hits_p) == (1, 1)  # both loaded from the cache
+    assert (pool_s, pool_p) == (False, True)  # only the parallel one started numba's threads

@@ -106,7 +106,7 @@ def test_group_rows_in_order_of_first_occurrence():
 
 def test_the_parallel_and_serial_degenerate_tests_agree():
     from hybridedit.core.parallel import THRESHOLDS, all_parallel
-    from hybridedit.core.topology import _degenerate_serial
+    from hybridedit.core.topology import _degenerate
 
     s = trimesh.creation.icosphere(subdivisions=6)
     v = np.asarray(s.vertices).copy()
@@ -115,7 +115,7 @@ def test_the_parallel_and_serial_degenerate_tests_agree():
     f[::1000, 1] = f[::1000, 0]  # repeated indices
     v[f[5::1000, 2]] = v[f[5::1000, 0]]  # collapsed corners
     serial = np.zeros(len(f), dtype=bool)
-    _degenerate_serial(v, f, DEGENERATE_RATIO, serial)
+    _degenerate.serial(v, f, DEGENERATE_RATIO, serial)
     with all_parallel():  # (whatever the machine's load)
         parallel = degenerate_faces(v, f)
     assert np.array_equal(parallel, serial) and serial.sum() >= 2 * (len(f) // 1000)

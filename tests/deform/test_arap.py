@@ -227,7 +227,7 @@ def test_the_local_step_is_each_covariances_closest_rotation_on_either_twin():
     # rotation of each vertex's covariance taken one at a time, on one thread or two, for rows in
     # any order and a last block that is not full
     from hybridedit.core.rotations import closest_rotation
-    from hybridedit.deform.arap import _local_step_parallel, _local_step_serial
+    from hybridedit.deform.arap import _local_step_twins
 
     m, s = blob_solver("cotangent")
     rng = np.random.default_rng(5)
@@ -254,7 +254,7 @@ def test_the_local_step_is_each_covariances_closest_rotation_on_either_twin():
     exact = np.full((m.n_vertices, 3, 3), 7.0)
     one_at_a_time(s.reference, cur, s._indptr, s._indices, s._wts, exact, rows)
     assert np.abs(exact - ref).max() < 1e-12
-    for twin in (_local_step_serial, _local_step_parallel):
+    for twin in _local_step_twins:
         out = np.full((m.n_vertices, 3, 3), 7.0)  # rows not asked for are not written
         twin(s.reference, cur, s._indptr, s._indices, s._wts, out, rows)
         assert np.array_equal(out, exact)
