@@ -46,8 +46,8 @@ def run(path: Path, pixels: int, size=(1100, 850), cage: float = 0.05) -> list[d
     from qtpy import QtCore, QtGui, QtWidgets
 
     from hybridedit.core.mesh import edge_error_stats
-    from hybridedit.viewer.picking import project_points
-    from hybridedit.viewer.window import MainWindow
+    from hybridedit.viewer.model.picking import project_points
+    from hybridedit.viewer.window.main_window import MainWindow
 
     Qt = QtCore.Qt
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication([])

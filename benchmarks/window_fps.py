@@ -54,9 +54,9 @@ def run(mesh_path: Path, cage, size: tuple[int, int], seconds: float, look: str 
     per-frame split in ms, frame ms, view size)."""
     from qtpy import QtCore, QtGui, QtWidgets
 
-    from hybridedit.viewer.interaction import DRAG
-    from hybridedit.viewer.selectionstate import HANDLE, ROI
-    from hybridedit.viewer.window import MainWindow
+    from hybridedit.viewer.input.mouse_gestures import DRAG
+    from hybridedit.viewer.model.selection_masks import HANDLE, ROI
+    from hybridedit.viewer.window.main_window import MainWindow
 
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication([])
     w = MainWindow(cage_size=cage)

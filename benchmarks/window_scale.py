@@ -65,9 +65,9 @@ def measure(path: Path, roi: float, moves: int) -> dict:
     ensure_display()
     from qtpy import QtCore, QtGui, QtWidgets
 
-    from hybridedit.viewer.interaction import DRAG
-    from hybridedit.viewer.selectionstate import HANDLE, ROI
-    from hybridedit.viewer.window import MainWindow
+    from hybridedit.viewer.input.mouse_gestures import DRAG
+    from hybridedit.viewer.model.selection_masks import HANDLE, ROI
+    from hybridedit.viewer.window.main_window import MainWindow
 
     from window_fps import top_fraction
 

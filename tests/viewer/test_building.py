@@ -15,11 +15,11 @@ import numpy as np
 import pytest
 from qtpy import QtCore, QtWidgets
 
-from hybridedit.viewer import worker as worker_module
-from hybridedit.viewer.building import build_size, built_message
-from hybridedit.viewer.cagesize import DEFAULT_SIZE, MAX_SHARE, fit_cage_size
-from hybridedit.viewer.window import MainWindow
-from hybridedit.viewer.worker import BuildRequest
+from hybridedit.viewer.jobs import build_worker as worker_module
+from hybridedit.viewer.jobs.build_jobs import build_size, built_message
+from hybridedit.viewer.model.cage_size import DEFAULT_SIZE, MAX_SHARE, fit_cage_size
+from hybridedit.viewer.window.main_window import MainWindow
+from hybridedit.viewer.jobs.build_worker import BuildRequest
 from test_window import wait_loaded, win  # noqa: F401 (fixture)
 
 Qt = QtCore.Qt

@@ -10,8 +10,8 @@ import numpy as np
 import hybridedit as he
 from qtpy import QtCore, QtWidgets
 
-from hybridedit.viewer.dialogs import mesh_info_text
-from hybridedit.viewer.help import ABOUT, HOWTO
+from hybridedit.viewer.window.dialogs import mesh_info_text
+from hybridedit.viewer.window.help_texts import ABOUT, HOWTO
 from test_window import win  # noqa: F401 (fixture)
 
 

@@ -9,7 +9,7 @@ import threading
 import numpy as np
 from qtpy import QtCore
 
-from hybridedit.viewer import dragging
+from hybridedit.viewer.input import drags as dragging
 from test_window import win  # noqa: F401 (fixture)
 from test_window_polish import handle_point, select_tip
 

@@ -9,12 +9,12 @@ import trimesh
 from qtpy import QtCore
 
 from hybridedit.deform.roles import FIXED, FREE
-from hybridedit.viewer import interaction
-from hybridedit.viewer.interaction import BRUSH, CAMERA, SELECT, ViewController
+from hybridedit.viewer.input import mouse_gestures as interaction
+from hybridedit.viewer.input.mouse_gestures import BRUSH, CAMERA, SELECT, ViewController
 from hybridedit.core.region_metrics import ShapeMetrics
-from hybridedit.viewer.scene import Scene
-from hybridedit.viewer.picking import REPLACE, combine, project_points
-from hybridedit.viewer.view import View
+from hybridedit.viewer.render.scene import Scene
+from hybridedit.viewer.model.picking import REPLACE, combine, project_points
+from hybridedit.viewer.render.view import View
 
 Qt = QtCore.Qt
 FRONT_Z, BACK_Z = 1.6, -1.6

@@ -11,9 +11,9 @@ import pyvista as pv
 import hybridedit as he
 from hybridedit.core.mesh import Mesh
 from hybridedit.deform.roles import FIXED, FREE
-from hybridedit.viewer.look import look_of
+from hybridedit.viewer.render.look import look_of
 from hybridedit.core.region_metrics import ShapeMetrics
-from hybridedit.viewer.scene import Scene
+from hybridedit.viewer.render.scene import Scene
 
 CHECKER_A = (230, 40, 40)  # red squares
 CHECKER_B = (40, 60, 220)  # blue squares
@@ -221,7 +221,7 @@ def test_a_plain_mesh_has_no_look():
 def test_the_window_opens_a_textured_file_textured_and_keeps_it_through_a_drag(qtbot, tmp_path):
     from qtpy import QtCore
 
-    from hybridedit.viewer.window import MainWindow
+    from hybridedit.viewer.window.main_window import MainWindow
     from test_window import key, mouse_drag, projected, settled, to_widget
 
     Qt = QtCore.Qt

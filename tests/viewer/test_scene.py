@@ -6,7 +6,7 @@ import numpy as np
 from qtpy import QtCore
 
 from hybridedit.deform.roles import FIXED
-from hybridedit.viewer.palette import SHAPE_COLOR
+from hybridedit.viewer.render.palette import SHAPE_COLOR
 from test_window import key, projected, to_widget, win  # noqa: F401 (fixture)
 
 Qt = QtCore.Qt
@@ -51,7 +51,7 @@ def test_cage_points_only_where_they_help(qtbot, win):
 def test_a_dense_cage_draws_small_points_and_they_grow_as_the_view_zooms_in(qtbot, win):
     """Cage points are drawn a fraction of the cage's spacing on screen wide: the ROI of a dense cage tints the
     surface instead of covering it."""
-    from hybridedit.viewer.scene import POINT_PIXELS, POINT_SPACING
+    from hybridedit.viewer.render.scene import POINT_PIXELS, POINT_SPACING
 
     w = win
     sc = w.scene

@@ -8,8 +8,8 @@ import pytest
 from hybridedit.fileio.editfile import Edit
 from hybridedit.deform.editor import HybridEditor, SelectionError
 from hybridedit.core.transforms import rigid_transform
-from hybridedit.viewer.selectionstate import HANDLE, ROI
-from hybridedit.viewer.session import Session
+from hybridedit.viewer.model.selection_masks import HANDLE, ROI
+from hybridedit.viewer.model.session import Session
 
 
 @pytest.fixture(scope="module")

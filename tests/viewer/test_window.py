@@ -14,9 +14,9 @@ from qtpy import QtCore, QtGui, QtWidgets
 
 from hybridedit import cli
 from hybridedit.fileio.meshfiles import read_mesh, write_mesh
-from hybridedit.viewer import gizmo as gz
-from hybridedit.viewer.picking import project_points, rectangle_hits
-from hybridedit.viewer.window import MainWindow
+from hybridedit.viewer.model import gizmo as gz
+from hybridedit.viewer.model.picking import project_points, rectangle_hits
+from hybridedit.viewer.window.main_window import MainWindow
 
 CAGE = 150
 Qt = QtCore.Qt

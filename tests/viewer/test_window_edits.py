@@ -10,7 +10,7 @@ from qtpy import QtCore
 from hybridedit import cli
 from hybridedit.fileio.meshfiles import read_mesh, write_mesh
 from hybridedit.core.mesh import Mesh
-from hybridedit.viewer.window import MainWindow
+from hybridedit.viewer.window.main_window import MainWindow
 from test_window import CAGE, key, mouse_drag, projected, settled, to_widget, wait_loaded, win  # noqa: F401 (fixture)
 
 Qt = QtCore.Qt

@@ -90,7 +90,7 @@ def test_title_marks_an_unsaved_pose(qtbot, win, tmp_path):
 
 
 def test_a_long_save_shows_its_progress(qtbot, win, tmp_path, monkeypatch):
-    from hybridedit.viewer import files
+    from hybridedit.viewer.window import file_actions as files
 
     monkeypatch.setattr(files, "PROGRESS_AFTER_MS", 0)  # a small mesh saves at once: show it anyway
     shown = []

@@ -8,7 +8,7 @@ import numpy as np
 from qtpy import QtCore
 
 from hybridedit.deform.roles import handle
-from hybridedit.viewer.palette import ROLE_COLORS, role_rows
+from hybridedit.viewer.render.palette import ROLE_COLORS, role_rows
 from test_window import key, mouse_drag, projected, settled, to_widget, win  # noqa: F401 (fixture)
 
 Qt = QtCore.Qt

@@ -9,9 +9,9 @@ from qtpy import QtCore
 from hybridedit.deform.arap import ARAPSolver
 from hybridedit.fileio.meshfiles import read_mesh
 from hybridedit.core.mesh import edge_stretch, vertex_stretch
-from hybridedit.viewer import worker as worker_module
-from hybridedit.viewer.dialogs import mesh_info_text
-from hybridedit.viewer.window import MainWindow
+from hybridedit.viewer.jobs import build_worker as worker_module
+from hybridedit.viewer.window.dialogs import mesh_info_text
+from hybridedit.viewer.window.main_window import MainWindow
 from test_window import key, mouse_drag, projected, settled, to_widget, wait_loaded, win  # noqa: F401 (fixture)
 
 Qt = QtCore.Qt

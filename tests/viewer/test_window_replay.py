@@ -11,7 +11,7 @@ from qtpy import QtCore, QtWidgets
 
 from hybridedit import cli
 from hybridedit.fileio.meshfiles import read_mesh
-from hybridedit.viewer.window import MainWindow
+from hybridedit.viewer.window.main_window import MainWindow
 from test_window import CAGE, key, mouse_drag, projected, rubber_band, settled, to_widget, wait_loaded, win  # noqa: F401
 from test_window_edits import capsule_file  # noqa: F401 (fixture)
 

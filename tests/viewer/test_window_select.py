@@ -11,7 +11,7 @@ import trimesh
 from qtpy import QtCore
 
 from hybridedit.core.mesh import Mesh
-from hybridedit.viewer.window import MainWindow
+from hybridedit.viewer.window.main_window import MainWindow
 from test_window import key, mouse_drag, projected, to_widget, wait_loaded, win  # noqa: F401 (fixture)
 
 Qt = QtCore.Qt

@@ -7,7 +7,7 @@ from __future__ import annotations
 import pytest
 from qtpy import QtCore, QtGui, QtWidgets
 
-from hybridedit.viewer.statusfield import MessageLine, StatusField, StatusRow
+from hybridedit.viewer.window.status_widgets import MessageLine, StatusField, StatusRow
 from test_building import gate  # noqa: F401 (fixture)
 from test_window import wait_loaded, win  # noqa: F401 (fixture)
 

@@ -11,12 +11,15 @@ from pathlib import Path
 import numpy as np
 from qtpy import QtCore
 
-from hybridedit.viewer import building, dialogs, dragging, files
-from hybridedit.viewer.building import BuildHost, Cancels, KeepsWork
-from hybridedit.viewer.dialogs import InfoSource
-from hybridedit.viewer.dragging import DragHost, GestureHolder
-from hybridedit.viewer.files import Busy, FileHost, Screenshots
-from hybridedit.viewer.window import MainWindow
+from hybridedit.viewer.input import drags as dragging
+from hybridedit.viewer.jobs import build_jobs as building
+from hybridedit.viewer.window import dialogs
+from hybridedit.viewer.window import file_actions as files
+from hybridedit.viewer.jobs.build_jobs import BuildHost, Cancels, KeepsWork
+from hybridedit.viewer.window.dialogs import InfoSource
+from hybridedit.viewer.input.drags import DragHost, GestureHolder
+from hybridedit.viewer.window.file_actions import Busy, FileHost, Screenshots
+from hybridedit.viewer.window.main_window import MainWindow
 from test_window import key, mouse_drag, settled, win  # noqa: F401 (fixture)
 from test_window_polish import handle_point, select_tip
 

@@ -10,8 +10,8 @@ from qtpy import QtCore
 
 from hybridedit.fileio.meshfiles import write_mesh
 from hybridedit.core.mesh import Mesh
-from hybridedit.viewer.scene import view_directions
-from hybridedit.viewer.window import MainWindow
+from hybridedit.viewer.render.scene import view_directions
+from hybridedit.viewer.window.main_window import MainWindow
 from test_window import key, projected, wait_loaded
 
 Qt = QtCore.Qt
