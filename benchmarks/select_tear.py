@@ -109,7 +109,7 @@ def run(path: Path, pixels: int, size=(1100, 850), cage: float = 0.05) -> list[d
             gesture(*box(roi))
             w._set_target("handle")
             gesture(*box(handle))
-            warned = "tears the shape" in w.current_message()
+            warned = "tears the shape" in w.status.current_message()
             w.set_mode("drag")
             dc, _ = project_points(s.handle_centroid()[None], w.scene.composite_matrix(), w.scene.display_size())
             a = QtCore.QPointF(view.to_widget(dc[0, 0], dc[0, 1]))
@@ -120,7 +120,7 @@ def run(path: Path, pixels: int, size=(1100, 850), cage: float = 0.05) -> list[d
             out.append({"mesh": path.name, "edit": name, "mode": "Select Through" if through else "default",
                         "roi": int(np.count_nonzero(s.roi & ~s.all_handles)), "handle": int(s.all_handles.sum()),
                         "rrms": rrms, "stretch": stretch, "warned": warned})
-    w.set_modified(False)
+    w.unsaved.set_modified(False)
     w.close()
     app.processEvents()
     return out

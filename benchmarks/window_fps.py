@@ -162,7 +162,7 @@ def run(mesh_path: Path, cage, size: tuple[int, int], seconds: float, look: str 
     split["other"] = max(frame_ms - ui, 0.0)
     vsize = (view.width(), view.height())
     bare.close()
-    w.set_modified(False)  # no question on closing
+    w.unsaved.set_modified(False)  # no question on closing
     mode = w.scene.look_mode
     w.close()
     app.processEvents()

@@ -171,7 +171,7 @@ def measure(path: Path, roi: float, moves: int) -> dict:
     out["moved"] = moved
     out["back"] = bool(np.array_equal(np.asarray(s.shape_positions), V))
     out["peak_gb"] = _vm("VmHWM")
-    w.set_modified(False)
+    w.unsaved.set_modified(False)
     w.close()
     app.processEvents()
     return out

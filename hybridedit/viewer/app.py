@@ -124,7 +124,7 @@ def _install_excepthook(window):
         else:
             print(f"hybridedit: unexpected error: {etype.__name__}: {value}", file=sys.stderr)
         try:
-            window.show_error("Unexpected error", f"{etype.__name__}: {value}")
+            window.status.show_error("Unexpected error", f"{etype.__name__}: {value}")
         except Exception:  # noqa: BLE001
             previous(etype, value, tb)
 
@@ -162,7 +162,7 @@ def main(path: str | os.PathLike | None = None, screenshot: str | os.PathLike | 
         if path is not None:
             p = Path(path)
             if not p.is_file():
-                window.show_error("Could not open the mesh", f"{p}: no such file")
+                window.status.show_error("Could not open the mesh", f"{p}: no such file")
             else:
                 window.open_path(p)
         return int(app.exec())

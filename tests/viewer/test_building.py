@@ -52,8 +52,8 @@ def gate(monkeypatch) -> threading.Event:
 def record_errors(w: MainWindow, monkeypatch) -> list[tuple[str, str]]:
     """Every error the window shows, as (title, text), still shown as usual."""
     shown = []
-    show = w.show_error
-    monkeypatch.setattr(w, "show_error", lambda title, text: shown.append((title, text)) or show(title, text))
+    show = w.status.show_error
+    monkeypatch.setattr(w.status, "show_error", lambda title, text: shown.append((title, text)) or show(title, text))
     return shown
 
 
@@ -124,7 +124,7 @@ def test_progress_fills_the_bar_and_esc_cancels_keeping_the_shape(qtbot, win, ma
     qtbot.waitUntil(lambda: w.worker is None, timeout=20000)
     assert not gate.is_set()  # it never got past the gate: cancelled, not built
     assert w.session is s and np.array_equal(s.shape_positions, before) and s.mesh.n_vertices == 2562
-    assert w.current_message() == "Cancelled; the current shape and edit are unchanged."
+    assert w.status.current_message() == "Cancelled; the current shape and edit are unchanged."
     assert errors == []
     assert_idle(w)
 
@@ -142,8 +142,8 @@ def test_a_second_job_is_refused_and_the_first_one_shows_its_shape(qtbot, win, m
     close_boxes(w)
     gate.set()
     wait_loaded(qtbot, w)
-    assert w.session.mesh is other and w.session.path is None and not w.modified
-    assert w.current_message().startswith(f"Loaded blob: cage {w.session.n_cage:,} vertices (")
+    assert w.session.mesh is other and w.session.path is None and not w.unsaved.modified
+    assert w.status.current_message().startswith(f"Loaded blob: cage {w.session.n_cage:,} vertices (")
     assert len(errors) == 2
     assert_idle(w)
 
@@ -160,7 +160,7 @@ def test_failures_show_one_error_and_keep_the_shape(qtbot, win, tmp_path, monkey
     wait_loaded(qtbot, w)
     qtbot.wait(50)  # (nothing else arrives)
     assert len(errors) == 1 and errors[0][0] == "Could not open the mesh" and "bad.obj" in errors[0][1]
-    assert w.session is s and w.last_error == errors[0][1]
+    assert w.session is s and w.status.last_error == errors[0][1]
     assert_idle(w)
     close_boxes(w)
 
@@ -230,15 +230,15 @@ def test_a_rebuild_at_too_many_vertices_says_so_before_the_build_and_the_box_sho
     said = "a cage of 5,000 vertices is more than half this shape's 2,562 vertices: using 5% (about 128)"
     # at once, while the build has just started
     assert w.worker is not None and w.worker.request.cage_size == 0.05
-    assert w.current_message() == f"Cage size: {said}."
+    assert w.status.current_message() == f"Cage size: {said}."
     assert w.cage_size() == 0.05 and w.cage_control.unit.currentText() == "%"
     assert abs(w.cage_control.spin.value() - 5.0) < 1e-9
     gate.set()
     wait_loaded(qtbot, w)
     assert w.session is s and s.cage_size == 0.05 and abs(s.n_cage - 128) < 30
-    assert w.current_message().startswith("Rebuilt the cage of blob.obj") and said in w.current_message()
+    assert w.status.current_message().startswith("Rebuilt the cage of blob.obj") and said in w.status.current_message()
     assert w.cage_size() == 0.05
-    assert said in w.log.toPlainText()
+    assert said in w.status.log.toPlainText()
 
 
 def test_a_cancelled_build_puts_the_box_back(qtbot, win, gate):
@@ -276,13 +276,13 @@ def test_a_file_opened_at_too_many_vertices_is_read_then_built_at_5_percent(qtbo
     assert w.open_path(coloured)
     said = "a cage of 5,000 vertices is more than half this shape's 2,562 vertices: using 5% (about 128)"
     # held at the gate: the file is read, the count checked and said, the cage not built yet
-    qtbot.waitUntil(lambda: said in w.current_message(), timeout=20000)
+    qtbot.waitUntil(lambda: said in w.status.current_message(), timeout=20000)
     assert w.worker is not None and not gate.is_set() and w.cage_size() == 0.05
     gate.set()
     wait_loaded(qtbot, w)
     s = w.session
     assert s.path == coloured and s.cage_size == 0.05 and abs(s.n_cage - 128) < 30
-    assert said in w.current_message() and w.current_message().startswith("Loaded coloured.obj")
+    assert said in w.status.current_message() and w.status.current_message().startswith("Loaded coloured.obj")
     assert s.look is not None and s.look.colors is not None  # (read before the build, shown after it)
     assert w.scene.look_mode == "colors"
     # a count that fits is used as asked

@@ -47,9 +47,9 @@ def test_window_drag_frames_show_the_engine_pose_mid_drag_and_failures_undo(qtbo
     a = handle_point(w)
     qtbot.mousePress(w.view, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier, a)
     qtbot.mouseMove(w.view, a + QtCore.QPoint(0, -20))
-    qtbot.waitUntil(lambda: w.last_error is not None, timeout=5000)
+    qtbot.waitUntil(lambda: w.status.last_error is not None, timeout=5000)
     qtbot.mouseRelease(w.view, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier, a + QtCore.QPoint(0, -20))
-    assert "non-finite" in w.last_error and "undone" in w.last_error
+    assert "non-finite" in w.status.last_error and "undone" in w.status.last_error
     assert w.controller.gesture is None and not w.frames.busy
     assert np.allclose(s.shape_positions, posed) and np.allclose(w.scene.parts.drawn_points(), posed, atol=1e-5)
 

@@ -264,5 +264,5 @@ def test_the_window_opens_a_textured_file_textured_and_keeps_it_through_a_drag(q
     assert share_near(shot(), CHECKER_B) < 0.001  # (red is taken: the gizmo's X arrow)
     key(qtbot, w, Qt.Key.Key_1, Qt.KeyboardModifier.AltModifier)
     assert w.scene.look_mode == "texture" and share_near(shot(), CHECKER_A) > 0.02
-    w.set_modified(False)
+    w.unsaved.set_modified(False)
     w.close()

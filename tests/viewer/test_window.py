@@ -43,14 +43,14 @@ def win(qtbot, blob_file) -> MainWindow:
         assert w.open_path(blob_file)
         wait_loaded(qtbot, w)
     except BaseException:  # no window left open to confuse the next test
-        w.set_modified(False)
+        w.unsaved.set_modified(False)
         w.close()
         raise
     w.scene.reset_camera(tilted=False)
     w.view.request_render()
     qtbot.wait(30)
     yield w
-    w.set_modified(False)
+    w.unsaved.set_modified(False)
     w.close()
     w.deleteLater()
 
@@ -125,14 +125,14 @@ def test_select_drag_undo_redo_save_and_replay(qtbot, win, blob_file, tmp_path):
     assert not w.polisher.enabled
     rest_cage = s.cage_positions
     rest_shape = s.shape_positions.copy()
-    assert w.size_label.text().startswith("shape 2,562 v")
+    assert w.status.size_label.text().startswith("shape 2,562 v")
 
     roi, handle = select_roi_and_handle(qtbot, w)
     assert np.array_equal(s.roi, roi) and np.array_equal(s.handle, handle)
     P = rest_cage
     assert roi.sum() > 20 and np.all(P[roi, 0] > -0.2) and np.all(roi[P[:, 0] > 0.05])
     assert 5 <= handle.sum() < roi.sum() and np.all(P[handle, 0] > 1.3)
-    assert "ROI" in w.sel_label.text()
+    assert "ROI" in w.status.sel_label.text()
 
     # Drag mode: drag the handle 80 px up the screen (world +Y in the front view)
     key(qtbot, w, Qt.Key.Key_D)
@@ -171,7 +171,7 @@ def test_select_drag_undo_redo_save_and_replay(qtbot, win, blob_file, tmp_path):
     assert np.abs(V[far] - rest_shape[far]).max() < 1e-3 * np.linalg.norm(t)
     # what is drawn is what the engine computed
     assert np.allclose(w.scene.parts.drawn_points(), V, atol=1e-5)
-    assert w.error_label.text().startswith("edge error")
+    assert w.status.error_label.text().startswith("edge error")
 
     # undo (Ctrl+Z) restores the rest pose, redo (Ctrl+Shift+Z) the drag
     key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
@@ -312,26 +312,26 @@ def test_errors_leave_the_state_intact(qtbot, win, tmp_path):
     key(qtbot, w, Qt.Key.Key_D)
     c = w.view.rect().center()
     mouse_drag(qtbot, w.view, c, c + QtCore.QPoint(30, 30))
-    assert w.last_error and "handle is empty" in w.last_error
+    assert w.status.last_error and "handle is empty" in w.status.last_error
     assert not s.is_posed()
     # an unreadable mesh file
     bad = tmp_path / "bad.obj"
     bad.write_text("v 0 0 0\nf 1 2 3\n")
-    w.last_error = None
+    w.status.last_error = None
     w.open_path(bad)
     wait_loaded(qtbot, w)
-    assert w.session is s and w.last_error and "bad.obj" in w.last_error
+    assert w.session is s and w.status.last_error and "bad.obj" in w.status.last_error
     # a bad edit file
     bad_edit = tmp_path / "bad.json"
     bad_edit.write_text(json.dumps({"handle": [999999], "space": "cage"}))
     assert not w.files.load_edit_from(bad_edit)
-    assert "out of range" in w.last_error and w.session is s and not s.is_posed()
+    assert "out of range" in w.status.last_error and w.session is s and not s.is_posed()
     bad_edit.write_text("{not json")
     assert not w.files.load_edit_from(bad_edit)
-    assert "not valid JSON" in w.last_error
+    assert "not valid JSON" in w.status.last_error
     # saving an edit without a handle
     assert not w.files.save_edit_to(tmp_path / "e.json")
-    assert "handle is empty" in w.last_error
+    assert "handle is empty" in w.status.last_error
     # unsupported output format
     assert not w.files.save_to(tmp_path / "out.xyz")
     assert not (tmp_path / "out.xyz").exists()
@@ -345,13 +345,13 @@ def test_save_never_overwrites_the_input_without_asking(qtbot, win, blob_file, t
     s.path = inp
     original = inp.read_bytes()
     asked = []
-    monkeypatch.setattr(w, "confirm", lambda title, text: asked.append(title) or False)
+    monkeypatch.setattr(w.status, "confirm", lambda title, text: asked.append(title) or False)
     assert not w.files.save_to(inp)
     assert asked == ["Overwrite the input file?"] and inp.read_bytes() == original
-    monkeypatch.setattr(w, "confirm", lambda title, text: True)
+    monkeypatch.setattr(w.status, "confirm", lambda title, text: True)
     assert w.files.save_to(inp)
     # the Save As dialog path goes through the same check
-    monkeypatch.setattr(w, "confirm", lambda title, text: asked.append(title) or False)
+    monkeypatch.setattr(w.status, "confirm", lambda title, text: asked.append(title) or False)
     monkeypatch.setattr(QtWidgets.QFileDialog, "getSaveFileName", staticmethod(lambda *a, **k: (str(inp), "")))
     assert not w.files.save_as_dialog()
     assert asked[-1] == "Overwrite the input file?"
@@ -431,7 +431,7 @@ def test_worker_cancel_keeps_the_previous_state(qtbot, win, tmp_path, make_blob)
     timer.stop()
     assert "binding" in stages
     assert w.session is s and s.mesh.n_vertices == 2562
-    assert "Cancelled" in w.current_message()
+    assert "Cancelled" in w.status.current_message()
     assert not w.jobs.progress.isVisible() and w.actions_["open"].isEnabled()
     # the event loop kept running while the worker built the cage
     gaps = np.diff(ticks)

@@ -150,8 +150,8 @@ def test_mirror_x_is_checked_against_each_shape(qtbot, win, capsule_file, blob_f
     s = w.session  # the bumpy blob: not symmetric across x
     key(qtbot, w, Qt.Key.Key_X, Qt.KeyboardModifier.ShiftModifier)  # refused at once, no selection needed
     assert not w.actions_["mirror_x"].isChecked() and s.symmetry is None
-    assert "not symmetric" in w.last_error and "%" in w.last_error
-    w._error_box.done(0)  # the message box read
+    assert "not symmetric" in w.status.last_error and "%" in w.status.last_error
+    w.status.error_box.done(0)  # the message box read
     w.activateWindow()
     qtbot.waitActive(w)
     w.view.setFocus()
@@ -159,11 +159,11 @@ def test_mirror_x_is_checked_against_each_shape(qtbot, win, capsule_file, blob_f
     qtbot.waitUntil(lambda: w.session is not None and w.session.path == capsule_file and w.worker is None, timeout=60000)
     key(qtbot, w, Qt.Key.Key_X, Qt.KeyboardModifier.ShiftModifier)
     assert w.actions_["mirror_x"].isChecked() and w.session.symmetry == "x"
-    w.set_modified(False)
+    w.unsaved.set_modified(False)
     assert w.open_path(blob_file)  # Mirror X is still ticked: the new shape is checked when it opens
     qtbot.waitUntil(lambda: w.session is not None and w.session.path == blob_file and w.worker is None, timeout=60000)
     assert not w.actions_["mirror_x"].isChecked() and w.session.symmetry is None
-    assert "Mirror X is off" in w.current_message()
+    assert "Mirror X is off" in w.status.current_message()
 
 
 def test_a_mirrored_selection_is_drawn_on_both_sides_as_it_is_made(qtbot, win, capsule_file):

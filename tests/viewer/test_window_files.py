@@ -84,7 +84,7 @@ def test_title_marks_an_unsaved_pose(qtbot, win, tmp_path):
     w = win
     assert w.windowTitle() == "hybridedit — blob.obj[*]" and not w.isWindowModified()
     drag_tip(qtbot, w)
-    assert w.modified and w.isWindowModified()
+    assert w.unsaved.modified and w.isWindowModified()
     assert w.files.save_to(tmp_path / "posed.obj")
     assert not w.isWindowModified()
 
@@ -122,7 +122,7 @@ def test_save_as_names_the_new_file_in_the_title(qtbot, win, tmp_path, monkeypat
     monkeypatch.setattr(QtWidgets.QFileDialog, "getSaveFileName", staticmethod(lambda *a, **k: (str(out), "")))
     w.actions_["save_as"].trigger()
     assert out.exists()
-    assert w.windowTitle() == "hybridedit — posed.ply[*]" and not w.isWindowModified() and not w.modified
+    assert w.windowTitle() == "hybridedit — posed.ply[*]" and not w.isWindowModified() and not w.unsaved.modified
     # the next change marks the new file's title; the question before dropping it names that file
     drag_tip(qtbot, w)
     assert w.windowTitle() == "hybridedit — posed.ply[*]" and w.isWindowModified()
@@ -166,7 +166,7 @@ def test_open_or_drop_asks_before_dropping_the_pose(qtbot, win, other_mesh, tmp_
     wait_loaded(qtbot, w)
     qtbot.waitUntil(lambda: w.session is not s, timeout=30000)
     assert np.array_equal(read_mesh(out).vertices, posed)
-    assert "other.off" in w.windowTitle() and not w.modified
+    assert "other.off" in w.windowTitle() and not w.unsaved.modified
     # Discard: the pose is dropped without a file
     drag_tip(qtbot, w)
     s2 = w.session
@@ -174,7 +174,7 @@ def test_open_or_drop_asks_before_dropping_the_pose(qtbot, win, other_mesh, tmp_
     go()
     wait_loaded(qtbot, w)
     qtbot.waitUntil(lambda: w.session is not s2, timeout=30000)
-    assert not w.modified
+    assert not w.unsaved.modified
 
 
 def test_quit_asks_before_dropping_the_pose(qtbot, win, tmp_path, monkeypatch):
@@ -263,12 +263,12 @@ def test_status_bar_shows_displayed_fps_first(qtbot, win):
     for k in range(1, 25):
         qtbot.mouseMove(w.view, a + QtCore.QPoint(0, -2 * k))
         qtbot.wait(15)
-    text = w.timing_text()
+    text = w.status.timing_text()
     qtbot.mouseRelease(w.view, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier, a + QtCore.QPoint(0, -48))
     settled(qtbot, w)
     m = re.match(r"(\d+) fps · frame (\d+) ms · render \d+ ms$", text)
     assert m, text
-    assert "engine's solve" in w.time_label.toolTip()  # (the frame thread's split)
+    assert "engine's solve" in w.status.time_label.toolTip()  # (the frame thread's split)
     assert int(m.group(1)) == round(w.view.display_fps()) or int(m.group(1)) > 0
 
 
@@ -296,7 +296,7 @@ def test_a_drag_re_lays_nothing_out(qtbot, win):
     for k in range(6, 30):
         qtbot.mouseMove(w.view, a + QtCore.QPoint(0, -2 * k))
         qtbot.wait(40)
-        texts.add((w.time_label.text(), w.error_label.text()))
+        texts.add((w.status.time_label.text(), w.status.error_label.text()))
     for widget in (w, w.statusBar()):
         widget.removeEventFilter(watch)
     qtbot.mouseRelease(w.view, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier, a + QtCore.QPoint(0, -60))
@@ -313,9 +313,9 @@ def test_an_edit_saved_at_one_cage_size_replays_at_another(qtbot, win, tmp_path,
     roles = s.shape_roles()
     edit = tmp_path / "tip.json"
     assert w.files.save_edit_to(edit)
-    assert "replays them to the pose on screen" in w.current_message()
+    assert "replays them to the pose on screen" in w.status.current_message()
     # the same mesh on a cage of another size
-    w.set_modified(False)
+    w.unsaved.set_modified(False)
     w.set_cage_size(70)
     assert w.open_path(s.path)
     wait_loaded(qtbot, w)
@@ -323,7 +323,7 @@ def test_an_edit_saved_at_one_cage_size_replays_at_another(qtbot, win, tmp_path,
     s2 = w.session
     assert abs(s2.n_cage - 70) < 10 and s2.n_cage != s.n_cage
     assert w.files.load_edit_from(edit)
-    assert f"made on a cage of {s.n_cage:,} vertices and replayed on this one of {s2.n_cage:,}" in w.current_message()
+    assert f"made on a cage of {s.n_cage:,} vertices and replayed on this one of {s2.n_cage:,}" in w.status.current_message()
     V = s2.shape_positions
     # the same constraints, held exactly, and the same shape up to the cage's resolution
     assert np.array_equal(s2.shape_roles(), roles)
@@ -334,14 +334,14 @@ def test_an_edit_saved_at_one_cage_size_replays_at_another(qtbot, win, tmp_path,
     # a different mesh refuses it in one line that says so, and keeps its state
     other = tmp_path / "other.obj"
     write_mesh(other, make_blob(3))
-    w.set_modified(False)
+    w.unsaved.set_modified(False)
     assert w.open_path(other)
     wait_loaded(qtbot, w)
     qtbot.waitUntil(lambda: w.session is not s2, timeout=30000)
     before = w.session.shape_positions.copy()
     assert not w.files.load_edit_from(edit)
-    assert "tip.json" in w.last_error and "2,562 vertices" in w.last_error and "refused" in w.last_error
-    assert len(w.last_error.splitlines()) == 1
+    assert "tip.json" in w.status.last_error and "2,562 vertices" in w.status.last_error and "refused" in w.status.last_error
+    assert len(w.status.last_error.splitlines()) == 1
     assert np.array_equal(w.session.shape_positions, before)
 
 
@@ -354,13 +354,13 @@ def test_mirror_x_moves_both_sides_or_says_why_not(qtbot, win, tmp_path):
     # the test blob is not symmetric: refused in words, nothing changes
     s = select_tip(w)
     w.actions_["mirror_x"].trigger()
-    assert "mirror" in w.last_error.lower() or "symmetr" in w.last_error.lower()
+    assert "mirror" in w.status.last_error.lower() or "symmetr" in w.status.last_error.lower()
     assert s.symmetry is None and not w.actions_["mirror_x"].isChecked()
     # an exactly symmetric capsule: the mirrored end follows the mirrored drag
     sym = trimesh.creation.capsule(height=3.0, radius=0.6, count=[24, 24])
     path = tmp_path / "capsule.obj"
     write_mesh(path, Mesh(np.asarray(sym.vertices)[:, [2, 1, 0]], np.asarray(sym.faces)))  # long along X
-    w.set_modified(False)
+    w.unsaved.set_modified(False)
     assert w.open_path(path)
     wait_loaded(qtbot, w)
     qtbot.waitUntil(lambda: w.session is not s, timeout=30000)
@@ -409,7 +409,7 @@ def test_save_writes_what_deform_writes_and_says_what_a_conversion_drops(qtbot, 
     assert (tmp_path / "posed.obj").read_bytes() == (tmp_path / "api.obj").read_bytes()
     assert " 0.2 0.5 0.8" in (tmp_path / "posed.obj").read_text().splitlines()[0]
     assert w.files.save_to(tmp_path / "posed.stl")
-    said = w.current_message()
+    said = w.status.current_message()
     assert said.startswith(f"Saved {tmp_path / 'posed.stl'}.") and "Note: STL cannot hold" in said
     assert "colours" in said or "colors" in said
 

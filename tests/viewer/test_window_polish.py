@@ -56,9 +56,9 @@ def test_polish_on_release_lowers_the_energy_and_save_writes_it(qtbot, win, tmp_
     # the polish ran in the background and the window shows its result
     assert np.allclose(w.scene.parts.drawn_points(), P, atol=1e-5)
     assert not np.allclose(P, hybrid, atol=1e-6)
-    msg = w.current_message()
+    msg = w.status.current_message()
     assert msg.startswith("polished: ") and "iterations, edge error" in msg and "→" in msg
-    assert w.error_label.text().endswith("(polished)")
+    assert w.status.error_label.text().endswith("(polished)")
     # lower full-mesh ARAP energy than the hybrid pose
     arap = ARAPSolver(s.mesh.vertices, s.mesh.faces, weights="cotangent")
     assert arap.energy(P) < arap.energy(hybrid)
@@ -91,15 +91,15 @@ def test_polish_on_release_lowers_the_energy_and_save_writes_it(qtbot, win, tmp_
     assert np.array_equal(s.shape_positions, P)
     assert np.allclose(w.scene.parts.drawn_points(), P, atol=1e-5)
     assert w.polisher.worker is None
-    assert w.polished is not None and w.error_label.text().endswith("(polished)")  # (redone: still the polish)
+    assert w.polished is not None and w.status.error_label.text().endswith("(polished)")  # (redone: still the polish)
     # a selection changed, and undone: the pose on display is still the polished one, and says so
     Pc = s.cage_positions
     s.set_mask("handle", Pc[:, 0] < -1.4)
     w._refresh_selection()
     w.measure(everything=True)
-    assert w.error_label.text().endswith("(polished)")
+    assert w.status.error_label.text().endswith("(polished)")
     key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
-    assert np.array_equal(s.shape_positions, P) and w.error_label.text().endswith("(polished)")
+    assert np.array_equal(s.shape_positions, P) and w.status.error_label.text().endswith("(polished)")
     # off: a release shows the engine's pose only
     w.actions_["polish"].trigger()
     assert not w.polisher.enabled
@@ -200,7 +200,7 @@ def test_repair_notes_are_shown_after_loading(qtbot, blob_file, monkeypatch):
     assert not w.actions_["mesh_info"].isEnabled()
     assert w.open_path(blob_file)
     wait_loaded(qtbot, w)
-    msg = w.current_message()
+    msg = w.status.current_message()
     assert "repaired" in msg and notes[0] in msg and notes[1] in msg
     assert w.actions_["mesh_info"].isEnabled()
     w.actions_["mesh_info"].trigger()

@@ -61,8 +61,8 @@ def save_edit_and_mesh(qtbot, w: MainWindow, folder, name: str, monkeypatch):
     edit = folder / f"{name}.json"
     monkeypatch.setattr(QtWidgets.QFileDialog, "getSaveFileName", staticmethod(lambda *a, **k: (str(edit), "")))
     key(qtbot, w, Qt.Key.Key_E, CTRL)
-    assert edit.is_file(), w.current_message()
-    said = w.current_message()
+    assert edit.is_file(), w.status.current_message()
+    said = w.status.current_message()
     saved = folder / f"{name}-window.obj"
     assert w.files.save_to(saved)
     return edit, saved, said
@@ -81,7 +81,7 @@ def test_drag_release_polish_then_ctrl_e_replays_to_the_saved_mesh(qtbot, win, b
     s = w.session
     select_by_rectangles(qtbot, w, 0.0, 1.4)
     drag_handle(qtbot, w, 0, 90)
-    assert "polished" in w.error_label.text()
+    assert "polished" in w.status.error_label.text()
     edit, saved, said = save_edit_and_mesh(qtbot, w, tmp_path, "one", monkeypatch)
     assert "1 step (1 selection, 1 polish)" in said and "replays them to the pose on screen" in said
     data = json.loads(edit.read_text())
@@ -144,7 +144,7 @@ def test_successive_edits_across_a_rebuild(qtbot, win, blob_file, tmp_path, monk
     key(qtbot, w, Qt.Key.Key_A, Qt.KeyboardModifier.ControlModifier | Qt.KeyboardModifier.ShiftModifier)
     select_by_rectangles(qtbot, w, 0.0, -1.4, left=True)
     drag_handle(qtbot, w, 0, -60)
-    w.set_modified(False)  # (the rebuild would ask to save first)
+    w.unsaved.set_modified(False)  # (the rebuild would ask to save first)
     w.set_cage_size(90)
     key(qtbot, w, Qt.Key.Key_B, CTRL)
     qtbot.waitUntil(lambda: w.worker is None and w.session.n_cage != CAGE, timeout=60000)

@@ -99,8 +99,9 @@ def test_the_helpers_use_only_what_their_protocols_name():
             if getattr(typed, "_is_protocol", False):  # (not a class of its own, such as the Session)
                 checked.append(f"{module.__name__}: {name}")
                 assert inner <= members(typed), (module.__name__, name, inner - members(typed))
-    # building: files, controller, polisher; dragging: controller; files: controller, view
-    assert len(checked) == 6, checked
+    # building: files, controller, polisher, status; dragging: controller, status, unsaved; files: controller,
+    # view, status, unsaved
+    assert len(checked) == 11, checked
 
 
 def test_a_selection_press_stops_a_running_polish(qtbot, win):

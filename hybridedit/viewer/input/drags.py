@@ -43,6 +43,21 @@ class GestureHolder(Protocol):
 
 
 @runtime_checkable
+class Says(Protocol):
+    """The status bar as a drag sees it: an error, or the message on show made out of date."""
+
+    def show_error(self, title: str, text: str) -> None: ...
+    def clear_message(self) -> None: ...
+
+
+@runtime_checkable
+class Marks(Protocol):
+    """The unsaved-pose mark as a drag sees it: a drag frame makes the pose unsaved."""
+
+    def set_modified(self, modified: bool) -> None: ...
+
+
+@runtime_checkable
 class DragHost(Protocol):
     """What :class:`DragFrames` asks of the window (:class:`~..window.main_window.MainWindow`)."""
 
@@ -50,13 +65,14 @@ class DragHost(Protocol):
     def session(self) -> Session | None: ...
     @property
     def controller(self) -> GestureHolder: ...
+    @property
+    def status(self) -> Says: ...
+    @property
+    def unsaved(self) -> Marks: ...
     def settle_and_stop_polish(self) -> None: ...
     def drop_polished(self) -> None: ...
-    def show_error(self, title: str, text: str) -> None: ...
-    def clear_message(self) -> None: ...
     def measure(self, everything: bool | None = None) -> None: ...
     def refresh_all(self) -> None: ...
-    def set_modified(self, modified: bool) -> None: ...
     def after_drag(self) -> None: ...
 
 
@@ -113,9 +129,9 @@ class DragFrames(QtCore.QObject):
         try:
             self._T0 = s.begin_drag()
         except SelectionError as e:
-            w.show_error("Cannot drag", str(e))
+            w.status.show_error("Cannot drag", str(e))
             return False
-        w.clear_message()
+        w.status.clear_message()
         self._failed = False
         self.scene.set_moving(s.moving_vertices())
         w.measure()  # every edge once: then each frame only the moving region's
@@ -169,9 +185,9 @@ class DragFrames(QtCore.QObject):
             s.cancel_drag()
             w.refresh_all()
             if isinstance(frame, (ValueError, ArithmeticError)):  # e.g. a degenerate transform
-                w.show_error("Drag failed", f"{frame}; the drag was undone.")
+                w.status.show_error("Drag failed", f"{frame}; the drag was undone.")
             else:
-                w.show_error("Drag failed", f"{frame.__class__.__name__}: {frame}; the drag was undone.")
+                w.status.show_error("Drag failed", f"{frame.__class__.__name__}: {frame}; the drag was undone.")
             return
         scene = self.scene
         upload_s = scene.show_shape()
@@ -189,7 +205,7 @@ class DragFrames(QtCore.QObject):
         self.frame_shown_at = time.perf_counter()
         if frame.error is not None:
             self.error = frame.error
-        w.set_modified(True)
+        w.unsaved.set_modified(True)
         self.view.request_render()
 
     def end(self) -> None:
@@ -204,7 +220,7 @@ class DragFrames(QtCore.QObject):
         if not np.all(np.isfinite(s.shape_positions)):
             s.cancel_drag()
             w.refresh_all()
-            w.show_error("Drag failed", "The deformation became non-finite; the drag was undone.")
+            w.status.show_error("Drag failed", "The deformation became non-finite; the drag was undone.")
             return
         if s.end_drag():
             self._settle_chunk = 2

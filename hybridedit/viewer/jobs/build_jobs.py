@@ -49,6 +49,14 @@ class KeepsWork(Protocol):
 
 
 @runtime_checkable
+class Says(Protocol):
+    """The status bar as a build sees it: errors and messages."""
+
+    def show_error(self, title: str, text: str) -> None: ...
+    def message(self, text: str) -> None: ...
+
+
+@runtime_checkable
 class BuildHost(Protocol):
     """What :class:`BuildJobs` asks of the window (:class:`~..window.main_window.MainWindow`)."""
 
@@ -63,9 +71,9 @@ class BuildHost(Protocol):
     def cage_size(self) -> int | float: ...
     def set_cage_size(self, size: int | float, *, of_shape: bool = False) -> None: ...
     def cage_size_of_shape(self) -> bool: ...
+    @property
+    def status(self) -> Says: ...
     def finish_settle(self) -> None: ...
-    def show_error(self, title: str, text: str) -> None: ...
-    def message(self, text: str) -> None: ...
     def install_build(self, result: BuildResult) -> tuple[bool, str | None]: ...
     def preview_shape(self, mesh: "Mesh", look, up: tuple[str, bool, str]) -> None: ...
     def end_preview(self) -> None: ...
@@ -255,7 +263,7 @@ class BuildJobs(QtCore.QObject):
             self._box_before = (before[0], before[1], size)
             w.set_cage_size(size)
         if note:
-            w.message(f"Cage size: {note}.")
+            w.status.message(f"Cage size: {note}.")
 
     def _size_fitted(self, size: int | float, note: str) -> None:
         """The build thread read the file: its vertex count was too many for the shape."""
@@ -295,7 +303,7 @@ class BuildJobs(QtCore.QObject):
         w.finish_settle()
         s = w.session
         if s is None:
-            w.show_error("Rebuild cage", "Open a mesh first.")
+            w.status.show_error("Rebuild cage", "Open a mesh first.")
             return False
         if not w.files.keep_work("rebuilding the cage (the pose is solved again on the new cage)"):
             return False
@@ -309,7 +317,7 @@ class BuildJobs(QtCore.QObject):
         """A job runs: say so (an error) and return True."""
         if self.worker is None:
             return False
-        self.w.show_error("Busy", "A cage is being built; wait for it or cancel it first.")
+        self.w.status.show_error("Busy", "A cage is being built; wait for it or cancel it first.")
         return True
 
     def start(self, request: BuildRequest, label: str) -> bool:
@@ -379,20 +387,20 @@ class BuildJobs(QtCore.QObject):
         try:
             rebuilt, note = w.install_build(result)
             note = "; ".join(n for n in (self.size_note, note) if n) or None
-            w.message(built_message(result, w.session, rebuilt, note))
+            w.status.message(built_message(result, w.session, rebuilt, note))
         except Exception as e:  # noqa: BLE001
             w.end_preview()  # (the shape on display before comes back)
-            w.show_error("Could not show the shape", f"{e.__class__.__name__}: {e}")
+            w.status.show_error("Could not show the shape", f"{e.__class__.__name__}: {e}")
 
     def _failed(self, message: str) -> None:
         self.w.end_preview()
         req = self.worker.request if self.worker is not None else None
         rebuilding = req is not None and req.rebuild
-        self.w.show_error("Could not rebuild the cage" if rebuilding else "Could not open the mesh", message)
+        self.w.status.show_error("Could not rebuild the cage" if rebuilding else "Could not open the mesh", message)
 
     def _cancelled(self) -> None:
         self.w.end_preview()
-        self.w.message("Cancelled; the current shape and edit are unchanged.")
+        self.w.status.message("Cancelled; the current shape and edit are unchanged.")
 
     def _finished(self) -> None:
         job, self.worker = self.worker, None

@@ -168,7 +168,7 @@ class ActionsMixin:
         A("stretch", "S&tretch Map", self._toggle_stretch, "T", checkable=True,
           tip="Colour the shape by the relative edge-length change against the rest shape (0 to 20 %)",
           short="Stretch")
-        A("messages", "&Messages", self._toggle_messages, checkable=True,
+        A("messages", "&Messages", lambda: self.status.toggle_log(), checkable=True,
           tip="Show every message of this session, with its time")
         A("reset_camera", "&Frame Shape", self.reset_camera, "F", tip="Reset the camera to show the whole shape")
         self._viewpoint_actions()

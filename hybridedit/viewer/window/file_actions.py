@@ -95,25 +95,41 @@ class Screenshots(Protocol):
 
 
 @runtime_checkable
+class Says(Protocol):
+    """The status bar as the file actions see it: errors, questions and messages."""
+
+    def show_error(self, title: str, text: str) -> None: ...
+    def confirm(self, title: str, text: str) -> bool: ...
+    def message(self, text: str) -> None: ...
+
+
+@runtime_checkable
+class Unsaved(Protocol):
+    """The unsaved-pose mark as the file actions see it."""
+
+    @property
+    def modified(self) -> bool: ...
+    def set_modified(self, modified: bool) -> None: ...
+    def update_title(self) -> None: ...
+
+
+@runtime_checkable
 class FileHost(Protocol):
     """What :class:`FileActions` asks of the window (:class:`~.main_window.MainWindow`)."""
 
     @property
     def session(self) -> Session | None: ...
     @property
-    def modified(self) -> bool: ...
-    @property
     def controller(self) -> Busy: ...
     @property
     def view(self) -> Screenshots: ...
+    @property
+    def status(self) -> Says: ...
+    @property
+    def unsaved(self) -> Unsaved: ...
     def open_path(self, path: str | os.PathLike) -> bool: ...
     def finish_settle(self) -> None: ...
     def settle_and_stop_polish(self) -> None: ...
-    def show_error(self, title: str, text: str) -> None: ...
-    def confirm(self, title: str, text: str) -> bool: ...
-    def message(self, text: str) -> None: ...
-    def set_modified(self, modified: bool) -> None: ...
-    def update_title(self) -> None: ...
     def refresh_all(self) -> None: ...
 
 
@@ -191,7 +207,7 @@ class FileActions:
 
         Returns True when it may go ahead (saved, discarded, or nothing unsaved).
         """
-        if not self.w.modified or self.session is None:
+        if not self.w.unsaved.modified or self.session is None:
             return True
         Btn = QtWidgets.QMessageBox.StandardButton
         name = self.document_name if self.save_path is not None or self.session.path is not None else "the shape"
@@ -256,18 +272,18 @@ class FileActions:
             return False
         p = Path(path)
         if p.suffix.lower() not in SUPPORTED_EXTENSIONS:
-            w.show_error("Cannot save", f"{p.name}: unsupported format; use " + ", ".join(SUPPORTED_EXTENSIONS))
+            w.status.show_error("Cannot save", f"{p.name}: unsupported format; use " + ", ".join(SUPPORTED_EXTENSIONS))
             return False
         if not asked:
             if s.path is not None and same_file(p, s.path):
-                if not w.confirm("Overwrite the input file?",
+                if not w.status.confirm("Overwrite the input file?",
                                  f"{p} is the file this shape was opened from.\n\n"
                                  "Replace it with the deformed shape? The original will be lost."):
-                    w.message("Not saved")
+                    w.status.message("Not saved")
                     return False
             elif p.exists() and p != self.save_path:
-                if not w.confirm("Replace file?", f"{p} already exists. Replace it?"):
-                    w.message("Not saved")
+                if not w.status.confirm("Replace file?", f"{p} already exists. Replace it?"):
+                    w.status.message("Not saved")
                     return False
         progress = SaveProgress(self.parent)
         try:
@@ -275,15 +291,15 @@ class FileActions:
             notes = write_mesh(p, s.mesh.copy(vertices=s.shown_positions.copy()), like=s.path,
                                progress=progress)
         except (MeshError, MeshFileError, WriteError, OSError) as e:
-            w.show_error("Could not save the mesh", str(e))
+            w.status.show_error("Could not save the mesh", str(e))
             return False
         finally:
             progress.close()
         self.save_path = p
-        w.update_title()  # (Save As: the title names the new file)
-        w.set_modified(False)
+        w.unsaved.update_title()  # (Save As: the title names the new file)
+        w.unsaved.set_modified(False)
         # what a conversion could not carry, references not copied: said, as the CLI says them
-        w.message(" ".join([f"Saved {p}."] + [f"Note: {n}." for n in notes]))
+        w.status.message(" ".join([f"Saved {p}."] + [f"Note: {n}." for n in notes]))
         return True
 
     # ------------------------------------------------------------------ edit files
@@ -310,10 +326,10 @@ class FileActions:
             edit = s.to_edit()
             save_edit(path, edit)
         except (SelectionError, ValueError, WriteError, OSError) as e:
-            w.show_error("Could not save the edit", str(e))
+            w.status.show_error("Could not save the edit", str(e))
             return False
         self.edit_path = Path(path)
-        w.message(f"Saved the edit to {path}: {edit_summary(edit)} from the rest pose, in shape vertices. "
+        w.status.message(f"Saved the edit to {path}: {edit_summary(edit)} from the rest pose, in shape vertices. "
                   + ("'hybridedit deform --edit' replays them to the pose on screen."
                      if s.replayable else
                      "Note: the last drag was not settled (Edit ▸ Settle on Release is off), so its pose depends on "
@@ -322,7 +338,7 @@ class FileActions:
 
     def load_edit_dialog(self) -> bool:
         if self.session is None:
-            self.w.show_error("Load edit", "Open a mesh first.")
+            self.w.status.show_error("Load edit", "Open a mesh first.")
             return False
         start = str(self.edit_path) if self.edit_path else self.suggested_path("-edit", ".json")
         path, _ = QtWidgets.QFileDialog.getOpenFileName(self.parent, "Load edit", start, EDIT_FILTER)
@@ -335,7 +351,7 @@ class FileActions:
         w = self.w
         s = self.session
         if s is None:
-            w.show_error("Load edit", "Open a mesh first.")
+            w.status.show_error("Load edit", "Open a mesh first.")
             return False
         if w.controller.busy:
             return False
@@ -344,12 +360,12 @@ class FileActions:
             edit = load_edit(path)
             s.load_edit(edit, path=str(path))
         except (EditFileError, SelectionError, ValueError) as e:
-            w.show_error("Could not load the edit", str(e))
+            w.status.show_error("Could not load the edit", str(e))
             return False
         self.edit_path = Path(path)
-        w.set_modified(True)
+        w.unsaved.set_modified(True)
         w.refresh_all()
-        w.message(f"Applied {Path(path).name}: {edit_summary(edit)}.{cage_note(edit, s.editor.cage.n_vertices)}")
+        w.status.message(f"Applied {Path(path).name}: {edit_summary(edit)}.{cage_note(edit, s.editor.cage.n_vertices)}")
         return True
 
     # ------------------------------------------------------------------ screenshots
@@ -362,7 +378,7 @@ class FileActions:
         try:
             w.view.screenshot(path)
         except Exception as e:  # noqa: BLE001
-            w.show_error("Could not save the screenshot", f"{path}: {e}")
+            w.status.show_error("Could not save the screenshot", f"{path}: {e}")
             return False
-        w.message(f"Saved {path}")
+        w.status.message(f"Saved {path}")
         return True

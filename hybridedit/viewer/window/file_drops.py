@@ -5,7 +5,7 @@ from __future__ import annotations
 from qtpy import QtCore, QtGui
 
 from .file_actions import dropped_path
-from .status_bar import guarded
+from .slot_errors import guarded
 
 
 class DropsMixin:

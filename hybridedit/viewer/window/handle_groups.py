@@ -7,7 +7,7 @@ from __future__ import annotations
 from ...deform.roles import handle as handle_role
 from ..render.palette import ROLE_COLOR_NAMES, role_rows
 from ..model.selection_masks import HANDLE
-from .status_bar import guarded
+from .slot_errors import guarded
 
 
 class HandleGroupsMixin:
@@ -30,12 +30,12 @@ class HandleGroupsMixin:
         # shows the final pose and may start a polish: after_drag)
         self.polisher.cancel()
         if not s.new_group():
-            self.message("The current handle group is still empty: select its cage points first")
+            self.status.message("The current handle group is still empty: select its cage points first")
             return
         self._set_target(HANDLE)
         self._refresh_selection()
         self._update_actions()
-        self.message(f"New {self._group_name()}: select its cage points (Select mode, Handle target)")
+        self.status.message(f"New {self._group_name()}: select its cage points (Select mode, Handle target)")
 
     @guarded
     def next_group(self) -> None:
@@ -46,4 +46,4 @@ class HandleGroupsMixin:
         s.next_group()
         self._set_target(self.target)
         self._refresh_selection()
-        self.message(f"Now {self._group_name()}: selections and drags act on it")
+        self.status.message(f"Now {self._group_name()}: selections and drags act on it")

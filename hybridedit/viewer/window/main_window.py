@@ -2,11 +2,12 @@
 
 The editing state (selection, pose, polished pose, undo) lives in :class:`~..model.session.Session`. The
 window's jobs are mixins, one module each: the actions, menus and toolbar in :mod:`.actions`; the
-status bar and message log in :mod:`.status_bar`; selecting in :mod:`.selecting` and handle groups in
+selecting in :mod:`.selecting` and handle groups in
 :mod:`.handle_groups`; drags, settle and polish in :mod:`.posing`; the mode and what is drawn in
 :mod:`.view_options`; the scene kept in step in :mod:`.scene_sync`; opening and installing builds in
-:mod:`.shape_loading`; undo and the unsaved mark in :mod:`.undo_commands`; dropped files in :mod:`.file_drops`.
-Its helpers, given the window as the narrow protocol each declares: file actions in :mod:`.file_actions`;
+:mod:`.shape_loading`; undo in :mod:`.undo_commands`; dropped files in :mod:`.file_drops`.
+Its helpers, given the window as the narrow protocol each declares: the status bar and message log in
+:mod:`.status_bar`; the unsaved mark and the title in :mod:`.unsaved_mark`; file actions in :mod:`.file_actions`;
 cage and binding builds in :mod:`..jobs.build_jobs`; a drag's frames and settle in :mod:`..input.drags`; polish
 scheduling in :mod:`..jobs.polish_scheduler`; the information dialogs in :mod:`.dialogs`; and the drawing in
 :mod:`..render.scene`, mouse gestures in :mod:`..input.mouse_gestures`.
@@ -16,8 +17,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-import numpy as np
-from qtpy import QtCore, QtGui, QtWidgets
+from qtpy import QtGui, QtWidgets
 
 from ...defaults import CAGE_SIZE
 from .actions import ActionsMixin
@@ -36,8 +36,9 @@ from ..render.scene import Scene
 from .selecting import SelectingMixin
 from ..model.selection_masks import ROI
 from ..model.session import Session
-from .status_bar import StatusBarMixin
+from .status_bar import StatusBar
 from .undo_commands import UndoMixin
+from .unsaved_mark import UnsavedMark
 from ..render.view import View
 from .view_options import ViewSettingsMixin
 from ..jobs.polish_worker import PolishOutcome
@@ -46,7 +47,7 @@ if TYPE_CHECKING:
     from ...core.mesh import Mesh
 
 
-class MainWindow(ActionsMixin, StatusBarMixin, SelectingMixin, HandleGroupsMixin, PosingMixin, ViewSettingsMixin,
+class MainWindow(ActionsMixin, SelectingMixin, HandleGroupsMixin, PosingMixin, ViewSettingsMixin,
                  RefreshMixin, LoadingMixin, UndoMixin, DropsMixin, QtWidgets.QMainWindow):
     """The hybridedit editor window.
 
@@ -62,21 +63,18 @@ class MainWindow(ActionsMixin, StatusBarMixin, SelectingMixin, HandleGroupsMixin
     dialogs : the information dialogs (:class:`~.dialogs.InfoDialogs`).
     dragging : the drags' frames and settle (:class:`~..input.drags.DragFrames`).
     polisher : polish on release (:class:`~..jobs.polish_scheduler.PolishScheduler`).
-    modified : the pose on display is not saved (shown as ``*`` in the title).
+    status : the status bar and the message log (:class:`~.status_bar.StatusBar`).
+    unsaved : the unsaved-pose mark and the title (:class:`~.unsaved_mark.UnsavedMark`).
     """
 
     def __init__(self, cage_size: int | float = CAGE_SIZE) -> None:
         super().__init__()
         self.session: Session | None = None
-        self.last_error: str | None = None
-        self.modified = False
-        self._saved_pose: np.ndarray | None = None  # the pose last saved or opened (see pose_saved)
         #: while a new shape read is shown and its cage is built: (the session put aside,) (see preview_shape)
         self._aside: tuple[Session | None] | None = None
         self._previewed: Mesh | None = None  # the shape shown by preview_shape
         self.settle_on_release = True
         self.last_polish: PolishOutcome | None = None
-        self._error_box: QtWidgets.QMessageBox | None = None
         self._rrms_full = True  # the next measure must walk every edge (the pose changed outside a drag)
         self._generation = -1  # the session's engine generation the scene shows
         # each helper takes the window as the narrow protocol it declares (FileHost, BuildHost, InfoSource,
@@ -87,8 +85,9 @@ class MainWindow(ActionsMixin, StatusBarMixin, SelectingMixin, HandleGroupsMixin
         self.dialogs = InfoDialogs(self, parent=self)
         self.polisher = PolishScheduler(self)
         self.polisher.succeeded.connect(self._polish_succeeded)
-        self.polisher.failed.connect(lambda m: self.message(f"Polish failed: {m}"))
-        self.update_title()
+        self.polisher.failed.connect(lambda m: self.status.message(f"Polish failed: {m}"))
+        self.unsaved = UnsavedMark(self, self)
+        self.unsaved.update_title()
 
         self.view = View(self)
         self.setCentralWidget(self.view)
@@ -99,14 +98,11 @@ class MainWindow(ActionsMixin, StatusBarMixin, SelectingMixin, HandleGroupsMixin
         self._make_actions()
         self._make_menus()
         self._make_toolbar()
-        self._make_statusbar()
+        self.status = StatusBar(self, self)
+        self.jobs.place_in(self.status.row)  # the build's progress bar and Cancel button
         self.set_cage_size(cage_size)
         self.setAcceptDrops(True)
         self.view.rendered.connect(self._on_rendered)
-        self.status_timer = QtCore.QTimer(self)
-        self.status_timer.setInterval(250)
-        self.status_timer.timeout.connect(self._tick)
-        self.status_timer.start()
         self.target = ROI
         self._set_target(ROI)
         self._update_actions()
@@ -136,6 +132,6 @@ class MainWindow(ActionsMixin, StatusBarMixin, SelectingMixin, HandleGroupsMixin
         self.dragging.stop()
         self.polisher.wait()
         self.jobs.wait()
-        self.status_timer.stop()
+        self.status.stop()
         self.view.close()
         super().closeEvent(ev)

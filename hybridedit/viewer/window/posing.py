@@ -77,7 +77,7 @@ class PosingMixin:
         self._refresh_pose()
         self._update_actions()
         if self.session is not None and self.polisher.start(self.session):
-            self.time_label.setText("polishing…")
+            self.status.show_polishing()
 
     def _toggle_settle(self) -> None:
         self.settle_on_release = self.actions_["settle"].isChecked()
@@ -114,5 +114,5 @@ class PosingMixin:
         self.view.request_render()
         r = out.result
         self._update_actions()
-        self.message(f"polished: {r.iterations} iterations, edge error {out.error_before:.2f}% → "
+        self.status.message(f"polished: {r.iterations} iterations, edge error {out.error_before:.2f}% → "
                      f"{out.error_after:.2f}% ({out.seconds:.2f} s); Ctrl+Z undoes the polish")

@@ -29,7 +29,7 @@ class RefreshMixin:
             return
         self.scene.update_roles(s.cage_roles(), s.shape_roles())
         self.scene.gizmo.place(s.handle_centroid())
-        self._update_labels()
+        self.status.show_session()
         self.view.request_render()
 
     def refresh_all(self) -> None:
@@ -54,7 +54,7 @@ class RefreshMixin:
         self.scene.gizmo.place(s.handle_centroid())
         self._rrms_full = True
         self.measure()
-        self._update_labels()
+        self.status.show_session()
         self.view.request_render()
 
     # ------------------------------------------------------------------ edge error and stretch map
@@ -71,11 +71,11 @@ class RefreshMixin:
         """
         s = self.session
         if s is None:
-            self.error_label.setText("")
+            self.status.show_edge_error(None)
             return
         full = self._rrms_full if everything is None else everything
         self._rrms_full = False
-        self._show_error_value(s.metrics.update_error(s.shown_positions, everything=full))
+        self.status.show_edge_error(s.metrics.update_error(s.shown_positions, everything=full))
         if self.scene.stretch_visible:
             s.metrics.write_stretch(self.scene.stretch32, everything=full)
             self.scene.stretch_modified()

@@ -12,7 +12,7 @@ from ...deform.selection import SelectionError
 from ...deform.roles import FREE, handle as handle_role
 from ..render.palette import ROLE_COLORS, role_rows
 from ..model.selection_masks import ROI
-from .status_bar import guarded
+from .slot_errors import guarded
 
 
 class SelectingMixin:
@@ -59,6 +59,10 @@ class SelectingMixin:
         self.session.stroke(hits, op)
         self._refresh_selection()
 
+    def missed(self) -> None:
+        """A click took no cage point: the selection is kept, and said so."""
+        self.status.message("No cage point there: the selection is kept")
+
     def end_select(self) -> None:
         """A selection gesture ended: one undo step; a gesture that emptied its target says how to get it back."""
         s = self.session
@@ -67,9 +71,9 @@ class SelectingMixin:
         if s.end_stroke():
             target = getattr(self, "_stroke_target", self.target)
             if not s.mask(target).any():
-                self.message(f"{self._target_name(target)} cleared (Ctrl+Z restores it)")
+                self.status.message(f"{self._target_name(target)} cleared (Ctrl+Z restores it)")
             elif not self._warn_if_tearing():
-                self.clear_message()
+                self.status.clear_message()
         self._refresh_selection()
         self._update_actions()
 
@@ -82,7 +86,7 @@ class SelectingMixin:
             return False
         g, n = max(tears.items(), key=lambda kv: kv[1])
         who = f"Handle group {g + 1}" if s.n_groups > 1 else "The handle"
-        self.message(f"{who} touches the held part at {n} cage point{'s' if n != 1 else ''} with nothing free "
+        self.status.message(f"{who} touches the held part at {n} cage point{'s' if n != 1 else ''} with nothing free "
                      "between them: a drag tears the shape there (the back of a limb left out of the ROI?). Take "
                      "the ROI around the handle (R, Shift+drag), or select through (Alt+Z).")
         return True
@@ -103,18 +107,18 @@ class SelectingMixin:
         if op == "clear_all" and changed:
             self._set_target(self.target)  # (back to one handle group: its colour)
         if changed and said:
-            self.message(said)
+            self.status.message(said)
         elif op in ("clear", "clear_all") and not changed:
-            self.message("Nothing to clear")
+            self.status.message("Nothing to clear")
         elif not self._warn_if_tearing():
-            self.clear_message()
+            self.status.clear_message()
         self._refresh_selection()
         self._update_actions()
 
     def _toggle_select_through(self) -> None:
         on = self.actions_["select_through"].isChecked()
         self.controller.set_select_through(on)
-        self.message("Select Through: rectangle, brush and click also take the cage points hidden behind the shape"
+        self.status.message("Select Through: rectangle, brush and click also take the cage points hidden behind the shape"
                      if on else "Select Through off: the part drawn over is taken through its thickness, not what "
                                 "another part hides")
 
@@ -138,9 +142,9 @@ class SelectingMixin:
             if s.symmetry != before:
                 s.undo()  # back to the selection before the toggle
             self.actions_[f"mirror_{axis}"].setChecked(before == axis)
-            self.show_error(f"Cannot mirror across {axis.upper()}", str(e))
+            self.status.show_error(f"Cannot mirror across {axis.upper()}", str(e))
             return
         self._refresh_selection()
         self._update_actions()
-        self.message(f"Mirror {axis.upper()}: the selection and the drag are mirrored across the shape's middle plane"
+        self.status.message(f"Mirror {axis.upper()}: the selection and the drag are mirrored across the shape's middle plane"
                      if on else "Mirror off")

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 
 from ...deform.selection import SelectionError
 from ..model.session import Session
-from .status_bar import guarded
+from .slot_errors import guarded
 from ..jobs.build_worker import BuildResult, BuildWorker
 
 if TYPE_CHECKING:
@@ -58,12 +58,10 @@ class LoadingMixin:
         self.session = None
         self.scene.up_axis = up[0]
         self.scene.show_preview(mesh.vertices, mesh.faces)
-        self._show_sizes(mesh.n_vertices, mesh.n_faces, None)
-        self.sel_label.setText("")
-        self.error_label.setText("")
+        self.status.show_building(mesh.n_vertices, mesh.n_faces)
         self._update_actions()
         self.view.request_render()
-        self.message("The shape is read: turn it and look while its cage and binding are built; editing starts "
+        self.status.message("The shape is read: turn it and look while its cage and binding are built; editing starts "
                      "when they are done.")
 
     def end_preview(self) -> None:
@@ -77,7 +75,7 @@ class LoadingMixin:
             self._show_engine()
         else:
             self.scene.clear()
-            self._update_labels()
+            self.status.show_session()
             self.view.request_render()
         self._update_actions()
 
@@ -109,7 +107,7 @@ class LoadingMixin:
         self._show_engine()
         if not rebuilt and result.mesh is not previewed:  # (a shape shown while built keeps the user's camera)
             self.scene.reset_camera()
-        self.update_title()
+        self.unsaved.update_title()
         self._update_actions()
         return rebuilt, note
 
@@ -125,7 +123,7 @@ class LoadingMixin:
         self.session = session
         self.polisher.forget_shape()
         self.files.forget_paths()
-        self.set_modified(False)
+        self.unsaved.set_modified(False)
         return note
 
     def _new_session(self, ed, req, metrics=None) -> tuple[Session, str | None]:

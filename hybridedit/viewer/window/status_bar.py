@@ -1,52 +1,102 @@
 """The window's status bar and message log: the latest message, the status fields (timing, sizes,
-selection, edge error), the log of every message, error boxes and yes/no questions; and
-:func:`guarded`, which shows a slot's unexpected error there instead of a traceback.
+selection, edge error), the log of every message, error boxes and yes/no questions.
 """
 
 from __future__ import annotations
 
-import functools
 import time
-from typing import Callable
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import numpy as np
-from qtpy import QtCore, QtWidgets
+from qtpy import QtCore, QtGui, QtWidgets
 
 from .status_widgets import MessageLine, StatusField, StatusRow
 
-
-def guarded(method: Callable) -> Callable:
-    """Run a UI slot and show any unexpected error in a message box instead of a traceback."""
-
-    @functools.wraps(method)
-    def wrapper(self, *args, **kwargs):
-        try:
-            return method(self, *args, **kwargs)
-        except Exception as e:  # noqa: BLE001
-            self.show_error("Unexpected error", f"{e.__class__.__name__}: {e}")
-            return None
-
-    return wrapper
+if TYPE_CHECKING:
+    from ..model.session import Session
 
 
 def _fmt(n: int) -> str:
     return f"{n:,}"
 
 
-class StatusBarMixin:
-    """The status bar and the message log of a :class:`~.main_window.MainWindow` (a mixin).
+@runtime_checkable
+class DragStats(Protocol):
+    """The drags as the status bar sees them (:class:`~..input.drags.DragFrames`)."""
 
-    The fields show the ``session`` (sizes, selection), the ``dragging`` and the ``view`` (timing,
-    edge error while dragging) and the ``polisher``; the build ``jobs`` put their progress bar in the
-    row; View ▸ Messages (``actions_["messages"]``) shows the log.
+    error: float | None
+    @property
+    def frame_shown_at(self) -> float: ...
+    @property
+    def engine_ms(self) -> float: ...
+    @property
+    def thread_ms(self) -> float: ...
+
+
+@runtime_checkable
+class RenderStats(Protocol):
+    """The 3D view as the status bar sees it: its frame rate and the latest render's time."""
+
+    @property
+    def render_seconds(self) -> float: ...
+    def display_fps(self) -> float: ...
+
+
+@runtime_checkable
+class Busy(Protocol):
+    """Something that may be under way (the polish)."""
+
+    @property
+    def busy(self) -> bool: ...
+
+
+@runtime_checkable
+class StatusHost(Protocol):
+    """What :class:`StatusBar` reads of the window (:class:`~.main_window.MainWindow`)."""
+
+    @property
+    def session(self) -> Session | None: ...
+    @property
+    def dragging(self) -> DragStats: ...
+    @property
+    def view(self) -> RenderStats: ...
+    @property
+    def polisher(self) -> Busy: ...
+    @property
+    def actions_(self) -> Mapping[str, QtGui.QAction]: ...  # View ▸ Messages
+
+
+class StatusBar:
+    """The status bar and the message log of a :class:`~.main_window.MainWindow`: it shows what the
+    window says (messages, errors, questions) and, a few times a second, the state of the session,
+    the drags, the view and the polish in its fields.
+
+    Parameters
+    ----------
+    window : what the fields show (:class:`StatusHost`).
+    parent : the main window whose status bar and dock area are used, and the parent of the boxes.
+
+    Attributes
+    ----------
+    message_label : the latest message (:class:`~.status_widgets.MessageLine`).
+    time_label, size_label, sel_label, error_label : the fields: timing, sizes, selection, edge error.
+    row : the row that places the fields (and the build's progress bar) in the width there is.
+    log, log_dock : every message of this session, with its time, and the dock it shows in.
+    last_error : the text of the latest error shown, or None.
+    timer : the tick that shows the timing and a drag's edge error.
     """
 
-    def _make_statusbar(self) -> None:
-        sb = self.statusBar()
+    def __init__(self, window: StatusHost, parent: QtWidgets.QMainWindow) -> None:
+        self.w = window
+        self.parent = parent
+        self.last_error: str | None = None
+        self.error_box: QtWidgets.QMessageBox | None = None
+        sb = parent.statusBar()
         # the latest message on two lines, cut with "…" when longer: whole in its tooltip, and a click shows
         # the message log (View > Messages keeps them all); its size never changes with the text
         self.message_label = MessageLine(2, hint="Click for every message (View ▸ Messages)")
-        self.message_label.clicked.connect(self._show_messages)
+        self.message_label.clicked.connect(self.show_log)
         sb.addWidget(self.message_label, 1)
         # fields of fixed size: a new frame rate or edge error while dragging re-lays nothing out; the row
         # shows those that fit its width, by priority (edge error, selection, sizes, timing), never one over
@@ -56,37 +106,40 @@ class StatusBarMixin:
         self.sel_label = StatusField()
         self.error_label = StatusField(template="edge error 00.00 %")
         # (the row takes no more than what fits beside the message at its narrowest: the rest is the message's)
-        self.status_row = StatusRow(reserve=lambda: self.message_label.minimumWidth() + 40)
-        for priority, w in ((4, self.time_label), (3, self.size_label), (2, self.sel_label), (1, self.error_label)):
-            self.status_row.add(w, priority)
-        self.jobs.place_in(self.status_row)  # the build's progress bar and Cancel button
-        sb.addPermanentWidget(self.status_row)
+        self.row = StatusRow(reserve=lambda: self.message_label.minimumWidth() + 40)
+        for priority, field in ((4, self.time_label), (3, self.size_label), (2, self.sel_label), (1, self.error_label)):
+            self.row.add(field, priority)
+        sb.addPermanentWidget(self.row)
         self.log = QtWidgets.QPlainTextEdit()
         self.log.setReadOnly(True)
         self.log.setMaximumBlockCount(2000)
-        dock = QtWidgets.QDockWidget("Messages", self)
+        dock = QtWidgets.QDockWidget("Messages", parent)
         dock.setObjectName("messages")
         dock.setWidget(self.log)
-        dock.visibilityChanged.connect(lambda v: self.actions_["messages"].setChecked(v))
-        self.addDockWidget(QtCore.Qt.DockWidgetArea.BottomDockWidgetArea, dock)
+        dock.visibilityChanged.connect(lambda v: self.w.actions_["messages"].setChecked(v))
+        parent.addDockWidget(QtCore.Qt.DockWidgetArea.BottomDockWidgetArea, dock)
         dock.hide()
         self.log_dock = dock
+        self.timer = QtCore.QTimer(parent)
+        self.timer.setInterval(250)
+        self.timer.timeout.connect(self.tick)
+        self.timer.start()
 
     # ------------------------------------------------------------------ messages
     def show_error(self, title: str, text: str) -> None:
         """Tell the user about a problem (a non-blocking window-modal message box, and the message log)."""
         self.last_error = text
         box = QtWidgets.QMessageBox(QtWidgets.QMessageBox.Icon.Warning, title, text,
-                                    QtWidgets.QMessageBox.StandardButton.Ok, self)
+                                    QtWidgets.QMessageBox.StandardButton.Ok, self.parent)
         box.setAttribute(QtCore.Qt.WidgetAttribute.WA_DeleteOnClose)
-        self._error_box = box
+        self.error_box = box
         box.open()
         self.message(f"{title}: {text}" if text else title)
 
     def confirm(self, title: str, text: str) -> bool:
         """Ask a yes/no question (No is the default)."""
         Btn = QtWidgets.QMessageBox.StandardButton
-        r = QtWidgets.QMessageBox.question(self, title, text, Btn.Yes | Btn.No, Btn.No)
+        r = QtWidgets.QMessageBox.question(self.parent, title, text, Btn.Yes | Btn.No, Btn.No)
         return r == Btn.Yes
 
     def message(self, text: str) -> None:
@@ -104,10 +157,11 @@ class StatusBarMixin:
         """The state changed: the message on show may no longer be true."""
         self.message_label.setText("")
 
-    def _toggle_messages(self) -> None:
-        self.log_dock.setVisible(self.actions_["messages"].isChecked())
+    def toggle_log(self) -> None:
+        """View ▸ Messages: the message log shown or hidden."""
+        self.log_dock.setVisible(self.w.actions_["messages"].isChecked())
 
-    def _show_messages(self) -> None:
+    def show_log(self) -> None:
         """A click on the status bar's message: the message log, its latest line in sight."""
         self.log_dock.show()
         self.log.verticalScrollBar().setValue(self.log.verticalScrollBar().maximum())
@@ -118,9 +172,15 @@ class StatusBarMixin:
         cage = "…" if n_cage is None else f"{_fmt(n_cage)} v"
         self.size_label.setText(f"shape {_fmt(n_vertices)} v / {_fmt(n_faces)} f · cage {cage}")
 
-    def _update_labels(self) -> None:
+    def show_building(self, n_vertices: int, n_faces: int) -> None:
+        """A new shape is read and its cage is being built: its sizes, and no selection or edge error yet."""
+        self._show_sizes(n_vertices, n_faces, None)
+        self.sel_label.setText("")
+        self.error_label.setText("")
+
+    def show_session(self) -> None:
         """The sizes and the selection's counts of the session (or "no shape")."""
-        s = self.session
+        s = self.w.session
         if s is None:
             self.size_label.setText("no shape")
             self.sel_label.setText("")
@@ -133,38 +193,52 @@ class StatusBarMixin:
         group = f" (group {s.active + 1} of {s.n_groups})" if s.n_groups > 1 else ""
         self.sel_label.setText(f"ROI {n_roi} · handle {n_h}{group} · fixed {n_f}")
 
-    def _show_error_value(self, err: float) -> None:
-        """The edge error (percent) of the pose on display, marked when it is polished."""
-        self.dragging.error = None
-        polished = self.session is not None and self.session.polished is not None
+    def show_edge_error(self, err: float | None) -> None:
+        """The edge error (percent) of the pose on display, marked when it is polished; None: no shape."""
+        if err is None:
+            self.error_label.setText("")
+            return
+        self.w.dragging.error = None
+        s = self.w.session
+        polished = s is not None and s.polished is not None
         self.error_label.setText(f"edge error {err:.2f} %{' (polished)' if polished else ''}")
 
-    def _tick(self) -> None:
+    def show_polishing(self) -> None:
+        """A polish runs (the timing field says so until it ends)."""
+        self.time_label.setText("polishing…")
+
+    def tick(self) -> None:
         """The status timer: the edge error a drag measured, and the timing (or "polishing…")."""
-        if self.dragging.error is not None:
-            self._show_error_value(self.dragging.error)  # (which clears it)
-        if self.session is None or self.session.settling:
+        if self.w.dragging.error is not None:
+            self.show_edge_error(self.w.dragging.error)  # (which clears it)
+        s = self.w.session
+        if s is None or s.settling:
             return
-        if self.polisher.busy:
-            self.time_label.setText("polishing…")
+        if self.w.polisher.busy:
+            self.show_polishing()
             return
         self.time_label.setText(self.timing_text())
+
+    def stop(self) -> None:
+        """No more ticks (the window closes)."""
+        self.timer.stop()
 
     def timing_text(self) -> str:
         """Frames of a drag shown per second first (what the eye gets), then what the frame thread spent on
         the latest frame (the engine's solve, and the moving region's normals and edge error; the split
         is in the field's tooltip), and the render's time; a brush stroke or a turn of the camera renders
         too, but that rate is not a drag's: "idle"."""
-        dragging = time.perf_counter() - self.dragging.frame_shown_at <= 1.0
-        fps = self.view.display_fps() if dragging else 0.0
+        w = self.w
+        d = w.dragging
+        dragging = time.perf_counter() - d.frame_shown_at <= 1.0
+        fps = w.view.display_fps() if dragging else 0.0
         parts = [f"{fps:.0f} fps" if fps > 0 else "idle"]
-        d = self.dragging
         if d.engine_ms > 0:
             parts.append(f"frame {d.thread_ms:.0f} ms")
             self.time_label.setToolTip(
                 f"The latest drag frame: {d.thread_ms:.1f} ms on the frame thread, of which the engine's solve "
                 f"{d.engine_ms:.1f} ms and the moving region's points, normals and edge error "
                 f"{max(d.thread_ms - d.engine_ms, 0.0):.1f} ms; the render runs beside it")
-        if self.view.render_seconds > 0:
-            parts.append(f"render {self.view.render_seconds * 1e3:.0f} ms")
+        if w.view.render_seconds > 0:
+            parts.append(f"render {w.view.render_seconds * 1e3:.0f} ms")
         return " · ".join(parts)

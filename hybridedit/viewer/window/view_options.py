@@ -9,7 +9,7 @@ from qtpy import QtCore
 
 from ...core.up_axis import remember_up_axis, shape_key
 from ..input.mouse_gestures import CAMERA, DRAG, RECTANGLE, SELECT
-from .status_bar import guarded
+from .slot_errors import guarded
 
 
 class ViewSettingsMixin:
@@ -21,7 +21,7 @@ class ViewSettingsMixin:
         """What a left drag does: ``CAMERA``, ``SELECT`` or ``DRAG`` (:mod:`..input.mouse_gestures`)."""
         self.controller.set_mode(mode)
         self.actions_[f"mode_{mode}"].setChecked(True)
-        self.message({CAMERA: "Camera mode: left drag rotates the view",
+        self.status.message({CAMERA: "Camera mode: left drag rotates the view",
                       SELECT: "Select mode: left drag selects (Shift adds, Ctrl removes); R / H switch ROI / handle",
                       DRAG: "Drag mode: left drag moves the handle in the view plane; the gizmo rotates it"}[mode])
 
@@ -79,7 +79,7 @@ class ViewSettingsMixin:
             return
         self.scene.set_view(view)
         self.view.request_render()
-        self.message(f"{view.capitalize()} view ({self.session.up_axis} up; View ▸ Up Axis changes it)")
+        self.status.message(f"{view.capitalize()} view ({self.session.up_axis} up; View ▸ Up Axis changes it)")
 
     @guarded
     def set_up_axis(self, axis: str) -> None:
@@ -96,6 +96,6 @@ class ViewSettingsMixin:
         self.scene.reset_camera()
         self.view.request_render()
         self._update_actions()
-        self.message(f"{axis} is up for {self.files.document_name or 'this shape'}"
+        self.status.message(f"{axis} is up for {self.files.document_name or 'this shape'}"
                      + (" (remembered: it opens this way next time)" if kept else
                         " (not remembered: the cache folder cannot be written)"))
