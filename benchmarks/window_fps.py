@@ -64,9 +64,9 @@ def run(mesh_path: Path, cage, size: tuple[int, int], seconds: float, look: str 
     w.show()
     w.resize(*size)
     app.processEvents()
-    w.open_path(mesh_path)
+    w.loading.open_path(mesh_path)
     t0 = time.perf_counter()
-    while w.worker is not None or w.session is None:
+    while w.jobs.worker is not None or w.session is None:
         app.processEvents(QtCore.QEventLoop.ProcessEventsFlag.AllEvents, 50)
         time.sleep(0.01)
         if time.perf_counter() - t0 > 900:
@@ -78,10 +78,10 @@ def run(mesh_path: Path, cage, size: tuple[int, int], seconds: float, look: str 
         m = np.zeros(s.n_cage, dtype=bool)
         m[ed.to_cage(top_fraction(V, frac), "shape")] = True
         s.set_mask(target, m)
-    w._refresh_selection()
+    w.sync.refresh_selection()
     if look is not None:
-        w._set_look_mode(look)  # View > Texture / Colours / Plain
-    w.set_mode(DRAG)
+        w.options.set_look_mode(look)  # View > Texture / Colours / Plain
+    w.options.set_mode(DRAG)
     w.scene.reset_camera()
     view = w.view
     view.request_render()
@@ -125,7 +125,7 @@ def run(mesh_path: Path, cage, size: tuple[int, int], seconds: float, look: str 
         timer.start()
         loop.exec()
         timer.stop()
-        w.frames.flush()  # the frame of the last move
+        w.dragging.frames.flush()  # the frame of the last move
         app.processEvents()
 
     window_slice(min(1.0, 0.3 * seconds))  # warm-up

@@ -91,8 +91,8 @@ def measure(path: Path, roi: float, moves: int) -> dict:
 
     out: dict = {"file": path.name}
     t0 = time.perf_counter()
-    w.open_path(path)
-    wait(lambda: w.worker is None and w.session is not None)
+    w.loading.open_path(path)
+    wait(lambda: w.jobs.worker is None and w.session is not None)
     shown.clear()
     view.request_render()
     wait(lambda: bool(shown))
@@ -107,11 +107,11 @@ def measure(path: Path, roi: float, moves: int) -> dict:
         m = np.zeros(s.n_cage, dtype=bool)
         m[ed.to_cage(top_fraction(V, frac), "shape")] = True
         s.set_mask(target, m)
-    w._refresh_selection()
+    w.sync.refresh_selection()
     app.processEvents()
     out["select_s"] = time.perf_counter() - t0
 
-    w.set_mode(DRAG)
+    w.options.set_mode(DRAG)
     w.scene.reset_camera()
     view.request_render()
     for _ in range(10):
@@ -148,7 +148,7 @@ def measure(path: Path, roi: float, moves: int) -> dict:
             last_shown = w.dragging.frame_shown_at
             thread_ms.append(w.dragging.thread_ms)
             engine_ms.append(w.dragging.engine_ms)
-    w.frames.flush()
+    w.dragging.frames.flush()
     app.processEvents()
     out["moves_s"] = time.perf_counter() - t0
     out["frames_shown"] = len(shown)

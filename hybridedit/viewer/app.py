@@ -164,7 +164,7 @@ def main(path: str | os.PathLike | None = None, screenshot: str | os.PathLike | 
             if not p.is_file():
                 window.status.show_error("Could not open the mesh", f"{p}: no such file")
             else:
-                window.open_path(p)
+                window.loading.open_path(p)
         return int(app.exec())
     finally:
         undo_hook()

@@ -53,7 +53,7 @@ def test_the_menus_open_the_dialogs(qtbot, win):
     box = w.dialogs.mesh_info_box
     qtbot.waitExposed(box)
     assert not box.isModal() and box.windowTitle() == "Mesh info"
-    assert box.text() == mesh_info_text(w.session, w.last_polish)
+    assert box.text() == mesh_info_text(w.session, w.posing.last_polish)
     assert "Vertices: 2,562" in box.text() and f"Cage: {w.session.n_cage:,} vertices" in box.text()
     box.close()
     # Help > Shortcuts lists Cancel with its key

@@ -22,7 +22,7 @@ FRONT_Z, BACK_Z = 1.6, -1.6
 
 
 class Window:
-    """What the controller asks of the main window, recorded."""
+    """What the controller asks of the window's selection and drags, recorded."""
 
     def __init__(self, P: np.ndarray, cage_faces: np.ndarray | None = None) -> None:
         self.P = P
@@ -53,13 +53,13 @@ class Window:
     def end_select(self) -> None:
         self.ended += 1
 
-    def begin_drag(self) -> bool:
+    def begin(self) -> bool:
         return False
 
-    def drag(self, D) -> None:
+    def move(self, D) -> None:
         raise AssertionError("no drag here")
 
-    def end_drag(self) -> None:
+    def end(self) -> None:
         pass
 
     def missed(self) -> None:
@@ -91,7 +91,7 @@ def rig(qtbot):
     scene.load(ShapeMetrics(V, F), V, P, CF, np.full(len(P), FIXED, dtype=np.int8), np.full(len(V), FREE, dtype=np.int8))
     scene.reset_camera(tilted=False)
     win = Window(P, CF)
-    ctl = ViewController(view, scene, win)
+    ctl = ViewController(view, scene, win, win)
     ctl.set_mode(SELECT)
     view.render()
     qtbot.wait(20)

@@ -233,8 +233,8 @@ def test_the_window_opens_a_textured_file_textured_and_keeps_it_through_a_drag(q
     w.activateWindow()
     qtbot.waitActive(w)
     w.view.setFocus()
-    assert w.open_path(path)
-    qtbot.waitUntil(lambda: w.session is not None and w.worker is None, timeout=60000)
+    assert w.loading.open_path(path)
+    qtbot.waitUntil(lambda: w.session is not None and w.jobs.worker is None, timeout=60000)
     s = w.session
     assert w.scene.look_mode == "texture" and w.actions_["look_texture"].isChecked()
     assert not w.actions_["look_colors"].isEnabled() and w.actions_["look_plain"].isEnabled()
@@ -249,7 +249,7 @@ def test_the_window_opens_a_textured_file_textured_and_keeps_it_through_a_drag(q
     P = s.cage_positions
     s.set_mask("roi", P[:, 0] > 0.0)
     s.set_mask("handle", P[:, 0] > 0.8)
-    w._refresh_selection()
+    w.sync.refresh_selection()
     key(qtbot, w, Qt.Key.Key_D)
     dc, _ = projected(w, s.handle_centroid()[None])
     a = to_widget(w, dc[0])

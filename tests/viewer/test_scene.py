@@ -21,7 +21,7 @@ def test_cage_points_only_where_they_help(qtbot, win):
     P = s.cage_positions
     s.set_mask("roi", P[:, 0] > 0.0)
     s.set_mask("handle", P[:, 0] > 1.4)
-    w._refresh_selection()
+    w.sync.refresh_selection()
     shown = set(w.scene.shown_points.tolist())
     assert shown == set(np.flatnonzero(s.cage_roles() != FIXED).tolist())  # the ROI and the handle
     assert w.scene.points_poly.n_verts == len(shown)
@@ -92,6 +92,6 @@ def test_undoing_a_drag_keeps_the_shapes_parts_and_a_new_selection_remakes_them(
     np.testing.assert_array_equal(drawn, s.shape_positions.astype(np.float32))  # the rest pose, in them
     P = s.cage_positions
     s.set_mask("handle", P[:, 0] > 1.2)  # another handle: the tint changes, the parts are made again
-    w._refresh_selection()
+    w.sync.refresh_selection()
     assert not any(p is q for p in w.scene.parts.parts for q in parts)
     np.testing.assert_array_equal(w.scene.parts.drawn_points(), s.shape_positions.astype(np.float32))

@@ -26,7 +26,7 @@ Qt = QtCore.Qt
 
 
 def wait_loaded(qtbot, w: MainWindow, timeout: int = 180000) -> None:
-    qtbot.waitUntil(lambda: w.worker is None and w.session is not None, timeout=timeout)
+    qtbot.waitUntil(lambda: w.jobs.worker is None and w.session is not None, timeout=timeout)
 
 
 @pytest.fixture
@@ -40,7 +40,7 @@ def win(qtbot, blob_file) -> MainWindow:
     qtbot.waitActive(w)  # window shortcuts need the active window
     w.view.setFocus()
     try:
-        assert w.open_path(blob_file)
+        assert w.loading.open_path(blob_file)
         wait_loaded(qtbot, w)
     except BaseException:  # no window left open to confuse the next test
         w.unsaved.set_modified(False)
@@ -78,7 +78,7 @@ def mouse_drag(qtbot, widget, a: QtCore.QPoint, b: QtCore.QPoint, steps: int = 6
 
 def settled(qtbot, w: MainWindow) -> None:
     """Wait until the settle after a drag is done and drawn."""
-    qtbot.waitUntil(lambda: not w.settle_timer.isActive(), timeout=20000)
+    qtbot.waitUntil(lambda: not w.dragging.settle_timer.isActive(), timeout=20000)
     qtbot.wait(10)
 
 
@@ -227,7 +227,7 @@ def test_gizmo_rotate_and_translate(qtbot, win, tmp_path, blob_file):
     P = s.cage_positions
     s.set_mask("roi", P[:, 0] > 0.0)
     s.set_mask("handle", P[:, 0] > 1.4)
-    w._refresh_selection()
+    w.sync.refresh_selection()
     qtbot.wait(20)
     key(qtbot, w, Qt.Key.Key_C)  # gizmo works in Camera mode too
     g = w.scene.gizmo
@@ -271,7 +271,7 @@ def test_brush_modifiers_clear_invert(qtbot, win):
     key(qtbot, w, Qt.Key.Key_S)
     key(qtbot, w, Qt.Key.Key_B)
     assert w.controller.tool == "brush"
-    w.brush_spin.setValue(40)
+    w.options.brush_spin.setValue(40)
     P = s.cage_positions
     d, front = projected(w, P)
     i_right, i_left = int(np.argmax(P[:, 0])), int(np.argmin(P[:, 0]))
@@ -318,7 +318,7 @@ def test_errors_leave_the_state_intact(qtbot, win, tmp_path):
     bad = tmp_path / "bad.obj"
     bad.write_text("v 0 0 0\nf 1 2 3\n")
     w.status.last_error = None
-    w.open_path(bad)
+    w.loading.open_path(bad)
     wait_loaded(qtbot, w)
     assert w.session is s and w.status.last_error and "bad.obj" in w.status.last_error
     # a bad edit file
@@ -381,8 +381,8 @@ def test_drop_shortcuts_cage_toggle_and_rebuild(qtbot, win, blob_file, tmp_path,
     # rebuild at another size keeps the selection (through the shape)
     P = s.cage_positions
     s.set_mask("handle", P[:, 0] > 1.4)
-    w.set_cage_size(80)
-    assert w.rebuild()
+    w.cage_control.set_value(80)
+    assert w.loading.rebuild()
     wait_loaded(qtbot, w)
     assert w.session is s and abs(s.n_cage - 80) < 10  # the same session goes on, on the new cage
     h = w.session.handle
@@ -411,7 +411,7 @@ def test_worker_cancel_keeps_the_previous_state(qtbot, win, tmp_path, make_blob)
     s = w.session
     big = tmp_path / "big.obj"
     write_mesh(big, make_blob(6))  # 41K vertices: binding takes a while
-    w.set_cage_size(0.05)
+    w.cage_control.set_value(0.05)
     ticks = []
     timer = QtCore.QTimer()
     timer.timeout.connect(lambda: ticks.append(time.perf_counter()))
@@ -423,8 +423,8 @@ def test_worker_cancel_keeps_the_previous_state(qtbot, win, tmp_path, make_blob)
         if stage == "binding" and fraction > 0:
             w.jobs.cancel_button.click()
 
-    assert w.open_path(big)
-    w.worker.progress.connect(on_progress)
+    assert w.loading.open_path(big)
+    w.jobs.worker.progress.connect(on_progress)
     assert w.jobs.progress.isVisible() and w.jobs.cancel_button.isVisible()
     assert not w.actions_["open"].isEnabled()
     wait_loaded(qtbot, w)
@@ -499,7 +499,7 @@ def test_launcher_opens_the_default_mesh_and_exits_zero(qapp, blob_file, monkeyp
     def check():
         wins = [w for w in QtWidgets.QApplication.topLevelWidgets()
                 if isinstance(w, MainWindow) and w.isVisible() and id(w) not in before]
-        if wins and wins[0].session is not None and wins[0].worker is None:
+        if wins and wins[0].session is not None and wins[0].jobs.worker is None:
             seen["vertices"] = wins[0].session.mesh.n_vertices
             seen["title"] = wins[0].windowTitle()
             wins[0].close()
@@ -527,8 +527,8 @@ def test_first_run_compiles_the_kernels_in_words(qtbot, blob_file, tmp_path, mon
     qtbot.addWidget(w)
     w.show()
     stages = []
-    assert w.open_path(blob_file)
-    w.worker.progress.connect(lambda stage, f: stages.append(w.jobs.progress.text()))
+    assert w.loading.open_path(blob_file)
+    w.jobs.worker.progress.connect(lambda stage, f: stages.append(w.jobs.progress.text()))
     wait_loaded(qtbot, w)
     assert any(s.startswith("compiling the kernels for this computer (first run only") for s in stages)
     assert warmup.is_warm()

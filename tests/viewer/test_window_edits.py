@@ -20,7 +20,7 @@ def select(w: MainWindow, roi: np.ndarray, handle: np.ndarray) -> None:
     s = w.session
     s.set_mask("roi", roi)
     s.set_mask("handle", handle)
-    w._refresh_selection()
+    w.sync.refresh_selection()
 
 
 def handle_point(w: MainWindow) -> QtCore.QPoint:
@@ -36,7 +36,7 @@ def drag_handle(qtbot, w: MainWindow, dy: int) -> None:
 
 
 def polished(qtbot, w: MainWindow) -> None:
-    qtbot.waitUntil(lambda: w.polished is not None and w.polisher.worker is None, timeout=20000)
+    qtbot.waitUntil(lambda: w.posing.polished is not None and w.polisher.worker is None, timeout=20000)
     qtbot.wait(10)
 
 
@@ -111,8 +111,8 @@ def capsule_file(tmp_path_factory):
 def test_mirror_x_drag_equals_the_deform_replay_of_its_edit(qtbot, win, capsule_file, tmp_path):
     w = win
     w.actions_["polish"].trigger()  # compare the settled pose (the polish is not in an edit file)
-    w.set_cage_size(CAGE)  # (a count for this file: the blob's does not carry over)
-    assert w.open_path(capsule_file)
+    w.cage_control.set_value(CAGE)  # (a count for this file: the blob's does not carry over)
+    assert w.loading.open_path(capsule_file)
     wait_loaded(qtbot, w)
     s = w.session
     assert s.path == capsule_file
@@ -121,7 +121,7 @@ def test_mirror_x_drag_equals_the_deform_replay_of_its_edit(qtbot, win, capsule_
     P = s.cage_positions
     select(w, P[:, 0] > 0.0, P[:, 0] > 1.4)
     s.apply_selection()
-    w._refresh_selection()
+    w.sync.refresh_selection()
     # the mirrored selection is drawn on both sides: the engine's roles, mirror images included
     from hybridedit.deform.roles import FIXED, is_handle
 
@@ -155,21 +155,21 @@ def test_mirror_x_is_checked_against_each_shape(qtbot, win, capsule_file, blob_f
     w.activateWindow()
     qtbot.waitActive(w)
     w.view.setFocus()
-    assert w.open_path(capsule_file)
-    qtbot.waitUntil(lambda: w.session is not None and w.session.path == capsule_file and w.worker is None, timeout=60000)
+    assert w.loading.open_path(capsule_file)
+    qtbot.waitUntil(lambda: w.session is not None and w.session.path == capsule_file and w.jobs.worker is None, timeout=60000)
     key(qtbot, w, Qt.Key.Key_X, Qt.KeyboardModifier.ShiftModifier)
     assert w.actions_["mirror_x"].isChecked() and w.session.symmetry == "x"
     w.unsaved.set_modified(False)
-    assert w.open_path(blob_file)  # Mirror X is still ticked: the new shape is checked when it opens
-    qtbot.waitUntil(lambda: w.session is not None and w.session.path == blob_file and w.worker is None, timeout=60000)
+    assert w.loading.open_path(blob_file)  # Mirror X is still ticked: the new shape is checked when it opens
+    qtbot.waitUntil(lambda: w.session is not None and w.session.path == blob_file and w.jobs.worker is None, timeout=60000)
     assert not w.actions_["mirror_x"].isChecked() and w.session.symmetry is None
     assert "Mirror X is off" in w.status.current_message()
 
 
 def test_a_mirrored_selection_is_drawn_on_both_sides_as_it_is_made(qtbot, win, capsule_file):
     w = win
-    assert w.open_path(capsule_file)
-    qtbot.waitUntil(lambda: w.session is not None and w.session.path == capsule_file and w.worker is None, timeout=60000)
+    assert w.loading.open_path(capsule_file)
+    qtbot.waitUntil(lambda: w.session is not None and w.session.path == capsule_file and w.jobs.worker is None, timeout=60000)
     s = w.session
     key(qtbot, w, Qt.Key.Key_X, Qt.KeyboardModifier.ShiftModifier)
     P = s.cage_positions

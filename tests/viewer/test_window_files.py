@@ -22,7 +22,7 @@ def select_tip(w):
     P = s.cage_positions
     s.set_mask("roi", P[:, 0] > 0.0)
     s.set_mask("handle", P[:, 0] > 1.4)
-    w._refresh_selection()
+    w.sync.refresh_selection()
     return s
 
 
@@ -127,13 +127,13 @@ def test_save_as_names_the_new_file_in_the_title(qtbot, win, tmp_path, monkeypat
     drag_tip(qtbot, w)
     assert w.windowTitle() == "hybridedit — posed.ply[*]" and w.isWindowModified()
     asked = answer(qtbot, w, Btn.Cancel)
-    assert not w.open_path(other_mesh)
+    assert not w.loading.open_path(other_mesh)
     assert asked and asked[0].startswith("The pose of posed.ply is not saved.")
     # Save writes to it again, the title stays
     w.actions_["save"].trigger()
     assert w.windowTitle() == "hybridedit — posed.ply[*]" and not w.isWindowModified()
     # another shape: its own name, nothing saved yet
-    assert w.open_path(other_mesh)
+    assert w.loading.open_path(other_mesh)
     wait_loaded(qtbot, w)
     qtbot.waitUntil(lambda: w.session is not None and w.session.path == other_mesh, timeout=30000)
     assert w.windowTitle() == "hybridedit — other.off[*]" and not w.isWindowModified()
@@ -148,7 +148,7 @@ def test_open_or_drop_asks_before_dropping_the_pose(qtbot, win, other_mesh, tmp_
 
     def go():
         if how == "open":
-            w.open_path(other_mesh)
+            w.loading.open_path(other_mesh)
         else:
             drop(w, other_mesh)
         qtbot.wait(300)
@@ -157,7 +157,7 @@ def test_open_or_drop_asks_before_dropping_the_pose(qtbot, win, other_mesh, tmp_
     asked = answer(qtbot, w, Btn.Cancel)
     go()
     assert asked and "not saved" in asked[0] and "other.off" in asked[0]
-    assert w.worker is None and w.session is s and np.array_equal(s.shape_positions, posed)
+    assert w.jobs.worker is None and w.session is s and np.array_equal(s.shape_positions, posed)
     # Save: the pose is written first (Save As, as nothing was saved yet), then the other mesh opens
     out = tmp_path / "saved.ply"
     monkeypatch.setattr(QtWidgets.QFileDialog, "getSaveFileName", staticmethod(lambda *a, **k: (str(out), "")))
@@ -212,11 +212,11 @@ def test_rebuild_asks_then_keeps_the_pose_and_the_undo_history(qtbot, win):
     steps = len(s.history)
     rest = s.mesh.vertices
     moved = np.linalg.norm(posed - rest, axis=1)
-    w.set_cage_size(90)
+    w.cage_control.set_value(90)
     answer(qtbot, w, Btn.Cancel)
-    assert not w.rebuild() and w.worker is None and s.n_cage == n_old
+    assert not w.loading.rebuild() and w.jobs.worker is None and s.n_cage == n_old
     answer(qtbot, w, Btn.Discard)
-    assert w.rebuild()
+    assert w.loading.rebuild()
     wait_loaded(qtbot, w)
     qtbot.waitUntil(lambda: s.n_cage != n_old, timeout=30000)
     assert w.session is s and abs(s.n_cage - 90) < 10
@@ -251,7 +251,7 @@ def test_keyboard_returns_to_the_view_after_the_cage_box(qtbot, win):
     spin.selectAll()
     qtbot.keyClicks(spin, "120")
     qtbot.keyClick(spin, Qt.Key.Key_Return)
-    assert w.cage_size() == 120
+    assert w.cage_control.value() == 120
     assert w.view.hasFocus()
     key(qtbot, w, Qt.Key.Key_S)  # a single-letter shortcut reaches the window again
     assert w.controller.mode == "select"
@@ -316,8 +316,8 @@ def test_an_edit_saved_at_one_cage_size_replays_at_another(qtbot, win, tmp_path,
     assert "replays them to the pose on screen" in w.status.current_message()
     # the same mesh on a cage of another size
     w.unsaved.set_modified(False)
-    w.set_cage_size(70)
-    assert w.open_path(s.path)
+    w.cage_control.set_value(70)
+    assert w.loading.open_path(s.path)
     wait_loaded(qtbot, w)
     qtbot.waitUntil(lambda: w.session is not s, timeout=30000)
     s2 = w.session
@@ -335,7 +335,7 @@ def test_an_edit_saved_at_one_cage_size_replays_at_another(qtbot, win, tmp_path,
     other = tmp_path / "other.obj"
     write_mesh(other, make_blob(3))
     w.unsaved.set_modified(False)
-    assert w.open_path(other)
+    assert w.loading.open_path(other)
     wait_loaded(qtbot, w)
     qtbot.waitUntil(lambda: w.session is not s2, timeout=30000)
     before = w.session.shape_positions.copy()
@@ -361,7 +361,7 @@ def test_mirror_x_moves_both_sides_or_says_why_not(qtbot, win, tmp_path):
     path = tmp_path / "capsule.obj"
     write_mesh(path, Mesh(np.asarray(sym.vertices)[:, [2, 1, 0]], np.asarray(sym.faces)))  # long along X
     w.unsaved.set_modified(False)
-    assert w.open_path(path)
+    assert w.loading.open_path(path)
     wait_loaded(qtbot, w)
     qtbot.waitUntil(lambda: w.session is not s, timeout=30000)
     s = w.session
@@ -369,7 +369,7 @@ def test_mirror_x_moves_both_sides_or_says_why_not(qtbot, win, tmp_path):
     P = s.cage_positions
     s.set_mask("roi", P[:, 0] > 0.3)
     s.set_mask("handle", P[:, 0] > 1.6)
-    w._refresh_selection()
+    w.sync.refresh_selection()
     w.actions_["mirror_x"].trigger()
     assert s.symmetry == "x" and w.actions_["mirror_x"].isChecked()
     from hybridedit.deform.roles import handle
@@ -398,7 +398,7 @@ def test_save_writes_what_deform_writes_and_says_what_a_conversion_drops(qtbot, 
     coloured = tmp_path / "coloured.obj"  # the blob with a colour on every vertex
     coloured.write_text("".join(f"v {x:.17g} {y:.17g} {z:.17g} 0.2 0.5 0.8\n" for x, y, z in blob.vertices)
                         + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in blob.faces))
-    assert w.open_path(coloured)
+    assert w.loading.open_path(coloured)
     wait_loaded(qtbot, w)
     assert w.session.path == coloured
     drag_tip(qtbot, w)

@@ -32,7 +32,7 @@ def test_two_handle_groups_move_independently(qtbot, win, tmp_path):
     w.actions_["new_group"].trigger()  # Ctrl+G
     assert s.n_groups == 2 and s.active == 1 and not s.handle.any()
     s.set_mask("handle", P[:, 0] < -1.4)
-    w._refresh_selection()
+    w.sync.refresh_selection()
     assert np.all(s.handle_group[P[:, 0] > 1.4] == 1) and np.all(s.handle_group[P[:, 0] < -1.4] == 2)
     # each group its own colour, on the cage points and on the shape
     rgba = np.asarray(w.scene.points_poly.point_data["role"])[:, :3]

@@ -52,7 +52,7 @@ def drag_handle(qtbot, w: MainWindow, dx: int, dy: int) -> None:
     a = to_widget(w, dc[0])
     mouse_drag(qtbot, w.view, a, a + QtCore.QPoint(dx, -dy))
     settled(qtbot, w)
-    qtbot.waitUntil(lambda: w.polished is not None and w.polisher.worker is None, timeout=30000)
+    qtbot.waitUntil(lambda: w.posing.polished is not None and w.polisher.worker is None, timeout=30000)
     qtbot.wait(10)
 
 
@@ -118,8 +118,8 @@ def test_two_groups_and_a_second_drag_of_the_first(qtbot, win, blob_file, tmp_pa
 
 def test_mirror_x_with_its_polish(qtbot, win, capsule_file, tmp_path, monkeypatch):
     w = win
-    w.set_cage_size(CAGE)
-    assert w.open_path(capsule_file)
+    w.cage_control.set_value(CAGE)
+    assert w.loading.open_path(capsule_file)
     wait_loaded(qtbot, w)
     qtbot.waitUntil(lambda: w.session is not None and w.session.path == capsule_file, timeout=60000)
     w.scene.reset_camera(tilted=False)
@@ -145,9 +145,9 @@ def test_successive_edits_across_a_rebuild(qtbot, win, blob_file, tmp_path, monk
     select_by_rectangles(qtbot, w, 0.0, -1.4, left=True)
     drag_handle(qtbot, w, 0, -60)
     w.unsaved.set_modified(False)  # (the rebuild would ask to save first)
-    w.set_cage_size(90)
+    w.cage_control.set_value(90)
     key(qtbot, w, Qt.Key.Key_B, CTRL)
-    qtbot.waitUntil(lambda: w.worker is None and w.session.n_cage != CAGE, timeout=60000)
+    qtbot.waitUntil(lambda: w.jobs.worker is None and w.session.n_cage != CAGE, timeout=60000)
     assert abs(w.session.n_cage - 90) < 10
     drag_handle(qtbot, w, 40, 0)  # the second selection, carried over to the new cage
     edit, saved, _ = save_edit_and_mesh(qtbot, w, tmp_path, "rebuilt", monkeypatch)
@@ -166,7 +166,7 @@ def test_successive_edits_across_a_rebuild(qtbot, win, blob_file, tmp_path, monk
 def test_an_unsettled_drag_says_so(qtbot, win, tmp_path, monkeypatch):
     w = win
     w.actions_["settle"].trigger()
-    assert not w.settle_on_release
+    assert not w.posing.settle_on_release
     select_by_rectangles(qtbot, w, 0.0, 1.4)
     drag_handle(qtbot, w, 0, 80)
     edit, _, said = save_edit_and_mesh(qtbot, w, tmp_path, "unsettled", monkeypatch)

@@ -46,7 +46,7 @@ def limbs(qtbot) -> MainWindow:
     w.activateWindow()
     qtbot.waitActive(w)
     w.view.setFocus()
-    assert w.open_mesh(two_limbs())
+    assert w.loading.open_mesh(two_limbs())
     wait_loaded(qtbot, w)
     w.scene.reset_camera(tilted=False)
     w.view.request_render()
@@ -94,7 +94,7 @@ def test_the_rectangle_takes_the_limb_in_sight_whole_not_the_one_behind(qtbot, l
     key(qtbot, w, Qt.Key.Key_Z, ALT)
     assert not w.controller.select_through
     key(qtbot, w, Qt.Key.Key_B)
-    w.brush_spin.setValue(60)
+    w.options.brush_spin.setValue(60)
     d, _ = projected(w, P)
     c = to_widget(w, d[behind].mean(axis=0))  # the middle of both limbs on screen
     mouse_drag(qtbot, w.view, c, c + QtCore.QPoint(0, 30), steps=3)
@@ -156,7 +156,7 @@ def test_ctrl_shift_a_clears_everything_in_one_step_and_alt_a_the_target(qtbot, 
     s.set_mask("handle", (P[:, 1] < -1.0) & (P[:, 2] > 0))
     key(qtbot, w, Qt.Key.Key_G, CTRL)  # a second handle group: the hind foot
     s.set_mask("handle", (P[:, 1] < -1.0) & (P[:, 2] < 0))
-    w._refresh_selection()
+    w.sync.refresh_selection()
     roi, groups = s.roi.copy(), s.handle_group.copy()
     assert s.n_groups == 2 and set(np.unique(groups)) == {0, 1, 2}
     n_hist = len(s.history)

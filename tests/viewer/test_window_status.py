@@ -134,7 +134,7 @@ def test_a_wide_window_shows_every_field(qtbot, win):
 def test_during_a_build_the_progress_bar_stays_inside_the_window(qtbot, win, make_blob, gate):
     w = win
     narrow(qtbot, w)
-    assert w.open_mesh(make_blob(3))
+    assert w.loading.open_mesh(make_blob(3))
     qtbot.waitUntil(lambda: w.jobs.progress.format() == "binding %p%", timeout=20000)
     qtbot.wait(50)
     shown = assert_fits(w)

@@ -39,7 +39,7 @@ def statue(qtbot, tmp_path, monkeypatch):
     w.activateWindow()
     qtbot.waitActive(w)
     w.view.setFocus()
-    assert w.open_path(path)
+    assert w.loading.open_path(path)
     wait_loaded(qtbot, w)
     yield w, path
     w.unsaved.set_modified(False)
@@ -84,8 +84,8 @@ def test_the_up_axis_chosen_is_remembered_for_the_shape(qtbot, statue):
     up, _ = screen_up(w)
     assert up[0] < -0.9
     w.unsaved.set_modified(False)
-    assert w.open_path(path)  # the same file again: it opens the way it was shown
-    qtbot.waitUntil(lambda: w.worker is None and w.session.up_axis == "-X", timeout=60000)
+    assert w.loading.open_path(path)  # the same file again: it opens the way it was shown
+    qtbot.waitUntil(lambda: w.jobs.worker is None and w.session.up_axis == "-X", timeout=60000)
     assert w.actions_["up_-X"].isChecked() and screen_up(w)[0][0] < -0.9
 
 

@@ -58,6 +58,24 @@ class Marks(Protocol):
 
 
 @runtime_checkable
+class PoseSide(Protocol):
+    """The window's pose side as a drag sees it (:class:`~..window.posing.Posing`): the guard before a
+    drag, and what follows one."""
+
+    def settle_and_stop_polish(self) -> None: ...
+    def drop_polished(self) -> None: ...
+    def after_drag(self) -> None: ...
+
+
+@runtime_checkable
+class Redraws(Protocol):
+    """The scene's upkeep as a drag sees it (:class:`~..window.scene_sync.SceneSync`)."""
+
+    def measure(self, everything: bool | None = None) -> None: ...
+    def refresh_all(self) -> None: ...
+
+
+@runtime_checkable
 class DragHost(Protocol):
     """What :class:`DragFrames` asks of the window (:class:`~..window.main_window.MainWindow`)."""
 
@@ -66,14 +84,13 @@ class DragHost(Protocol):
     @property
     def controller(self) -> GestureHolder: ...
     @property
+    def posing(self) -> PoseSide: ...
+    @property
+    def sync(self) -> Redraws: ...
+    @property
     def status(self) -> Says: ...
     @property
     def unsaved(self) -> Marks: ...
-    def settle_and_stop_polish(self) -> None: ...
-    def drop_polished(self) -> None: ...
-    def measure(self, everything: bool | None = None) -> None: ...
-    def refresh_all(self) -> None: ...
-    def after_drag(self) -> None: ...
 
 
 class DragFrames(QtCore.QObject):
@@ -117,15 +134,22 @@ class DragFrames(QtCore.QObject):
         self._error_time = 0.0  # when a frame last measured the edge error
         self._settle_chunk = 2
 
-    # ------------------------------------------------------------------ a drag
+    # ------------------------------------------------------------------ a drag (called by the view controller)
+    def handle_center(self) -> np.ndarray | None:
+        """(3,) the active handle group's centroid (where the gizmo is), or None; a settle under way is
+        completed first (this reads the pose and changes nothing)."""
+        self.finish()
+        s = self.w.session
+        return None if s is None else s.handle_centroid()
+
     def begin(self) -> bool:
         """Start a drag of the active handle group; False (and said why) when there is none to drag."""
         w = self.w
-        w.settle_and_stop_polish()  # a drag changes the pose: the frame or settle under way ends, a polish stops
+        w.posing.settle_and_stop_polish()  # a drag changes the pose: the frame or settle under way ends, a polish stops
         s = w.session
         if s is None:
             return False
-        w.drop_polished()  # the drag starts from the engine's pose
+        w.posing.drop_polished()  # the drag starts from the engine's pose
         try:
             self._T0 = s.begin_drag()
         except SelectionError as e:
@@ -134,7 +158,7 @@ class DragFrames(QtCore.QObject):
         w.status.clear_message()
         self._failed = False
         self.scene.set_moving(s.moving_vertices())
-        w.measure()  # every edge once: then each frame only the moving region's
+        w.sync.measure()  # every edge once: then each frame only the moving region's
         return True
 
     def move(self, D: np.ndarray) -> None:
@@ -183,7 +207,7 @@ class DragFrames(QtCore.QObject):
             self._failed = True
             w.controller.gesture = None
             s.cancel_drag()
-            w.refresh_all()
+            w.sync.refresh_all()
             if isinstance(frame, (ValueError, ArithmeticError)):  # e.g. a degenerate transform
                 w.status.show_error("Drag failed", f"{frame}; the drag was undone.")
             else:
@@ -219,14 +243,14 @@ class DragFrames(QtCore.QObject):
             return
         if not np.all(np.isfinite(s.shape_positions)):
             s.cancel_drag()
-            w.refresh_all()
+            w.sync.refresh_all()
             w.status.show_error("Drag failed", "The deformation became non-finite; the drag was undone.")
             return
         if s.end_drag():
             self._settle_chunk = 2
             self.settle_timer.start()  # settle in slices; the last interactive frame stays on screen
         else:
-            w.after_drag()
+            w.posing.after_drag()
 
     # ------------------------------------------------------------------ settling after a release
     def _settle_tick(self) -> None:
@@ -243,7 +267,7 @@ class DragFrames(QtCore.QObject):
             self._settle_chunk = int(min(max(SETTLE_SLICE / max(per, 1e-6), 1), 30))
         if done:
             self.settle_timer.stop()
-            w.after_drag()
+            w.posing.after_drag()
 
     def finish(self) -> None:
         """Complete a frame or a settle under way now (before anything reads or changes the pose)."""
@@ -252,7 +276,11 @@ class DragFrames(QtCore.QObject):
         if s is not None and s.settling:
             s.finish_settle()
             self.settle_timer.stop()
-            self.w.after_drag()
+            self.w.posing.after_drag()
+
+    def flush(self) -> None:
+        """Hand the frames under way over now (drawn), before the scene is drawn from the session."""
+        self.frames.flush()
 
     def stop(self) -> None:
         """No more frames or settling (the window closes)."""

@@ -6,7 +6,7 @@ VTK's camera style (left: rotate in Camera mode, middle: pan, right / wheel:
 zoom; Alt + left rotates in any mode). Key events never reach VTK: the window's
 shortcuts handle the keyboard.
 
-The controller turns gestures into calls on a :class:`Handler` (the window).
+The controller turns gestures into calls on a :class:`SelectionHandler` and a :class:`DragHandler`.
 
 Selection takes what the user points at, as in Blender and MeshLab: the cage
 points in sight, and with them, for the rectangle and the brush, the part they
@@ -29,7 +29,7 @@ touches a cage point: a stroke over empty space changes nothing.
 from __future__ import annotations
 
 import time
-from typing import Protocol
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 from qtpy import QtCore, QtGui
@@ -65,19 +65,26 @@ a ray cast to the creature from five directions (5,028 cage points, 2,000-2,800 
 2 pixels, taking the farthest depth around, took 72-182 points more than 3 cage edges behind."""
 
 
-class Handler(Protocol):
-    """What the controller asks of the window."""
+@runtime_checkable
+class SelectionHandler(Protocol):
+    """What the controller's selection gestures call (the window's :class:`~..window.selecting.Selecting`)."""
 
     def cage_points(self) -> np.ndarray | None: ...
     def cage_edges(self) -> np.ndarray | None: ...
-    def handle_center(self) -> np.ndarray | None: ...
     def begin_select(self) -> bool: ...
     def select_hits(self, hits: np.ndarray, op: str) -> None: ...
     def end_select(self) -> None: ...
     def missed(self) -> None: ...  # a click took no cage point: the selection stays
-    def begin_drag(self) -> bool: ...
-    def drag(self, D: np.ndarray) -> None: ...
-    def end_drag(self) -> None: ...
+
+
+@runtime_checkable
+class DragHandler(Protocol):
+    """What the controller's drag gestures call (the window's :class:`~.drags.DragFrames`)."""
+
+    def handle_center(self) -> np.ndarray | None: ...
+    def begin(self) -> bool: ...
+    def move(self, D: np.ndarray) -> None: ...
+    def end(self) -> None: ...
 
 
 class Gesture:
@@ -105,14 +112,17 @@ class ViewController(QtCore.QObject):
 
     Parameters
     ----------
-    view : the 3D view widget; scene : its actors; handler : the window.
+    view : the 3D view widget; scene : its actors.
+    selection : what the selection gestures call (:class:`SelectionHandler`).
+    drags : what the drag gestures call (:class:`DragHandler`).
     """
 
-    def __init__(self, view: View, scene: Scene, handler: Handler) -> None:
+    def __init__(self, view: View, scene: Scene, selection: SelectionHandler, drags: DragHandler) -> None:
         super().__init__(view)
         self.view = view
         self.scene = scene
-        self.handler = handler
+        self.selection = selection
+        self.drags = drags
         self.mode = CAMERA
         self.target_color = QtGui.QColor(60, 190, 70)
         self.tool = RECTANGLE
@@ -181,9 +191,9 @@ class ViewController(QtCore.QObject):
         self.gesture = None
         self.rubber.hide()
         if g.kind in ("gizmo", "plane"):
-            self.handler.end_drag()
+            self.drags.end()
         elif g.kind == "brush":
-            self.handler.end_select()
+            self.selection.end_select()
 
     # ------------------------------------------------------------------ events
     def eventFilter(self, obj: QtCore.QObject, ev: QtCore.QEvent) -> bool:  # noqa: N802
@@ -266,8 +276,8 @@ class ViewController(QtCore.QObject):
 
     def _start_select(self, pos: QtCore.QPointF, d: tuple[float, float], C: np.ndarray,
                       size: tuple[int, int], mods) -> bool:
-        P = self.handler.cage_points()
-        if P is None or not self.handler.begin_select():
+        P = self.selection.cage_points()
+        if P is None or not self.selection.begin_select():
             return True
         g = Gesture(self.tool, pos, d)
         g.op = op_from_modifiers(bool(mods & QtCore.Qt.KeyboardModifier.ShiftModifier),
@@ -276,7 +286,7 @@ class ViewController(QtCore.QObject):
         g.display, g.front = project_points(P, C, size)
         take = self.takeable(P, C, size, g.display, g.front)
         g.in_front = g.front if take is None else take  # (no depth to be had: everything in front)
-        g.edges = self.handler.cage_edges()
+        g.edges = self.selection.cage_edges()
         self.gesture = g
         if g.kind != RECTANGLE:  # (the rectangle is shown once the mouse moves: a click shows none)
             r = self.brush_radius * self.view.devicePixelRatioF()
@@ -296,17 +306,17 @@ class ViewController(QtCore.QObject):
         and adds the rest to it: a stroke over empty space changes nothing."""
         if not hits.any():
             return
-        self.handler.select_hits(hits, g.op)
+        self.selection.select_hits(hits, g.op)
         if g.op == REPLACE:
             g.op = ADD
 
     def _start_drag(self, kind: str, pos: QtCore.QPointF, d: tuple[float, float], C: np.ndarray,
                     size: tuple[int, int], part: gz.Part | None) -> bool:
-        if not self.handler.begin_drag():  # the window explains why (e.g. an empty handle)
+        if not self.drags.begin():  # the window explains why (e.g. an empty handle)
             return True
-        center = self.handler.handle_center()
+        center = self.drags.handle_center()
         if center is None:
-            self.handler.end_drag()
+            self.drags.end()
             return True
         g = Gesture(kind, pos, d)
         g.part, g.composite, g.size = part, C, size
@@ -333,7 +343,7 @@ class ViewController(QtCore.QObject):
             self._dab(g, self._taken(g, stroke_hits(g.display, g.front, g.last, d, r)))
             self.view.brush.show_at(pos, self.brush_radius, self.target_color)
         else:
-            self.handler.drag(self._drag_transform(g, d))
+            self.drags.move(self._drag_transform(g, d))
         g.last = d
         return True
 
@@ -367,18 +377,18 @@ class ViewController(QtCore.QObject):
             if self._is_click(g, d):
                 hit = nearest_hit(g.display, g.in_front, g.start, PICK_PIXELS * self.view.devicePixelRatioF())
                 if hit.any():
-                    self.handler.select_hits(hit, g.op)
+                    self.selection.select_hits(hit, g.op)
                 else:  # a click on empty space: the selection stays
-                    self.handler.missed()
+                    self.selection.missed()
             else:
-                self.handler.select_hits(self._taken(g, rectangle_hits(g.display, g.front, g.start, d)), g.op)
-            self.handler.end_select()
+                self.selection.select_hits(self._taken(g, rectangle_hits(g.display, g.front, g.start, d)), g.op)
+            self.selection.end_select()
         elif g.kind == BRUSH:
-            self.handler.end_select()
+            self.selection.end_select()
         else:
             if d != g.last:
-                self.handler.drag(self._drag_transform(g, d))
-            self.handler.end_drag()
+                self.drags.move(self._drag_transform(g, d))
+            self.drags.end()
         self._hover(pos)
         return True
 
@@ -386,7 +396,7 @@ class ViewController(QtCore.QObject):
         """In Select mode, draw the cage points near the cursor (the others only when selected)."""
         near = None
         if pos is not None and self.mode == SELECT:
-            P = self.handler.cage_points()
+            P = self.selection.cage_points()
             if P is not None:
                 C, size = self._matrices()
                 display, front = project_points(P, C, size)
@@ -396,7 +406,7 @@ class ViewController(QtCore.QObject):
                     self.view.request_render()
                 r = max(NEAR_PIXELS, 1.5 * self.brush_radius) * self.view.devicePixelRatioF()
                 near = brush_hits(display, front, self.view.to_display(pos), r)
-                edges = None if self.select_through else self.handler.cage_edges()
+                edges = None if self.select_through else self.selection.cage_edges()
                 near = near & take if edges is None else through_the_part(near, near & take, edges)
         if self.scene.set_points_near(near):
             self.view.request_render()

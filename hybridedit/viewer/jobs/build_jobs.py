@@ -3,7 +3,7 @@ with the status bar's progress bar and Cancel button, and the message that says 
 
 The work runs in a :class:`~.build_worker.BuildWorker` thread; this module starts it, follows its
 signals on the UI thread and hands a finished build to the window, which puts it on display
-(:meth:`~..window.main_window.MainWindow.install_build`). A cancelled or failed build leaves the shape and
+(:meth:`~..window.shape_loading.ShapeLoading.install_build`). A cancelled or failed build leaves the shape and
 the edit on display as they were.
 
 The cage size of a build (:func:`build_size`): a vertex count is checked against the shape before
@@ -31,7 +31,16 @@ from .threads import release
 if TYPE_CHECKING:
     from ...core.mesh import Mesh
     from ..model.session import Session
-    from ..window.status_widgets import StatusRow
+
+
+@runtime_checkable
+class Row(Protocol):
+    """The status bar's row of fields, where the progress bar and the Cancel button go
+    (:class:`~..window.status_widgets.StatusRow`)."""
+
+    def add(self, widget: QtWidgets.QWidget, priority: int, *, preferred: int | None = None,
+            minimum: int | None = None, wanted: bool = True) -> None: ...
+    def set_wanted(self, widget: QtWidgets.QWidget, wanted: bool) -> None: ...
 
 
 @runtime_checkable
@@ -57,6 +66,33 @@ class Says(Protocol):
 
 
 @runtime_checkable
+class CageBox(Protocol):
+    """The toolbar's cage size box as a build sees it (:class:`~..window.cage_size_box.CageSizeControl`)."""
+
+    @property
+    def of_shape(self) -> bool: ...  # it shows the cage size of the shape on display, not a size chosen since
+    def value(self) -> int | float: ...
+    def set_value(self, size: int | float, *, of_shape: bool = False) -> None: ...
+
+
+@runtime_checkable
+class Settles(Protocol):
+    """The window's pose side as a build sees it: a settle under way completed first."""
+
+    def finish_settle(self) -> None: ...
+
+
+@runtime_checkable
+class Shows(Protocol):
+    """The window's loading as a build sees it (:class:`~..window.shape_loading.ShapeLoading`): a new
+    shape shown while it is built, a finished build installed, or the shape before put back."""
+
+    def install_build(self, result: BuildResult) -> tuple[bool, str | None]: ...
+    def preview_shape(self, mesh: "Mesh", look, up: tuple[str, bool, str]) -> None: ...
+    def end_preview(self) -> None: ...
+
+
+@runtime_checkable
 class BuildHost(Protocol):
     """What :class:`BuildJobs` asks of the window (:class:`~..window.main_window.MainWindow`)."""
 
@@ -68,15 +104,14 @@ class BuildHost(Protocol):
     def controller(self) -> Cancels: ...
     @property
     def polisher(self) -> Cancels: ...
-    def cage_size(self) -> int | float: ...
-    def set_cage_size(self, size: int | float, *, of_shape: bool = False) -> None: ...
-    def cage_size_of_shape(self) -> bool: ...
+    @property
+    def cage_control(self) -> CageBox: ...
+    @property
+    def posing(self) -> Settles: ...
+    @property
+    def loading(self) -> Shows: ...
     @property
     def status(self) -> Says: ...
-    def finish_settle(self) -> None: ...
-    def install_build(self, result: BuildResult) -> tuple[bool, str | None]: ...
-    def preview_shape(self, mesh: "Mesh", look, up: tuple[str, bool, str]) -> None: ...
-    def end_preview(self) -> None: ...
 
 
 def built_message(result: BuildResult, session: "Session", rebuilt: bool, note: str | None = None) -> str:
@@ -221,7 +256,7 @@ class BuildJobs(QtCore.QObject):
         self.progress.setTextVisible(True)
         self.cancel_button = QtWidgets.QPushButton("Cancel")
         self.cancel_button.clicked.connect(self.cancel)
-        self._row: StatusRow | None = None
+        self._row: Row | None = None
 
     @property
     def busy(self) -> bool:
@@ -231,7 +266,7 @@ class BuildJobs(QtCore.QObject):
     """The progress bar's width when there is room; it shrinks to :attr:`PROGRESS_MIN` in a narrow window."""
     PROGRESS_MIN = 120
 
-    def place_in(self, row: StatusRow) -> None:
+    def place_in(self, row: Row) -> None:
         """Put the progress bar and the Cancel button at the right of the status bar's ``row``, first in
         priority (the fields give way to them), hidden until a job runs."""
         self._row = row
@@ -250,8 +285,8 @@ class BuildJobs(QtCore.QObject):
     def _size(self, new_shape: bool, n_vertices: int | None) -> int | float:
         """The size for the build about to start: shown in the box, and said when it is not the box's."""
         w = self.w
-        asked = w.cage_size()
-        size, note = build_size(asked, w.session is not None and w.cage_size_of_shape(), new_shape, n_vertices)
+        asked = w.cage_control.value()
+        size, note = build_size(asked, w.session is not None and w.cage_control.of_shape, new_shape, n_vertices)
         self.size_note = note
         self._show_size(asked, size, note)
         return size
@@ -259,16 +294,16 @@ class BuildJobs(QtCore.QObject):
     def _show_size(self, asked: int | float, size: int | float, note: str | None) -> None:
         w = self.w
         if size != asked or type(size) is not type(asked):
-            before = self._box_before or (asked, w.cage_size_of_shape(), size)
+            before = self._box_before or (asked, w.cage_control.of_shape, size)
             self._box_before = (before[0], before[1], size)
-            w.set_cage_size(size)
+            w.cage_control.set_value(size)
         if note:
             w.status.message(f"Cage size: {note}.")
 
     def _size_fitted(self, size: int | float, note: str) -> None:
         """The build thread read the file: its vertex count was too many for the shape."""
         self.size_note = note
-        self._show_size(self.w.cage_size(), size, note)
+        self._show_size(self.w.cage_control.value(), size, note)
 
     # ------------------------------------------------------------------ starting
     def open_file(self, path: str | os.PathLike) -> bool:
@@ -300,7 +335,7 @@ class BuildJobs(QtCore.QObject):
         w = self.w
         # the settle only, not the polish: the settled pose is what the question below may save; a rebuild
         # refused there (Cancel) leaves a polish under way running, and one that goes ahead stops it in start()
-        w.finish_settle()
+        w.posing.finish_settle()
         s = w.session
         if s is None:
             w.status.show_error("Rebuild cage", "Open a mesh first.")
@@ -377,7 +412,7 @@ class BuildJobs(QtCore.QObject):
     def _shape_read(self, mesh, look, up) -> None:
         """The job read a new shape: the window shows it while the cage and binding are built."""
         if self.worker is not None and not self.worker.cancel_requested:
-            self.w.preview_shape(mesh, look, up)
+            self.w.loading.preview_shape(mesh, look, up)
 
     def _succeeded(self, result: BuildResult) -> None:
         w = self.w
@@ -385,31 +420,31 @@ class BuildJobs(QtCore.QObject):
             result.look = self.worker.look  # (read before the build, which started from the shape read)
         self._box_before = None  # the box shows the new cage's size (install_build)
         try:
-            rebuilt, note = w.install_build(result)
+            rebuilt, note = w.loading.install_build(result)
             note = "; ".join(n for n in (self.size_note, note) if n) or None
             w.status.message(built_message(result, w.session, rebuilt, note))
         except Exception as e:  # noqa: BLE001
-            w.end_preview()  # (the shape on display before comes back)
+            w.loading.end_preview()  # (the shape on display before comes back)
             w.status.show_error("Could not show the shape", f"{e.__class__.__name__}: {e}")
 
     def _failed(self, message: str) -> None:
-        self.w.end_preview()
+        self.w.loading.end_preview()
         req = self.worker.request if self.worker is not None else None
         rebuilding = req is not None and req.rebuild
         self.w.status.show_error("Could not rebuild the cage" if rebuilding else "Could not open the mesh", message)
 
     def _cancelled(self) -> None:
-        self.w.end_preview()
+        self.w.loading.end_preview()
         self.w.status.message("Cancelled; the current shape and edit are unchanged.")
 
     def _finished(self) -> None:
         job, self.worker = self.worker, None
         release(job)
-        self.w.end_preview()  # (a job that showed a shape and did not install it: the one before is back)
+        self.w.loading.end_preview()  # (a job that showed a shape and did not install it: the one before is back)
         if self._box_before is not None:  # not built: the box goes back to what it had (unless changed since)
             asked, of_shape, set_here = self._box_before
-            if self.w.cage_size() == set_here:
-                self.w.set_cage_size(asked, of_shape=of_shape)
+            if self.w.cage_control.value() == set_here:
+                self.w.cage_control.set_value(asked, of_shape=of_shape)
         self._box_before = None
         self.size_note = None
         self._show_bar(False)

@@ -83,6 +83,14 @@ class ShortcutsDialog(QtWidgets.QDialog):
 
 
 @runtime_checkable
+class PolishShown(Protocol):
+    """The window's pose side as Mesh Info sees it: the latest polish on display."""
+
+    @property
+    def last_polish(self) -> PolishOutcome | None: ...
+
+
+@runtime_checkable
 class InfoSource(Protocol):
     """What :class:`InfoDialogs` reads of the window (:class:`~.main_window.MainWindow`)."""
 
@@ -91,7 +99,7 @@ class InfoSource(Protocol):
     @property
     def session(self) -> Session | None: ...
     @property
-    def last_polish(self) -> PolishOutcome | None: ...
+    def posing(self) -> PolishShown: ...
 
 
 class InfoDialogs:
@@ -129,7 +137,7 @@ class InfoDialogs:
     def mesh_info(self) -> QtWidgets.QMessageBox:
         """File ▸ Mesh Info: counts and repairs (:func:`mesh_info_text`), in a non-modal box."""
         box = QtWidgets.QMessageBox(QtWidgets.QMessageBox.Icon.Information, "Mesh info",
-                                    mesh_info_text(self.w.session, self.w.last_polish),
+                                    mesh_info_text(self.w.session, self.w.posing.last_polish),
                                     QtWidgets.QMessageBox.StandardButton.Ok, self.parent)
         box.setAttribute(QtCore.Qt.WidgetAttribute.WA_DeleteOnClose)
         box.setModal(False)

@@ -114,6 +114,28 @@ class Unsaved(Protocol):
 
 
 @runtime_checkable
+class Opens(Protocol):
+    """The window's loading as the file actions see it: File ▸ Open."""
+
+    def open_path(self, path: str | os.PathLike) -> bool: ...
+
+
+@runtime_checkable
+class Guard(Protocol):
+    """The window's pose side as the file actions see it (:class:`~.posing.Posing`)."""
+
+    def finish_settle(self) -> None: ...
+    def settle_and_stop_polish(self) -> None: ...
+
+
+@runtime_checkable
+class RedrawsAll(Protocol):
+    """The scene's upkeep as the file actions see it: a loaded edit shown."""
+
+    def refresh_all(self) -> None: ...
+
+
+@runtime_checkable
 class FileHost(Protocol):
     """What :class:`FileActions` asks of the window (:class:`~.main_window.MainWindow`)."""
 
@@ -124,13 +146,15 @@ class FileHost(Protocol):
     @property
     def view(self) -> Screenshots: ...
     @property
+    def loading(self) -> Opens: ...
+    @property
+    def posing(self) -> Guard: ...
+    @property
+    def sync(self) -> RedrawsAll: ...
+    @property
     def status(self) -> Says: ...
     @property
     def unsaved(self) -> Unsaved: ...
-    def open_path(self, path: str | os.PathLike) -> bool: ...
-    def finish_settle(self) -> None: ...
-    def settle_and_stop_polish(self) -> None: ...
-    def refresh_all(self) -> None: ...
 
 
 def edit_summary(edit) -> str:
@@ -231,7 +255,7 @@ class FileActions:
         start = str(s.path.parent) if s and s.path else os.getcwd()
         path, _ = QtWidgets.QFileDialog.getOpenFileName(self.parent, "Open mesh", start, MESH_FILTER)
         if path:
-            self.w.open_path(path)
+            self.w.loading.open_path(path)
 
     def save(self) -> bool:
         if self.session is None:
@@ -266,7 +290,7 @@ class FileActions:
         w = self.w
         # the settle only, not the polish: saving reads the pose and changes nothing (a polish under way
         # goes on, and shows its result when it ends)
-        w.finish_settle()
+        w.posing.finish_settle()
         s = self.session
         if s is None:
             return False
@@ -318,7 +342,7 @@ class FileActions:
     def save_edit_to(self, path: str | os.PathLike) -> bool:
         """Write how the pose on screen was made (every step since the rest pose) as a JSON edit file."""
         w = self.w
-        w.finish_settle()  # the settle only, not the polish: as save_to, this reads and changes nothing
+        w.posing.finish_settle()  # the settle only, not the polish: as save_to, this reads and changes nothing
         s = self.session
         if s is None:
             return False
@@ -355,7 +379,7 @@ class FileActions:
             return False
         if w.controller.busy:
             return False
-        w.settle_and_stop_polish()
+        w.posing.settle_and_stop_polish()
         try:
             edit = load_edit(path)
             s.load_edit(edit, path=str(path))
@@ -364,7 +388,7 @@ class FileActions:
             return False
         self.edit_path = Path(path)
         w.unsaved.set_modified(True)
-        w.refresh_all()
+        w.sync.refresh_all()
         w.status.message(f"Applied {Path(path).name}: {edit_summary(edit)}.{cage_note(edit, s.editor.cage.n_vertices)}")
         return True
 

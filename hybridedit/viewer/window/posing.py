@@ -1,20 +1,88 @@
-"""Posing in the window: the drag gestures the view controller reports (run by
-:class:`~..input.drags.DragFrames`), the settle after a drag, the polish on release and its result, and
-the one guard before anything changes the pose or the selection (:meth:`PosingMixin.settle_and_stop_polish`).
+"""The pose in the window after a drag: the one guard before anything changes the pose or the
+selection (:meth:`Posing.settle_and_stop_polish`), the settle on release, the polish on release and
+its result on display.
+
+The drags themselves, frame by frame, are :class:`~..input.drags.DragFrames`'.
 """
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
+
 import numpy as np
-from qtpy import QtCore
+from qtpy import QtGui
 
-from ..input.frame_thread import FrameThread
-from ..jobs.polish_worker import PolishOutcome
+if TYPE_CHECKING:
+    from ..jobs.polish_worker import PolishOutcome
+    from ..model.session import Session
 
 
-class PosingMixin:
-    """The pose side of a :class:`~.main_window.MainWindow` (a mixin): it hands drags to ``dragging``, polish
-    to ``polisher``, and shows their results (``_refresh_pose``, ``measure``, the status bar).
+@runtime_checkable
+class Finishes(Protocol):
+    """The drags as the pose side sees them: a frame or a settle under way completed now."""
+
+    def finish(self) -> None: ...
+
+
+@runtime_checkable
+class Polisher(Protocol):
+    """The polish scheduler as the pose side sees it (:class:`~..jobs.polish_scheduler.PolishScheduler`)."""
+
+    enabled: bool
+    def start(self, session: Session) -> bool: ...
+    def cancel(self) -> None: ...
+
+
+@runtime_checkable
+class Redraws(Protocol):
+    """The scene's upkeep as the pose side sees it (:class:`~.scene_sync.SceneSync`)."""
+
+    def refresh_pose(self) -> None: ...
+    def show_shape(self) -> None: ...
+
+
+@runtime_checkable
+class Says(Protocol):
+    """The status bar as the pose side sees it."""
+
+    def message(self, text: str) -> None: ...
+    def show_polishing(self) -> None: ...
+
+
+@runtime_checkable
+class Actions(Protocol):
+    """The window's actions as the pose side sees them: Settle and Polish on Release, and the rest enabled."""
+
+    def __getitem__(self, name: str) -> QtGui.QAction: ...
+    def refresh(self) -> None: ...
+
+
+@runtime_checkable
+class PosingHost(Protocol):
+    """What :class:`Posing` asks of the window (:class:`~.main_window.MainWindow`)."""
+
+    @property
+    def session(self) -> Session | None: ...
+    @property
+    def dragging(self) -> Finishes: ...
+    @property
+    def polisher(self) -> Polisher: ...
+    @property
+    def sync(self) -> Redraws: ...
+    @property
+    def status(self) -> Says: ...
+    @property
+    def actions_(self) -> Actions: ...
+
+
+class Posing:
+    """The pose side of a :class:`~.main_window.MainWindow`: the guard, what follows a drag (the final
+    pose shown, a polish started), the polish's result adopted and shown, and Edit ▸ Settle / Polish
+    on Release.
+
+    Parameters
+    ----------
+    window : the window, as far as the pose side needs it (:class:`PosingHost`).
 
     Attributes
     ----------
@@ -22,45 +90,14 @@ class PosingMixin:
     last_polish : the latest polish shown (:class:`~..jobs.polish_worker.PolishOutcome`), or None.
     """
 
-    # cage_points and handle_center complete the settle only, not the guard: they read the pose and change
-    # nothing (cage_points also runs on every mouse move in Select mode, to draw the points near the cursor,
-    # which must not stop a polish); a gesture cancels the polish when it begins (begin_select, begin_drag)
-    def cage_points(self) -> np.ndarray | None:
-        """(c, 3) the cage's pose (a settle under way is completed first), or None without a shape."""
-        self.finish_settle()
-        return None if self.session is None else self.session.cage_positions
-
-    def handle_center(self) -> np.ndarray | None:
-        """(3,) the active handle group's centroid (where the gizmo is), or None."""
-        self.finish_settle()
-        return None if self.session is None else self.session.handle_centroid()
-
-    # ------------------------------------------------------------------ drags (called by the view controller)
-    def begin_drag(self) -> bool:
-        """A drag gesture begins (:meth:`~..input.drags.DragFrames.begin`); False: nothing to drag (said why)."""
-        return self.dragging.begin()
-
-    def drag(self, D: np.ndarray) -> None:
-        """The handle's (4, 4) transform ``D`` since the drag began."""
-        self.dragging.move(D)
-
-    def end_drag(self) -> None:
-        """The button was released: the settle in slices when it is on, then :meth:`after_drag`."""
-        self.dragging.end()
-
-    @property
-    def frames(self) -> FrameThread:
-        """The drag frames' thread."""
-        return self.dragging.frames
-
-    @property
-    def settle_timer(self) -> QtCore.QTimer:
-        """The timer that settles the pose in slices after a drag."""
-        return self.dragging.settle_timer
+    def __init__(self, window: PosingHost) -> None:
+        self.w = window
+        self.settle_on_release = True
+        self.last_polish: PolishOutcome | None = None
 
     def finish_settle(self) -> None:
         """Complete a drag frame or a settle under way now (before anything reads or changes the pose)."""
-        self.dragging.finish()
+        self.w.dragging.finish()
 
     def settle_and_stop_polish(self) -> None:
         """The guard before anything that changes the pose or the selection (undo, a gesture, an edit file, ...).
@@ -70,49 +107,55 @@ class PosingMixin:
         of a pose or a selection that is gone. The places that do only one of the two say why.
         """
         self.finish_settle()
-        self.polisher.cancel()
+        self.w.polisher.cancel()
 
     def after_drag(self) -> None:
         """A drag ended and settled: show the final pose, and polish it when that is on."""
-        self._refresh_pose()
-        self._update_actions()
-        if self.session is not None and self.polisher.start(self.session):
-            self.status.show_polishing()
+        w = self.w
+        w.sync.refresh_pose()
+        w.actions_.refresh()
+        if w.session is not None and w.polisher.start(w.session):
+            w.status.show_polishing()
 
-    def _toggle_settle(self) -> None:
-        self.settle_on_release = self.actions_["settle"].isChecked()
-        if self.session is not None:
-            self.session.settle_on_release = self.settle_on_release
+    def toggle_settle(self) -> None:
+        """Edit ▸ Settle on Release, for this session and the next ones."""
+        w = self.w
+        self.settle_on_release = w.actions_["settle"].isChecked()
+        if w.session is not None:
+            w.session.settle_on_release = self.settle_on_release
 
     # ------------------------------------------------------------------ polish on release (worker thread)
     @property
     def polished(self) -> np.ndarray | None:
         """The polished pose on display, (n, 3), or None."""
-        return None if self.session is None else self.session.polished
+        s = self.w.session
+        return None if s is None else s.polished
 
     def drop_polished(self) -> None:
         """A drag starts: the pose on display (polished or not, the engine's own) is no longer called polished."""
-        s = self.session
+        s = self.w.session
         if s is not None:
             s.polished = None
 
-    def _toggle_polish(self) -> None:
-        self.polisher.enabled = self.actions_["polish"].isChecked()
-        if not self.polisher.enabled:
+    def toggle_polish(self) -> None:
+        """Edit ▸ Polish on Release."""
+        w = self.w
+        w.polisher.enabled = w.actions_["polish"].isChecked()
+        if not w.polisher.enabled:
             # the polish only: switching it off changes neither the pose nor the selection, so a settle
             # under way goes on
-            self.polisher.cancel()
+            w.polisher.cancel()
 
-    def _polish_succeeded(self, out: PolishOutcome) -> None:
-        s = self.session
+    def show_polish(self, out: PolishOutcome) -> None:
+        """A current polish result: the engine's pose from now on (the next edit starts from it), shown."""
+        w = self.w
+        s = w.session
         if s is None:
             return
         self.last_polish = out
-        s.adopt_polish(out.request.job, out.result)  # the engine's pose from now on: the next edit starts from it
-        self.scene.update_shape(s.shown_positions, everything=True)
-        self._pose_shown_changed()
-        self.view.request_render()
+        s.adopt_polish(out.request.job, out.result)
+        w.sync.show_shape()
         r = out.result
-        self._update_actions()
-        self.status.message(f"polished: {r.iterations} iterations, edge error {out.error_before:.2f}% → "
-                     f"{out.error_after:.2f}% ({out.seconds:.2f} s); Ctrl+Z undoes the polish")
+        w.actions_.refresh()
+        w.status.message(f"polished: {r.iterations} iterations, edge error {out.error_before:.2f}% → "
+                         f"{out.error_after:.2f}% ({out.seconds:.2f} s); Ctrl+Z undoes the polish")

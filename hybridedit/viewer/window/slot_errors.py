@@ -16,7 +16,7 @@ def guarded(method: Callable) -> Callable:
         try:
             return method(self, *args, **kwargs)
         except Exception as e:  # noqa: BLE001
-            getattr(self, "w", self).status.show_error("Unexpected error", f"{e.__class__.__name__}: {e}")
+            self.w.status.show_error("Unexpected error", f"{e.__class__.__name__}: {e}")
             return None
 
     return wrapper

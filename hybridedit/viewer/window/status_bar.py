@@ -52,6 +52,13 @@ class Busy(Protocol):
 
 
 @runtime_checkable
+class Progress(Protocol):
+    """The build jobs as the status bar sees them: their progress bar and Cancel button go in its row."""
+
+    def place_in(self, row: StatusRow) -> None: ...
+
+
+@runtime_checkable
 class StatusHost(Protocol):
     """What :class:`StatusBar` reads of the window (:class:`~.main_window.MainWindow`)."""
 
@@ -63,6 +70,8 @@ class StatusHost(Protocol):
     def view(self) -> RenderStats: ...
     @property
     def polisher(self) -> Busy: ...
+    @property
+    def jobs(self) -> Progress: ...
     @property
     def actions_(self) -> Mapping[str, QtGui.QAction]: ...  # View ▸ Messages
 
@@ -109,6 +118,7 @@ class StatusBar:
         self.row = StatusRow(reserve=lambda: self.message_label.minimumWidth() + 40)
         for priority, field in ((4, self.time_label), (3, self.size_label), (2, self.sel_label), (1, self.error_label)):
             self.row.add(field, priority)
+        self.w.jobs.place_in(self.row)  # the build's progress bar and Cancel button
         sb.addPermanentWidget(self.row)
         self.log = QtWidgets.QPlainTextEdit()
         self.log.setReadOnly(True)
