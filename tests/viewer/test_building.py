@@ -7,12 +7,10 @@ gate where a test needs it to last (a fake ``build_rig`` that reports progress u
 from __future__ import annotations
 
 import threading
-import time
 from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
-import pytest
 from qtpy import QtCore, QtWidgets
 
 from hybridedit.viewer.jobs import build_worker as worker_module
@@ -20,33 +18,13 @@ from hybridedit.viewer.jobs.build_jobs import build_size, built_message
 from hybridedit.viewer.model.cage_size import DEFAULT_SIZE, MAX_SHARE, fit_cage_size
 from hybridedit.viewer.window.main_window import MainWindow
 from hybridedit.viewer.jobs.build_worker import BuildRequest
-from test_window import wait_loaded, win  # noqa: F401 (fixture)
+from support.window_driving import wait_loaded
 
 Qt = QtCore.Qt
 JOB_ACTIONS = ("open", "rebuild", "load_edit")
 
 
 # ---------------------------------------------------------------------------- helpers
-
-
-@pytest.fixture
-def gate(monkeypatch) -> threading.Event:
-    """Builds report "building the cage" then "binding" and wait there (still reporting) until the
-    gate is set, then build for real; a cancel stops them at their next report."""
-    real = worker_module.build_rig
-    gate = threading.Event()
-
-    def build_rig(mesh, *, cage_size, cache, progress):
-        progress("building the cage", 0.5)
-        time.sleep(0.06)  # (reports of one stage closer than 50 ms apart are merged)
-        progress("binding", 0.25)
-        while not gate.wait(0.02):
-            progress("binding", 0.25)  # raises Cancelled once cancelled
-        return real(mesh, cage_size=cage_size, cache=cache, progress=progress)
-
-    monkeypatch.setattr(worker_module, "build_rig", build_rig)
-    yield gate
-    gate.set()  # never leave a thread waiting
 
 
 def record_errors(w: MainWindow, monkeypatch) -> list[tuple[str, str]]:

@@ -12,7 +12,6 @@ from qtpy import QtCore, QtWidgets
 
 from hybridedit.viewer.window.dialogs import mesh_info_text
 from hybridedit.viewer.window.help_texts import ABOUT, HOWTO
-from test_window import win  # noqa: F401 (fixture)
 
 
 def fake_session(path=None, notes=()):

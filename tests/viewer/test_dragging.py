@@ -10,8 +10,7 @@ import numpy as np
 from qtpy import QtCore
 
 from hybridedit.viewer.input import drags as dragging
-from test_window import win  # noqa: F401 (fixture)
-from test_window_polish import handle_point, select_tip
+from support.window_driving import handle_point, select_tip_to_drag
 
 Qt = QtCore.Qt
 
@@ -20,7 +19,7 @@ def test_window_drag_frames_show_the_engine_pose_mid_drag_and_failures_undo(qtbo
     w = win
     s = w.session
     rest = s.shape_positions.copy()
-    select_tip(qtbot, w)
+    select_tip_to_drag(qtbot, w)
     a = handle_point(w)
     qtbot.mousePress(w.view, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier, a)
     for k in range(1, 5):
@@ -68,7 +67,7 @@ def test_edge_error_a_few_times_a_second_and_every_frame_with_the_stretch_map(qt
     w = win
     w.polisher.enabled = False
     s = w.session
-    select_tip(qtbot, w)
+    select_tip_to_drag(qtbot, w)
     monkeypatch.setattr(dragging, "ERROR_INTERVAL", 60.0)  # at most once in this drag
     measured = []
     ui = threading.get_ident()
@@ -98,7 +97,7 @@ def test_a_release_settles_in_slices_and_finish_completes_it_at_once(qtbot, win)
     w = win
     w.polisher.enabled = False
     s = w.session
-    select_tip(qtbot, w)
+    select_tip_to_drag(qtbot, w)
     end = _press_and_move(qtbot, w, 4, step=15)
     qtbot.mouseRelease(w.view, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier, end)
     assert s.settling and w.dragging.settle_timer.isActive()  # the last interactive frame stays on screen meanwhile
@@ -114,7 +113,7 @@ def test_a_move_while_a_frame_waits_to_be_drawn_is_computed_beside_that_render(q
     window has to wait for gets every core."""
     w = win
     w.polisher.enabled = False
-    select_tip(qtbot, w)
+    select_tip_to_drag(qtbot, w)
     asked = []
     submit = w.dragging.frames.submit
     monkeypatch.setattr(w.dragging.frames, "submit", lambda job, *, beside_render=False: (

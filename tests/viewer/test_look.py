@@ -14,6 +14,7 @@ from hybridedit.deform.roles import FIXED, FREE
 from hybridedit.viewer.render.look import look_of
 from hybridedit.core.region_metrics import ShapeMetrics
 from hybridedit.viewer.render.scene import Scene
+from support.window_driving import key, mouse_drag, projected, settled, to_widget
 
 CHECKER_A = (230, 40, 40)  # red squares
 CHECKER_B = (40, 60, 220)  # blue squares
@@ -193,6 +194,7 @@ def test_vertex_colours_are_shown(tmp_path):
     assert (plain[..., 0] - plain[..., 1] > 80).mean() < 0.001
 
 
+@pytest.mark.slow  # (a new process: Python, VTK and a cage build of its own)
 def test_the_screenshot_shows_the_asset_as_the_window_does(tmp_path):
     """`hybridedit --screenshot`: a textured OBJ with its texture's two colours, a PLY with its vertex colours."""
     import subprocess
@@ -222,7 +224,6 @@ def test_the_window_opens_a_textured_file_textured_and_keeps_it_through_a_drag(q
     from qtpy import QtCore
 
     from hybridedit.viewer.window.main_window import MainWindow
-    from test_window import key, mouse_drag, projected, settled, to_widget
 
     Qt = QtCore.Qt
     path = uv_sphere_obj(tmp_path)

@@ -7,7 +7,7 @@ from qtpy import QtCore
 
 from hybridedit.deform.roles import FIXED
 from hybridedit.viewer.render.palette import SHAPE_COLOR
-from test_window import key, projected, to_widget, win  # noqa: F401 (fixture)
+from support.window_driving import drag_tip, key, projected, to_widget
 
 Qt = QtCore.Qt
 
@@ -78,7 +78,6 @@ def test_a_dense_cage_draws_small_points_and_they_grow_as_the_view_zooms_in(qtbo
 def test_undoing_a_drag_keeps_the_shapes_parts_and_a_new_selection_remakes_them(qtbot, win):
     """The shape's parts (one actor per role) are remade only when the roles change: undoing a drag
     (same selection) redraws the rest pose in the same parts; selecting something else splits anew."""
-    from test_window_files import drag_tip
 
     w = win
     s = w.session

@@ -8,10 +8,9 @@ import pytest
 from qtpy import QtCore
 
 from hybridedit import cli
-from hybridedit.fileio.meshfiles import read_mesh, write_mesh
-from hybridedit.core.mesh import Mesh
+from hybridedit.fileio.meshfiles import read_mesh
 from hybridedit.viewer.window.main_window import MainWindow
-from test_window import CAGE, key, mouse_drag, projected, settled, to_widget, wait_loaded, win  # noqa: F401 (fixture)
+from support.window_driving import CAGE, handle_point, key, mouse_drag, polished, settled, wait_loaded
 
 Qt = QtCore.Qt
 
@@ -23,21 +22,11 @@ def select(w: MainWindow, roi: np.ndarray, handle: np.ndarray) -> None:
     w.sync.refresh_selection()
 
 
-def handle_point(w: MainWindow) -> QtCore.QPoint:
-    dc, _ = projected(w, w.session.handle_centroid()[None])
-    return to_widget(w, dc[0])
-
-
 def drag_handle(qtbot, w: MainWindow, dy: int) -> None:
     key(qtbot, w, Qt.Key.Key_D)  # Drag mode
     a = handle_point(w)
     mouse_drag(qtbot, w.view, a, a + QtCore.QPoint(0, -dy), steps=max(1, min(abs(dy), 6)))
     settled(qtbot, w)
-
-
-def polished(qtbot, w: MainWindow) -> None:
-    qtbot.waitUntil(lambda: w.posing.polished is not None and w.polisher.worker is None, timeout=20000)
-    qtbot.wait(10)
 
 
 def test_a_second_edit_starts_where_the_first_ended(qtbot, win):
@@ -85,27 +74,6 @@ def test_a_second_edit_starts_where_the_first_ended(qtbot, win):
     for _ in range(2):  # the nudge, then its polish
         key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier | Qt.KeyboardModifier.ShiftModifier)
     assert np.abs(s.shape_positions - second).max() < 1e-12 * diag
-
-
-def symmetric_capsule(subdivisions: int = 4) -> Mesh:
-    """A bumpy capsule along X, its own mirror image across x = 0."""
-    import trimesh
-
-    t = trimesh.creation.icosphere(subdivisions=subdivisions, radius=1.0)
-    v = np.asarray(t.vertices).copy()
-    x, y, z = v.T
-    v *= (1.0 + 0.06 * np.cos(6 * x) * np.cos(4 * y) + 0.04 * np.sin(9 * z))[:, None]
-    v[:, 0] *= 2.0
-    v[:, 1] += 0.15 * np.cos(1.2 * v[:, 0])
-    v[:, 0] -= 0.5 * (v[:, 0].max() + v[:, 0].min())  # the mirror plane at x = 0, through the box's centre
-    return Mesh(v, np.asarray(t.faces), name="capsule")
-
-
-@pytest.fixture(scope="module")
-def capsule_file(tmp_path_factory):
-    p = tmp_path_factory.mktemp("sym") / "capsule.obj"
-    write_mesh(p, symmetric_capsule())
-    return p
 
 
 def test_mirror_x_drag_equals_the_deform_replay_of_its_edit(qtbot, win, capsule_file, tmp_path):
@@ -156,12 +124,14 @@ def test_mirror_x_is_checked_against_each_shape(qtbot, win, capsule_file, blob_f
     qtbot.waitActive(w)
     w.view.setFocus()
     assert w.loading.open_path(capsule_file)
-    qtbot.waitUntil(lambda: w.session is not None and w.session.path == capsule_file and w.jobs.worker is None, timeout=60000)
+    qtbot.waitUntil(lambda: w.session is not None and w.session.path == capsule_file and w.jobs.worker is None,
+                    timeout=60000)
     key(qtbot, w, Qt.Key.Key_X, Qt.KeyboardModifier.ShiftModifier)
     assert w.actions_["mirror_x"].isChecked() and w.session.symmetry == "x"
     w.unsaved.set_modified(False)
     assert w.loading.open_path(blob_file)  # Mirror X is still ticked: the new shape is checked when it opens
-    qtbot.waitUntil(lambda: w.session is not None and w.session.path == blob_file and w.jobs.worker is None, timeout=60000)
+    qtbot.waitUntil(lambda: w.session is not None and w.session.path == blob_file and w.jobs.worker is None,
+                    timeout=60000)
     assert not w.actions_["mirror_x"].isChecked() and w.session.symmetry is None
     assert "Mirror X is off" in w.status.current_message()
 
@@ -169,7 +139,8 @@ def test_mirror_x_is_checked_against_each_shape(qtbot, win, capsule_file, blob_f
 def test_a_mirrored_selection_is_drawn_on_both_sides_as_it_is_made(qtbot, win, capsule_file):
     w = win
     assert w.loading.open_path(capsule_file)
-    qtbot.waitUntil(lambda: w.session is not None and w.session.path == capsule_file and w.jobs.worker is None, timeout=60000)
+    qtbot.waitUntil(lambda: w.session is not None and w.session.path == capsule_file and w.jobs.worker is None,
+                    timeout=60000)
     s = w.session
     key(qtbot, w, Qt.Key.Key_X, Qt.KeyboardModifier.ShiftModifier)
     P = s.cage_positions

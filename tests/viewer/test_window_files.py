@@ -10,31 +10,10 @@ import pytest
 from qtpy import QtCore, QtGui, QtWidgets
 
 from hybridedit.fileio.meshfiles import read_mesh, write_mesh
-from test_window import key, mouse_drag, projected, settled, to_widget, wait_loaded, win  # noqa: F401 (fixture)
+from support.window_driving import drag_tip, key, mouse_drag, projected, select_tip, settled, to_widget, wait_loaded
 
 Qt = QtCore.Qt
 Btn = QtWidgets.QMessageBox.StandardButton
-
-
-def select_tip(w):
-    """ROI: the right half of the cage; handle: its right end. Returns the session."""
-    s = w.session
-    P = s.cage_positions
-    s.set_mask("roi", P[:, 0] > 0.0)
-    s.set_mask("handle", P[:, 0] > 1.4)
-    w.sync.refresh_selection()
-    return s
-
-
-def drag_tip(qtbot, w, pixels: int = 80) -> None:
-    """ROI: the right half; handle: the right end; drag it up with the mouse (no polish: the engine's pose)."""
-    w.polisher.enabled = False
-    s = select_tip(w)
-    key(qtbot, w, Qt.Key.Key_D)
-    dc, _ = projected(w, s.handle_centroid()[None])
-    a = to_widget(w, dc[0])
-    mouse_drag(qtbot, w.view, a, a + QtCore.QPoint(0, -pixels), steps=6)
-    settled(qtbot, w)
 
 
 def press_on_handle(qtbot, w) -> QtCore.QPoint:
@@ -323,7 +302,8 @@ def test_an_edit_saved_at_one_cage_size_replays_at_another(qtbot, win, tmp_path,
     s2 = w.session
     assert abs(s2.n_cage - 70) < 10 and s2.n_cage != s.n_cage
     assert w.files.load_edit_from(edit)
-    assert f"made on a cage of {s.n_cage:,} vertices and replayed on this one of {s2.n_cage:,}" in w.status.current_message()
+    said = w.status.current_message()
+    assert f"made on a cage of {s.n_cage:,} vertices and replayed on this one of {s2.n_cage:,}" in said
     V = s2.shape_positions
     # the same constraints, held exactly, and the same shape up to the cage's resolution
     assert np.array_equal(s2.shape_roles(), roles)
@@ -340,7 +320,8 @@ def test_an_edit_saved_at_one_cage_size_replays_at_another(qtbot, win, tmp_path,
     qtbot.waitUntil(lambda: w.session is not s2, timeout=30000)
     before = w.session.shape_positions.copy()
     assert not w.files.load_edit_from(edit)
-    assert "tip.json" in w.status.last_error and "2,562 vertices" in w.status.last_error and "refused" in w.status.last_error
+    error = w.status.last_error
+    assert "tip.json" in error and "2,562 vertices" in error and "refused" in error
     assert len(w.status.last_error.splitlines()) == 1
     assert np.array_equal(w.session.shape_positions, before)
 

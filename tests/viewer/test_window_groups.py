@@ -9,7 +9,7 @@ from qtpy import QtCore
 
 from hybridedit.deform.roles import handle
 from hybridedit.viewer.render.palette import ROLE_COLORS, role_rows
-from test_window import key, mouse_drag, projected, settled, to_widget, win  # noqa: F401 (fixture)
+from support.window_driving import key, mouse_drag, projected, settled, to_widget
 
 Qt = QtCore.Qt
 

@@ -12,24 +12,9 @@ from hybridedit.core.mesh import edge_stretch, vertex_stretch
 from hybridedit.viewer.jobs import build_worker as worker_module
 from hybridedit.viewer.window.dialogs import mesh_info_text
 from hybridedit.viewer.window.main_window import MainWindow
-from test_window import key, mouse_drag, projected, settled, to_widget, wait_loaded, win  # noqa: F401 (fixture)
+from support.window_driving import handle_point, key, mouse_drag, polished, select_tip_to_drag, settled, wait_loaded
 
 Qt = QtCore.Qt
-
-
-def select_tip(qtbot, w: MainWindow) -> None:
-    """ROI: the right half of the cage; handle: its right end."""
-    s = w.session
-    P = s.cage_positions
-    s.set_mask("roi", P[:, 0] > 0.0)
-    s.set_mask("handle", P[:, 0] > 1.4)
-    w.sync.refresh_selection()
-    key(qtbot, w, Qt.Key.Key_D)  # Drag mode
-
-
-def handle_point(w: MainWindow) -> QtCore.QPoint:
-    dc, _ = projected(w, w.session.handle_centroid()[None])
-    return to_widget(w, dc[0])
 
 
 def drag_up(qtbot, w: MainWindow, pixels: int = 80) -> None:
@@ -38,17 +23,12 @@ def drag_up(qtbot, w: MainWindow, pixels: int = 80) -> None:
     settled(qtbot, w)
 
 
-def polished(qtbot, w: MainWindow, timeout: int = 20000) -> None:
-    qtbot.waitUntil(lambda: w.posing.polished is not None and w.polisher.worker is None, timeout=timeout)
-    qtbot.wait(10)
-
-
 def test_polish_on_release_lowers_the_energy_and_save_writes_it(qtbot, win, tmp_path):
     w = win
     s = w.session
     assert w.actions_["polish"].isChecked() and w.polisher.enabled
     rest = s.shape_positions.copy()
-    select_tip(qtbot, w)
+    select_tip_to_drag(qtbot, w)
     drag_up(qtbot, w)
     hybrid = s.shape_positions.copy()  # the engine's (settled) pose
     polished(qtbot, w)
@@ -91,7 +71,8 @@ def test_polish_on_release_lowers_the_energy_and_save_writes_it(qtbot, win, tmp_
     assert np.array_equal(s.shape_positions, P)
     assert np.allclose(w.scene.parts.drawn_points(), P, atol=1e-5)
     assert w.polisher.worker is None
-    assert w.posing.polished is not None and w.status.error_label.text().endswith("(polished)")  # (redone: still the polish)
+    assert w.posing.polished is not None  # (redone: still the polish)
+    assert w.status.error_label.text().endswith("(polished)")
     # a selection changed, and undone: the pose on display is still the polished one, and says so
     Pc = s.cage_positions
     s.set_mask("handle", Pc[:, 0] < -1.4)
@@ -112,7 +93,7 @@ def test_polish_on_release_lowers_the_energy_and_save_writes_it(qtbot, win, tmp_
 def test_a_new_drag_or_undo_cancels_a_running_polish(qtbot, win):
     w = win
     s = w.session
-    select_tip(qtbot, w)
+    select_tip_to_drag(qtbot, w)
     # a polish that would run for a minute: never converges, no iteration cap
     w.polisher.iterations, w.polisher.tolerance = 10 ** 9, 0.0
     drag_up(qtbot, w)
@@ -148,7 +129,7 @@ def test_stretch_map(qtbot, win):
     s = w.session
     a = w.actions_["stretch"]
     assert not a.isChecked() and not w.scene.stretch_bar.GetVisibility()
-    select_tip(qtbot, w)
+    select_tip_to_drag(qtbot, w)
     drag_up(qtbot, w)
     polished(qtbot, w)
     w.view.render()

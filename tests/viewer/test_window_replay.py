@@ -12,8 +12,9 @@ from qtpy import QtCore, QtWidgets
 from hybridedit import cli
 from hybridedit.fileio.meshfiles import read_mesh
 from hybridedit.viewer.window.main_window import MainWindow
-from test_window import CAGE, key, mouse_drag, projected, rubber_band, settled, to_widget, wait_loaded, win  # noqa: F401
-from test_window_edits import capsule_file  # noqa: F401 (fixture)
+from support.window_driving import (
+    CAGE, key, mouse_drag, polished, projected, rubber_band, settled, to_widget, wait_loaded,
+)
 
 Qt = QtCore.Qt
 CTRL = Qt.KeyboardModifier.ControlModifier
@@ -52,8 +53,7 @@ def drag_handle(qtbot, w: MainWindow, dx: int, dy: int) -> None:
     a = to_widget(w, dc[0])
     mouse_drag(qtbot, w.view, a, a + QtCore.QPoint(dx, -dy))
     settled(qtbot, w)
-    qtbot.waitUntil(lambda: w.posing.polished is not None and w.polisher.worker is None, timeout=30000)
-    qtbot.wait(10)
+    polished(qtbot, w, timeout=30000)
 
 
 def save_edit_and_mesh(qtbot, w: MainWindow, folder, name: str, monkeypatch):

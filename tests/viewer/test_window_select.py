@@ -12,7 +12,7 @@ from qtpy import QtCore
 
 from hybridedit.core.mesh import Mesh
 from hybridedit.viewer.window.main_window import MainWindow
-from test_window import key, mouse_drag, projected, to_widget, wait_loaded, win  # noqa: F401 (fixture)
+from support.window_driving import key, mouse_drag, projected, to_widget, wait_loaded
 
 Qt = QtCore.Qt
 CTRL, SHIFT, ALT = (Qt.KeyboardModifier.ControlModifier, Qt.KeyboardModifier.ShiftModifier,

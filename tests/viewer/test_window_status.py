@@ -8,8 +8,7 @@ import pytest
 from qtpy import QtCore, QtGui, QtWidgets
 
 from hybridedit.viewer.window.status_widgets import MessageLine, StatusField, StatusRow
-from test_building import gate  # noqa: F401 (fixture)
-from test_window import wait_loaded, win  # noqa: F401 (fixture)
+from support.window_driving import key, mouse_drag, wait_loaded
 
 Qt = QtCore.Qt
 
@@ -94,7 +93,8 @@ def test_at_700x500_nothing_overlaps_and_a_long_message_is_cut_whole_elsewhere(q
     w.status.message("Back to the rest pose")
     assert label.shown_lines() == ["Back to the rest pose"] and not label.is_cut()
     # the fields' texts, hidden ones too, when hovering the row
-    hidden = [f for f in (w.status.time_label, w.status.size_label, w.status.sel_label, w.status.error_label) if not f.isVisible()]
+    st = w.status
+    hidden = [f for f in (st.time_label, st.size_label, st.sel_label, st.error_label) if not f.isVisible()]
     assert hidden and w.status.time_label in hidden  # (at 700 px the timing is the first to give way)
 
 
@@ -127,7 +127,8 @@ def test_a_wide_window_shows_every_field(qtbot, win):
     w.status.error_label.setText("edge error 12.34 % (polished)")
     qtbot.wait(100)
     assert_fits(w)
-    assert all(f.isVisible() for f in (w.status.time_label, w.status.size_label, w.status.sel_label, w.status.error_label))
+    st = w.status
+    assert all(f.isVisible() for f in (st.time_label, st.size_label, st.sel_label, st.error_label))
     assert w.status.message_label.is_cut() and len(w.status.message_label.shown_lines()) == 2
 
 
@@ -203,7 +204,6 @@ def test_a_row_places_by_priority_and_shrinks_only_what_may_shrink(qtbot, width)
 
 def test_a_brush_stroke_is_not_a_frame_rate(qtbot, win):
     """The timing field gives a drag's frames per second; the renders of a brush stroke are none."""
-    from test_window import key, mouse_drag
 
     w = win
     key(qtbot, w, Qt.Key.Key_S)

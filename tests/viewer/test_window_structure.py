@@ -24,8 +24,7 @@ from hybridedit.viewer.window import (
     undo_commands, unsaved_mark, view_options,
 )
 from hybridedit.viewer.window.main_window import MainWindow
-from test_window import key, mouse_drag, settled, win  # noqa: F401 (fixture)
-from test_window_polish import handle_point, select_tip
+from support.window_driving import handle_point, key, mouse_drag, select_tip_to_drag, settled
 
 Qt = QtCore.Qt
 
@@ -176,7 +175,8 @@ def test_the_model_and_shutdown_load_no_qt_and_no_vtk():
     models = [f"hybridedit.viewer.model.{m.name}" for m in pkgutil.iter_modules(
         [str(Path(viewer.__file__).parent / "model")])]
     code = ("import sys\n" + "".join(f"import {m}\n" for m in models + ["hybridedit.viewer.shutdown"])
-            + "print(sorted(m for m in sys.modules if m.split('.')[0] in ('PySide6', 'qtpy', 'vtkmodules', 'pyvista')))")
+            + "print(sorted(m for m in sys.modules\n"
+            "             if m.split('.')[0] in ('PySide6', 'qtpy', 'vtkmodules', 'pyvista')))")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr
     assert r.stdout.strip() == "[]", r.stdout
@@ -185,7 +185,7 @@ def test_the_model_and_shutdown_load_no_qt_and_no_vtk():
 
 def test_a_selection_press_stops_a_running_polish(qtbot, win):
     w = win
-    select_tip(qtbot, w)
+    select_tip_to_drag(qtbot, w)
     # a polish that would run for a minute: never converges, no iteration cap
     w.polisher.iterations, w.polisher.tolerance = 10 ** 9, 0.0
     a = handle_point(w)
@@ -210,7 +210,7 @@ def test_a_selection_press_stops_a_running_polish(qtbot, win):
 def test_a_selection_press_completes_a_settle_and_drops_its_polish(qtbot, win):
     w = win
     s = w.session
-    select_tip(qtbot, w)
+    select_tip_to_drag(qtbot, w)
     s.settle_frames = 3000  # a settle of many timer ticks: still under way when the press comes
     started = []
     w.polisher.started.connect(lambda: started.append(w.polisher.worker))

@@ -12,7 +12,7 @@ from hybridedit.fileio.meshfiles import write_mesh
 from hybridedit.core.mesh import Mesh
 from hybridedit.viewer.render.scene import view_directions
 from hybridedit.viewer.window.main_window import MainWindow
-from test_window import key, projected, wait_loaded
+from support.window_driving import key, projected, wait_loaded
 
 Qt = QtCore.Qt
 KP, CTRL = Qt.KeyboardModifier.KeypadModifier, Qt.KeyboardModifier.ControlModifier

@@ -217,7 +217,8 @@ class FileBuildAtCount(BuildWorker):
 
 
 class BuildJobs(QtCore.QObject):
-    """The build jobs of a :class:`~..window.main_window.MainWindow`: open a file, build a loaded shape, rebuild the cage.
+    """The build jobs of a :class:`~..window.main_window.MainWindow`: open a file, build a loaded shape,
+    rebuild the cage.
 
     One job runs at a time; while it runs, :attr:`progress` and :attr:`cancel_button` (placed in
     the window's status bar by :meth:`place_in`) show it, and a second job is refused in words.

@@ -369,8 +369,8 @@ class ActionSet(Mapping):
 
     def _cage_and_help_actions(self) -> None:
         A, dialogs = self._action, self.w.dialogs
-        A("rebuild", "Re&build Cage", self.w.loading.rebuild, "Ctrl+B", tip="Build the cage and binding again at the chosen size",
-          short="Rebuild")
+        A("rebuild", "Re&build Cage", self.w.loading.rebuild, "Ctrl+B",
+          tip="Build the cage and binding again at the chosen size", short="Rebuild")
         A("cancel_job", "Cancel", self.w.loading.cancel_job, "Esc", tip="Cancel the cage build")
         A("shortcuts", "&Shortcuts…", dialogs.shortcuts, QtGui.QKeySequence.StandardKey.HelpContents,
           tip="List the shortcuts")
