@@ -25,8 +25,9 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tests"))  # the tests' virtual X server
 
-from hybridedit.viewer.xvfb import ensure_display  # noqa: E402
+from support.xvfb import ensure_display  # noqa: E402
 
 
 def limbs(V: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray, tuple[int, int]]]:

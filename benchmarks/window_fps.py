@@ -32,8 +32,9 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))  # the tests' virtual X server
 
-from hybridedit.viewer.xvfb import ensure_display  # noqa: E402
+from support.xvfb import ensure_display  # noqa: E402
 
 
 def parse_size(text: str) -> tuple[int, int]:

@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))  # the tests' virtual X server
 
 CAGE = 0.05
 """The window's default cage size (a fraction of the shape's vertices)."""
@@ -60,7 +61,7 @@ def prime(path: Path) -> None:
 
 def measure(path: Path, roi: float, moves: int) -> dict:
     """Open ``path`` in the window and time the user's first steps (see the module's description)."""
-    from hybridedit.viewer.xvfb import ensure_display
+    from support.xvfb import ensure_display
 
     ensure_display()
     from qtpy import QtCore, QtGui, QtWidgets

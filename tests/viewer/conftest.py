@@ -20,7 +20,7 @@ import pytest
 
 from shapes import capsule_blob
 from support.window_driving import CAGE, wait_loaded
-from hybridedit.viewer.xvfb import ensure_display
+from support.xvfb import ensure_display
 
 _XVFB = ensure_display("1280x1024x24") if sys.platform.startswith("linux") else None
 _XVFB_PROBLEM = _XVFB.problem if _XVFB is not None else ""

@@ -1,4 +1,8 @@
-"""A private virtual X server (Xvfb) for the window tests and benchmarks on a machine with no display."""
+"""A private virtual X server (Xvfb) for the window tests and benchmarks on a machine with no display.
+
+The tests import it as ``support.xvfb`` (tests/ is on their path); the window benchmarks put tests/ on
+``sys.path`` first.
+"""
 
 from __future__ import annotations
 
