@@ -58,11 +58,10 @@ lengths in front of it along the line of sight: cage points lie near the surface
 inside (QEM places them within about 0.15 edge lengths of it along its normal on the creature and
 the armadillo; seen at a slant the gap along the line of sight is longer)."""
 DEPTH_RADIUS = 1
-"""A point on the surface seen within this many pixels of it is in sight (see visible_points). Against
-a ray cast to the creature from five directions (5,028 cage points, 2,000-2,800 in sight), 1 pixel took
-100-120 points that the ray does not reach (mostly at the rim of a silhouette; 6-24 of them more than
-3 cage edges behind the surface) and missed 12-19 it reaches; 0 pixels missed 31-51 on the rims, and
-2 pixels, taking the farthest depth around, took 72-182 points more than 3 cage edges behind."""
+"""A point on the surface seen within this many pixels of it is in sight (see visible_points). Checked
+against a ray cast to the creature from five directions: 0 pixels misses points in sight on the rims of
+the silhouettes, and 2 pixels, taking the farthest depth around, takes points well behind the surface;
+1 pixel is between (it misses under 1 % of the points the ray reaches)."""
 
 
 @runtime_checkable

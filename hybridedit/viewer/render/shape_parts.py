@@ -4,7 +4,7 @@ The selection shows on the shape as colour: the fixed region tinted blue, each
 handle group in its own colour, the free region in the shape's colour. A
 per-vertex colour array on one actor would show the same, but with software
 OpenGL an extra per-vertex attribute makes every frame about 7% slower
-(benchmarks/window_fps.py; the 173K armadillo: 76 ms against 71 ms plain).
+(benchmarks/window_fps.py).
 One actor per role, each in a single colour, costs nothing extra: the faces are
 split between the actors, and each actor holds only the points its faces use,
 so a drag re-uploads only the points of the parts it moves.
@@ -89,7 +89,7 @@ class _Part:
         poly = pv.PolyData()
         poly.points = np.zeros((len(used), 3), dtype=np.float32)
         # VTK's connectivity straight from the (f, 3) local triangles, which it shares (kept here): the
-        # padded legacy form pyvista's ``faces`` takes is converted cell by cell (9 s at 11M, this 0.02)
+        # padded legacy form pyvista's ``faces`` takes is converted cell by cell (9 s at 11M)
         self._triangles = np.ascontiguousarray(local_of[faces])
         poly.polys = pv.CellArray.from_regular_cells(self._triangles)
         poly.point_data["Normals"] = np.zeros((len(used), 3), dtype=np.float32)

@@ -97,10 +97,9 @@ class DepthGrab:
     It is read while :attr:`wanted` (the view controller wants it in Select mode) and only when
     the view's state, as :attr:`key_fn` tells it (camera, size, shape pose), differs from the one
     already read: a camera that does not move costs nothing. After a move the read waits for the
-    layer's drawing to finish (15-50 ms of the call on the creature with software OpenGL, the copy
-    itself about 1 ms), which the frame waited for anyway: frames reading it took as long as frames
-    that did not (medians within the run-to-run noise). :meth:`~View.fresh_depth` renders once when
-    the depth on hand is out of date.
+    layer's drawing to finish, which the frame waited for anyway (the copy itself takes about 1 ms
+    on the creature): frames reading it take as long as frames that do not. :meth:`~View.fresh_depth`
+    renders once when the depth on hand is out of date.
 
     Attributes
     ----------

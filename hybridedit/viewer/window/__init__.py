@@ -10,6 +10,7 @@ actions       : the window's actions, menus and toolbar, and which are enabled
 status_bar    : the status bar, the message log, error boxes and questions
 status_widgets: the status bar's widgets: the two-line message, fixed-size fields, the row that fits them
 slot_errors   : a slot's unexpected error shown in a message box, not as a traceback
+interfaces    : the small interfaces several collaborators see one another through
 unsaved_mark  : the unsaved-pose mark and the title
 file_actions  : open, save, edit files, screenshots, the unsaved-pose question
 file_drops    : files dropped on the window

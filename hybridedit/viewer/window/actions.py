@@ -16,6 +16,7 @@ from ...core.up_axis import AXES
 from ..input.mouse_gestures import BRUSH, CAMERA, DRAG, RECTANGLE, SELECT
 from ..model.selection_masks import HANDLE, ROI
 from ..render.scene import VIEWS
+from .interfaces import Busy
 
 if TYPE_CHECKING:
     from ..model.session import Session
@@ -133,14 +134,6 @@ class LogCommands(Protocol):
     """View ▸ Messages (:class:`~.status_bar.StatusBar`)."""
 
     def toggle_log(self) -> None: ...
-
-
-@runtime_checkable
-class Busy(Protocol):
-    """The build jobs as the actions see them: Open, Rebuild and Load Edit wait for a build."""
-
-    @property
-    def busy(self) -> bool: ...
 
 
 @runtime_checkable

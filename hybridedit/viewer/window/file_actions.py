@@ -14,6 +14,7 @@ from ...fileio.editfile import EditFileError, load_edit, save_edit
 from ...deform.selection import SelectionError
 from ...fileio.meshfiles import SUPPORTED_EXTENSIONS, MeshFileError, write_mesh
 from ...core.mesh import MeshError
+from .interfaces import Busy, RedrawsAll
 
 if TYPE_CHECKING:
     from ..model.session import Session
@@ -80,14 +81,6 @@ def dropped_path(mime: QtCore.QMimeData) -> Path | None:
 
 
 @runtime_checkable
-class Busy(Protocol):
-    """The view controller as the file actions see it: an edit file is not applied during a gesture."""
-
-    @property
-    def busy(self) -> bool: ...
-
-
-@runtime_checkable
 class Screenshots(Protocol):
     """The 3D view as the file actions see it."""
 
@@ -126,13 +119,6 @@ class Guard(Protocol):
 
     def finish_settle(self) -> None: ...
     def settle_and_stop_polish(self) -> None: ...
-
-
-@runtime_checkable
-class RedrawsAll(Protocol):
-    """The scene's upkeep as the file actions see it: a loaded edit shown."""
-
-    def refresh_all(self) -> None: ...
 
 
 @runtime_checkable

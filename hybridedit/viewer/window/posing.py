@@ -10,7 +10,8 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import numpy as np
-from qtpy import QtGui
+
+from .interfaces import ActionChecks
 
 if TYPE_CHECKING:
     from ..jobs.polish_worker import PolishOutcome
@@ -50,14 +51,6 @@ class Says(Protocol):
 
 
 @runtime_checkable
-class Actions(Protocol):
-    """The window's actions as the pose side sees them: Settle and Polish on Release, and the rest enabled."""
-
-    def __getitem__(self, name: str) -> QtGui.QAction: ...
-    def refresh(self) -> None: ...
-
-
-@runtime_checkable
 class PosingHost(Protocol):
     """What :class:`Posing` asks of the window (:class:`~.main_window.MainWindow`)."""
 
@@ -72,7 +65,7 @@ class PosingHost(Protocol):
     @property
     def status(self) -> Says: ...
     @property
-    def actions_(self) -> Actions: ...
+    def actions_(self) -> ActionChecks: ...
 
 
 class Posing:

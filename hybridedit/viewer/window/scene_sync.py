@@ -7,6 +7,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
+from .interfaces import ActionChecks, Renders
+
 if TYPE_CHECKING:
     from ..model.session import Session
     from ..render.scene import Scene
@@ -17,13 +19,6 @@ class Flushes(Protocol):
     """The drags as the scene's upkeep sees them: the frames under way drawn first."""
 
     def flush(self) -> None: ...
-
-
-@runtime_checkable
-class Renders(Protocol):
-    """The 3D view as the scene's upkeep sees it."""
-
-    def request_render(self) -> None: ...
 
 
 @runtime_checkable
@@ -39,13 +34,6 @@ class CageBox(Protocol):
     """The toolbar's cage size box, which shows the cage on display's size."""
 
     def set_value(self, size: int | float, *, of_shape: bool = False) -> None: ...
-
-
-@runtime_checkable
-class Refreshes(Protocol):
-    """The window's actions, enabled and checked again."""
-
-    def refresh(self) -> None: ...
 
 
 @runtime_checkable
@@ -65,7 +53,7 @@ class SyncHost(Protocol):
     @property
     def cage_control(self) -> CageBox: ...
     @property
-    def actions_(self) -> Refreshes: ...
+    def actions_(self) -> ActionChecks: ...
 
 
 class SceneSync:

@@ -14,6 +14,7 @@ from ...deform.roles import FREE, handle as handle_role
 from ...deform.selection import SelectionError
 from ..model.selection_masks import HANDLE, ROI
 from ..render.palette import ROLE_COLOR_NAMES, ROLE_COLORS, role_rows
+from .interfaces import ActionChecks, Cancels
 from .slot_errors import guarded
 
 if TYPE_CHECKING:
@@ -40,13 +41,6 @@ class Guard(Protocol):
 
 
 @runtime_checkable
-class Cancels(Protocol):
-    """The polish as a new handle group sees it."""
-
-    def cancel(self) -> None: ...
-
-
-@runtime_checkable
 class Redraws(Protocol):
     """The scene's upkeep as the selection sees it (:class:`~.scene_sync.SceneSync`)."""
 
@@ -60,14 +54,6 @@ class Says(Protocol):
     def message(self, text: str) -> None: ...
     def clear_message(self) -> None: ...
     def show_error(self, title: str, text: str) -> None: ...
-
-
-@runtime_checkable
-class Actions(Protocol):
-    """The window's actions as the selection sees them: the target, mirror and Select Through checks."""
-
-    def __getitem__(self, name: str) -> QtGui.QAction: ...
-    def refresh(self) -> None: ...
 
 
 @runtime_checkable
@@ -87,7 +73,7 @@ class SelectHost(Protocol):
     @property
     def status(self) -> Says: ...
     @property
-    def actions_(self) -> Actions: ...
+    def actions_(self) -> ActionChecks: ...
 
 
 class Selecting:

@@ -10,10 +10,11 @@ import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
-from qtpy import QtCore, QtGui
+from qtpy import QtCore
 
 from ...deform.selection import SelectionError
 from ..model.session import Session
+from .interfaces import ActionChecks, Cancels, Renders
 from .slot_errors import guarded
 
 if TYPE_CHECKING:
@@ -29,13 +30,6 @@ class Builds(Protocol):
     def open_file(self, path: str | os.PathLike) -> bool: ...
     def open_mesh(self, mesh: Mesh, path: Path | None = None) -> bool: ...
     def rebuild(self) -> bool: ...
-    def cancel(self) -> None: ...
-
-
-@runtime_checkable
-class Cancels(Protocol):
-    """The view controller as the loading sees it: a gesture under way is dropped for another shape."""
-
     def cancel(self) -> None: ...
 
 
@@ -86,13 +80,6 @@ class Redraws(Protocol):
 
 
 @runtime_checkable
-class Renders(Protocol):
-    """The 3D view as the loading sees it."""
-
-    def request_render(self) -> None: ...
-
-
-@runtime_checkable
 class Says(Protocol):
     """The status bar as the loading sees it (and where an unexpected error goes: :func:`~.slot_errors.guarded`)."""
 
@@ -100,14 +87,6 @@ class Says(Protocol):
     def show_error(self, title: str, text: str) -> None: ...
     def show_building(self, n_vertices: int, n_faces: int) -> None: ...
     def show_session(self) -> None: ...
-
-
-@runtime_checkable
-class Actions(Protocol):
-    """The window's actions as the loading sees them: Mode ▸ Mirror for a new shape, and the rest enabled."""
-
-    def __getitem__(self, name: str) -> QtGui.QAction: ...
-    def refresh(self) -> None: ...
 
 
 @runtime_checkable
@@ -138,7 +117,7 @@ class LoadingHost(Protocol):
     @property
     def status(self) -> Says: ...
     @property
-    def actions_(self) -> Actions: ...
+    def actions_(self) -> ActionChecks: ...
 
 
 class ShapeLoading:

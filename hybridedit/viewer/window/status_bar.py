@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Protocol, runtime_checkable
 import numpy as np
 from qtpy import QtCore, QtGui, QtWidgets
 
+from .interfaces import Busy
 from .status_widgets import MessageLine, StatusField, StatusRow
 
 if TYPE_CHECKING:
@@ -41,14 +42,6 @@ class RenderStats(Protocol):
     @property
     def render_seconds(self) -> float: ...
     def display_fps(self) -> float: ...
-
-
-@runtime_checkable
-class Busy(Protocol):
-    """Something that may be under way (the polish)."""
-
-    @property
-    def busy(self) -> bool: ...
 
 
 @runtime_checkable

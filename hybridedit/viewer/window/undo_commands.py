@@ -5,18 +5,11 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
+from .interfaces import Busy, RedrawsAll
 from .slot_errors import guarded
 
 if TYPE_CHECKING:
     from ..model.session import Session
-
-
-@runtime_checkable
-class Busy(Protocol):
-    """The view controller as the history sees it: nothing is undone during a gesture."""
-
-    @property
-    def busy(self) -> bool: ...
 
 
 @runtime_checkable
@@ -32,13 +25,6 @@ class Marks(Protocol):
 
     def set_modified(self, modified: bool) -> None: ...
     def pose_saved(self) -> bool: ...
-
-
-@runtime_checkable
-class RedrawsAll(Protocol):
-    """The scene's upkeep as the history sees it."""
-
-    def refresh_all(self) -> None: ...
 
 
 @runtime_checkable

@@ -8,16 +8,10 @@ from typing import TYPE_CHECKING, Protocol, runtime_checkable
 import numpy as np
 from qtpy import QtWidgets
 
+from .interfaces import Named
+
 if TYPE_CHECKING:
     from ..model.session import Session
-
-
-@runtime_checkable
-class Named(Protocol):
-    """The file actions as the title sees them: the name the shape goes by."""
-
-    @property
-    def document_name(self) -> str | None: ...
 
 
 @runtime_checkable

@@ -7,10 +7,11 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
-from qtpy import QtCore, QtGui, QtWidgets
+from qtpy import QtCore, QtWidgets
 
 from ...core.up_axis import remember_up_axis, shape_key
 from ..input.mouse_gestures import CAMERA, DRAG, RECTANGLE, SELECT
+from .interfaces import ActionChecks, Named
 from .slot_errors import guarded
 
 if TYPE_CHECKING:
@@ -62,22 +63,6 @@ class Says(Protocol):
 
 
 @runtime_checkable
-class Named(Protocol):
-    """The file actions as the view options see them: the name the shape goes by."""
-
-    @property
-    def document_name(self) -> str | None: ...
-
-
-@runtime_checkable
-class Actions(Protocol):
-    """The window's actions as the view options see them: the checks that show each setting."""
-
-    def __getitem__(self, name: str) -> QtGui.QAction: ...
-    def refresh(self) -> None: ...
-
-
-@runtime_checkable
 class OptionsHost(Protocol):
     """What :class:`ViewOptions` asks of the window (:class:`~.main_window.MainWindow`)."""
 
@@ -98,7 +83,7 @@ class OptionsHost(Protocol):
     @property
     def files(self) -> Named: ...
     @property
-    def actions_(self) -> Actions: ...
+    def actions_(self) -> ActionChecks: ...
 
 
 class ViewOptions:
