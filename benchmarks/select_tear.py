@@ -25,8 +25,9 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tests"))  # the tests' virtual X server
 
-from hybridedit.viewer.xvfb import ensure_display  # noqa: E402
+from support.xvfb import ensure_display  # noqa: E402
 
 
 def limbs(V: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray, tuple[int, int]]]:
@@ -46,8 +47,8 @@ def run(path: Path, pixels: int, size=(1100, 850), cage: float = 0.05) -> list[d
     from qtpy import QtCore, QtGui, QtWidgets
 
     from hybridedit.core.mesh import edge_error_stats
-    from hybridedit.viewer.picking import project_points
-    from hybridedit.viewer.window import MainWindow
+    from hybridedit.viewer.model.picking import project_points
+    from hybridedit.viewer.window.main_window import MainWindow
 
     Qt = QtCore.Qt
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication([])
@@ -57,9 +58,9 @@ def run(path: Path, pixels: int, size=(1100, 850), cage: float = 0.05) -> list[d
     w.resize(*size)
     w.activateWindow()
     app.processEvents()
-    w.open_path(path)
+    w.loading.open_path(path)
     t0 = time.perf_counter()
-    while w.worker is not None or w.session is None:
+    while w.jobs.worker is not None or w.session is None:
         app.processEvents(QtCore.QEventLoop.ProcessEventsFlag.AllEvents, 50)
         time.sleep(0.01)
         if time.perf_counter() - t0 > 900:
@@ -97,30 +98,30 @@ def run(path: Path, pixels: int, size=(1100, 850), cage: float = 0.05) -> list[d
     edges = s.edges
     for name, (roi, handle, (dx, dy)) in limbs(s.mesh.vertices).items():
         for through in (False, True):
-            w.reset_pose()
+            w.undo_commands.reset_pose()
             s.clear_all()
-            w._refresh_selection()
+            w.sync.refresh_selection()
             w.scene.reset_camera(tilted=False)
             view.request_render()
             pump(0.2)
             w.controller.set_select_through(through)
-            w.set_mode("select")
-            w._set_target("roi")
+            w.options.set_mode("select")
+            w.selecting.set_target("roi")
             gesture(*box(roi))
-            w._set_target("handle")
+            w.selecting.set_target("handle")
             gesture(*box(handle))
-            warned = "tears the shape" in w.current_message()
-            w.set_mode("drag")
+            warned = "tears the shape" in w.status.current_message()
+            w.options.set_mode("drag")
             dc, _ = project_points(s.handle_centroid()[None], w.scene.composite_matrix(), w.scene.display_size())
             a = QtCore.QPointF(view.to_widget(dc[0, 0], dc[0, 1]))
             gesture(a, a + QtCore.QPointF(dx * pixels, -dy * pixels))
-            w.finish_settle()
+            w.posing.finish_settle()
             pump(0.1)
             rrms, stretch = edge_error_stats(s.mesh.vertices, s.shape_positions, edges)
             out.append({"mesh": path.name, "edit": name, "mode": "Select Through" if through else "default",
                         "roi": int(np.count_nonzero(s.roi & ~s.all_handles)), "handle": int(s.all_handles.sum()),
                         "rrms": rrms, "stretch": stretch, "warned": warned})
-    w.set_modified(False)
+    w.unsaved.set_modified(False)
     w.close()
     app.processEvents()
     return out

@@ -32,8 +32,9 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))  # the tests' virtual X server
 
-from hybridedit.viewer.xvfb import ensure_display  # noqa: E402
+from support.xvfb import ensure_display  # noqa: E402
 
 
 def parse_size(text: str) -> tuple[int, int]:
@@ -54,9 +55,9 @@ def run(mesh_path: Path, cage, size: tuple[int, int], seconds: float, look: str 
     per-frame split in ms, frame ms, view size)."""
     from qtpy import QtCore, QtGui, QtWidgets
 
-    from hybridedit.viewer.interaction import DRAG
-    from hybridedit.viewer.selectionstate import HANDLE, ROI
-    from hybridedit.viewer.window import MainWindow
+    from hybridedit.viewer.input.mouse_gestures import DRAG
+    from hybridedit.viewer.model.selection_masks import HANDLE, ROI
+    from hybridedit.viewer.window.main_window import MainWindow
 
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication([])
     w = MainWindow(cage_size=cage)
@@ -64,9 +65,9 @@ def run(mesh_path: Path, cage, size: tuple[int, int], seconds: float, look: str 
     w.show()
     w.resize(*size)
     app.processEvents()
-    w.open_path(mesh_path)
+    w.loading.open_path(mesh_path)
     t0 = time.perf_counter()
-    while w.worker is not None or w.session is None:
+    while w.jobs.worker is not None or w.session is None:
         app.processEvents(QtCore.QEventLoop.ProcessEventsFlag.AllEvents, 50)
         time.sleep(0.01)
         if time.perf_counter() - t0 > 900:
@@ -78,10 +79,10 @@ def run(mesh_path: Path, cage, size: tuple[int, int], seconds: float, look: str 
         m = np.zeros(s.n_cage, dtype=bool)
         m[ed.to_cage(top_fraction(V, frac), "shape")] = True
         s.set_mask(target, m)
-    w._refresh_selection()
+    w.sync.refresh_selection()
     if look is not None:
-        w._set_look_mode(look)  # View > Texture / Colours / Plain
-    w.set_mode(DRAG)
+        w.options.set_look_mode(look)  # View > Texture / Colours / Plain
+    w.options.set_mode(DRAG)
     w.scene.reset_camera()
     view = w.view
     view.request_render()
@@ -125,7 +126,7 @@ def run(mesh_path: Path, cage, size: tuple[int, int], seconds: float, look: str 
         timer.start()
         loop.exec()
         timer.stop()
-        w.frames.flush()  # the frame of the last move
+        w.dragging.frames.flush()  # the frame of the last move
         app.processEvents()
 
     window_slice(min(1.0, 0.3 * seconds))  # warm-up
@@ -162,7 +163,7 @@ def run(mesh_path: Path, cage, size: tuple[int, int], seconds: float, look: str 
     split["other"] = max(frame_ms - ui, 0.0)
     vsize = (view.width(), view.height())
     bare.close()
-    w.set_modified(False)  # no question on closing
+    w.unsaved.set_modified(False)  # no question on closing
     mode = w.scene.look_mode
     w.close()
     app.processEvents()

@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))  # the tests' virtual X server
 
 CAGE = 0.05
 """The window's default cage size (a fraction of the shape's vertices)."""
@@ -60,14 +61,14 @@ def prime(path: Path) -> None:
 
 def measure(path: Path, roi: float, moves: int) -> dict:
     """Open ``path`` in the window and time the user's first steps (see the module's description)."""
-    from hybridedit.viewer.xvfb import ensure_display
+    from support.xvfb import ensure_display
 
     ensure_display()
     from qtpy import QtCore, QtGui, QtWidgets
 
-    from hybridedit.viewer.interaction import DRAG
-    from hybridedit.viewer.selectionstate import HANDLE, ROI
-    from hybridedit.viewer.window import MainWindow
+    from hybridedit.viewer.input.mouse_gestures import DRAG
+    from hybridedit.viewer.model.selection_masks import HANDLE, ROI
+    from hybridedit.viewer.window.main_window import MainWindow
 
     from window_fps import top_fraction
 
@@ -91,8 +92,8 @@ def measure(path: Path, roi: float, moves: int) -> dict:
 
     out: dict = {"file": path.name}
     t0 = time.perf_counter()
-    w.open_path(path)
-    wait(lambda: w.worker is None and w.session is not None)
+    w.loading.open_path(path)
+    wait(lambda: w.jobs.worker is None and w.session is not None)
     shown.clear()
     view.request_render()
     wait(lambda: bool(shown))
@@ -107,11 +108,11 @@ def measure(path: Path, roi: float, moves: int) -> dict:
         m = np.zeros(s.n_cage, dtype=bool)
         m[ed.to_cage(top_fraction(V, frac), "shape")] = True
         s.set_mask(target, m)
-    w._refresh_selection()
+    w.sync.refresh_selection()
     app.processEvents()
     out["select_s"] = time.perf_counter() - t0
 
-    w.set_mode(DRAG)
+    w.options.set_mode(DRAG)
     w.scene.reset_camera()
     view.request_render()
     for _ in range(10):
@@ -148,7 +149,7 @@ def measure(path: Path, roi: float, moves: int) -> dict:
             last_shown = w.dragging.frame_shown_at
             thread_ms.append(w.dragging.thread_ms)
             engine_ms.append(w.dragging.engine_ms)
-    w.frames.flush()
+    w.dragging.frames.flush()
     app.processEvents()
     out["moves_s"] = time.perf_counter() - t0
     out["frames_shown"] = len(shown)
@@ -171,7 +172,7 @@ def measure(path: Path, roi: float, moves: int) -> dict:
     out["moved"] = moved
     out["back"] = bool(np.array_equal(np.asarray(s.shape_positions), V))
     out["peak_gb"] = _vm("VmHWM")
-    w.set_modified(False)
+    w.unsaved.set_modified(False)
     w.close()
     app.processEvents()
     return out

@@ -42,7 +42,7 @@ def render_screenshot(path: str | os.PathLike, out: str | os.PathLike, cage: int
     """Render a mesh as the window first shows it, off-screen, to a PNG; returns the exit status.
 
     The file is read as the window reads it (:func:`hybridedit.read_document`) and drawn with the
-    same look: its textures, material colours or vertex colours (:func:`.look.shown_look`).
+    same look: its textures, material colours or vertex colours (:func:`.render.look.shown_look`).
 
     Parameters
     ----------
@@ -53,9 +53,9 @@ def render_screenshot(path: str | os.PathLike, out: str | os.PathLike, cage: int
     import pyvista as pv
 
     from ..core.up_axis import up_axis_of
-    from .look import shown_look
-    from .scene import Scene
-    from .session import Session
+    from .render.look import shown_look
+    from .render.scene import Scene
+    from .model.session import Session
 
     out = Path(out)
     if out.suffix.lower() != ".png":
@@ -124,7 +124,7 @@ def _install_excepthook(window):
         else:
             print(f"hybridedit: unexpected error: {etype.__name__}: {value}", file=sys.stderr)
         try:
-            window.show_error("Unexpected error", f"{etype.__name__}: {value}")
+            window.status.show_error("Unexpected error", f"{etype.__name__}: {value}")
         except Exception:  # noqa: BLE001
             previous(etype, value, tb)
 
@@ -150,7 +150,7 @@ def main(path: str | os.PathLike | None = None, screenshot: str | os.PathLike | 
             return _error("no display: set DISPLAY (or use --screenshot out.png for off-screen rendering)")
     from qtpy import QtWidgets
 
-    from .window import MainWindow
+    from .window.main_window import MainWindow
 
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication(sys.argv[:1])
     app.setApplicationName("hybridedit")
@@ -162,9 +162,9 @@ def main(path: str | os.PathLike | None = None, screenshot: str | os.PathLike | 
         if path is not None:
             p = Path(path)
             if not p.is_file():
-                window.show_error("Could not open the mesh", f"{p}: no such file")
+                window.status.show_error("Could not open the mesh", f"{p}: no such file")
             else:
-                window.open_path(p)
+                window.loading.open_path(p)
         return int(app.exec())
     finally:
         undo_hook()

@@ -1,19 +1,26 @@
 """The editor window tests run on a real X server: Xvfb is started here when DISPLAY is unset.
 
 Xvfb picks a free display itself (-displayfd) and ends with the test process. Qt uses its xcb platform (VTK renders through GLX).
+
+The fixtures the window tests share: the test shapes, the window with one loaded (``win``), a session
+without a window, and a build held at its binding stage (``gate``). Driving the window with the mouse
+and the keyboard is :mod:`support.window_driving`'s.
 """
 
 from __future__ import annotations
 
 import os
 import sys
+import threading
+import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
-from hybridedit.viewer.xvfb import ensure_display
-
 from shapes import capsule_blob
+from support.window_driving import CAGE, wait_loaded
+from support.xvfb import ensure_display
 
 _XVFB = ensure_display("1280x1024x24") if sys.platform.startswith("linux") else None
 _XVFB_PROBLEM = _XVFB.problem if _XVFB is not None else ""
@@ -60,3 +67,102 @@ def blob_file(tmp_path_factory) -> Path:
     p = tmp_path_factory.mktemp("meshes") / "blob.obj"
     write_mesh(p, capsule_blob())
     return p
+
+
+def symmetric_capsule(subdivisions: int = 4):
+    """A bumpy capsule along X, its own mirror image across x = 0."""
+    import trimesh
+
+    from hybridedit.core.mesh import Mesh
+
+    t = trimesh.creation.icosphere(subdivisions=subdivisions, radius=1.0)
+    v = np.asarray(t.vertices).copy()
+    x, y, z = v.T
+    v *= (1.0 + 0.06 * np.cos(6 * x) * np.cos(4 * y) + 0.04 * np.sin(9 * z))[:, None]
+    v[:, 0] *= 2.0
+    v[:, 1] += 0.15 * np.cos(1.2 * v[:, 0])
+    v[:, 0] -= 0.5 * (v[:, 0].max() + v[:, 0].min())  # the mirror plane at x = 0, through the box's centre
+    return Mesh(v, np.asarray(t.faces), name="capsule")
+
+
+@pytest.fixture(scope="module")
+def capsule_file(tmp_path_factory) -> Path:
+    """The symmetric capsule written to an OBJ file (Mirror X works on it)."""
+    from hybridedit.fileio.meshfiles import write_mesh
+
+    p = tmp_path_factory.mktemp("sym") / "capsule.obj"
+    write_mesh(p, symmetric_capsule())
+    return p
+
+
+# ---------------------------------------------------------------------------- the window and its parts
+
+
+@pytest.fixture
+def win(qtbot, blob_file):
+    """The window with the test shape loaded, front view (looking down -Z, Y up)."""
+    from hybridedit.viewer.window.main_window import MainWindow
+
+    w = MainWindow(cage_size=CAGE)  # closed here, not by qtbot: an unsaved pose would ask first
+    w.resize(1000, 760)
+    w.show()
+    qtbot.waitExposed(w)
+    w.activateWindow()
+    qtbot.waitActive(w)  # window shortcuts need the active window
+    w.view.setFocus()
+    try:
+        assert w.loading.open_path(blob_file)
+        wait_loaded(qtbot, w)
+    except BaseException:  # no window left open to confuse the next test
+        w.unsaved.set_modified(False)
+        w.close()
+        raise
+    w.scene.reset_camera(tilted=False)
+    w.view.request_render()
+    qtbot.wait(30)
+    yield w
+    w.unsaved.set_modified(False)
+    w.close()
+    w.deleteLater()
+
+
+@pytest.fixture
+def gate(monkeypatch) -> threading.Event:
+    """Builds report "building the cage" then "binding" and wait there (still reporting) until the
+    gate is set, then build for real; a cancel stops them at their next report."""
+    from hybridedit.viewer.jobs import build_worker
+
+    real = build_worker.build_rig
+    gate = threading.Event()
+
+    def build_rig(mesh, *, cage_size, cache, progress):
+        progress("building the cage", 0.5)
+        time.sleep(0.06)  # (reports of one stage closer than 50 ms apart are merged)
+        progress("binding", 0.25)
+        while not gate.wait(0.02):
+            progress("binding", 0.25)  # raises Cancelled once cancelled
+        return real(mesh, cage_size=cage_size, cache=cache, progress=progress)
+
+    monkeypatch.setattr(build_worker, "build_rig", build_rig)
+    yield gate
+    gate.set()  # never leave a thread waiting
+
+
+@pytest.fixture(scope="module")
+def editor_parts(make_blob):
+    """The test shape (4 subdivisions), its cage and binding at 150 vertices, built once per module."""
+    from hybridedit.deform.editor import HybridEditor
+
+    mesh = make_blob(4)
+    ed = HybridEditor(mesh, 150)
+    return mesh, ed.cage, ed.M
+
+
+@pytest.fixture
+def session(editor_parts):
+    """A session on the test shape, no window (its engine made from :func:`editor_parts`)."""
+    from hybridedit.deform.editor import HybridEditor
+    from hybridedit.viewer.model.session import Session
+
+    mesh, cage, M = editor_parts
+    return Session(HybridEditor(mesh, 150, cage=cage, binding=M), cage_size=150)

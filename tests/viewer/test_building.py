@@ -7,20 +7,18 @@ gate where a test needs it to last (a fake ``build_rig`` that reports progress u
 from __future__ import annotations
 
 import threading
-import time
 from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
-import pytest
 from qtpy import QtCore, QtWidgets
 
-from hybridedit.viewer import worker as worker_module
-from hybridedit.viewer.building import build_size, built_message
-from hybridedit.viewer.cagesize import DEFAULT_SIZE, MAX_SHARE, fit_cage_size
-from hybridedit.viewer.window import MainWindow
-from hybridedit.viewer.worker import BuildRequest
-from test_window import wait_loaded, win  # noqa: F401 (fixture)
+from hybridedit.viewer.jobs import build_worker as worker_module
+from hybridedit.viewer.jobs.build_jobs import build_size, built_message
+from hybridedit.viewer.model.cage_size import DEFAULT_SIZE, MAX_SHARE, fit_cage_size
+from hybridedit.viewer.window.main_window import MainWindow
+from hybridedit.viewer.jobs.build_worker import BuildRequest
+from support.window_driving import wait_loaded
 
 Qt = QtCore.Qt
 JOB_ACTIONS = ("open", "rebuild", "load_edit")
@@ -29,31 +27,11 @@ JOB_ACTIONS = ("open", "rebuild", "load_edit")
 # ---------------------------------------------------------------------------- helpers
 
 
-@pytest.fixture
-def gate(monkeypatch) -> threading.Event:
-    """Builds report "building the cage" then "binding" and wait there (still reporting) until the
-    gate is set, then build for real; a cancel stops them at their next report."""
-    real = worker_module.build_rig
-    gate = threading.Event()
-
-    def build_rig(mesh, *, cage_size, cache, progress):
-        progress("building the cage", 0.5)
-        time.sleep(0.06)  # (reports of one stage closer than 50 ms apart are merged)
-        progress("binding", 0.25)
-        while not gate.wait(0.02):
-            progress("binding", 0.25)  # raises Cancelled once cancelled
-        return real(mesh, cage_size=cage_size, cache=cache, progress=progress)
-
-    monkeypatch.setattr(worker_module, "build_rig", build_rig)
-    yield gate
-    gate.set()  # never leave a thread waiting
-
-
 def record_errors(w: MainWindow, monkeypatch) -> list[tuple[str, str]]:
     """Every error the window shows, as (title, text), still shown as usual."""
     shown = []
-    show = w.show_error
-    monkeypatch.setattr(w, "show_error", lambda title, text: shown.append((title, text)) or show(title, text))
+    show = w.status.show_error
+    monkeypatch.setattr(w.status, "show_error", lambda title, text: shown.append((title, text)) or show(title, text))
     return shown
 
 
@@ -64,7 +42,7 @@ def close_boxes(w: MainWindow) -> None:
 
 
 def assert_idle(w: MainWindow) -> None:
-    assert w.worker is None and not w.jobs.busy
+    assert w.jobs.worker is None and not w.jobs.busy
     assert not w.jobs.progress.isVisible() and not w.jobs.cancel_button.isVisible()
     assert all(w.actions_[n].isEnabled() for n in JOB_ACTIONS) and not w.actions_["cancel_job"].isEnabled()
 
@@ -105,9 +83,9 @@ def test_progress_fills_the_bar_and_esc_cancels_keeping_the_shape(qtbot, win, ma
     before = s.shape_positions.copy()
     errors = record_errors(w, monkeypatch)
     assert_idle(w)
-    assert w.open_mesh(make_blob(3))
+    assert w.loading.open_mesh(make_blob(3))
     # at once: the bar with the job's label, Cancel, and no other job can start
-    assert w.worker is not None and w.jobs.busy
+    assert w.jobs.worker is not None and w.jobs.busy
     assert w.jobs.progress.isVisible() and w.jobs.progress.text() == "Building…"
     assert w.jobs.cancel_button.isVisible() and w.jobs.cancel_button.isEnabled()
     assert not any(w.actions_[n].isEnabled() for n in JOB_ACTIONS) and w.actions_["cancel_job"].isEnabled()
@@ -115,16 +93,16 @@ def test_progress_fills_the_bar_and_esc_cancels_keeping_the_shape(qtbot, win, ma
     qtbot.waitUntil(lambda: w.jobs.progress.format() == "binding %p%", timeout=20000)
     assert w.jobs.progress.value() == 250 and w.jobs.progress.text() == "binding 25%"
     # Esc (Cage > Cancel): the bar says so at once, and a report still on its way does not overwrite it
-    job = w.worker
+    job = w.jobs.worker
     qtbot.keyClick(w.view, Qt.Key.Key_Escape)  # (no event loop turn: the job has not ended yet)
-    assert job.cancel_requested and w.worker is job
+    assert job.cancel_requested and w.jobs.worker is job
     assert w.jobs.progress.text() == "Cancelling…" and not w.jobs.cancel_button.isEnabled()
     job.progress.emit("binding", 0.9)
     assert w.jobs.progress.text() == "Cancelling…"
-    qtbot.waitUntil(lambda: w.worker is None, timeout=20000)
+    qtbot.waitUntil(lambda: w.jobs.worker is None, timeout=20000)
     assert not gate.is_set()  # it never got past the gate: cancelled, not built
     assert w.session is s and np.array_equal(s.shape_positions, before) and s.mesh.n_vertices == 2562
-    assert w.current_message() == "Cancelled; the current shape and edit are unchanged."
+    assert w.status.current_message() == "Cancelled; the current shape and edit are unchanged."
     assert errors == []
     assert_idle(w)
 
@@ -134,16 +112,16 @@ def test_a_second_job_is_refused_and_the_first_one_shows_its_shape(qtbot, win, m
     w = win
     errors = record_errors(w, monkeypatch)
     other = make_blob(3)
-    assert w.open_mesh(other)
-    job = w.worker
-    assert not w.open_path(blob_file) and not w.rebuild()
+    assert w.loading.open_mesh(other)
+    job = w.jobs.worker
+    assert not w.loading.open_path(blob_file) and not w.loading.rebuild()
     assert errors == [("Busy", "A cage is being built; wait for it or cancel it first.")] * 2
-    assert w.worker is job
+    assert w.jobs.worker is job
     close_boxes(w)
     gate.set()
     wait_loaded(qtbot, w)
-    assert w.session.mesh is other and w.session.path is None and not w.modified
-    assert w.current_message().startswith(f"Loaded blob: cage {w.session.n_cage:,} vertices (")
+    assert w.session.mesh is other and w.session.path is None and not w.unsaved.modified
+    assert w.status.current_message().startswith(f"Loaded blob: cage {w.session.n_cage:,} vertices (")
     assert len(errors) == 2
     assert_idle(w)
 
@@ -156,11 +134,11 @@ def test_failures_show_one_error_and_keep_the_shape(qtbot, win, tmp_path, monkey
     # an unreadable file
     bad = tmp_path / "bad.obj"
     bad.write_text("v 0 0 0\nf 1 2 3\n")
-    assert w.open_path(bad)
+    assert w.loading.open_path(bad)
     wait_loaded(qtbot, w)
     qtbot.wait(50)  # (nothing else arrives)
     assert len(errors) == 1 and errors[0][0] == "Could not open the mesh" and "bad.obj" in errors[0][1]
-    assert w.session is s and w.last_error == errors[0][1]
+    assert w.session is s and w.status.last_error == errors[0][1]
     assert_idle(w)
     close_boxes(w)
 
@@ -169,7 +147,7 @@ def test_failures_show_one_error_and_keep_the_shape(qtbot, win, tmp_path, monkey
         raise ValueError("no cage for you")
 
     monkeypatch.setattr(worker_module, "build_rig", no_cage)
-    assert w.rebuild()
+    assert w.loading.rebuild()
     wait_loaded(qtbot, w)
     qtbot.wait(50)
     assert errors[1:] == [("Could not rebuild the cage", "no cage for you")]
@@ -183,8 +161,8 @@ def test_failures_show_one_error_and_keep_the_shape(qtbot, win, tmp_path, monkey
     def broken(result):
         raise RuntimeError("no room on screen")
 
-    monkeypatch.setattr(w, "install_build", broken)
-    assert w.open_path(w.session.path)
+    monkeypatch.setattr(w.loading, "install_build", broken)
+    assert w.loading.open_path(w.session.path)
     wait_loaded(qtbot, w)
     assert errors == [("Could not show the shape", "RuntimeError: no room on screen")]
     assert w.session is s
@@ -196,7 +174,7 @@ def test_rebuild_without_a_shape_says_so(qtbot, monkeypatch):
     w = MainWindow(cage_size=150)
     qtbot.addWidget(w)
     errors = record_errors(w, monkeypatch)
-    assert not w.rebuild()
+    assert not w.loading.rebuild()
     assert errors == [("Rebuild cage", "Open a mesh first.")]
     assert_idle(w)
     close_boxes(w)
@@ -225,37 +203,37 @@ def test_a_count_above_half_the_shape_is_built_at_5_percent_and_said():
 def test_a_rebuild_at_too_many_vertices_says_so_before_the_build_and_the_box_shows_5_percent(qtbot, win, gate):
     w = win
     s = w.session
-    w.set_cage_size(5000)  # the blob has 2,562 vertices
-    assert w.rebuild()
+    w.cage_control.set_value(5000)  # the blob has 2,562 vertices
+    assert w.loading.rebuild()
     said = "a cage of 5,000 vertices is more than half this shape's 2,562 vertices: using 5% (about 128)"
     # at once, while the build has just started
-    assert w.worker is not None and w.worker.request.cage_size == 0.05
-    assert w.current_message() == f"Cage size: {said}."
-    assert w.cage_size() == 0.05 and w.cage_control.unit.currentText() == "%"
+    assert w.jobs.worker is not None and w.jobs.worker.request.cage_size == 0.05
+    assert w.status.current_message() == f"Cage size: {said}."
+    assert w.cage_control.value() == 0.05 and w.cage_control.unit.currentText() == "%"
     assert abs(w.cage_control.spin.value() - 5.0) < 1e-9
     gate.set()
     wait_loaded(qtbot, w)
     assert w.session is s and s.cage_size == 0.05 and abs(s.n_cage - 128) < 30
-    assert w.current_message().startswith("Rebuilt the cage of blob.obj") and said in w.current_message()
-    assert w.cage_size() == 0.05
-    assert said in w.log.toPlainText()
+    assert w.status.current_message().startswith("Rebuilt the cage of blob.obj") and said in w.status.current_message()
+    assert w.cage_control.value() == 0.05
+    assert said in w.status.log.toPlainText()
 
 
 def test_a_cancelled_build_puts_the_box_back(qtbot, win, gate):
     w = win
-    w.set_cage_size(5000)
-    assert w.rebuild()
-    assert w.cage_size() == 0.05
-    w.cancel_job()
-    qtbot.waitUntil(lambda: w.worker is None, timeout=20000)
-    assert w.cage_size() == 5000 and w.session.cage_size == 150 and not w.cage_size_of_shape()
+    w.cage_control.set_value(5000)
+    assert w.loading.rebuild()
+    assert w.cage_control.value() == 0.05
+    w.loading.cancel_job()
+    qtbot.waitUntil(lambda: w.jobs.worker is None, timeout=20000)
+    assert w.cage_control.value() == 5000 and w.session.cage_size == 150 and not w.cage_control.of_shape
     # a new shape that starts from 5% and is cancelled: the box shows the shape's count again, as the shape's
-    w.set_cage_size(150, of_shape=True)
-    assert w.open_path(w.session.path)
-    assert w.cage_size() == 0.05
-    w.cancel_job()
-    qtbot.waitUntil(lambda: w.worker is None, timeout=20000)
-    assert w.cage_size() == 150 and w.cage_size_of_shape()
+    w.cage_control.set_value(150, of_shape=True)
+    assert w.loading.open_path(w.session.path)
+    assert w.cage_control.value() == 0.05
+    w.loading.cancel_job()
+    qtbot.waitUntil(lambda: w.jobs.worker is None, timeout=20000)
+    assert w.cage_control.value() == 150 and w.cage_control.of_shape
 
 
 def test_a_file_opened_at_too_many_vertices_is_read_then_built_at_5_percent(qtbot, gate, tmp_path, blob_file,
@@ -272,24 +250,24 @@ def test_a_file_opened_at_too_many_vertices_is_read_then_built_at_5_percent(qtbo
     qtbot.addWidget(w)
     w.show()
     qtbot.waitExposed(w)
-    assert w.cage_size() == 5000
-    assert w.open_path(coloured)
+    assert w.cage_control.value() == 5000
+    assert w.loading.open_path(coloured)
     said = "a cage of 5,000 vertices is more than half this shape's 2,562 vertices: using 5% (about 128)"
     # held at the gate: the file is read, the count checked and said, the cage not built yet
-    qtbot.waitUntil(lambda: said in w.current_message(), timeout=20000)
-    assert w.worker is not None and not gate.is_set() and w.cage_size() == 0.05
+    qtbot.waitUntil(lambda: said in w.status.current_message(), timeout=20000)
+    assert w.jobs.worker is not None and not gate.is_set() and w.cage_control.value() == 0.05
     gate.set()
     wait_loaded(qtbot, w)
     s = w.session
     assert s.path == coloured and s.cage_size == 0.05 and abs(s.n_cage - 128) < 30
-    assert said in w.current_message() and w.current_message().startswith("Loaded coloured.obj")
+    assert said in w.status.current_message() and w.status.current_message().startswith("Loaded coloured.obj")
     assert s.look is not None and s.look.colors is not None  # (read before the build, shown after it)
     assert w.scene.look_mode == "colors"
     # a count that fits is used as asked
-    w.set_cage_size(300)
-    assert w.open_path(blob_file)
+    w.cage_control.set_value(300)
+    assert w.loading.open_path(blob_file)
     wait_loaded(qtbot, w)
-    assert w.session.path == blob_file and w.session.cage_size == 300 and w.cage_size() == 300
+    assert w.session.path == blob_file and w.session.cage_size == 300 and w.cage_control.value() == 300
     w.close()
 
 
@@ -297,31 +275,31 @@ def test_another_file_starts_from_5_percent_not_from_the_last_count(qtbot, win, 
     from hybridedit.fileio.meshfiles import write_mesh
 
     w = win
-    assert w.session.cage_size == 150 and w.cage_size() == 150  # (the window was made with --cage 150)
-    assert w.cage_size_of_shape()
+    assert w.session.cage_size == 150 and w.cage_control.value() == 150  # (the window was made with --cage 150)
+    assert w.cage_control.of_shape
     other = tmp_path / "other.obj"
     write_mesh(other, make_blob(5))  # 10K vertices: 150 would do, but it was the blob's count
-    assert w.open_path(other)
-    assert w.cage_size() == 0.05  # at once, in the box
+    assert w.loading.open_path(other)
+    assert w.cage_control.value() == 0.05  # at once, in the box
     wait_loaded(qtbot, w)
     s = w.session
-    assert s.path == other and s.cage_size == 0.05 and w.cage_size() == 0.05
+    assert s.path == other and s.cage_size == 0.05 and w.cage_control.value() == 0.05
     assert abs(s.n_cage - 0.05 * s.mesh.n_vertices) < 0.2 * 0.05 * s.mesh.n_vertices
     # a percentage the user chose carries over
-    w.set_cage_size(0.08)
-    assert w.rebuild()
+    w.cage_control.set_value(0.08)
+    assert w.loading.rebuild()
     wait_loaded(qtbot, w)
-    assert w.open_path(other)
+    assert w.loading.open_path(other)
     wait_loaded(qtbot, w)
-    assert w.session.cage_size == 0.08 and w.cage_size() == 0.08
+    assert w.session.cage_size == 0.08 and w.cage_control.value() == 0.08
     # a count set in the box for the next file is used, also when it is the count on display
-    w.set_cage_size(400)
-    assert w.rebuild()
+    w.cage_control.set_value(400)
+    assert w.loading.rebuild()
     wait_loaded(qtbot, w)
-    assert w.session.cage_size == 400 and w.cage_size_of_shape()
-    w.set_cage_size(400)  # (as a script, or typed)
-    assert not w.cage_size_of_shape()
-    assert w.open_path(other)
+    assert w.session.cage_size == 400 and w.cage_control.of_shape
+    w.cage_control.set_value(400)  # (as a script, or typed)
+    assert not w.cage_control.of_shape
+    assert w.loading.open_path(other)
     wait_loaded(qtbot, w)
     assert w.session.cage_size == 400
 
@@ -329,18 +307,18 @@ def test_another_file_starts_from_5_percent_not_from_the_last_count(qtbot, win, 
 def test_a_count_typed_in_the_box_is_no_longer_the_shapes(qtbot, win):
     w = win
     spin = w.cage_control.spin
-    assert w.cage_size_of_shape()
+    assert w.cage_control.of_shape
     spin.setFocus()
     spin.selectAll()
     qtbot.keyClicks(spin, "150")  # the same number, typed: the user's choice for what comes next
     qtbot.keyClick(spin, Qt.Key.Key_Return)
-    assert w.cage_size() == 150 and not w.cage_size_of_shape()
-    w.set_cage_size(150, of_shape=True)
+    assert w.cage_control.value() == 150 and not w.cage_control.of_shape
+    w.cage_control.set_value(150, of_shape=True)
     qtbot.keyClick(spin, Qt.Key.Key_Up)  # the arrows too
-    assert w.cage_size() != 150 and not w.cage_size_of_shape()
-    w.set_cage_size(150, of_shape=True)
+    assert w.cage_control.value() != 150 and not w.cage_control.of_shape
+    w.cage_control.set_value(150, of_shape=True)
     w.cage_control.unit.setCurrentIndex(0)  # and the unit
-    assert not w.cage_size_of_shape()
+    assert not w.cage_control.of_shape
 
 
 def test_a_new_shape_is_drawn_while_its_cage_is_built_and_the_camera_works(qtbot, win, make_blob, gate):
@@ -350,10 +328,10 @@ def test_a_new_shape_is_drawn_while_its_cage_is_built_and_the_camera_works(qtbot
     w = win
     s = w.session
     other = make_blob(3)
-    assert w.open_mesh(other)
+    assert w.loading.open_mesh(other)
     qtbot.waitUntil(lambda: w.scene.shape is not None and w.scene.shape.n_points == other.n_vertices,
                     timeout=20000)
-    assert w.worker is not None and w.session is None  # still building; nothing to edit yet
+    assert w.jobs.worker is not None and w.session is None  # still building; nothing to edit yet
     assert np.allclose(np.asarray(w.scene.shape.points), other.vertices, atol=1e-6)
     img = np.asarray(w.view.screenshot(None, return_img=True))[..., :3].astype(int)
     assert ((img[..., 0] - img[..., 2]) > 15).mean() > 0.02  # the shape's warm colour is on screen
@@ -364,11 +342,11 @@ def test_a_new_shape_is_drawn_while_its_cage_is_built_and_the_camera_works(qtbot
     w.view.render()
     # Esc: the shape before is back, as it was
     qtbot.keyClick(w.view, Qt.Key.Key_Escape)
-    qtbot.waitUntil(lambda: w.worker is None, timeout=20000)
+    qtbot.waitUntil(lambda: w.jobs.worker is None, timeout=20000)
     assert w.session is s and w.scene.shape.n_points == s.mesh.n_vertices
     # again, to the end: the new shape, and the camera the user set on it
     gate.clear()
-    assert w.open_mesh(other)
+    assert w.loading.open_mesh(other)
     qtbot.waitUntil(lambda: w.session is None and w.scene.shape is not None, timeout=20000)
     cam.Azimuth(30)
     turned = cam.GetPosition()
@@ -399,12 +377,12 @@ def test_the_view_sets_of_a_new_shape_are_made_on_the_build_thread_once(qtbot, w
             made.append(threading.get_ident())
 
     monkeypatch.setattr(region_metrics.ShapeMetrics, "__init__", recording)
-    assert w.open_path(path)
+    assert w.loading.open_path(path)
     wait_loaded(qtbot, w)
     qtbot.waitUntil(lambda: w.session is not None and w.session.path == path, timeout=30000)
     assert len(made) == 1 and made[0] != threading.get_ident()
     metrics = w.session.metrics
-    w.set_cage_size(60)
-    assert w.rebuild()
-    qtbot.waitUntil(lambda: w.worker is None and w.session.cage_size == 60, timeout=30000)
+    w.cage_control.set_value(60)
+    assert w.loading.rebuild()
+    qtbot.waitUntil(lambda: w.jobs.worker is None and w.session.cage_size == 60, timeout=30000)
     assert w.session.metrics is metrics and len(made) == 1

@@ -10,9 +10,8 @@ import numpy as np
 import hybridedit as he
 from qtpy import QtCore, QtWidgets
 
-from hybridedit.viewer.dialogs import mesh_info_text
-from hybridedit.viewer.help import ABOUT, HOWTO
-from test_window import win  # noqa: F401 (fixture)
+from hybridedit.viewer.window.dialogs import mesh_info_text
+from hybridedit.viewer.window.help_texts import ABOUT, HOWTO
 
 
 def fake_session(path=None, notes=()):
@@ -53,7 +52,7 @@ def test_the_menus_open_the_dialogs(qtbot, win):
     box = w.dialogs.mesh_info_box
     qtbot.waitExposed(box)
     assert not box.isModal() and box.windowTitle() == "Mesh info"
-    assert box.text() == mesh_info_text(w.session, w.last_polish)
+    assert box.text() == mesh_info_text(w.session, w.posing.last_polish)
     assert "Vertices: 2,562" in box.text() and f"Cage: {w.session.n_cage:,} vertices" in box.text()
     box.close()
     # Help > Shortcuts lists Cancel with its key

@@ -10,7 +10,7 @@ import numba
 import pytest
 from qtpy import QtWidgets
 
-from hybridedit.viewer.framethread import ALL_THREADS, NICE, FrameThread
+from hybridedit.viewer.input.frame_thread import ALL_THREADS, NICE, FrameThread
 
 
 @pytest.fixture

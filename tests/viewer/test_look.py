@@ -11,9 +11,10 @@ import pyvista as pv
 import hybridedit as he
 from hybridedit.core.mesh import Mesh
 from hybridedit.deform.roles import FIXED, FREE
-from hybridedit.viewer.look import look_of
+from hybridedit.viewer.render.look import look_of
 from hybridedit.core.region_metrics import ShapeMetrics
-from hybridedit.viewer.scene import Scene
+from hybridedit.viewer.render.scene import Scene
+from support.window_driving import key, mouse_drag, projected, settled, to_widget
 
 CHECKER_A = (230, 40, 40)  # red squares
 CHECKER_B = (40, 60, 220)  # blue squares
@@ -193,6 +194,7 @@ def test_vertex_colours_are_shown(tmp_path):
     assert (plain[..., 0] - plain[..., 1] > 80).mean() < 0.001
 
 
+@pytest.mark.slow  # (a new process: Python, VTK and a cage build of its own)
 def test_the_screenshot_shows_the_asset_as_the_window_does(tmp_path):
     """`hybridedit --screenshot`: a textured OBJ with its texture's two colours, a PLY with its vertex colours."""
     import subprocess
@@ -221,8 +223,7 @@ def test_a_plain_mesh_has_no_look():
 def test_the_window_opens_a_textured_file_textured_and_keeps_it_through_a_drag(qtbot, tmp_path):
     from qtpy import QtCore
 
-    from hybridedit.viewer.window import MainWindow
-    from test_window import key, mouse_drag, projected, settled, to_widget
+    from hybridedit.viewer.window.main_window import MainWindow
 
     Qt = QtCore.Qt
     path = uv_sphere_obj(tmp_path)
@@ -233,8 +234,8 @@ def test_the_window_opens_a_textured_file_textured_and_keeps_it_through_a_drag(q
     w.activateWindow()
     qtbot.waitActive(w)
     w.view.setFocus()
-    assert w.open_path(path)
-    qtbot.waitUntil(lambda: w.session is not None and w.worker is None, timeout=60000)
+    assert w.loading.open_path(path)
+    qtbot.waitUntil(lambda: w.session is not None and w.jobs.worker is None, timeout=60000)
     s = w.session
     assert w.scene.look_mode == "texture" and w.actions_["look_texture"].isChecked()
     assert not w.actions_["look_colors"].isEnabled() and w.actions_["look_plain"].isEnabled()
@@ -249,7 +250,7 @@ def test_the_window_opens_a_textured_file_textured_and_keeps_it_through_a_drag(q
     P = s.cage_positions
     s.set_mask("roi", P[:, 0] > 0.0)
     s.set_mask("handle", P[:, 0] > 0.8)
-    w._refresh_selection()
+    w.sync.refresh_selection()
     key(qtbot, w, Qt.Key.Key_D)
     dc, _ = projected(w, s.handle_centroid()[None])
     a = to_widget(w, dc[0])
@@ -264,5 +265,5 @@ def test_the_window_opens_a_textured_file_textured_and_keeps_it_through_a_drag(q
     assert share_near(shot(), CHECKER_B) < 0.001  # (red is taken: the gizmo's X arrow)
     key(qtbot, w, Qt.Key.Key_1, Qt.KeyboardModifier.AltModifier)
     assert w.scene.look_mode == "texture" and share_near(shot(), CHECKER_A) > 0.02
-    w.set_modified(False)
+    w.unsaved.set_modified(False)
     w.close()

@@ -7,9 +7,9 @@ import pytest
 
 from hybridedit.core.transforms import apply_transform
 from hybridedit.deform.roles import FIXED, FREE, handle as handle_role
-from hybridedit.viewer import gizmo as gz
-from hybridedit.viewer.history import History, Snapshot
-from hybridedit.viewer.picking import (
+from hybridedit.viewer.model import gizmo as gz
+from hybridedit.viewer.model.history import History, Snapshot
+from hybridedit.viewer.model.picking import (
     ADD, REMOVE, REPLACE, brush_hits, combine, nearest_hit, op_from_modifiers, project_points,
     rectangle_hits, selection_roles, stroke_hits, unproject, visible_points,
 )
@@ -196,7 +196,7 @@ def test_history_undo_redo_and_branching():
 
 
 def test_through_the_part_takes_the_pieces_that_are_seen_whole():
-    from hybridedit.viewer.picking import through_the_part
+    from hybridedit.viewer.model.picking import through_the_part
 
     # a chain 0-1-2-3 (an arm: 0 and 1 in front, 2 and 3 behind), and 4-5 (a leg behind it), 6 outside
     edges = np.array([[0, 1], [1, 2], [2, 3], [3, 6], [6, 4], [4, 5]])

@@ -6,8 +6,8 @@ import numpy as np
 from qtpy import QtCore
 
 from hybridedit.deform.roles import FIXED
-from hybridedit.viewer.palette import SHAPE_COLOR
-from test_window import key, projected, to_widget, win  # noqa: F401 (fixture)
+from hybridedit.viewer.render.palette import SHAPE_COLOR
+from support.window_driving import drag_tip, key, projected, to_widget
 
 Qt = QtCore.Qt
 
@@ -21,7 +21,7 @@ def test_cage_points_only_where_they_help(qtbot, win):
     P = s.cage_positions
     s.set_mask("roi", P[:, 0] > 0.0)
     s.set_mask("handle", P[:, 0] > 1.4)
-    w._refresh_selection()
+    w.sync.refresh_selection()
     shown = set(w.scene.shown_points.tolist())
     assert shown == set(np.flatnonzero(s.cage_roles() != FIXED).tolist())  # the ROI and the handle
     assert w.scene.points_poly.n_verts == len(shown)
@@ -51,7 +51,7 @@ def test_cage_points_only_where_they_help(qtbot, win):
 def test_a_dense_cage_draws_small_points_and_they_grow_as_the_view_zooms_in(qtbot, win):
     """Cage points are drawn a fraction of the cage's spacing on screen wide: the ROI of a dense cage tints the
     surface instead of covering it."""
-    from hybridedit.viewer.scene import POINT_PIXELS, POINT_SPACING
+    from hybridedit.viewer.render.scene import POINT_PIXELS, POINT_SPACING
 
     w = win
     sc = w.scene
@@ -78,7 +78,6 @@ def test_a_dense_cage_draws_small_points_and_they_grow_as_the_view_zooms_in(qtbo
 def test_undoing_a_drag_keeps_the_shapes_parts_and_a_new_selection_remakes_them(qtbot, win):
     """The shape's parts (one actor per role) are remade only when the roles change: undoing a drag
     (same selection) redraws the rest pose in the same parts; selecting something else splits anew."""
-    from test_window_files import drag_tip
 
     w = win
     s = w.session
@@ -92,6 +91,6 @@ def test_undoing_a_drag_keeps_the_shapes_parts_and_a_new_selection_remakes_them(
     np.testing.assert_array_equal(drawn, s.shape_positions.astype(np.float32))  # the rest pose, in them
     P = s.cage_positions
     s.set_mask("handle", P[:, 0] > 1.2)  # another handle: the tint changes, the parts are made again
-    w._refresh_selection()
+    w.sync.refresh_selection()
     assert not any(p is q for p in w.scene.parts.parts for q in parts)
     np.testing.assert_array_equal(w.scene.parts.drawn_points(), s.shape_positions.astype(np.float32))

@@ -5,8 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from hybridedit.deform.roles import FIXED, FREE, handle
-from hybridedit.viewer.selectionstate import HANDLE, NO_GROUP, ROI
-from test_session import editor_parts, session  # noqa: F401 (fixtures)
+from hybridedit.viewer.model.selection_masks import HANDLE, NO_GROUP, ROI
 
 
 def test_handle_groups_are_roles_and_an_empty_group_drops_out(session):

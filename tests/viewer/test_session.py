@@ -8,21 +8,8 @@ import pytest
 from hybridedit.fileio.editfile import Edit
 from hybridedit.deform.editor import HybridEditor, SelectionError
 from hybridedit.core.transforms import rigid_transform
-from hybridedit.viewer.selectionstate import HANDLE, ROI
-from hybridedit.viewer.session import Session
-
-
-@pytest.fixture(scope="module")
-def editor_parts(make_blob):
-    mesh = make_blob(4)
-    ed = HybridEditor(mesh, 150)
-    return mesh, ed.cage, ed.M
-
-
-@pytest.fixture
-def session(editor_parts) -> Session:
-    mesh, cage, M = editor_parts
-    return Session(HybridEditor(mesh, 150, cage=cage, binding=M), cage_size=150)
+from hybridedit.viewer.model.selection_masks import HANDLE, ROI
+from hybridedit.viewer.model.session import Session
 
 
 def _select(s: Session, roi_x: float = 0.0, handle_x: float = 1.4) -> None:

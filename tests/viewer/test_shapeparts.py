@@ -6,8 +6,8 @@ import numpy as np
 import trimesh
 from vtkmodules.vtkRenderingCore import vtkRenderer
 
-from hybridedit.viewer.palette import SHAPE_COLOR, shape_tint, stretch_lookup_table
-from hybridedit.viewer.shapeparts import ShapeParts, face_roles
+from hybridedit.viewer.render.palette import SHAPE_COLOR, shape_tint, stretch_lookup_table
+from hybridedit.viewer.render.shape_parts import ShapeParts, face_roles
 
 
 def _sphere():

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from qtpy import QtCore, QtWidgets
 
-from hybridedit.viewer.statusfield import StatusField
+from hybridedit.viewer.window.status_widgets import StatusField
 
 
 class LayoutRequests(QtCore.QObject):

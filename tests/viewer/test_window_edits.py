@@ -8,10 +8,9 @@ import pytest
 from qtpy import QtCore
 
 from hybridedit import cli
-from hybridedit.fileio.meshfiles import read_mesh, write_mesh
-from hybridedit.core.mesh import Mesh
-from hybridedit.viewer.window import MainWindow
-from test_window import CAGE, key, mouse_drag, projected, settled, to_widget, wait_loaded, win  # noqa: F401 (fixture)
+from hybridedit.fileio.meshfiles import read_mesh
+from hybridedit.viewer.window.main_window import MainWindow
+from support.window_driving import CAGE, handle_point, key, mouse_drag, polished, settled, wait_loaded
 
 Qt = QtCore.Qt
 
@@ -20,12 +19,7 @@ def select(w: MainWindow, roi: np.ndarray, handle: np.ndarray) -> None:
     s = w.session
     s.set_mask("roi", roi)
     s.set_mask("handle", handle)
-    w._refresh_selection()
-
-
-def handle_point(w: MainWindow) -> QtCore.QPoint:
-    dc, _ = projected(w, w.session.handle_centroid()[None])
-    return to_widget(w, dc[0])
+    w.sync.refresh_selection()
 
 
 def drag_handle(qtbot, w: MainWindow, dy: int) -> None:
@@ -33,11 +27,6 @@ def drag_handle(qtbot, w: MainWindow, dy: int) -> None:
     a = handle_point(w)
     mouse_drag(qtbot, w.view, a, a + QtCore.QPoint(0, -dy), steps=max(1, min(abs(dy), 6)))
     settled(qtbot, w)
-
-
-def polished(qtbot, w: MainWindow) -> None:
-    qtbot.waitUntil(lambda: w.polished is not None and w.polisher.worker is None, timeout=20000)
-    qtbot.wait(10)
 
 
 def test_a_second_edit_starts_where_the_first_ended(qtbot, win):
@@ -87,32 +76,11 @@ def test_a_second_edit_starts_where_the_first_ended(qtbot, win):
     assert np.abs(s.shape_positions - second).max() < 1e-12 * diag
 
 
-def symmetric_capsule(subdivisions: int = 4) -> Mesh:
-    """A bumpy capsule along X, its own mirror image across x = 0."""
-    import trimesh
-
-    t = trimesh.creation.icosphere(subdivisions=subdivisions, radius=1.0)
-    v = np.asarray(t.vertices).copy()
-    x, y, z = v.T
-    v *= (1.0 + 0.06 * np.cos(6 * x) * np.cos(4 * y) + 0.04 * np.sin(9 * z))[:, None]
-    v[:, 0] *= 2.0
-    v[:, 1] += 0.15 * np.cos(1.2 * v[:, 0])
-    v[:, 0] -= 0.5 * (v[:, 0].max() + v[:, 0].min())  # the mirror plane at x = 0, through the box's centre
-    return Mesh(v, np.asarray(t.faces), name="capsule")
-
-
-@pytest.fixture(scope="module")
-def capsule_file(tmp_path_factory):
-    p = tmp_path_factory.mktemp("sym") / "capsule.obj"
-    write_mesh(p, symmetric_capsule())
-    return p
-
-
 def test_mirror_x_drag_equals_the_deform_replay_of_its_edit(qtbot, win, capsule_file, tmp_path):
     w = win
     w.actions_["polish"].trigger()  # compare the settled pose (the polish is not in an edit file)
-    w.set_cage_size(CAGE)  # (a count for this file: the blob's does not carry over)
-    assert w.open_path(capsule_file)
+    w.cage_control.set_value(CAGE)  # (a count for this file: the blob's does not carry over)
+    assert w.loading.open_path(capsule_file)
     wait_loaded(qtbot, w)
     s = w.session
     assert s.path == capsule_file
@@ -121,7 +89,7 @@ def test_mirror_x_drag_equals_the_deform_replay_of_its_edit(qtbot, win, capsule_
     P = s.cage_positions
     select(w, P[:, 0] > 0.0, P[:, 0] > 1.4)
     s.apply_selection()
-    w._refresh_selection()
+    w.sync.refresh_selection()
     # the mirrored selection is drawn on both sides: the engine's roles, mirror images included
     from hybridedit.deform.roles import FIXED, is_handle
 
@@ -150,26 +118,29 @@ def test_mirror_x_is_checked_against_each_shape(qtbot, win, capsule_file, blob_f
     s = w.session  # the bumpy blob: not symmetric across x
     key(qtbot, w, Qt.Key.Key_X, Qt.KeyboardModifier.ShiftModifier)  # refused at once, no selection needed
     assert not w.actions_["mirror_x"].isChecked() and s.symmetry is None
-    assert "not symmetric" in w.last_error and "%" in w.last_error
-    w._error_box.done(0)  # the message box read
+    assert "not symmetric" in w.status.last_error and "%" in w.status.last_error
+    w.status.error_box.done(0)  # the message box read
     w.activateWindow()
     qtbot.waitActive(w)
     w.view.setFocus()
-    assert w.open_path(capsule_file)
-    qtbot.waitUntil(lambda: w.session is not None and w.session.path == capsule_file and w.worker is None, timeout=60000)
+    assert w.loading.open_path(capsule_file)
+    qtbot.waitUntil(lambda: w.session is not None and w.session.path == capsule_file and w.jobs.worker is None,
+                    timeout=60000)
     key(qtbot, w, Qt.Key.Key_X, Qt.KeyboardModifier.ShiftModifier)
     assert w.actions_["mirror_x"].isChecked() and w.session.symmetry == "x"
-    w.set_modified(False)
-    assert w.open_path(blob_file)  # Mirror X is still ticked: the new shape is checked when it opens
-    qtbot.waitUntil(lambda: w.session is not None and w.session.path == blob_file and w.worker is None, timeout=60000)
+    w.unsaved.set_modified(False)
+    assert w.loading.open_path(blob_file)  # Mirror X is still ticked: the new shape is checked when it opens
+    qtbot.waitUntil(lambda: w.session is not None and w.session.path == blob_file and w.jobs.worker is None,
+                    timeout=60000)
     assert not w.actions_["mirror_x"].isChecked() and w.session.symmetry is None
-    assert "Mirror X is off" in w.current_message()
+    assert "Mirror X is off" in w.status.current_message()
 
 
 def test_a_mirrored_selection_is_drawn_on_both_sides_as_it_is_made(qtbot, win, capsule_file):
     w = win
-    assert w.open_path(capsule_file)
-    qtbot.waitUntil(lambda: w.session is not None and w.session.path == capsule_file and w.worker is None, timeout=60000)
+    assert w.loading.open_path(capsule_file)
+    qtbot.waitUntil(lambda: w.session is not None and w.session.path == capsule_file and w.jobs.worker is None,
+                    timeout=60000)
     s = w.session
     key(qtbot, w, Qt.Key.Key_X, Qt.KeyboardModifier.ShiftModifier)
     P = s.cage_positions

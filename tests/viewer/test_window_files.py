@@ -10,31 +10,10 @@ import pytest
 from qtpy import QtCore, QtGui, QtWidgets
 
 from hybridedit.fileio.meshfiles import read_mesh, write_mesh
-from test_window import key, mouse_drag, projected, settled, to_widget, wait_loaded, win  # noqa: F401 (fixture)
+from support.window_driving import drag_tip, key, mouse_drag, projected, select_tip, settled, to_widget, wait_loaded
 
 Qt = QtCore.Qt
 Btn = QtWidgets.QMessageBox.StandardButton
-
-
-def select_tip(w):
-    """ROI: the right half of the cage; handle: its right end. Returns the session."""
-    s = w.session
-    P = s.cage_positions
-    s.set_mask("roi", P[:, 0] > 0.0)
-    s.set_mask("handle", P[:, 0] > 1.4)
-    w._refresh_selection()
-    return s
-
-
-def drag_tip(qtbot, w, pixels: int = 80) -> None:
-    """ROI: the right half; handle: the right end; drag it up with the mouse (no polish: the engine's pose)."""
-    w.polisher.enabled = False
-    s = select_tip(w)
-    key(qtbot, w, Qt.Key.Key_D)
-    dc, _ = projected(w, s.handle_centroid()[None])
-    a = to_widget(w, dc[0])
-    mouse_drag(qtbot, w.view, a, a + QtCore.QPoint(0, -pixels), steps=6)
-    settled(qtbot, w)
 
 
 def press_on_handle(qtbot, w) -> QtCore.QPoint:
@@ -84,13 +63,13 @@ def test_title_marks_an_unsaved_pose(qtbot, win, tmp_path):
     w = win
     assert w.windowTitle() == "hybridedit — blob.obj[*]" and not w.isWindowModified()
     drag_tip(qtbot, w)
-    assert w.modified and w.isWindowModified()
+    assert w.unsaved.modified and w.isWindowModified()
     assert w.files.save_to(tmp_path / "posed.obj")
     assert not w.isWindowModified()
 
 
 def test_a_long_save_shows_its_progress(qtbot, win, tmp_path, monkeypatch):
-    from hybridedit.viewer import files
+    from hybridedit.viewer.window import file_actions as files
 
     monkeypatch.setattr(files, "PROGRESS_AFTER_MS", 0)  # a small mesh saves at once: show it anyway
     shown = []
@@ -122,18 +101,18 @@ def test_save_as_names_the_new_file_in_the_title(qtbot, win, tmp_path, monkeypat
     monkeypatch.setattr(QtWidgets.QFileDialog, "getSaveFileName", staticmethod(lambda *a, **k: (str(out), "")))
     w.actions_["save_as"].trigger()
     assert out.exists()
-    assert w.windowTitle() == "hybridedit — posed.ply[*]" and not w.isWindowModified() and not w.modified
+    assert w.windowTitle() == "hybridedit — posed.ply[*]" and not w.isWindowModified() and not w.unsaved.modified
     # the next change marks the new file's title; the question before dropping it names that file
     drag_tip(qtbot, w)
     assert w.windowTitle() == "hybridedit — posed.ply[*]" and w.isWindowModified()
     asked = answer(qtbot, w, Btn.Cancel)
-    assert not w.open_path(other_mesh)
+    assert not w.loading.open_path(other_mesh)
     assert asked and asked[0].startswith("The pose of posed.ply is not saved.")
     # Save writes to it again, the title stays
     w.actions_["save"].trigger()
     assert w.windowTitle() == "hybridedit — posed.ply[*]" and not w.isWindowModified()
     # another shape: its own name, nothing saved yet
-    assert w.open_path(other_mesh)
+    assert w.loading.open_path(other_mesh)
     wait_loaded(qtbot, w)
     qtbot.waitUntil(lambda: w.session is not None and w.session.path == other_mesh, timeout=30000)
     assert w.windowTitle() == "hybridedit — other.off[*]" and not w.isWindowModified()
@@ -148,7 +127,7 @@ def test_open_or_drop_asks_before_dropping_the_pose(qtbot, win, other_mesh, tmp_
 
     def go():
         if how == "open":
-            w.open_path(other_mesh)
+            w.loading.open_path(other_mesh)
         else:
             drop(w, other_mesh)
         qtbot.wait(300)
@@ -157,7 +136,7 @@ def test_open_or_drop_asks_before_dropping_the_pose(qtbot, win, other_mesh, tmp_
     asked = answer(qtbot, w, Btn.Cancel)
     go()
     assert asked and "not saved" in asked[0] and "other.off" in asked[0]
-    assert w.worker is None and w.session is s and np.array_equal(s.shape_positions, posed)
+    assert w.jobs.worker is None and w.session is s and np.array_equal(s.shape_positions, posed)
     # Save: the pose is written first (Save As, as nothing was saved yet), then the other mesh opens
     out = tmp_path / "saved.ply"
     monkeypatch.setattr(QtWidgets.QFileDialog, "getSaveFileName", staticmethod(lambda *a, **k: (str(out), "")))
@@ -166,7 +145,7 @@ def test_open_or_drop_asks_before_dropping_the_pose(qtbot, win, other_mesh, tmp_
     wait_loaded(qtbot, w)
     qtbot.waitUntil(lambda: w.session is not s, timeout=30000)
     assert np.array_equal(read_mesh(out).vertices, posed)
-    assert "other.off" in w.windowTitle() and not w.modified
+    assert "other.off" in w.windowTitle() and not w.unsaved.modified
     # Discard: the pose is dropped without a file
     drag_tip(qtbot, w)
     s2 = w.session
@@ -174,7 +153,7 @@ def test_open_or_drop_asks_before_dropping_the_pose(qtbot, win, other_mesh, tmp_
     go()
     wait_loaded(qtbot, w)
     qtbot.waitUntil(lambda: w.session is not s2, timeout=30000)
-    assert not w.modified
+    assert not w.unsaved.modified
 
 
 def test_quit_asks_before_dropping_the_pose(qtbot, win, tmp_path, monkeypatch):
@@ -212,11 +191,11 @@ def test_rebuild_asks_then_keeps_the_pose_and_the_undo_history(qtbot, win):
     steps = len(s.history)
     rest = s.mesh.vertices
     moved = np.linalg.norm(posed - rest, axis=1)
-    w.set_cage_size(90)
+    w.cage_control.set_value(90)
     answer(qtbot, w, Btn.Cancel)
-    assert not w.rebuild() and w.worker is None and s.n_cage == n_old
+    assert not w.loading.rebuild() and w.jobs.worker is None and s.n_cage == n_old
     answer(qtbot, w, Btn.Discard)
-    assert w.rebuild()
+    assert w.loading.rebuild()
     wait_loaded(qtbot, w)
     qtbot.waitUntil(lambda: s.n_cage != n_old, timeout=30000)
     assert w.session is s and abs(s.n_cage - 90) < 10
@@ -251,7 +230,7 @@ def test_keyboard_returns_to_the_view_after_the_cage_box(qtbot, win):
     spin.selectAll()
     qtbot.keyClicks(spin, "120")
     qtbot.keyClick(spin, Qt.Key.Key_Return)
-    assert w.cage_size() == 120
+    assert w.cage_control.value() == 120
     assert w.view.hasFocus()
     key(qtbot, w, Qt.Key.Key_S)  # a single-letter shortcut reaches the window again
     assert w.controller.mode == "select"
@@ -263,12 +242,12 @@ def test_status_bar_shows_displayed_fps_first(qtbot, win):
     for k in range(1, 25):
         qtbot.mouseMove(w.view, a + QtCore.QPoint(0, -2 * k))
         qtbot.wait(15)
-    text = w.timing_text()
+    text = w.status.timing_text()
     qtbot.mouseRelease(w.view, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier, a + QtCore.QPoint(0, -48))
     settled(qtbot, w)
     m = re.match(r"(\d+) fps · frame (\d+) ms · render \d+ ms$", text)
     assert m, text
-    assert "engine's solve" in w.time_label.toolTip()  # (the frame thread's split)
+    assert "engine's solve" in w.status.time_label.toolTip()  # (the frame thread's split)
     assert int(m.group(1)) == round(w.view.display_fps()) or int(m.group(1)) > 0
 
 
@@ -296,7 +275,7 @@ def test_a_drag_re_lays_nothing_out(qtbot, win):
     for k in range(6, 30):
         qtbot.mouseMove(w.view, a + QtCore.QPoint(0, -2 * k))
         qtbot.wait(40)
-        texts.add((w.time_label.text(), w.error_label.text()))
+        texts.add((w.status.time_label.text(), w.status.error_label.text()))
     for widget in (w, w.statusBar()):
         widget.removeEventFilter(watch)
     qtbot.mouseRelease(w.view, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier, a + QtCore.QPoint(0, -60))
@@ -313,17 +292,18 @@ def test_an_edit_saved_at_one_cage_size_replays_at_another(qtbot, win, tmp_path,
     roles = s.shape_roles()
     edit = tmp_path / "tip.json"
     assert w.files.save_edit_to(edit)
-    assert "replays them to the pose on screen" in w.current_message()
+    assert "replays them to the pose on screen" in w.status.current_message()
     # the same mesh on a cage of another size
-    w.set_modified(False)
-    w.set_cage_size(70)
-    assert w.open_path(s.path)
+    w.unsaved.set_modified(False)
+    w.cage_control.set_value(70)
+    assert w.loading.open_path(s.path)
     wait_loaded(qtbot, w)
     qtbot.waitUntil(lambda: w.session is not s, timeout=30000)
     s2 = w.session
     assert abs(s2.n_cage - 70) < 10 and s2.n_cage != s.n_cage
     assert w.files.load_edit_from(edit)
-    assert f"made on a cage of {s.n_cage:,} vertices and replayed on this one of {s2.n_cage:,}" in w.current_message()
+    said = w.status.current_message()
+    assert f"made on a cage of {s.n_cage:,} vertices and replayed on this one of {s2.n_cage:,}" in said
     V = s2.shape_positions
     # the same constraints, held exactly, and the same shape up to the cage's resolution
     assert np.array_equal(s2.shape_roles(), roles)
@@ -334,14 +314,15 @@ def test_an_edit_saved_at_one_cage_size_replays_at_another(qtbot, win, tmp_path,
     # a different mesh refuses it in one line that says so, and keeps its state
     other = tmp_path / "other.obj"
     write_mesh(other, make_blob(3))
-    w.set_modified(False)
-    assert w.open_path(other)
+    w.unsaved.set_modified(False)
+    assert w.loading.open_path(other)
     wait_loaded(qtbot, w)
     qtbot.waitUntil(lambda: w.session is not s2, timeout=30000)
     before = w.session.shape_positions.copy()
     assert not w.files.load_edit_from(edit)
-    assert "tip.json" in w.last_error and "2,562 vertices" in w.last_error and "refused" in w.last_error
-    assert len(w.last_error.splitlines()) == 1
+    error = w.status.last_error
+    assert "tip.json" in error and "2,562 vertices" in error and "refused" in error
+    assert len(w.status.last_error.splitlines()) == 1
     assert np.array_equal(w.session.shape_positions, before)
 
 
@@ -354,14 +335,14 @@ def test_mirror_x_moves_both_sides_or_says_why_not(qtbot, win, tmp_path):
     # the test blob is not symmetric: refused in words, nothing changes
     s = select_tip(w)
     w.actions_["mirror_x"].trigger()
-    assert "mirror" in w.last_error.lower() or "symmetr" in w.last_error.lower()
+    assert "mirror" in w.status.last_error.lower() or "symmetr" in w.status.last_error.lower()
     assert s.symmetry is None and not w.actions_["mirror_x"].isChecked()
     # an exactly symmetric capsule: the mirrored end follows the mirrored drag
     sym = trimesh.creation.capsule(height=3.0, radius=0.6, count=[24, 24])
     path = tmp_path / "capsule.obj"
     write_mesh(path, Mesh(np.asarray(sym.vertices)[:, [2, 1, 0]], np.asarray(sym.faces)))  # long along X
-    w.set_modified(False)
-    assert w.open_path(path)
+    w.unsaved.set_modified(False)
+    assert w.loading.open_path(path)
     wait_loaded(qtbot, w)
     qtbot.waitUntil(lambda: w.session is not s, timeout=30000)
     s = w.session
@@ -369,7 +350,7 @@ def test_mirror_x_moves_both_sides_or_says_why_not(qtbot, win, tmp_path):
     P = s.cage_positions
     s.set_mask("roi", P[:, 0] > 0.3)
     s.set_mask("handle", P[:, 0] > 1.6)
-    w._refresh_selection()
+    w.sync.refresh_selection()
     w.actions_["mirror_x"].trigger()
     assert s.symmetry == "x" and w.actions_["mirror_x"].isChecked()
     from hybridedit.deform.roles import handle
@@ -398,7 +379,7 @@ def test_save_writes_what_deform_writes_and_says_what_a_conversion_drops(qtbot, 
     coloured = tmp_path / "coloured.obj"  # the blob with a colour on every vertex
     coloured.write_text("".join(f"v {x:.17g} {y:.17g} {z:.17g} 0.2 0.5 0.8\n" for x, y, z in blob.vertices)
                         + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in blob.faces))
-    assert w.open_path(coloured)
+    assert w.loading.open_path(coloured)
     wait_loaded(qtbot, w)
     assert w.session.path == coloured
     drag_tip(qtbot, w)
@@ -409,7 +390,7 @@ def test_save_writes_what_deform_writes_and_says_what_a_conversion_drops(qtbot, 
     assert (tmp_path / "posed.obj").read_bytes() == (tmp_path / "api.obj").read_bytes()
     assert " 0.2 0.5 0.8" in (tmp_path / "posed.obj").read_text().splitlines()[0]
     assert w.files.save_to(tmp_path / "posed.stl")
-    said = w.current_message()
+    said = w.status.current_message()
     assert said.startswith(f"Saved {tmp_path / 'posed.stl'}.") and "Note: STL cannot hold" in said
     assert "colours" in said or "colors" in said
 

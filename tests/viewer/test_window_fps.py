@@ -7,9 +7,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
+@pytest.mark.slow  # (a new process: Python, VTK and a cage build of its own)
 def test_window_fps_smoke(blob_file):
     r = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "window_fps.py"), "--smoke", str(blob_file)],
                        capture_output=True, text=True, timeout=300)

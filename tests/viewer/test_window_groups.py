@@ -8,8 +8,8 @@ import numpy as np
 from qtpy import QtCore
 
 from hybridedit.deform.roles import handle
-from hybridedit.viewer.palette import ROLE_COLORS, role_rows
-from test_window import key, mouse_drag, projected, settled, to_widget, win  # noqa: F401 (fixture)
+from hybridedit.viewer.render.palette import ROLE_COLORS, role_rows
+from support.window_driving import key, mouse_drag, projected, settled, to_widget
 
 Qt = QtCore.Qt
 
@@ -32,7 +32,7 @@ def test_two_handle_groups_move_independently(qtbot, win, tmp_path):
     w.actions_["new_group"].trigger()  # Ctrl+G
     assert s.n_groups == 2 and s.active == 1 and not s.handle.any()
     s.set_mask("handle", P[:, 0] < -1.4)
-    w._refresh_selection()
+    w.sync.refresh_selection()
     assert np.all(s.handle_group[P[:, 0] > 1.4] == 1) and np.all(s.handle_group[P[:, 0] < -1.4] == 2)
     # each group its own colour, on the cage points and on the shape
     rgba = np.asarray(w.scene.points_poly.point_data["role"])[:, :3]

@@ -9,27 +9,12 @@ from qtpy import QtCore
 from hybridedit.deform.arap import ARAPSolver
 from hybridedit.fileio.meshfiles import read_mesh
 from hybridedit.core.mesh import edge_stretch, vertex_stretch
-from hybridedit.viewer import worker as worker_module
-from hybridedit.viewer.dialogs import mesh_info_text
-from hybridedit.viewer.window import MainWindow
-from test_window import key, mouse_drag, projected, settled, to_widget, wait_loaded, win  # noqa: F401 (fixture)
+from hybridedit.viewer.jobs import build_worker as worker_module
+from hybridedit.viewer.window.dialogs import mesh_info_text
+from hybridedit.viewer.window.main_window import MainWindow
+from support.window_driving import handle_point, key, mouse_drag, polished, select_tip_to_drag, settled, wait_loaded
 
 Qt = QtCore.Qt
-
-
-def select_tip(qtbot, w: MainWindow) -> None:
-    """ROI: the right half of the cage; handle: its right end."""
-    s = w.session
-    P = s.cage_positions
-    s.set_mask("roi", P[:, 0] > 0.0)
-    s.set_mask("handle", P[:, 0] > 1.4)
-    w._refresh_selection()
-    key(qtbot, w, Qt.Key.Key_D)  # Drag mode
-
-
-def handle_point(w: MainWindow) -> QtCore.QPoint:
-    dc, _ = projected(w, w.session.handle_centroid()[None])
-    return to_widget(w, dc[0])
 
 
 def drag_up(qtbot, w: MainWindow, pixels: int = 80) -> None:
@@ -38,31 +23,26 @@ def drag_up(qtbot, w: MainWindow, pixels: int = 80) -> None:
     settled(qtbot, w)
 
 
-def polished(qtbot, w: MainWindow, timeout: int = 20000) -> None:
-    qtbot.waitUntil(lambda: w.polished is not None and w.polisher.worker is None, timeout=timeout)
-    qtbot.wait(10)
-
-
 def test_polish_on_release_lowers_the_energy_and_save_writes_it(qtbot, win, tmp_path):
     w = win
     s = w.session
     assert w.actions_["polish"].isChecked() and w.polisher.enabled
     rest = s.shape_positions.copy()
-    select_tip(qtbot, w)
+    select_tip_to_drag(qtbot, w)
     drag_up(qtbot, w)
     hybrid = s.shape_positions.copy()  # the engine's (settled) pose
     polished(qtbot, w)
-    P = w.polished.copy()
+    P = w.posing.polished.copy()
     # the polish ran in the background and the window shows its result
     assert np.allclose(w.scene.parts.drawn_points(), P, atol=1e-5)
     assert not np.allclose(P, hybrid, atol=1e-6)
-    msg = w.current_message()
+    msg = w.status.current_message()
     assert msg.startswith("polished: ") and "iterations, edge error" in msg and "→" in msg
-    assert w.error_label.text().endswith("(polished)")
+    assert w.status.error_label.text().endswith("(polished)")
     # lower full-mesh ARAP energy than the hybrid pose
     arap = ARAPSolver(s.mesh.vertices, s.mesh.faces, weights="cotangent")
     assert arap.energy(P) < arap.energy(hybrid)
-    assert w.last_polish.result.energy_after < w.last_polish.result.energy_before
+    assert w.posing.last_polish.result.energy_after < w.posing.last_polish.result.energy_before
     # only the edited region moved: the handle's and the fixed part's vertices are where the hybrid pose put them
     ed = s.editor
     free = ed.free_mask
@@ -75,10 +55,10 @@ def test_polish_on_release_lowers_the_energy_and_save_writes_it(qtbot, win, tmp_
     out = tmp_path / "polished.obj"
     assert w.files.save_to(out)
     assert np.array_equal(read_mesh(out).vertices, P)
-    assert "polish" in mesh_info_text(w.session, w.last_polish).lower()
+    assert "polish" in mesh_info_text(w.session, w.posing.last_polish).lower()
     # undo takes back the polish (the settled pose, exactly), then the drag
     key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
-    assert w.polished is None
+    assert w.posing.polished is None
     assert np.array_equal(s.shape_positions, hybrid)
     assert np.allclose(w.scene.parts.drawn_points(), hybrid, atol=1e-5)
     key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
@@ -86,33 +66,34 @@ def test_polish_on_release_lowers_the_energy_and_save_writes_it(qtbot, win, tmp_
     assert np.allclose(w.scene.parts.drawn_points(), rest, atol=1e-5)
     # redo brings the settled pose back, then the polished one, exactly (no new polish runs)
     key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier | Qt.KeyboardModifier.ShiftModifier)
-    assert np.array_equal(s.shape_positions, hybrid) and w.polished is None
+    assert np.array_equal(s.shape_positions, hybrid) and w.posing.polished is None
     key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier | Qt.KeyboardModifier.ShiftModifier)
     assert np.array_equal(s.shape_positions, P)
     assert np.allclose(w.scene.parts.drawn_points(), P, atol=1e-5)
     assert w.polisher.worker is None
-    assert w.polished is not None and w.error_label.text().endswith("(polished)")  # (redone: still the polish)
+    assert w.posing.polished is not None  # (redone: still the polish)
+    assert w.status.error_label.text().endswith("(polished)")
     # a selection changed, and undone: the pose on display is still the polished one, and says so
     Pc = s.cage_positions
     s.set_mask("handle", Pc[:, 0] < -1.4)
-    w._refresh_selection()
-    w.measure(everything=True)
-    assert w.error_label.text().endswith("(polished)")
+    w.sync.refresh_selection()
+    w.sync.measure(everything=True)
+    assert w.status.error_label.text().endswith("(polished)")
     key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
-    assert np.array_equal(s.shape_positions, P) and w.error_label.text().endswith("(polished)")
+    assert np.array_equal(s.shape_positions, P) and w.status.error_label.text().endswith("(polished)")
     # off: a release shows the engine's pose only
     w.actions_["polish"].trigger()
     assert not w.polisher.enabled
     drag_up(qtbot, w, 30)
     qtbot.wait(200)
-    assert w.polisher.worker is None and w.polished is None
+    assert w.polisher.worker is None and w.posing.polished is None
     assert np.allclose(w.scene.parts.drawn_points(), s.shape_positions, atol=1e-5)
 
 
 def test_a_new_drag_or_undo_cancels_a_running_polish(qtbot, win):
     w = win
     s = w.session
-    select_tip(qtbot, w)
+    select_tip_to_drag(qtbot, w)
     # a polish that would run for a minute: never converges, no iteration cap
     w.polisher.iterations, w.polisher.tolerance = 10 ** 9, 0.0
     drag_up(qtbot, w)
@@ -125,7 +106,7 @@ def test_a_new_drag_or_undo_cancels_a_running_polish(qtbot, win):
     qtbot.mousePress(w.view, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier, a)
     assert running.cancel_requested
     qtbot.waitUntil(lambda: w.polisher.worker is None, timeout=5000)
-    assert w.polished is None and w.last_polish is None  # the result was dropped
+    assert w.posing.polished is None and w.posing.last_polish is None  # the result was dropped
     for k in range(1, 4):
         qtbot.mouseMove(w.view, a + QtCore.QPoint(0, -10 * k))
         qtbot.wait(5)
@@ -139,7 +120,7 @@ def test_a_new_drag_or_undo_cancels_a_running_polish(qtbot, win):
     assert running.cancel_requested and s.history.current is not before
     qtbot.waitUntil(lambda: w.polisher.worker is None, timeout=5000)
     qtbot.wait(50)
-    assert w.polished is None and w.last_polish is None
+    assert w.posing.polished is None and w.posing.last_polish is None
     assert np.allclose(w.scene.parts.drawn_points(), s.shape_positions, atol=1e-5)
 
 
@@ -148,7 +129,7 @@ def test_stretch_map(qtbot, win):
     s = w.session
     a = w.actions_["stretch"]
     assert not a.isChecked() and not w.scene.stretch_bar.GetVisibility()
-    select_tip(qtbot, w)
+    select_tip_to_drag(qtbot, w)
     drag_up(qtbot, w)
     polished(qtbot, w)
     w.view.render()
@@ -157,7 +138,7 @@ def test_stretch_map(qtbot, win):
     assert a.isChecked()
     assert all(p.mapper.GetScalarVisibility() for p in w.scene.parts.parts)
     assert w.scene.stretch_bar.GetVisibility()
-    V = w.polished  # the shape on display
+    V = w.posing.polished  # the shape on display
     expected = 100.0 * vertex_stretch(s.mesh.n_vertices, s.edges, edge_stretch(s.mesh.vertices, V, s.edges))
     shown = np.asarray(w.scene.shape.point_data["stretch"])
     assert np.allclose(shown, expected, rtol=1e-5, atol=1e-4)
@@ -198,9 +179,9 @@ def test_repair_notes_are_shown_after_loading(qtbot, blob_file, monkeypatch):
     w.show()
     qtbot.waitExposed(w)
     assert not w.actions_["mesh_info"].isEnabled()
-    assert w.open_path(blob_file)
+    assert w.loading.open_path(blob_file)
     wait_loaded(qtbot, w)
-    msg = w.current_message()
+    msg = w.status.current_message()
     assert "repaired" in msg and notes[0] in msg and notes[1] in msg
     assert w.actions_["mesh_info"].isEnabled()
     w.actions_["mesh_info"].trigger()
@@ -212,4 +193,4 @@ def test_repair_notes_are_shown_after_loading(qtbot, blob_file, monkeypatch):
     box.close()
     # without notes: "none"
     w.session.editor.notes = []
-    assert "none" in mesh_info_text(w.session, w.last_polish)
+    assert "none" in mesh_info_text(w.session, w.posing.last_polish)

@@ -11,9 +11,10 @@ from qtpy import QtCore, QtWidgets
 
 from hybridedit import cli
 from hybridedit.fileio.meshfiles import read_mesh
-from hybridedit.viewer.window import MainWindow
-from test_window import CAGE, key, mouse_drag, projected, rubber_band, settled, to_widget, wait_loaded, win  # noqa: F401
-from test_window_edits import capsule_file  # noqa: F401 (fixture)
+from hybridedit.viewer.window.main_window import MainWindow
+from support.window_driving import (
+    CAGE, key, mouse_drag, polished, projected, rubber_band, settled, to_widget, wait_loaded,
+)
 
 Qt = QtCore.Qt
 CTRL = Qt.KeyboardModifier.ControlModifier
@@ -52,8 +53,7 @@ def drag_handle(qtbot, w: MainWindow, dx: int, dy: int) -> None:
     a = to_widget(w, dc[0])
     mouse_drag(qtbot, w.view, a, a + QtCore.QPoint(dx, -dy))
     settled(qtbot, w)
-    qtbot.waitUntil(lambda: w.polished is not None and w.polisher.worker is None, timeout=30000)
-    qtbot.wait(10)
+    polished(qtbot, w, timeout=30000)
 
 
 def save_edit_and_mesh(qtbot, w: MainWindow, folder, name: str, monkeypatch):
@@ -61,8 +61,8 @@ def save_edit_and_mesh(qtbot, w: MainWindow, folder, name: str, monkeypatch):
     edit = folder / f"{name}.json"
     monkeypatch.setattr(QtWidgets.QFileDialog, "getSaveFileName", staticmethod(lambda *a, **k: (str(edit), "")))
     key(qtbot, w, Qt.Key.Key_E, CTRL)
-    assert edit.is_file(), w.current_message()
-    said = w.current_message()
+    assert edit.is_file(), w.status.current_message()
+    said = w.status.current_message()
     saved = folder / f"{name}-window.obj"
     assert w.files.save_to(saved)
     return edit, saved, said
@@ -81,7 +81,7 @@ def test_drag_release_polish_then_ctrl_e_replays_to_the_saved_mesh(qtbot, win, b
     s = w.session
     select_by_rectangles(qtbot, w, 0.0, 1.4)
     drag_handle(qtbot, w, 0, 90)
-    assert "polished" in w.error_label.text()
+    assert "polished" in w.status.error_label.text()
     edit, saved, said = save_edit_and_mesh(qtbot, w, tmp_path, "one", monkeypatch)
     assert "1 step (1 selection, 1 polish)" in said and "replays them to the pose on screen" in said
     data = json.loads(edit.read_text())
@@ -118,8 +118,8 @@ def test_two_groups_and_a_second_drag_of_the_first(qtbot, win, blob_file, tmp_pa
 
 def test_mirror_x_with_its_polish(qtbot, win, capsule_file, tmp_path, monkeypatch):
     w = win
-    w.set_cage_size(CAGE)
-    assert w.open_path(capsule_file)
+    w.cage_control.set_value(CAGE)
+    assert w.loading.open_path(capsule_file)
     wait_loaded(qtbot, w)
     qtbot.waitUntil(lambda: w.session is not None and w.session.path == capsule_file, timeout=60000)
     w.scene.reset_camera(tilted=False)
@@ -144,10 +144,10 @@ def test_successive_edits_across_a_rebuild(qtbot, win, blob_file, tmp_path, monk
     key(qtbot, w, Qt.Key.Key_A, Qt.KeyboardModifier.ControlModifier | Qt.KeyboardModifier.ShiftModifier)
     select_by_rectangles(qtbot, w, 0.0, -1.4, left=True)
     drag_handle(qtbot, w, 0, -60)
-    w.set_modified(False)  # (the rebuild would ask to save first)
-    w.set_cage_size(90)
+    w.unsaved.set_modified(False)  # (the rebuild would ask to save first)
+    w.cage_control.set_value(90)
     key(qtbot, w, Qt.Key.Key_B, CTRL)
-    qtbot.waitUntil(lambda: w.worker is None and w.session.n_cage != CAGE, timeout=60000)
+    qtbot.waitUntil(lambda: w.jobs.worker is None and w.session.n_cage != CAGE, timeout=60000)
     assert abs(w.session.n_cage - 90) < 10
     drag_handle(qtbot, w, 40, 0)  # the second selection, carried over to the new cage
     edit, saved, _ = save_edit_and_mesh(qtbot, w, tmp_path, "rebuilt", monkeypatch)
@@ -166,7 +166,7 @@ def test_successive_edits_across_a_rebuild(qtbot, win, blob_file, tmp_path, monk
 def test_an_unsettled_drag_says_so(qtbot, win, tmp_path, monkeypatch):
     w = win
     w.actions_["settle"].trigger()
-    assert not w.settle_on_release
+    assert not w.posing.settle_on_release
     select_by_rectangles(qtbot, w, 0.0, 1.4)
     drag_handle(qtbot, w, 0, 80)
     edit, _, said = save_edit_and_mesh(qtbot, w, tmp_path, "unsettled", monkeypatch)

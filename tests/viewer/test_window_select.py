@@ -11,8 +11,8 @@ import trimesh
 from qtpy import QtCore
 
 from hybridedit.core.mesh import Mesh
-from hybridedit.viewer.window import MainWindow
-from test_window import key, mouse_drag, projected, to_widget, wait_loaded, win  # noqa: F401 (fixture)
+from hybridedit.viewer.window.main_window import MainWindow
+from support.window_driving import key, mouse_drag, projected, to_widget, wait_loaded
 
 Qt = QtCore.Qt
 CTRL, SHIFT, ALT = (Qt.KeyboardModifier.ControlModifier, Qt.KeyboardModifier.ShiftModifier,
@@ -46,7 +46,7 @@ def limbs(qtbot) -> MainWindow:
     w.activateWindow()
     qtbot.waitActive(w)
     w.view.setFocus()
-    assert w.open_mesh(two_limbs())
+    assert w.loading.open_mesh(two_limbs())
     wait_loaded(qtbot, w)
     w.scene.reset_camera(tilted=False)
     w.view.request_render()
@@ -54,7 +54,7 @@ def limbs(qtbot) -> MainWindow:
     key(qtbot, w, Qt.Key.Key_S)
     assert w.controller.mode == "select"
     yield w
-    w.set_modified(False)
+    w.unsaved.set_modified(False)
     w.close()
     w.deleteLater()
 
@@ -87,14 +87,14 @@ def test_the_rectangle_takes_the_limb_in_sight_whole_not_the_one_behind(qtbot, l
     # Alt+Z: Select Through (Blender's X-ray) takes both
     key(qtbot, w, Qt.Key.Key_Z, ALT)
     assert w.actions_["select_through"].isChecked() and w.controller.select_through
-    assert "hidden behind the shape" in w.current_message()
+    assert "hidden behind the shape" in w.status.current_message()
     mouse_drag(qtbot, w.view, a, b)
     assert s.roi.all()
     # and off again: the brush takes only what is in sight too
     key(qtbot, w, Qt.Key.Key_Z, ALT)
     assert not w.controller.select_through
     key(qtbot, w, Qt.Key.Key_B)
-    w.brush_spin.setValue(60)
+    w.options.brush_spin.setValue(60)
     d, _ = projected(w, P)
     c = to_widget(w, d[behind].mean(axis=0))  # the middle of both limbs on screen
     mouse_drag(qtbot, w.view, c, c + QtCore.QPoint(0, 30), steps=3)
@@ -112,14 +112,14 @@ def test_a_click_on_empty_space_keeps_the_selection(qtbot, limbs):
     mouse_drag(qtbot, w.view, *around(w, P[:, 1] < -1.0))  # the feet
     roi, handle = s.roi.copy(), s.handle.copy()
     assert roi.all() and 10 < handle.sum() < len(P) // 3
-    n_hist, label = len(s.history), w.sel_label.text()
+    n_hist, label = len(s.history), w.status.sel_label.text()
     # a click on empty space, in Handle target, replace mode: nothing changes
     d, _ = projected(w, P)
     empty = to_widget(w, (d[:, 0].max() + 120, d[:, 1].mean()))
     click(qtbot, w, empty)
     assert np.array_equal(s.roi, roi) and np.array_equal(s.handle, handle)
-    assert len(s.history) == n_hist and w.sel_label.text() == label
-    assert w.current_message() == "No cage point there: the selection is kept"
+    assert len(s.history) == n_hist and w.status.sel_label.text() == label
+    assert w.status.current_message() == "No cage point there: the selection is kept"
     # Shift or Ctrl + click on empty space: nothing either
     click(qtbot, w, empty, CTRL)
     assert np.array_equal(s.handle, handle) and len(s.history) == n_hist
@@ -143,7 +143,7 @@ def test_a_rectangle_over_empty_space_clears_with_a_way_back(qtbot, limbs):
     x = d[:, 0].max() + 60
     mouse_drag(qtbot, w.view, to_widget(w, (x, d[:, 1].max())), to_widget(w, (x + 100, d[:, 1].min())))
     assert not s.handle.any()  # as Blender: a drawn box that takes nothing replaces with nothing...
-    assert w.current_message() == "Handle cleared (Ctrl+Z restores it)"  # ... and says how to get it back
+    assert w.status.current_message() == "Handle cleared (Ctrl+Z restores it)"  # ... and says how to get it back
     key(qtbot, w, Qt.Key.Key_Z, CTRL)
     assert np.array_equal(s.handle, handle)
 
@@ -156,7 +156,7 @@ def test_ctrl_shift_a_clears_everything_in_one_step_and_alt_a_the_target(qtbot, 
     s.set_mask("handle", (P[:, 1] < -1.0) & (P[:, 2] > 0))
     key(qtbot, w, Qt.Key.Key_G, CTRL)  # a second handle group: the hind foot
     s.set_mask("handle", (P[:, 1] < -1.0) & (P[:, 2] < 0))
-    w._refresh_selection()
+    w.sync.refresh_selection()
     roi, groups = s.roi.copy(), s.handle_group.copy()
     assert s.n_groups == 2 and set(np.unique(groups)) == {0, 1, 2}
     n_hist = len(s.history)
@@ -164,8 +164,8 @@ def test_ctrl_shift_a_clears_everything_in_one_step_and_alt_a_the_target(qtbot, 
     key(qtbot, w, Qt.Key.Key_A, CTRL | SHIFT)
     assert not s.roi.any() and not s.all_handles.any() and s.n_groups == 1
     assert len(s.history) == n_hist + 1
-    assert "Ctrl+Z" in w.current_message()
-    assert w.sel_label.text().startswith("ROI 0 · handle 0")
+    assert "Ctrl+Z" in w.status.current_message()
+    assert w.status.sel_label.text().startswith("ROI 0 · handle 0")
     key(qtbot, w, Qt.Key.Key_Z, CTRL)
     assert np.array_equal(s.roi, roi) and np.array_equal(s.handle_group, groups) and s.n_groups == 2
     # Alt+A in Handle target: the active group only
@@ -174,17 +174,17 @@ def test_ctrl_shift_a_clears_everything_in_one_step_and_alt_a_the_target(qtbot, 
     key(qtbot, w, Qt.Key.Key_A, ALT)
     assert not np.any(s.handle_group == active) and np.array_equal(s.roi, roi)
     assert np.array_equal(s.handle_group[groups != active], groups[groups != active])
-    assert w.current_message() == f"Handle group {active} cleared (Ctrl+Z restores it)"
+    assert w.status.current_message() == f"Handle group {active} cleared (Ctrl+Z restores it)"
     key(qtbot, w, Qt.Key.Key_Z, CTRL)
     assert np.array_equal(s.handle_group, groups)
     # Alt+A in ROI target: the ROI only
     key(qtbot, w, Qt.Key.Key_R)
     key(qtbot, w, Qt.Key.Key_A, ALT)
     assert not s.roi.any() and np.array_equal(s.handle_group, groups)
-    assert w.current_message() == "ROI cleared (Ctrl+Z restores it)"
+    assert w.status.current_message() == "ROI cleared (Ctrl+Z restores it)"
     n_hist = len(s.history)
     key(qtbot, w, Qt.Key.Key_A, ALT)
-    assert w.current_message() == "Nothing to clear" and len(s.history) == n_hist
+    assert w.status.current_message() == "Nothing to clear" and len(s.history) == n_hist
 
 
 def test_the_select_menu_toolbar_and_shortcuts_list(qtbot, limbs):
@@ -220,7 +220,7 @@ def test_the_default_rectangle_takes_an_end_as_select_through_does(qtbot, win):
         key(qtbot, w, Qt.Key.Key_H)
         mouse_drag(qtbot, w.view, *around(w, end, margin=3.0))
         taken[through] = (s.roi.copy(), s.handle.copy())
-        assert "tears the shape" not in w.current_message()
+        assert "tears the shape" not in w.status.current_message()
     assert np.array_equal(taken[False][0], taken[True][0]) and np.array_equal(taken[False][1], taken[True][1])
     assert np.all(s.handle[end & (P[:, 2] < -0.2)])  # the back of the end, hidden from the front
     # a handle of one point in the held part (a click, in sight): said before any drag
@@ -229,5 +229,5 @@ def test_the_default_rectangle_takes_an_end_as_select_through_does(qtbot, win):
     i = int(np.argmax(np.where(P[:, 0] < -1.0, P[:, 2], -np.inf)))  # the left end's point facing the camera
     click(qtbot, w, to_widget(w, d[i]))
     assert np.flatnonzero(s.handle).tolist() == [i] and not s.roi[i]
-    assert "touches the held part" in w.current_message() and "Alt+Z" in w.current_message()
+    assert "touches the held part" in w.status.current_message() and "Alt+Z" in w.status.current_message()
     assert s.tearing() == {0: 1}

@@ -7,9 +7,8 @@ from __future__ import annotations
 import pytest
 from qtpy import QtCore, QtGui, QtWidgets
 
-from hybridedit.viewer.statusfield import MessageLine, StatusField, StatusRow
-from test_building import gate  # noqa: F401 (fixture)
-from test_window import wait_loaded, win  # noqa: F401 (fixture)
+from hybridedit.viewer.window.status_widgets import MessageLine, StatusField, StatusRow
+from support.window_driving import key, mouse_drag, wait_loaded
 
 Qt = QtCore.Qt
 
@@ -26,7 +25,7 @@ def shown_in_status_bar(w) -> dict[str, QtCore.QRect]:
     for child in sb.findChildren(QtWidgets.QWidget):
         if not child.isVisible() or isinstance(child, StatusRow):
             continue
-        if child.parentWidget() not in (sb, w.status_row):
+        if child.parentWidget() not in (sb, w.status.row):
             continue  # (parts of a widget: the progress bar's, the button's)
         top_left = child.mapTo(w, QtCore.QPoint(0, 0))
         name = child.text() if isinstance(child, (StatusField, QtWidgets.QPushButton)) else type(child).__name__
@@ -73,14 +72,14 @@ class LayoutRequests(QtCore.QObject):
 def test_at_700x500_nothing_overlaps_and_a_long_message_is_cut_whole_elsewhere(qtbot, win):
     w = win
     narrow(qtbot, w)
-    w.message(LONG)
+    w.status.message(LONG)
     qtbot.wait(50)
     shown = assert_fits(w)
     # the message and the edge error at least; a field that does not fit is hidden, not drawn over another
     assert any(n.startswith("MessageLine") for n in shown) and any(n.startswith("edge error") for n in shown)
-    assert w.message_label.width() >= w.message_label.minimumWidth()
+    assert w.status.message_label.width() >= w.status.message_label.minimumWidth()
     # the message: two lines, the second cut with "…"; whole in the tooltip and in the log
-    label = w.message_label
+    label = w.status.message_label
     lines = label.shown_lines()
     assert len(lines) == 2 and lines[1].endswith("…") and label.is_cut()
     assert " ".join(lines).rstrip("…").split()[:6] == LONG.split()[:6]
@@ -88,53 +87,55 @@ def test_at_700x500_nothing_overlaps_and_a_long_message_is_cut_whole_elsewhere(q
     assert all(fm.horizontalAdvance(line) <= label.width() for line in lines)
     tip = QtGui.QTextDocumentFragment.fromHtml(label.toolTip()).toPlainText()
     assert " ".join(LONG.split()) in " ".join(tip.split())
-    assert w.current_message() == LONG
-    assert LONG.splitlines()[0] in w.log.toPlainText() and LONG.splitlines()[-1] in w.log.toPlainText()
+    assert w.status.current_message() == LONG
+    assert LONG.splitlines()[0] in w.status.log.toPlainText() and LONG.splitlines()[-1] in w.status.log.toPlainText()
     # a short one is not cut
-    w.message("Back to the rest pose")
+    w.status.message("Back to the rest pose")
     assert label.shown_lines() == ["Back to the rest pose"] and not label.is_cut()
     # the fields' texts, hidden ones too, when hovering the row
-    hidden = [f for f in (w.time_label, w.size_label, w.sel_label, w.error_label) if not f.isVisible()]
-    assert hidden and w.time_label in hidden  # (at 700 px the timing is the first to give way)
+    st = w.status
+    hidden = [f for f in (st.time_label, st.size_label, st.sel_label, st.error_label) if not f.isVisible()]
+    assert hidden and w.status.time_label in hidden  # (at 700 px the timing is the first to give way)
 
 
 def test_a_click_on_the_message_shows_the_message_log(qtbot, win):
     w = win
-    w.message(LONG)
-    assert not w.log_dock.isVisible()
-    qtbot.mouseClick(w.message_label, Qt.MouseButton.LeftButton, pos=QtCore.QPoint(10, 8))
-    qtbot.waitUntil(w.log_dock.isVisible, timeout=3000)
+    w.status.message(LONG)
+    assert not w.status.log_dock.isVisible()
+    qtbot.mouseClick(w.status.message_label, Qt.MouseButton.LeftButton, pos=QtCore.QPoint(10, 8))
+    qtbot.waitUntil(w.status.log_dock.isVisible, timeout=3000)
     assert w.actions_["messages"].isChecked()
-    assert LONG.splitlines()[-1] in w.log.toPlainText()
+    assert LONG.splitlines()[-1] in w.status.log.toPlainText()
 
 
 def test_a_wide_window_shows_every_field(qtbot, win):
     w = win
     narrow(qtbot, w, 1280, 900)
     assert_fits(w)
-    for field in (w.time_label, w.size_label, w.sel_label, w.error_label):
+    for field in (w.status.time_label, w.status.size_label, w.status.sel_label, w.status.error_label):
         assert field.isVisible(), field.text()
     # and a narrow one gives the fields' room back to them when it widens again
     narrow(qtbot, w)
-    assert not w.time_label.isVisible()
+    assert not w.status.time_label.isVisible()
     narrow(qtbot, w, 1280, 900)
-    assert w.time_label.isVisible()
+    assert w.status.time_label.isVisible()
     # a message on two lines, and fields as wide as a drag with two handle groups makes them: all still shown
-    w.status_timer.stop()
-    w.message(LONG)
-    w.time_label.setText("24 fps · engine 12.5 ms · render 140 ms")
-    w.sel_label.setText("ROI 12,345 · handle 1,234 (group 2 of 3) · fixed 45,678")
-    w.error_label.setText("edge error 12.34 % (polished)")
+    w.status.timer.stop()
+    w.status.message(LONG)
+    w.status.time_label.setText("24 fps · engine 12.5 ms · render 140 ms")
+    w.status.sel_label.setText("ROI 12,345 · handle 1,234 (group 2 of 3) · fixed 45,678")
+    w.status.error_label.setText("edge error 12.34 % (polished)")
     qtbot.wait(100)
     assert_fits(w)
-    assert all(f.isVisible() for f in (w.time_label, w.size_label, w.sel_label, w.error_label))
-    assert w.message_label.is_cut() and len(w.message_label.shown_lines()) == 2
+    st = w.status
+    assert all(f.isVisible() for f in (st.time_label, st.size_label, st.sel_label, st.error_label))
+    assert w.status.message_label.is_cut() and len(w.status.message_label.shown_lines()) == 2
 
 
 def test_during_a_build_the_progress_bar_stays_inside_the_window(qtbot, win, make_blob, gate):
     w = win
     narrow(qtbot, w)
-    assert w.open_mesh(make_blob(3))
+    assert w.loading.open_mesh(make_blob(3))
     qtbot.waitUntil(lambda: w.jobs.progress.format() == "binding %p%", timeout=20000)
     qtbot.wait(50)
     shown = assert_fits(w)
@@ -153,13 +154,13 @@ def test_during_a_build_the_progress_bar_stays_inside_the_window(qtbot, win, mak
 def test_new_frame_rates_edge_errors_and_messages_re_lay_nothing_out(qtbot, win):
     w = win
     narrow(qtbot, w)
-    w.time_label.setText("00 fps · engine 00.0 ms · render 000 ms")
+    w.status.time_label.setText("00 fps · engine 00.0 ms · render 000 ms")
     qtbot.wait(50)
-    watch = LayoutRequests(w, w.statusBar(), w.status_row)
+    watch = LayoutRequests(w, w.statusBar(), w.status.row)
     for k in range(30):
-        w.time_label.setText(f"{k} fps · engine {k / 7:.1f} ms · render {k} ms")
-        w.error_label.setText(f"edge error {k / 9:.2f} %")
-        w.message(LONG if k % 2 else f"message {k}")
+        w.status.time_label.setText(f"{k} fps · engine {k / 7:.1f} ms · render {k} ms")
+        w.status.error_label.setText(f"edge error {k / 9:.2f} %")
+        w.status.message(LONG if k % 2 else f"message {k}")
         QtWidgets.QApplication.processEvents()
     qtbot.wait(50)
     watch.stop()
@@ -203,7 +204,6 @@ def test_a_row_places_by_priority_and_shrinks_only_what_may_shrink(qtbot, width)
 
 def test_a_brush_stroke_is_not_a_frame_rate(qtbot, win):
     """The timing field gives a drag's frames per second; the renders of a brush stroke are none."""
-    from test_window import key, mouse_drag
 
     w = win
     key(qtbot, w, Qt.Key.Key_S)
@@ -211,4 +211,4 @@ def test_a_brush_stroke_is_not_a_frame_rate(qtbot, win):
     c = w.view.rect().center()
     mouse_drag(qtbot, w.view, c, c + QtCore.QPoint(120, 40), steps=20)
     assert w.view.display_fps() > 0  # the stroke did render
-    assert w.timing_text().startswith("idle")
+    assert w.status.timing_text().startswith("idle")

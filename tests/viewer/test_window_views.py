@@ -10,9 +10,9 @@ from qtpy import QtCore
 
 from hybridedit.fileio.meshfiles import write_mesh
 from hybridedit.core.mesh import Mesh
-from hybridedit.viewer.scene import view_directions
-from hybridedit.viewer.window import MainWindow
-from test_window import key, projected, wait_loaded
+from hybridedit.viewer.render.scene import view_directions
+from hybridedit.viewer.window.main_window import MainWindow
+from support.window_driving import key, projected, wait_loaded
 
 Qt = QtCore.Qt
 KP, CTRL = Qt.KeyboardModifier.KeypadModifier, Qt.KeyboardModifier.ControlModifier
@@ -39,10 +39,10 @@ def statue(qtbot, tmp_path, monkeypatch):
     w.activateWindow()
     qtbot.waitActive(w)
     w.view.setFocus()
-    assert w.open_path(path)
+    assert w.loading.open_path(path)
     wait_loaded(qtbot, w)
     yield w, path
-    w.set_modified(False)
+    w.unsaved.set_modified(False)
     w.close()
     w.deleteLater()
 
@@ -74,18 +74,18 @@ def test_a_z_up_statue_opens_standing_and_the_views_follow_its_up_axis(qtbot, st
     assert np.allclose(view_directions("+Z", "front")[0], [0, -1, 0])  # (Blender's front view, Z up: from -Y)
     _, towards = screen_up(w)
     assert towards[1] < 0 and abs(towards[0]) < 1e-9 and abs(towards[2]) < 1e-9
-    assert w.current_message().startswith("Front view")
+    assert w.status.current_message().startswith("Front view")
 
 
 def test_the_up_axis_chosen_is_remembered_for_the_shape(qtbot, statue):
     w, path = statue
     w.actions_["up_-X"].trigger()
-    assert w.session.up_axis == "-X" and "remembered" in w.current_message()
+    assert w.session.up_axis == "-X" and "remembered" in w.status.current_message()
     up, _ = screen_up(w)
     assert up[0] < -0.9
-    w.set_modified(False)
-    assert w.open_path(path)  # the same file again: it opens the way it was shown
-    qtbot.waitUntil(lambda: w.worker is None and w.session.up_axis == "-X", timeout=60000)
+    w.unsaved.set_modified(False)
+    assert w.loading.open_path(path)  # the same file again: it opens the way it was shown
+    qtbot.waitUntil(lambda: w.jobs.worker is None and w.session.up_axis == "-X", timeout=60000)
     assert w.actions_["up_-X"].isChecked() and screen_up(w)[0][0] < -0.9
 
 

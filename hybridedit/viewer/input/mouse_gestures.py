@@ -1,0 +1,429 @@
+"""Mouse handling on the 3D view: rubber band and brush selection, gizmo and screen-plane drags.
+
+An event filter on the view takes the left button in the Select and Drag
+modes (and on the gizmo in every mode but Select); everything else goes on to
+VTK's camera style (left: rotate in Camera mode, middle: pan, right / wheel:
+zoom; Alt + left rotates in any mode). Key events never reach VTK: the window's
+shortcuts handle the keyboard.
+
+The controller turns gestures into calls on a :class:`SelectionHandler` and a :class:`DragHandler`.
+
+Selection takes what the user points at, as in Blender and MeshLab: the cage
+points in sight, and with them, for the rectangle and the brush, the part they
+are drawn over through its thickness (:func:`~..model.picking.through_the_part`: the
+back of an arm drawn over from the front, the fingers behind other fingers),
+so that a limb picked from one side moves whole. A point hidden behind another
+part (a hind leg behind a front leg) is not taken, unless
+:attr:`ViewController.select_through` is on (Blender's X-ray); a click takes the
+nearest point in sight. Whether a point is in sight is decided once per
+gesture from the depth buffer of the shape's layer (:class:`~..render.view.DepthGrab`,
+read with the frame the view shows anyway) by
+:func:`~..model.picking.visible_points`. A click (the rectangle tool, moved at most
+:data:`CLICK_PIXELS`) takes the nearest cage point within :data:`PICK_PIXELS`;
+on empty space it changes nothing. A rectangle drawn over empty space in
+replace mode empties the target, as in Blender (the window says that Ctrl+Z
+restores it). A brush stroke that replaces replaces with its first dab that
+touches a cage point: a stroke over empty space changes nothing.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+from qtpy import QtCore, QtGui
+
+from ..model import gizmo as gz
+from ..model.picking import (
+    ADD, REPLACE, brush_hits, nearest_hit, op_from_modifiers, project_points, rectangle_hits, stroke_hits,
+    through_the_part, visible_points,
+)
+from ..render.scene import Scene
+from ..render.view import OutlineOverlay, View
+
+CAMERA, SELECT, DRAG = "camera", "select", "drag"
+MODES = (CAMERA, SELECT, DRAG)
+RECTANGLE, BRUSH = "rectangle", "brush"
+NEAR_PIXELS = 60.0
+"""In Select mode the cage points within this many pixels of the cursor are drawn."""
+TOOLS = (RECTANGLE, BRUSH)
+CLICK_PIXELS = 4.0
+"""A rectangle gesture that moves at most this many pixels is a click."""
+PICK_PIXELS = 12.0
+"""A click takes the nearest cage point within this many pixels of it."""
+DEPTH_TOLERANCE = 0.5
+"""A cage point still counts as in sight when the surface lies at most this many (median) cage edge
+lengths in front of it along the line of sight: cage points lie near the surface, some slightly
+inside (QEM places them within about 0.15 edge lengths of it along its normal on the creature and
+the armadillo; seen at a slant the gap along the line of sight is longer)."""
+DEPTH_RADIUS = 1
+"""A point on the surface seen within this many pixels of it is in sight (see visible_points). Checked
+against a ray cast to the creature from five directions: 0 pixels misses points in sight on the rims of
+the silhouettes, and 2 pixels, taking the farthest depth around, takes points well behind the surface;
+1 pixel is between (it misses under 1 % of the points the ray reaches)."""
+
+
+@runtime_checkable
+class SelectionHandler(Protocol):
+    """What the controller's selection gestures call (the window's :class:`~..window.selecting.Selecting`)."""
+
+    def cage_points(self) -> np.ndarray | None: ...
+    def cage_edges(self) -> np.ndarray | None: ...
+    def begin_select(self) -> bool: ...
+    def select_hits(self, hits: np.ndarray, op: str) -> None: ...
+    def end_select(self) -> None: ...
+    def missed(self) -> None: ...  # a click took no cage point: the selection stays
+
+
+@runtime_checkable
+class DragHandler(Protocol):
+    """What the controller's drag gestures call (the window's :class:`~.drags.DragFrames`)."""
+
+    def handle_center(self) -> np.ndarray | None: ...
+    def begin(self) -> bool: ...
+    def move(self, D: np.ndarray) -> None: ...
+    def end(self) -> None: ...
+
+
+class Gesture:
+    """State of one left-button gesture."""
+
+    def __init__(self, kind: str, start_qt: QtCore.QPointF, start: tuple[float, float]) -> None:
+        self.kind = kind            # "rectangle", "brush", "gizmo", "plane"
+        self.start_qt = start_qt    # widget coordinates
+        self.start = start          # display coordinates
+        self.last = start
+        self.op = REPLACE
+        self.part: gz.Part | None = None
+        self.center = np.zeros(3)
+        self.grab: np.ndarray | None = None
+        self.composite = np.eye(4)
+        self.size = (1, 1)
+        self.display: np.ndarray | None = None
+        self.front: np.ndarray | None = None  # in front of the camera
+        self.in_front: np.ndarray | None = None  # in front of the camera and takeable (in sight, or select through)
+        self.edges: np.ndarray | None = None  # the cage's edges (a part is taken through its thickness)
+
+
+class ViewController(QtCore.QObject):
+    """Interprets mouse events on the view for the current mode and tool.
+
+    Parameters
+    ----------
+    view : the 3D view widget; scene : its actors.
+    selection : what the selection gestures call (:class:`SelectionHandler`).
+    drags : what the drag gestures call (:class:`DragHandler`).
+    """
+
+    def __init__(self, view: View, scene: Scene, selection: SelectionHandler, drags: DragHandler) -> None:
+        super().__init__(view)
+        self.view = view
+        self.scene = scene
+        self.selection = selection
+        self.drags = drags
+        self.mode = CAMERA
+        self.target_color = QtGui.QColor(60, 190, 70)
+        self.tool = RECTANGLE
+        self.brush_radius = 30.0  # widget pixels
+        self.gesture: Gesture | None = None
+        self.select_through = False
+        """Rectangle, brush and click take the cage points hidden behind the shape too (Blender's X-ray)."""
+        self.visibility_seconds = 0.0  # duration of the last visibility test (with a render when one was needed)
+        self._visible: tuple[int, np.ndarray, np.ndarray] | None = None  # (depth serial, cage points, mask)
+        self._hover_pos: QtCore.QPointF | None = None
+        self._passthrough = False
+        self.rubber = OutlineOverlay(view, circle=False)
+        view.depth.key_fn = self._view_key
+        view.depth.on_grab = lambda: QtCore.QTimer.singleShot(0, self._rehover)
+        view.installEventFilter(self)
+        self.set_mode(CAMERA)
+
+    # ------------------------------------------------------------------ settings
+    @property
+    def busy(self) -> bool:
+        """A gesture is under way (undo and the like must wait)."""
+        return self.gesture is not None
+
+    def set_mode(self, mode: str) -> None:
+        if mode not in MODES:
+            raise ValueError(f"mode must be one of {MODES}")
+        self.cancel()
+        self.mode = mode
+        cursors = {
+            CAMERA: QtCore.Qt.CursorShape.ArrowCursor,
+            SELECT: QtCore.Qt.CursorShape.CrossCursor,
+            DRAG: QtCore.Qt.CursorShape.SizeAllCursor,
+        }
+        self.view.setCursor(cursors[mode])
+        self.view.brush.hide()
+        self.view.depth.wanted = mode == SELECT  # the frames shown in Select mode keep the depth up to date
+        if self.scene.set_points_near(None):
+            self.view.request_render()
+        if self.scene.gizmo.set_hover(None):
+            self.view.request_render()
+
+    def set_tool(self, tool: str) -> None:
+        if tool not in TOOLS:
+            raise ValueError(f"tool must be one of {TOOLS}")
+        self.cancel()
+        self.tool = tool
+        if tool != BRUSH:
+            self.view.brush.hide()
+
+    def set_select_through(self, on: bool) -> None:
+        """Take the hidden cage points too (True) or only those in sight (False)."""
+        self.select_through = bool(on)
+        if self._hover_pos is not None:
+            self._show_points_near(self._hover_pos)
+
+    def set_brush_radius(self, radius: float) -> None:
+        self.brush_radius = float(min(max(radius, 3.0), 400.0))
+        if self.view.brush.isVisible():
+            self.view.brush.show_at(self.view.brush.center, self.brush_radius, self.target_color)
+
+    def cancel(self) -> None:
+        """Abort a selection gesture in progress (drags are finished, not undone)."""
+        g = self.gesture
+        if g is None:
+            return
+        self.gesture = None
+        self.rubber.hide()
+        if g.kind in ("gizmo", "plane"):
+            self.drags.end()
+        elif g.kind == "brush":
+            self.selection.end_select()
+
+    # ------------------------------------------------------------------ events
+    def eventFilter(self, obj: QtCore.QObject, ev: QtCore.QEvent) -> bool:  # noqa: N802
+        t = ev.type()
+        E = QtCore.QEvent.Type
+        if t in (E.KeyPress, E.KeyRelease):
+            return True  # no VTK key bindings; the window's shortcuts have run already
+        if t == E.MouseButtonPress:
+            return self._press(ev)
+        if t == E.MouseMove:
+            return self._move(ev)
+        if t == E.MouseButtonRelease:
+            return self._release(ev)
+        if t == E.MouseButtonDblClick:
+            return ev.button() == QtCore.Qt.MouseButton.LeftButton and self.mode != CAMERA
+        if t == E.Leave:
+            self._hover_pos = None
+            self.view.brush.hide()
+            self._show_points_near(None)
+        return False
+
+    # ------------------------------------------------------------------ what is in sight
+    def _view_key(self):
+        """What the depth of the shape's layer depends on: the camera, the view size and the shape's pose."""
+        shape = self.scene.shape
+        if shape is None:
+            return None
+        cam = self.scene.renderer.GetActiveCamera()
+        return (cam.GetPosition(), cam.GetFocalPoint(), cam.GetViewUp(), cam.GetViewAngle(),
+                cam.GetParallelScale(), cam.GetParallelProjection(), self.scene.display_size(),
+                id(shape), shape.GetPoints().GetMTime())
+
+    def takeable(self, P: np.ndarray, C: np.ndarray, size: tuple[int, int], display: np.ndarray,
+                 in_front: np.ndarray, render: bool = True) -> np.ndarray | None:
+        """Which cage points (P, projected to ``display``, ``in_front``) a selection may take: those in
+        sight, or all in front of the camera with Select Through. With ``render`` the view renders once
+        now when the depth on hand is out of date; without, None is returned then."""
+        if self.select_through:
+            return in_front
+        t0 = time.perf_counter()
+        depth = self.view.fresh_depth() if render else self.view.depth
+        if depth is None or not depth.current():
+            return None
+        cached = self._visible
+        if cached is not None and cached[0] == depth.serial and np.array_equal(cached[1], P):
+            return in_front & cached[2]
+        if depth.size != tuple(size) or not np.allclose(depth.composite, C, rtol=1e-9, atol=1e-12):
+            display, in_front = project_points(P, depth.composite, depth.size)  # (the far plane may differ)
+        vis = visible_points(display, in_front, depth.depth, depth.origin, depth.composite, depth.size,
+                             DEPTH_TOLERANCE * self.scene.cage_spacing, DEPTH_RADIUS)
+        self._visible = (depth.serial, np.array(P, copy=True), vis)
+        self.visibility_seconds = time.perf_counter() - t0
+        return in_front & vis
+
+    def _matrices(self) -> tuple[np.ndarray, tuple[int, int]]:
+        return self.scene.composite_matrix(), self.scene.display_size()
+
+    def _press(self, ev: QtGui.QMouseEvent) -> bool:
+        if ev.button() != QtCore.Qt.MouseButton.LeftButton:
+            return self.gesture is not None  # other buttons are ignored during a gesture
+        if self.gesture is not None:
+            return True
+        mods = ev.modifiers()
+        if mods & QtCore.Qt.KeyboardModifier.AltModifier:
+            self._passthrough = True
+            return False
+        pos = ev.position()
+        d = self.view.to_display(pos)
+        C, size = self._matrices()
+        if self.mode != SELECT:
+            part = self.scene.gizmo.hit(d, C, size)
+            if part is not None:
+                return self._start_drag("gizmo", pos, d, C, size, part)
+        if self.mode == SELECT:
+            return self._start_select(pos, d, C, size, mods)
+        if self.mode == DRAG:
+            return self._start_drag("plane", pos, d, C, size, None)
+        self._passthrough = True
+        return False
+
+    def _start_select(self, pos: QtCore.QPointF, d: tuple[float, float], C: np.ndarray,
+                      size: tuple[int, int], mods) -> bool:
+        P = self.selection.cage_points()
+        if P is None or not self.selection.begin_select():
+            return True
+        g = Gesture(self.tool, pos, d)
+        g.op = op_from_modifiers(bool(mods & QtCore.Qt.KeyboardModifier.ShiftModifier),
+                                 bool(mods & QtCore.Qt.KeyboardModifier.ControlModifier))
+        g.composite, g.size = C, size
+        g.display, g.front = project_points(P, C, size)
+        take = self.takeable(P, C, size, g.display, g.front)
+        g.in_front = g.front if take is None else take  # (no depth to be had: everything in front)
+        g.edges = self.selection.cage_edges()
+        self.gesture = g
+        if g.kind != RECTANGLE:  # (the rectangle is shown once the mouse moves: a click shows none)
+            r = self.brush_radius * self.view.devicePixelRatioF()
+            self._dab(g, self._taken(g, brush_hits(g.display, g.front, d, r)))
+            self.view.brush.show_at(pos, self.brush_radius, self.target_color)
+        return True
+
+    def _taken(self, g: Gesture, hits: np.ndarray) -> np.ndarray:
+        """What a rectangle or brush gesture takes of its ``hits`` (every point in it, in front of the camera):
+        with Select Through all, else those in sight and the parts they lie in, through their thickness."""
+        if self.select_through or g.edges is None:
+            return hits & g.in_front
+        return through_the_part(hits, hits & g.in_front, g.edges)
+
+    def _dab(self, g: Gesture, hits: np.ndarray) -> None:
+        """Apply a brush dab. A replacing stroke replaces with its first dab that touches a cage point
+        and adds the rest to it: a stroke over empty space changes nothing."""
+        if not hits.any():
+            return
+        self.selection.select_hits(hits, g.op)
+        if g.op == REPLACE:
+            g.op = ADD
+
+    def _start_drag(self, kind: str, pos: QtCore.QPointF, d: tuple[float, float], C: np.ndarray,
+                    size: tuple[int, int], part: gz.Part | None) -> bool:
+        if not self.drags.begin():  # the window explains why (e.g. an empty handle)
+            return True
+        center = self.drags.handle_center()
+        if center is None:
+            self.drags.end()
+            return True
+        g = Gesture(kind, pos, d)
+        g.part, g.composite, g.size = part, C, size
+        g.center = np.asarray(center, dtype=np.float64)
+        if part is not None and part.kind == "rotate":
+            g.grab = gz.grab_direction(d, g.center, part.axis, gz.RING_RATIO * self.scene.gizmo.length, C, size)
+        self.gesture = g
+        return True
+
+    def _move(self, ev: QtGui.QMouseEvent) -> bool:
+        pos = ev.position()
+        g = self.gesture
+        if g is None:
+            if ev.buttons() == QtCore.Qt.MouseButton.NoButton:
+                self._hover(pos)
+            return False
+        d = self.view.to_display(pos)
+        if g.kind == RECTANGLE:
+            self.rubber.setGeometry(QtCore.QRect(g.start_qt.toPoint(), pos.toPoint()).normalized())
+            if not self.rubber.isVisible() and not self._is_click(g, d):
+                self.rubber.show()
+        elif g.kind == BRUSH:
+            r = self.brush_radius * self.view.devicePixelRatioF()
+            self._dab(g, self._taken(g, stroke_hits(g.display, g.front, g.last, d, r)))
+            self.view.brush.show_at(pos, self.brush_radius, self.target_color)
+        else:
+            self.drags.move(self._drag_transform(g, d))
+        g.last = d
+        return True
+
+    def _is_click(self, g: Gesture, d: tuple[float, float]) -> bool:
+        """The mouse is still within :data:`CLICK_PIXELS` of where the gesture started."""
+        return max(abs(d[0] - g.start[0]), abs(d[1] - g.start[1])) <= CLICK_PIXELS * self.view.devicePixelRatioF()
+
+    def _drag_transform(self, g: Gesture, d: tuple[float, float]) -> np.ndarray:
+        if g.kind == "gizmo":
+            return gz.part_transform(g.part, g.start, d, g.center, self.scene.gizmo.length, g.grab,
+                                     g.composite, g.size)
+        t = gz.screen_plane_translation(g.start, d, g.center, g.composite, g.size)
+        D = np.eye(4)
+        D[:3, 3] = t
+        return D
+
+    def _release(self, ev: QtGui.QMouseEvent) -> bool:
+        if ev.button() != QtCore.Qt.MouseButton.LeftButton:
+            return self.gesture is not None
+        if self._passthrough:
+            self._passthrough = False
+            return False
+        g = self.gesture
+        if g is None:
+            return self.mode != CAMERA
+        pos = ev.position()
+        d = self.view.to_display(pos)
+        self.gesture = None
+        if g.kind == RECTANGLE:
+            self.rubber.hide()
+            if self._is_click(g, d):
+                hit = nearest_hit(g.display, g.in_front, g.start, PICK_PIXELS * self.view.devicePixelRatioF())
+                if hit.any():
+                    self.selection.select_hits(hit, g.op)
+                else:  # a click on empty space: the selection stays
+                    self.selection.missed()
+            else:
+                self.selection.select_hits(self._taken(g, rectangle_hits(g.display, g.front, g.start, d)), g.op)
+            self.selection.end_select()
+        elif g.kind == BRUSH:
+            self.selection.end_select()
+        else:
+            if d != g.last:
+                self.drags.move(self._drag_transform(g, d))
+            self.drags.end()
+        self._hover(pos)
+        return True
+
+    def _show_points_near(self, pos: QtCore.QPointF | None) -> None:
+        """In Select mode, draw the cage points near the cursor (the others only when selected)."""
+        near = None
+        if pos is not None and self.mode == SELECT:
+            P = self.selection.cage_points()
+            if P is not None:
+                C, size = self._matrices()
+                display, front = project_points(P, C, size)
+                take = self.takeable(P, C, size, display, front, render=False)
+                if take is None:  # the depth is read with the next frame, then these are shown again
+                    take = front
+                    self.view.request_render()
+                r = max(NEAR_PIXELS, 1.5 * self.brush_radius) * self.view.devicePixelRatioF()
+                near = brush_hits(display, front, self.view.to_display(pos), r)
+                edges = None if self.select_through else self.selection.cage_edges()
+                near = near & take if edges is None else through_the_part(near, near & take, edges)
+        if self.scene.set_points_near(near):
+            self.view.request_render()
+
+    def _rehover(self) -> None:
+        """The depth was read: show the cage points near the cursor that a selection would take."""
+        if self._hover_pos is not None and self.gesture is None and self.mode == SELECT:
+            self._show_points_near(self._hover_pos)
+
+    def _hover(self, pos: QtCore.QPointF) -> None:
+        self._hover_pos = QtCore.QPointF(pos)
+        self._show_points_near(pos)
+        if self.mode == SELECT and self.tool == BRUSH:
+            self.view.brush.show_at(pos, self.brush_radius, self.target_color)
+            return
+        part = None
+        if self.mode != SELECT:
+            C, size = self._matrices()
+            part = self.scene.gizmo.hit(self.view.to_display(pos), C, size)
+        if self.scene.gizmo.set_hover(part):
+            self.view.request_render()

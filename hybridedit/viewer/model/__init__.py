@@ -1,0 +1,11 @@
+"""The editing state of the window, with no Qt or VTK: what a second front end would drive.
+
+Modules
+-------
+session         : the editing state on top of the engine: pose, drags and settle, polish, undo, edit files
+selection_masks : the session's selection: ROI and handle-group masks, strokes, the roles they give
+history         : the undo/redo stack of snapshots
+picking         : projection, hit tests and add/remove/replace on cage points
+gizmo           : the handle gizmo's parts, hit test and drag transforms
+cage_size       : the rule that fits a cage size (fraction or vertex count) to a shape
+"""

@@ -1,0 +1,26 @@
+"""The main window and its collaborators.
+
+:class:`~.main_window.MainWindow` is a QMainWindow that makes its collaborators and wires them; each
+collaborator has one job and takes the window as the narrow protocol its module declares.
+
+Modules
+-------
+main_window   : the main window: its collaborators made and wired, and its close
+actions       : the window's actions, menus and toolbar, and which are enabled
+status_bar    : the status bar, the message log, error boxes and questions
+status_widgets: the status bar's widgets: the two-line message, fixed-size fields, the row that fits them
+slot_errors   : a slot's unexpected error shown in a message box, not as a traceback
+interfaces    : the small interfaces several collaborators see one another through
+unsaved_mark  : the unsaved-pose mark and the title
+file_actions  : open, save, edit files, screenshots, the unsaved-pose question
+file_drops    : files dropped on the window
+dialogs       : the dialogs: shortcuts, how to edit, about, mesh info
+help_texts    : the help texts
+cage_size_box : the toolbar's cage size box (% or vertex count)
+shape_loading : opening a shape, rebuilding the cage, the preview while building, installing a build
+selecting     : the selection target, selection gestures, the Select menu, mirror, handle groups
+posing        : the guard before any change, what follows a drag, polish on release and its result
+undo_commands : undo, redo, reset pose
+view_options  : mode, tool, brush, what is drawn (cage, stretch map, look, anti-aliasing), camera, up axis
+scene_sync    : the scene kept in step with the session; edge error and stretch map
+"""
