@@ -52,7 +52,7 @@ def render_screenshot(path: str | os.PathLike, out: str | os.PathLike, cage: int
     """
     import pyvista as pv
 
-    from ..core.up_axis import up_axis_of
+    from ..fileio.up_axes import up_axis_of
     from .render.look import shown_look
     from .render.scene import Scene
     from .model.session import Session

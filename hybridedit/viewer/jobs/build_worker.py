@@ -17,7 +17,7 @@ from qtpy import QtCore
 from ...deform.editor import HybridEditor
 from ...binding.rig import build_rig
 from ...core.region_metrics import ShapeMetrics
-from ...core.up_axis import shape_key, up_axis_of
+from ...fileio.up_axes import shape_key, up_axis_of
 from ...fileio.meshfiles import read_document
 from ..render.look import Look, shown_look
 from ...core.mesh import Mesh
@@ -50,7 +50,7 @@ class BuildResult:
     #: what the file says the shape looks like (textures, colours), for a newly read file; else None
     look: Look | None = None
     #: a new shape's up axis, whether it was remembered (else guessed), and the key it is remembered
-    #: under (:mod:`hybridedit.core.up_axis`); None for a rebuild
+    #: under (:mod:`hybridedit.fileio.up_axes`); None for a rebuild
     up: tuple[str, bool, str] | None = None
     #: a new shape's per-frame index sets for the view (made here, off the UI thread); None for a rebuild
     metrics: ShapeMetrics | None = None

@@ -90,7 +90,7 @@ class Session(SelectionState):
         self.look = None
         #: how the shape is drawn ("texture", "colors", "plain"); None: what the file has
         self.look_mode: str | None = None
-        #: the shape's up axis (:mod:`hybridedit.core.up_axis`), and the key it is remembered under (None: not yet)
+        #: the shape's up axis (:mod:`hybridedit.fileio.up_axes`), and the key it is remembered under (None: not yet)
         self.up_axis = "+Y"
         self.shape_key: str | None = None
         self.settle_on_release = True

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 from qtpy import QtCore, QtWidgets
 
-from ...core.up_axis import remember_up_axis, shape_key
+from ...fileio.up_axes import remember_up_axis, shape_key
 from ..input.mouse_gestures import CAMERA, DRAG, RECTANGLE, SELECT
 from .interfaces import ActionChecks, Named
 from .slot_errors import guarded
