@@ -99,7 +99,7 @@ def run(path: Path, pixels: int, size=(1100, 850), cage: float = 0.05) -> list[d
     for name, (roi, handle, (dx, dy)) in limbs(s.mesh.vertices).items():
         for through in (False, True):
             w.undo_commands.reset_pose()
-            s.clear_all()
+            s.selection.clear_all()
             w.sync.refresh_selection()
             w.scene.reset_camera(tilted=False)
             view.request_render()
@@ -118,8 +118,9 @@ def run(path: Path, pixels: int, size=(1100, 850), cage: float = 0.05) -> list[d
             w.posing.finish_settle()
             pump(0.1)
             rrms, stretch = edge_error_stats(s.mesh.vertices, s.shape_positions, edges)
+            sel = s.selection
             out.append({"mesh": path.name, "edit": name, "mode": "Select Through" if through else "default",
-                        "roi": int(np.count_nonzero(s.roi & ~s.all_handles)), "handle": int(s.all_handles.sum()),
+                        "roi": int(np.count_nonzero(sel.roi & ~sel.all_handles)), "handle": int(sel.all_handles.sum()),
                         "rrms": rrms, "stretch": stretch, "warned": warned})
     w.unsaved.set_modified(False)
     w.close()

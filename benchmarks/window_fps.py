@@ -78,7 +78,7 @@ def run(mesh_path: Path, cage, size: tuple[int, int], seconds: float, look: str 
     for target, frac in ((ROI, 0.30), (HANDLE, 0.05)):
         m = np.zeros(s.n_cage, dtype=bool)
         m[ed.to_cage(top_fraction(V, frac), "shape")] = True
-        s.set_mask(target, m)
+        s.selection.set_mask(target, m)
     w.sync.refresh_selection()
     if look is not None:
         w.options.set_look_mode(look)  # View > Texture / Colours / Plain

@@ -107,7 +107,7 @@ def measure(path: Path, roi: float, moves: int) -> dict:
     for target, frac in ((ROI, roi), (HANDLE, 0.05)):
         m = np.zeros(s.n_cage, dtype=bool)
         m[ed.to_cage(top_fraction(V, frac), "shape")] = True
-        s.set_mask(target, m)
+        s.selection.set_mask(target, m)
     w.sync.refresh_selection()
     app.processEvents()
     out["select_s"] = time.perf_counter() - t0

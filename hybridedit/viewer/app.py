@@ -78,7 +78,7 @@ def render_screenshot(path: str | os.PathLike, out: str | os.PathLike, cage: int
         scene = Scene(pl)
         scene.up_axis = up_axis_of(mesh, path=path)[0]  # as the window opens it: remembered, else guessed
         scene.load(session.metrics, session.shape_positions, session.cage_positions, editor.cage.faces,
-                   session.cage_roles(), session.shape_roles(), look=session.look)
+                   session.selection.cage_roles(), session.selection.shape_roles(), look=session.look)
         scene.set_cage_visible(show_cage)
         scene.reset_camera()
         pl.add_text(f"{Path(path).name}: {mesh.n_vertices:,} vertices, cage {editor.cage.n_vertices:,}",

@@ -83,8 +83,8 @@ def select_tip(w):
     Returns the session."""
     s = w.session
     P = s.cage_positions
-    s.set_mask("roi", P[:, 0] > 0.0)
-    s.set_mask("handle", P[:, 0] > 1.4)
+    s.selection.set_mask("roi", P[:, 0] > 0.0)
+    s.selection.set_mask("handle", P[:, 0] > 1.4)
     w.sync.refresh_selection()
     return s
 

@@ -248,8 +248,8 @@ def test_the_window_opens_a_textured_file_textured_and_keeps_it_through_a_drag(q
     assert share_near(img, CHECKER_A) > 0.02 and share_near(img, CHECKER_B) > 0.02
     # a drag: the texture stays on, every seam copy follows its vertex
     P = s.cage_positions
-    s.set_mask("roi", P[:, 0] > 0.0)
-    s.set_mask("handle", P[:, 0] > 0.8)
+    s.selection.set_mask("roi", P[:, 0] > 0.0)
+    s.selection.set_mask("handle", P[:, 0] > 0.8)
     w.sync.refresh_selection()
     key(qtbot, w, Qt.Key.Key_D)
     dc, _ = projected(w, s.handle_centroid()[None])

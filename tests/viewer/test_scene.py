@@ -19,15 +19,15 @@ def test_cage_points_only_where_they_help(qtbot, win):
     assert not w.scene.cage_front.GetVisibility()  # the wireframe is a toggle (W), off
     assert np.all(w.scene.parts.face_colours() == SHAPE_COLOR.astype(np.uint8))
     P = s.cage_positions
-    s.set_mask("roi", P[:, 0] > 0.0)
-    s.set_mask("handle", P[:, 0] > 1.4)
+    s.selection.set_mask("roi", P[:, 0] > 0.0)
+    s.selection.set_mask("handle", P[:, 0] > 1.4)
     w.sync.refresh_selection()
     shown = set(w.scene.shown_points.tolist())
-    assert shown == set(np.flatnonzero(s.cage_roles() != FIXED).tolist())  # the ROI and the handle
+    assert shown == set(np.flatnonzero(s.selection.cage_roles() != FIXED).tolist())  # the ROI and the handle
     assert w.scene.points_poly.n_verts == len(shown)
     # the fixed region is a tint on the shape, the free region keeps the shape's colour, the handle orange
     # (a face takes its vertices' common role; faces between roles keep the shape's colour)
-    fr = s.shape_roles()[s.mesh.faces]
+    fr = s.selection.shape_roles()[s.mesh.faces]
     tint = w.scene.parts.face_colours()
     base = SHAPE_COLOR.astype(np.uint8)
     fixed, free, hand = (fr < 0).all(axis=1), (fr == 0).any(axis=1), (fr > 0).all(axis=1)
@@ -90,7 +90,7 @@ def test_undoing_a_drag_keeps_the_shapes_parts_and_a_new_selection_remakes_them(
     drawn = w.scene.parts.drawn_points()
     np.testing.assert_array_equal(drawn, s.shape_positions.astype(np.float32))  # the rest pose, in them
     P = s.cage_positions
-    s.set_mask("handle", P[:, 0] > 1.2)  # another handle: the tint changes, the parts are made again
+    s.selection.set_mask("handle", P[:, 0] > 1.2)  # another handle: the tint changes, the parts are made again
     w.sync.refresh_selection()
     assert not any(p is q for p in w.scene.parts.parts for q in parts)
     np.testing.assert_array_equal(w.scene.parts.drawn_points(), s.shape_positions.astype(np.float32))

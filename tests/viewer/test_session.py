@@ -14,8 +14,8 @@ from hybridedit.viewer.model.session import Session
 
 def _select(s: Session, roi_x: float = 0.0, handle_x: float = 1.4) -> None:
     P = s.cage_positions
-    s.set_mask(ROI, P[:, 0] > roi_x)
-    s.set_mask(HANDLE, P[:, 0] > handle_x)
+    s.selection.set_mask(ROI, P[:, 0] > roi_x)
+    s.selection.set_mask(HANDLE, P[:, 0] > handle_x)
 
 
 def test_settle_in_slices_equals_the_batch_replay(session, editor_parts):
@@ -33,7 +33,7 @@ def test_settle_in_slices_equals_the_batch_replay(session, editor_parts):
     # what `hybridedit deform` does: a fresh editor, 30 frames of 2 iterations at the final transform
     mesh, cage, M = editor_parts
     ed = HybridEditor(mesh, 150, cage=cage, binding=M)
-    ed.set_selection(np.flatnonzero(s.handle), roi=np.flatnonzero(s.roi), space="cage")
+    ed.set_selection(np.flatnonzero(s.selection.handle), roi=np.flatnonzero(s.selection.roi), space="cage")
     for _ in range(30):
         W = ed.drag(transform=s.transform)
     assert np.array_equal(V, W)
@@ -48,7 +48,8 @@ def test_reading_the_pose_completes_a_settle(session):
     s.end_drag()
     assert s.settling
     P = s.cage_positions  # completes it
-    assert not s.settling and np.allclose(P[s.handle] - s.editor.cage.vertices[s.handle], [0, 0.3, 0])
+    h = s.selection.handle
+    assert not s.settling and np.allclose(P[h] - s.editor.cage.vertices[h], [0, 0.3, 0])
 
 
 def test_second_drag_continues_the_same_selection(session):
@@ -68,7 +69,7 @@ def test_second_drag_continues_the_same_selection(session):
     assert np.allclose(s.transform[:3, 3], [0, 0.2, 0])
     assert np.allclose(s.to_edit().translate, [0, 0.2, 0])
     # a new selection on the deformed pose starts a new epoch
-    s.set_mask(HANDLE, s.handle & (s.cage_positions[:, 0] > 1.6))
+    s.selection.set_mask(HANDLE, s.selection.handle & (s.cage_positions[:, 0] > 1.6))
     assert not s.applied
     s.begin_drag()
     assert np.allclose(s.transform, np.eye(4))
@@ -84,7 +85,7 @@ def test_undo_into_an_earlier_selection_restores_its_engine_selection(session):
     s.drag_to(rigid_transform(translate=(0, 0.2, 0)) @ T)
     s.end_drag()
     after_first = s.cage_positions
-    s.set_mask(HANDLE, s.cage_positions[:, 1] < -0.6)  # another handle, another epoch
+    s.selection.set_mask(HANDLE, s.cage_positions[:, 1] < -0.6)  # another handle, another epoch
     T = s.begin_drag()
     s.drag_to(rigid_transform(translate=(0, -0.2, 0)) @ T)
     s.end_drag()
@@ -106,7 +107,7 @@ def test_selection_errors(session):
     with pytest.raises(SelectionError, match="handle is empty"):
         s.to_edit()
     with pytest.raises(ValueError):
-        s.set_mask(ROI, np.ones(3, dtype=bool))
+        s.selection.set_mask(ROI, np.ones(3, dtype=bool))
 
 
 def test_load_edit_replays_and_failures_keep_the_state(session):

@@ -46,7 +46,7 @@ def test_select_drag_undo_redo_save_and_replay(qtbot, win, blob_file, tmp_path):
     assert w.status.size_label.text().startswith("shape 2,562 v")
 
     roi, handle = select_roi_and_handle(qtbot, w)
-    assert np.array_equal(s.roi, roi) and np.array_equal(s.handle, handle)
+    assert np.array_equal(s.selection.roi, roi) and np.array_equal(s.selection.handle, handle)
     P = rest_cage
     assert roi.sum() > 20 and np.all(P[roi, 0] > -0.2) and np.all(roi[P[:, 0] > 0.05])
     assert 5 <= handle.sum() < roi.sum() and np.all(P[handle, 0] > 1.3)
@@ -96,13 +96,13 @@ def test_select_drag_undo_redo_save_and_replay(qtbot, win, blob_file, tmp_path):
     assert np.array_equal(s.cage_positions, rest_cage)
     assert np.allclose(s.shape_positions, rest_shape, atol=1e-12)
     assert np.allclose(w.scene.parts.drawn_points(), rest_shape, atol=1e-5)
-    assert np.array_equal(s.handle, handle)  # the selection is still there
+    assert np.array_equal(s.selection.handle, handle)  # the selection is still there
     key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier | Qt.KeyboardModifier.ShiftModifier)
     assert np.allclose(s.shape_positions, V, atol=1e-12)
     # undo twice more: the handle selection goes away too
     key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
     key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
-    assert not s.handle.any() and np.array_equal(s.roi, roi)
+    assert not s.selection.handle.any() and np.array_equal(s.selection.roi, roi)
     for _ in range(2):
         key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier | Qt.KeyboardModifier.ShiftModifier)
     assert np.allclose(s.shape_positions, V, atol=1e-12)
@@ -122,7 +122,7 @@ def test_select_drag_undo_redo_save_and_replay(qtbot, win, blob_file, tmp_path):
     assert step["space"] == "shape" and data["mesh"]["vertices"] == 2562
     assert step["handles"][0]["indices"] == np.flatnonzero(s.editor.vertex_roles == 1).tolist()
     assert np.array_equal(s.editor.cage_roles == 1, handle)  # the cage picks, exactly
-    roles = s.shape_roles()
+    roles = s.selection.shape_roles()
     assert np.array_equal(roles, s.editor.vertex_roles)
     assert np.allclose(step["handles"][0]["translate"], t, atol=1e-12)
     replay = tmp_path / "replay.obj"
@@ -136,15 +136,15 @@ def test_select_drag_undo_redo_save_and_replay(qtbot, win, blob_file, tmp_path):
     assert np.array_equal(s.cage_positions, rest_cage)
     assert w.files.load_edit_from(edit_path)
     assert np.abs(s.shape_positions - V).max() < 1e-9 * diag
-    assert np.array_equal(s.shape_roles(), roles)
+    assert np.array_equal(s.selection.shape_roles(), roles)
 
 
 def test_gizmo_rotate_and_translate(qtbot, win, tmp_path, blob_file):
     w = win
     s = w.session
     P = s.cage_positions
-    s.set_mask("roi", P[:, 0] > 0.0)
-    s.set_mask("handle", P[:, 0] > 1.4)
+    s.selection.set_mask("roi", P[:, 0] > 0.0)
+    s.selection.set_mask("handle", P[:, 0] > 1.4)
     w.sync.refresh_selection()
     qtbot.wait(20)
     key(qtbot, w, Qt.Key.Key_C)  # gizmo works in Camera mode too
@@ -155,17 +155,17 @@ def test_gizmo_rotate_and_translate(qtbot, win, tmp_path, blob_file):
     a = to_widget(w, tip[0])
     mouse_drag(qtbot, w.view, a, a + QtCore.QPoint(60, 0))
     settled(qtbot, w)
-    dx = s.cage_positions[s.handle] - P[s.handle]
+    dx = s.cage_positions[s.selection.handle] - P[s.selection.handle]
     assert np.all(dx[:, 0] > 0.1) and np.allclose(dx, dx[0], atol=1e-9) and np.allclose(dx[:, 1:], 0, atol=1e-9)
     # rotate: grab the Z ring (facing the viewer) on its right and pull it up: positive turn about +Z
     center = s.handle_centroid()
-    before = s.cage_positions[s.handle]
+    before = s.cage_positions[s.selection.handle]
     r = gz.RING_RATIO * g.length
     right, _ = projected(w, (center + [r * np.cos(0.3), r * np.sin(0.3), 0])[None])
     a = to_widget(w, right[0])
     mouse_drag(qtbot, w.view, a, a + QtCore.QPoint(0, -40))
     settled(qtbot, w)
-    after = s.cage_positions[s.handle]
+    after = s.cage_positions[s.selection.handle]
     rel0, rel1 = before - center, after - center
     ang = np.degrees(np.arctan2(rel1[:, 1], rel1[:, 0]) - np.arctan2(rel0[:, 1], rel0[:, 0]))
     ang = (ang + 180) % 360 - 180
@@ -196,27 +196,27 @@ def test_brush_modifiers_clear_invert(qtbot, win):
     # plain stroke replaces: a short stroke at the right end
     a = to_widget(w, d[i_right])
     mouse_drag(qtbot, w.view, a, a + QtCore.QPoint(-10, 0), steps=2)
-    first = s.roi.copy()
+    first = s.selection.roi.copy()
     assert first[i_right] and not first[i_left]
     # Shift adds the left end
     a = to_widget(w, d[i_left])
     mouse_drag(qtbot, w.view, a, a + QtCore.QPoint(10, 0), steps=2, modifier=Qt.KeyboardModifier.ShiftModifier)
-    assert s.roi[i_right] and s.roi[i_left] and np.all(s.roi[first])
+    assert s.selection.roi[i_right] and s.selection.roi[i_left] and np.all(s.selection.roi[first])
     # Ctrl removes the right end again
     a = to_widget(w, d[i_right])
     mouse_drag(qtbot, w.view, a, a, steps=1, modifier=Qt.KeyboardModifier.ControlModifier)
-    assert not s.roi[i_right] and s.roi[i_left]
+    assert not s.selection.roi[i_right] and s.selection.roi[i_left]
     # one stroke is one undo step
     n_hist = len(s.history)
-    before = s.roi.copy()
+    before = s.selection.roi.copy()
     key(qtbot, w, Qt.Key.Key_I, Qt.KeyboardModifier.ControlModifier)  # invert
-    assert np.array_equal(s.roi, ~before)
+    assert np.array_equal(s.selection.roi, ~before)
     key(qtbot, w, Qt.Key.Key_A, Qt.KeyboardModifier.ControlModifier | Qt.KeyboardModifier.ShiftModifier)  # clear
-    assert not s.roi.any()
+    assert not s.selection.roi.any()
     assert len(s.history) == n_hist + 2
     key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
     key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
-    assert np.array_equal(s.roi, before)
+    assert np.array_equal(s.selection.roi, before)
     # the colours follow: cage points and shape tint
     cols = np.asarray(w.scene.points_poly.point_data["role"])
     assert not np.array_equal(cols[i_left], cols[i_right])
@@ -298,12 +298,12 @@ def test_drop_shortcuts_cage_toggle_and_rebuild(qtbot, win, blob_file, tmp_path,
     assert not w.scene.cage_front.GetVisibility()
     # rebuild at another size keeps the selection (through the shape)
     P = s.cage_positions
-    s.set_mask("handle", P[:, 0] > 1.4)
+    s.selection.set_mask("handle", P[:, 0] > 1.4)
     w.cage_control.set_value(80)
     assert w.loading.rebuild()
     wait_loaded(qtbot, w)
     assert w.session is s and abs(s.n_cage - 80) < 10  # the same session goes on, on the new cage
-    h = w.session.handle
+    h = w.session.selection.handle
     assert h.any() and np.all(w.session.cage_positions[h, 0] > 1.0)
     # dropping a mesh file opens it
     other = tmp_path / "sphere.off"
@@ -355,7 +355,7 @@ def test_worker_cancel_keeps_the_previous_state(qtbot, win, tmp_path, make_blob)
     assert sum(during_build) >= 2, during_build
     # and the window still works
     P = s.cage_positions
-    s.set_mask("handle", P[:, 0] > 1.4)
+    s.selection.set_mask("handle", P[:, 0] > 1.4)
     s.begin_drag()
     s.drag_to(np.eye(4))
 

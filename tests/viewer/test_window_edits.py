@@ -17,8 +17,8 @@ Qt = QtCore.Qt
 
 def select(w: MainWindow, roi: np.ndarray, handle: np.ndarray) -> None:
     s = w.session
-    s.set_mask("roi", roi)
-    s.set_mask("handle", handle)
+    s.selection.set_mask("roi", roi)
+    s.selection.set_mask("handle", handle)
     w.sync.refresh_selection()
 
 
@@ -85,7 +85,7 @@ def test_mirror_x_drag_equals_the_deform_replay_of_its_edit(qtbot, win, capsule_
     s = w.session
     assert s.path == capsule_file
     key(qtbot, w, Qt.Key.Key_X, Qt.KeyboardModifier.ShiftModifier)
-    assert w.actions_["mirror_x"].isChecked() and s.symmetry == "x"
+    assert w.actions_["mirror_x"].isChecked() and s.selection.symmetry == "x"
     P = s.cage_positions
     select(w, P[:, 0] > 0.0, P[:, 0] > 1.4)
     s.apply_selection()
@@ -93,7 +93,7 @@ def test_mirror_x_drag_equals_the_deform_replay_of_its_edit(qtbot, win, capsule_
     # the mirrored selection is drawn on both sides: the engine's roles, mirror images included
     from hybridedit.deform.roles import FIXED, is_handle
 
-    st = s.cage_roles()
+    st = s.selection.cage_roles()
     far = st[P[:, 0] < -1.45]  # (the cage is not itself symmetric: the mirror maps through the shape)
     assert np.mean(is_handle(far)) > 0.8 and not np.any(far == FIXED)
     assert not np.any(st[(P[:, 0] < -0.3) & (P[:, 0] > -1.3)] == FIXED)  # the mirrored region is free
@@ -117,7 +117,7 @@ def test_mirror_x_is_checked_against_each_shape(qtbot, win, capsule_file, blob_f
     w = win
     s = w.session  # the bumpy blob: not symmetric across x
     key(qtbot, w, Qt.Key.Key_X, Qt.KeyboardModifier.ShiftModifier)  # refused at once, no selection needed
-    assert not w.actions_["mirror_x"].isChecked() and s.symmetry is None
+    assert not w.actions_["mirror_x"].isChecked() and s.selection.symmetry is None
     assert "not symmetric" in w.status.last_error and "%" in w.status.last_error
     w.status.error_box.done(0)  # the message box read
     w.activateWindow()
@@ -127,12 +127,12 @@ def test_mirror_x_is_checked_against_each_shape(qtbot, win, capsule_file, blob_f
     qtbot.waitUntil(lambda: w.session is not None and w.session.path == capsule_file and w.jobs.worker is None,
                     timeout=60000)
     key(qtbot, w, Qt.Key.Key_X, Qt.KeyboardModifier.ShiftModifier)
-    assert w.actions_["mirror_x"].isChecked() and w.session.symmetry == "x"
+    assert w.actions_["mirror_x"].isChecked() and w.session.selection.symmetry == "x"
     w.unsaved.set_modified(False)
     assert w.loading.open_path(blob_file)  # Mirror X is still ticked: the new shape is checked when it opens
     qtbot.waitUntil(lambda: w.session is not None and w.session.path == blob_file and w.jobs.worker is None,
                     timeout=60000)
-    assert not w.actions_["mirror_x"].isChecked() and w.session.symmetry is None
+    assert not w.actions_["mirror_x"].isChecked() and w.session.selection.symmetry is None
     assert "Mirror X is off" in w.status.current_message()
 
 
@@ -148,11 +148,11 @@ def test_a_mirrored_selection_is_drawn_on_both_sides_as_it_is_made(qtbot, win, c
     assert not s.applied
     from hybridedit.deform.roles import FIXED, is_handle
 
-    st = s.cage_roles()
+    st = s.selection.cage_roles()
     far = st[P[:, 0] < -1.45]
     assert np.mean(is_handle(far)) > 0.8 and not np.any(far == FIXED)
-    roles = s.shape_roles()
+    roles = s.selection.shape_roles()
     assert np.count_nonzero(roles[s.mesh.vertices[:, 0] < -1.5] == 1) > 0  # the tint covers the mirror image
     # what is drawn before the drag is what the engine takes at the drag
     s.apply_selection()
-    assert np.array_equal(s.cage_roles(), st) and np.array_equal(s.shape_roles(), roles)
+    assert np.array_equal(s.selection.cage_roles(), st) and np.array_equal(s.selection.shape_roles(), roles)

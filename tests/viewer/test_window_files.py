@@ -289,7 +289,7 @@ def test_an_edit_saved_at_one_cage_size_replays_at_another(qtbot, win, tmp_path,
     s = w.session
     drag_tip(qtbot, w)
     posed = s.shape_positions.copy()
-    roles = s.shape_roles()
+    roles = s.selection.shape_roles()
     edit = tmp_path / "tip.json"
     assert w.files.save_edit_to(edit)
     assert "replays them to the pose on screen" in w.status.current_message()
@@ -306,7 +306,7 @@ def test_an_edit_saved_at_one_cage_size_replays_at_another(qtbot, win, tmp_path,
     assert f"made on a cage of {s.n_cage:,} vertices and replayed on this one of {s2.n_cage:,}" in said
     V = s2.shape_positions
     # the same constraints, held exactly, and the same shape up to the cage's resolution
-    assert np.array_equal(s2.shape_roles(), roles)
+    assert np.array_equal(s2.selection.shape_roles(), roles)
     diag = s2.mesh.bbox_diagonal()
     held = roles != 0
     assert np.abs(V[held] - posed[held]).max() < 1e-9 * diag
@@ -336,7 +336,7 @@ def test_mirror_x_moves_both_sides_or_says_why_not(qtbot, win, tmp_path):
     s = select_tip(w)
     w.actions_["mirror_x"].trigger()
     assert "mirror" in w.status.last_error.lower() or "symmetr" in w.status.last_error.lower()
-    assert s.symmetry is None and not w.actions_["mirror_x"].isChecked()
+    assert s.selection.symmetry is None and not w.actions_["mirror_x"].isChecked()
     # an exactly symmetric capsule: the mirrored end follows the mirrored drag
     sym = trimesh.creation.capsule(height=3.0, radius=0.6, count=[24, 24])
     path = tmp_path / "capsule.obj"
@@ -348,14 +348,14 @@ def test_mirror_x_moves_both_sides_or_says_why_not(qtbot, win, tmp_path):
     s = w.session
     w.scene.reset_camera(tilted=False)
     P = s.cage_positions
-    s.set_mask("roi", P[:, 0] > 0.3)
-    s.set_mask("handle", P[:, 0] > 1.6)
+    s.selection.set_mask("roi", P[:, 0] > 0.3)
+    s.selection.set_mask("handle", P[:, 0] > 1.6)
     w.sync.refresh_selection()
     w.actions_["mirror_x"].trigger()
-    assert s.symmetry == "x" and w.actions_["mirror_x"].isChecked()
+    assert s.selection.symmetry == "x" and w.actions_["mirror_x"].isChecked()
     from hybridedit.deform.roles import handle
 
-    roles = s.cage_roles()
+    roles = s.selection.cage_roles()
     assert np.any(roles[P[:, 0] < -1.6] == handle(0))  # the other end is a handle too, shown as one
     w.polisher.enabled = False
     key(qtbot, w, Qt.Key.Key_D)

@@ -27,13 +27,14 @@ def test_two_handle_groups_move_independently(qtbot, win, tmp_path):
     w.polisher.enabled = False
     P = s.cage_positions
     rest = s.mesh.vertices
-    s.set_mask("roi", np.abs(P[:, 0]) > 0.4)
-    s.set_mask("handle", P[:, 0] > 1.4)
+    s.selection.set_mask("roi", np.abs(P[:, 0]) > 0.4)
+    s.selection.set_mask("handle", P[:, 0] > 1.4)
     w.actions_["new_group"].trigger()  # Ctrl+G
-    assert s.n_groups == 2 and s.active == 1 and not s.handle.any()
-    s.set_mask("handle", P[:, 0] < -1.4)
+    assert s.selection.n_groups == 2 and s.selection.active == 1 and not s.selection.handle.any()
+    s.selection.set_mask("handle", P[:, 0] < -1.4)
     w.sync.refresh_selection()
-    assert np.all(s.handle_group[P[:, 0] > 1.4] == 1) and np.all(s.handle_group[P[:, 0] < -1.4] == 2)
+    groups = s.selection.handle_group
+    assert np.all(groups[P[:, 0] > 1.4] == 1) and np.all(groups[P[:, 0] < -1.4] == 2)
     # each group its own colour, on the cage points and on the shape
     rgba = np.asarray(w.scene.points_poly.point_data["role"])[:, :3]
     first, second = ROLE_COLORS[role_rows(handle(0))], ROLE_COLORS[role_rows(handle(1))]
@@ -52,7 +53,7 @@ def test_two_handle_groups_move_independently(qtbot, win, tmp_path):
     assert not np.array_equal(tint[(fr == 1).all(axis=1)][0], tint[(fr == 2).all(axis=1)][0])
     # G: group 1 (the right end); dragging it keeps group 2 where it was put
     key(qtbot, w, Qt.Key.Key_G)
-    assert s.active == 0
+    assert s.selection.active == 0
     drag_active(qtbot, w, 60)
     V2 = s.shape_positions.copy()
     assert (V2[right] - rest[right])[:, 1].max() < -0.1

@@ -75,7 +75,7 @@ def test_polish_on_release_lowers_the_energy_and_save_writes_it(qtbot, win, tmp_
     assert w.status.error_label.text().endswith("(polished)")
     # a selection changed, and undone: the pose on display is still the polished one, and says so
     Pc = s.cage_positions
-    s.set_mask("handle", Pc[:, 0] < -1.4)
+    s.selection.set_mask("handle", Pc[:, 0] < -1.4)
     w.sync.refresh_selection()
     w.sync.measure(everything=True)
     assert w.status.error_label.text().endswith("(polished)")

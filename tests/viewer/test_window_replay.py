@@ -104,7 +104,7 @@ def test_two_groups_and_a_second_drag_of_the_first(qtbot, win, blob_file, tmp_pa
     key(qtbot, w, Qt.Key.Key_G, CTRL)  # a second handle group: the other end
     key(qtbot, w, Qt.Key.Key_S)
     rectangle(qtbot, w, -1.4, left=True)
-    assert w.session.n_groups == 2
+    assert w.session.selection.n_groups == 2
     drag_handle(qtbot, w, 40, -50)
     key(qtbot, w, Qt.Key.Key_G)  # back to the first group, dragged again from the polished pose
     drag_handle(qtbot, w, 30, 0)
@@ -124,7 +124,7 @@ def test_mirror_x_with_its_polish(qtbot, win, capsule_file, tmp_path, monkeypatc
     qtbot.waitUntil(lambda: w.session is not None and w.session.path == capsule_file, timeout=60000)
     w.scene.reset_camera(tilted=False)
     key(qtbot, w, Qt.Key.Key_X, Qt.KeyboardModifier.ShiftModifier)
-    assert w.session.symmetry == "x"
+    assert w.session.selection.symmetry == "x"
     select_by_rectangles(qtbot, w, 0.0, 1.4)
     drag_handle(qtbot, w, 0, 80)
     edit, saved, _ = save_edit_and_mesh(qtbot, w, tmp_path, "mirror", monkeypatch)

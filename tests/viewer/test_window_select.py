@@ -81,15 +81,15 @@ def test_the_rectangle_takes_the_limb_in_sight_whole_not_the_one_behind(qtbot, l
     assert behind.sum() > 40 and facing.sum() > 20
     a, b = around(w, np.ones(len(P), dtype=bool))  # over both limbs
     mouse_drag(qtbot, w.view, a, b)
-    assert not s.roi[behind].any()  # the hind limb is not taken
-    assert np.all(s.roi[front])  # the front one whole: its far side too, through its thickness
+    assert not s.selection.roi[behind].any()  # the hind limb is not taken
+    assert np.all(s.selection.roi[front])  # the front one whole: its far side too, through its thickness
     w.view.screenshot(tmp_path / "limbs.png")
     # Alt+Z: Select Through (Blender's X-ray) takes both
     key(qtbot, w, Qt.Key.Key_Z, ALT)
     assert w.actions_["select_through"].isChecked() and w.controller.select_through
     assert "hidden behind the shape" in w.status.current_message()
     mouse_drag(qtbot, w.view, a, b)
-    assert s.roi.all()
+    assert s.selection.roi.all()
     # and off again: the brush takes only what is in sight too
     key(qtbot, w, Qt.Key.Key_Z, ALT)
     assert not w.controller.select_through
@@ -98,7 +98,7 @@ def test_the_rectangle_takes_the_limb_in_sight_whole_not_the_one_behind(qtbot, l
     d, _ = projected(w, P)
     c = to_widget(w, d[behind].mean(axis=0))  # the middle of both limbs on screen
     mouse_drag(qtbot, w.view, c, c + QtCore.QPoint(0, 30), steps=3)
-    assert s.roi.any() and not s.roi[behind].any()
+    assert s.selection.roi.any() and not s.selection.roi[behind].any()
 
 
 def test_a_click_on_empty_space_keeps_the_selection(qtbot, limbs):
@@ -110,25 +110,25 @@ def test_a_click_on_empty_space_keeps_the_selection(qtbot, limbs):
     mouse_drag(qtbot, w.view, *around(w, np.ones(len(P), dtype=bool)))
     key(qtbot, w, Qt.Key.Key_H)
     mouse_drag(qtbot, w.view, *around(w, P[:, 1] < -1.0))  # the feet
-    roi, handle = s.roi.copy(), s.handle.copy()
+    roi, handle = s.selection.roi.copy(), s.selection.handle.copy()
     assert roi.all() and 10 < handle.sum() < len(P) // 3
     n_hist, label = len(s.history), w.status.sel_label.text()
     # a click on empty space, in Handle target, replace mode: nothing changes
     d, _ = projected(w, P)
     empty = to_widget(w, (d[:, 0].max() + 120, d[:, 1].mean()))
     click(qtbot, w, empty)
-    assert np.array_equal(s.roi, roi) and np.array_equal(s.handle, handle)
+    assert np.array_equal(s.selection.roi, roi) and np.array_equal(s.selection.handle, handle)
     assert len(s.history) == n_hist and w.status.sel_label.text() == label
     assert w.status.current_message() == "No cage point there: the selection is kept"
     # Shift or Ctrl + click on empty space: nothing either
     click(qtbot, w, empty, CTRL)
-    assert np.array_equal(s.handle, handle) and len(s.history) == n_hist
+    assert np.array_equal(s.selection.handle, handle) and len(s.history) == n_hist
     # a click on a cage point takes that point alone (one undo step)
     i = int(np.argmax(P[:, 2]))
     click(qtbot, w, to_widget(w, d[i]))
-    assert np.flatnonzero(s.handle).tolist() == [i] and len(s.history) == n_hist + 1
+    assert np.flatnonzero(s.selection.handle).tolist() == [i] and len(s.history) == n_hist + 1
     key(qtbot, w, Qt.Key.Key_Z, CTRL)
-    assert np.array_equal(s.handle, handle)
+    assert np.array_equal(s.selection.handle, handle)
 
 
 def test_a_rectangle_over_empty_space_clears_with_a_way_back(qtbot, limbs):
@@ -137,50 +137,51 @@ def test_a_rectangle_over_empty_space_clears_with_a_way_back(qtbot, limbs):
     P = s.cage_positions
     key(qtbot, w, Qt.Key.Key_H)
     mouse_drag(qtbot, w.view, *around(w, P[:, 1] > 1.0))
-    handle = s.handle.copy()
+    handle = s.selection.handle.copy()
     assert handle.any()
     d, _ = projected(w, P)
     x = d[:, 0].max() + 60
     mouse_drag(qtbot, w.view, to_widget(w, (x, d[:, 1].max())), to_widget(w, (x + 100, d[:, 1].min())))
-    assert not s.handle.any()  # as Blender: a drawn box that takes nothing replaces with nothing...
+    assert not s.selection.handle.any()  # as Blender: a drawn box that takes nothing replaces with nothing...
     assert w.status.current_message() == "Handle cleared (Ctrl+Z restores it)"  # ... and says how to get it back
     key(qtbot, w, Qt.Key.Key_Z, CTRL)
-    assert np.array_equal(s.handle, handle)
+    assert np.array_equal(s.selection.handle, handle)
 
 
 def test_ctrl_shift_a_clears_everything_in_one_step_and_alt_a_the_target(qtbot, limbs):
     w = limbs
     s = w.session
     P = s.cage_positions
-    s.set_mask("roi", P[:, 1] < 0.5)
-    s.set_mask("handle", (P[:, 1] < -1.0) & (P[:, 2] > 0))
+    s.selection.set_mask("roi", P[:, 1] < 0.5)
+    s.selection.set_mask("handle", (P[:, 1] < -1.0) & (P[:, 2] > 0))
     key(qtbot, w, Qt.Key.Key_G, CTRL)  # a second handle group: the hind foot
-    s.set_mask("handle", (P[:, 1] < -1.0) & (P[:, 2] < 0))
+    s.selection.set_mask("handle", (P[:, 1] < -1.0) & (P[:, 2] < 0))
     w.sync.refresh_selection()
-    roi, groups = s.roi.copy(), s.handle_group.copy()
-    assert s.n_groups == 2 and set(np.unique(groups)) == {0, 1, 2}
+    roi, groups = s.selection.roi.copy(), s.selection.handle_group.copy()
+    assert s.selection.n_groups == 2 and set(np.unique(groups)) == {0, 1, 2}
     n_hist = len(s.history)
     # Ctrl+Shift+A: the ROI and every handle group, one undo step
     key(qtbot, w, Qt.Key.Key_A, CTRL | SHIFT)
-    assert not s.roi.any() and not s.all_handles.any() and s.n_groups == 1
+    assert not s.selection.roi.any() and not s.selection.all_handles.any() and s.selection.n_groups == 1
     assert len(s.history) == n_hist + 1
     assert "Ctrl+Z" in w.status.current_message()
     assert w.status.sel_label.text().startswith("ROI 0 · handle 0")
     key(qtbot, w, Qt.Key.Key_Z, CTRL)
-    assert np.array_equal(s.roi, roi) and np.array_equal(s.handle_group, groups) and s.n_groups == 2
+    sel = s.selection
+    assert np.array_equal(sel.roi, roi) and np.array_equal(sel.handle_group, groups) and sel.n_groups == 2
     # Alt+A in Handle target: the active group only
     key(qtbot, w, Qt.Key.Key_H)
-    active = s.active + 1
+    active = s.selection.active + 1
     key(qtbot, w, Qt.Key.Key_A, ALT)
-    assert not np.any(s.handle_group == active) and np.array_equal(s.roi, roi)
-    assert np.array_equal(s.handle_group[groups != active], groups[groups != active])
+    assert not np.any(s.selection.handle_group == active) and np.array_equal(s.selection.roi, roi)
+    assert np.array_equal(s.selection.handle_group[groups != active], groups[groups != active])
     assert w.status.current_message() == f"Handle group {active} cleared (Ctrl+Z restores it)"
     key(qtbot, w, Qt.Key.Key_Z, CTRL)
-    assert np.array_equal(s.handle_group, groups)
+    assert np.array_equal(s.selection.handle_group, groups)
     # Alt+A in ROI target: the ROI only
     key(qtbot, w, Qt.Key.Key_R)
     key(qtbot, w, Qt.Key.Key_A, ALT)
-    assert not s.roi.any() and np.array_equal(s.handle_group, groups)
+    assert not s.selection.roi.any() and np.array_equal(s.selection.handle_group, groups)
     assert w.status.current_message() == "ROI cleared (Ctrl+Z restores it)"
     n_hist = len(s.history)
     key(qtbot, w, Qt.Key.Key_A, ALT)
@@ -219,15 +220,15 @@ def test_the_default_rectangle_takes_an_end_as_select_through_does(qtbot, win):
         mouse_drag(qtbot, w.view, *around(w, P[:, 0] > 0.3))
         key(qtbot, w, Qt.Key.Key_H)
         mouse_drag(qtbot, w.view, *around(w, end, margin=3.0))
-        taken[through] = (s.roi.copy(), s.handle.copy())
+        taken[through] = (s.selection.roi.copy(), s.selection.handle.copy())
         assert "tears the shape" not in w.status.current_message()
     assert np.array_equal(taken[False][0], taken[True][0]) and np.array_equal(taken[False][1], taken[True][1])
-    assert np.all(s.handle[end & (P[:, 2] < -0.2)])  # the back of the end, hidden from the front
+    assert np.all(s.selection.handle[end & (P[:, 2] < -0.2)])  # the back of the end, hidden from the front
     # a handle of one point in the held part (a click, in sight): said before any drag
     key(qtbot, w, Qt.Key.Key_Z, ALT)
     d, _ = projected(w, P)
     i = int(np.argmax(np.where(P[:, 0] < -1.0, P[:, 2], -np.inf)))  # the left end's point facing the camera
     click(qtbot, w, to_widget(w, d[i]))
-    assert np.flatnonzero(s.handle).tolist() == [i] and not s.roi[i]
+    assert np.flatnonzero(s.selection.handle).tolist() == [i] and not s.selection.roi[i]
     assert "touches the held part" in w.status.current_message() and "Alt+Z" in w.status.current_message()
-    assert s.tearing() == {0: 1}
+    assert s.selection.tearing() == {0: 1}

@@ -1,15 +1,17 @@
 """The window's structure: a QMainWindow and collaborators, each taking the window as the narrow
-protocol its module declares (no mixins), and the window satisfies them all; the Qt-free model;
-the sub-packages importing one way; and "finish the settle, cancel the polish" as one guard
-(settle_and_stop_polish), checked in the source and through real Qt events."""
+protocol its module declares (no mixins), and the window satisfies them all; no viewer class built on
+a mixin; the Qt-free model; the sub-packages importing one way; and "finish the settle, cancel the
+polish" as one guard (settle_and_stop_polish), checked in the source and through real Qt events."""
 
 from __future__ import annotations
 
 import ast
+import dataclasses
 import inspect
 import pkgutil
 import subprocess
 import sys
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -98,6 +100,78 @@ def test_the_window_is_a_qmainwindow_and_its_collaborators_not_mixins():
         mixins += [f"{info.name}.{n.name}" for n in ast.walk(tree) if isinstance(n, ast.ClassDef)
                    and n.name.endswith("Mixin")]
     assert mixins == []
+
+
+def viewer_classes() -> list[type]:
+    """Every class defined in a module of the viewer."""
+    found = []
+    for info in pkgutil.walk_packages(viewer.__path__, "hybridedit.viewer."):
+        module = __import__(info.name, fromlist=["_"])
+        found += [k for k in vars(module).values() if inspect.isclass(k) and k.__module__ == info.name]
+    return found
+
+
+def is_viewer_class(k: type) -> bool:
+    return k.__module__.startswith("hybridedit.viewer.")
+
+
+def may_be_built_on(base: type) -> bool:
+    """The kinds of viewer class another viewer class may inherit from: a protocol, an exception, a record
+    (NamedTuple, dataclass), or a Qt class (a widget or thread specialised)."""
+    return (getattr(base, "_is_protocol", False) or issubclass(base, BaseException)
+            or dataclasses.is_dataclass(base) or (issubclass(base, tuple) and hasattr(base, "_fields"))
+            or any(k.__module__.split(".")[0] in ("PySide6", "PyQt6") for k in base.__mro__))
+
+
+def undefined_uses(klass: type) -> set[str]:
+    """The ``self.X`` a class's methods use that neither it nor a class it inherits from defines (a class
+    member, or ``self.X = ...`` in a method): what a mixin takes from the class it is mixed into."""
+    defined = set()
+    for k in klass.__mro__:
+        if not is_viewer_class(k) and k is not klass:
+            continue
+        tree = ast.parse(textwrap.dedent(inspect.getsource(k)))
+        defined |= {n.target.id for n in tree.body[0].body if isinstance(n, ast.AnnAssign)
+                    and isinstance(n.target, ast.Name)}  # (a record's fields)
+        for node in ast.walk(tree):
+            targets = node.targets if isinstance(node, ast.Assign) else [node.target] if isinstance(
+                node, ast.AnnAssign) else []
+            for t in targets:
+                for e in ast.walk(t):
+                    if isinstance(e, ast.Attribute) and isinstance(e.value, ast.Name) and e.value.id == "self":
+                        defined.add(e.attr)
+    tree = ast.parse(textwrap.dedent(inspect.getsource(klass)))
+    used = {n.attr for n in ast.walk(tree)
+            if isinstance(n, ast.Attribute) and isinstance(n.value, ast.Name) and n.value.id == "self"}
+    return {name for name in used - defined if not hasattr(klass, name)}
+
+
+class _Mixin:
+    def go(self):
+        return self.engine.run(self.steps)
+
+
+class _Full:
+    steps = 3
+
+    def __init__(self):
+        self.engine = None
+
+    def go(self):
+        return self.engine.run(self.steps)
+
+
+def test_no_viewer_class_builds_on_a_mixin():
+    """A viewer class inherits from another viewer class only when that one is a protocol, an exception, a
+    record or a Qt class; and none of those uses on ``self`` what it does not define (a mixin does)."""
+    assert undefined_uses(_Mixin) == {"engine", "steps"} and undefined_uses(_Full) == set()
+    classes = viewer_classes()
+    assert len(classes) > 60, len(classes)
+    built_on = {b for k in classes for b in k.__bases__ if is_viewer_class(b)}
+    assert {b.__name__ for b in built_on} >= {"OutlineOverlay", "BuildWorker"}  # (the check sees them)
+    assert [(k.__name__, b.__name__) for k in classes for b in k.__bases__
+            if is_viewer_class(b) and not may_be_built_on(b)] == []
+    assert {b.__name__: undefined_uses(b) for b in built_on if undefined_uses(b)} == {}
 
 
 def test_main_window_satisfies_its_collaborators_protocols(qtbot):

@@ -3,7 +3,7 @@
 Modules
 -------
 session         : the editing state on top of the engine: pose, drags and settle, polish, undo, edit files
-selection_masks : the session's selection: ROI and handle-group masks, strokes, the roles they give
+selection_masks : the session's selection (held, not inherited): ROI and handle-group masks, strokes, roles
 history         : the undo/redo stack of snapshots
 picking         : projection, hit tests and add/remove/replace on cage points
 gizmo           : the handle gizmo's parts, hit test and drag transforms

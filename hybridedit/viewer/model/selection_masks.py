@@ -1,8 +1,9 @@
 """The selection of a session: which cage vertices are in the ROI and in each handle group, the
 gestures and commands that change it, and the roles it gives the cage and the shape.
 
-No Qt here; :class:`~.session.Session` builds on :class:`SelectionState` (the engine, the pose,
-the drags and undo are the session's).
+No Qt here; a :class:`~.session.Session` holds a :class:`Selection` (``session.selection``), which
+sees the session only as a :class:`SelectionOwner` (the engine, the pose, the drags and undo are the
+session's).
 
 Vocabulary
 ----------
@@ -20,11 +21,18 @@ roles
 
 from __future__ import annotations
 
+import weakref
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
+
 import numpy as np
 
 from ...core.index_sets import unique_sorted
 from ...deform.roles import FIXED, group, handle as handle_role, is_handle
 from .picking import combine, selection_roles
+
+if TYPE_CHECKING:
+    from ...deform.editor import HybridEditor
+    from .history import Snapshot
 
 ROI, HANDLE = "roi", "handle"
 TARGETS = (ROI, HANDLE)
@@ -32,14 +40,47 @@ NO_GROUP = 0
 """``handle_group`` of a cage vertex in no handle group."""
 
 
-class SelectionState:
-    """The ROI and the handle groups of a :class:`~.session.Session` (a mixin).
+@runtime_checkable
+class SelectionOwner(Protocol):
+    """What a :class:`Selection` needs of the session that holds it (:class:`~.session.Session`).
 
-    The session provides ``editor`` (the engine), ``mesh``, ``transforms`` and ``_bases`` (one (4, 4) per
-    handle group: kept in step here as groups come and go) and the hooks ``finish_settle()``,
-    ``_push(label)`` (record an undo step), ``_identity_transforms()`` and ``_selection_changed(label)``
-    (the masks changed: one undo step); it sets ``_engine_masks`` to :meth:`_mask_key` when it gives
-    the engine the selection.
+    The selection owns the masks; the engine, the pose and undo are the owner's. Each handle group has
+    a transform in the owner, so the owner hears when groups come and go.
+    """
+
+    @property
+    def editor(self) -> HybridEditor:
+        """The engine: the cage the masks are over, the roles it gives them, the mirror it checks."""
+        ...
+
+    def finish_settle(self) -> None:
+        """Complete a settle under way (before the active handle group changes)."""
+        ...
+
+    def group_added(self, label: str) -> None:
+        """A handle group was added (the active one now): its transform starts at the identity; one
+        undo step called ``label``."""
+        ...
+
+    def reset_transforms(self) -> None:
+        """Every handle group's transform back to the identity (the groups were cleared)."""
+        ...
+
+    def selection_changed(self, label: str) -> None:
+        """The masks changed: one undo step called ``label``."""
+        ...
+
+
+class Selection:
+    """The ROI and the handle groups of a :class:`~.session.Session`, and the gestures and commands that
+    change them.
+
+    Parameters
+    ----------
+    owner : the session that holds it (see :class:`SelectionOwner`); held weakly, so that a session
+        dropped is freed at once with its engine, as with no selection (no reference cycle).
+    roi, handle : initial masks over the cage vertices (default: empty).
+    symmetry : mirror the selection across this axis's mid-plane ("x", "y", "z"), or None.
 
     Attributes
     ----------
@@ -48,31 +89,50 @@ class SelectionState:
     n_groups : how many handle groups there are (at least 1; the last may be empty).
     active : the handle group that selections and drags act on.
     symmetry : mirror the selection across this axis's mid-plane ("x", "y", "z"), or None.
+    given : the masks the engine was given (:meth:`give_to_engine`), as a key; None when not yet (or
+        another engine). The engine's roles are the masks' while it equals :meth:`key`.
+
+    Raises
+    ------
+    SelectionError
+        ``symmetry`` given for a shape that is not symmetric enough across it.
     """
 
-    def _init_selection(self, c: int, roi: np.ndarray | None, handle_mask: np.ndarray | None,
-                        symmetry: str | None) -> None:
-        """The selection of a new session on a cage of ``c`` vertices (see :class:`~.session.Session`)."""
+    def __init__(self, owner: SelectionOwner, roi: np.ndarray | None = None,
+                 handle: np.ndarray | None = None, symmetry: str | None = None) -> None:
+        self._owner_ref = weakref.ref(owner)
+        c = owner.editor.cage.n_vertices
         self.roi = np.zeros(c, dtype=bool) if roi is None else np.asarray(roi, dtype=bool).copy()
         self.handle_group = np.full(c, NO_GROUP, dtype=np.int8)
         self.n_groups = 1
         self.active = 0
-        if handle_mask is not None:
-            self.handle = handle_mask
+        if handle is not None:
+            self.handle = handle
         if self.roi.shape != (c,):
             raise ValueError(f"selection masks must have {c} entries (the cage vertex count)")
         self._stroke: tuple[str, np.ndarray] | None = None
-        self._engine_masks: tuple | None = None
+        self.given: tuple | None = None
         self._preview_cache: tuple | None = None
         if symmetry is not None:
-            self.editor.mirror(symmetry)  # a shape too asymmetric is refused now, not at the first drag
+            owner.editor.mirror(symmetry)  # a shape too asymmetric is refused now, not at the first drag
         self.symmetry: str | None = symmetry
+
+    @property
+    def _owner(self) -> SelectionOwner:
+        owner = self._owner_ref()
+        if owner is None:
+            raise ReferenceError("the session that held this selection is gone")
+        return owner
+
+    @property
+    def _editor(self) -> HybridEditor:
+        return self._owner.editor
 
     # ------------------------------------------------------------------ masks
     @property
-    def n_cage(self) -> int:
+    def _n_cage(self) -> int:
         """The cage's vertex count (the masks' length)."""
-        return self.editor.cage.n_vertices
+        return self._editor.cage.n_vertices
 
     @property
     def handle(self) -> np.ndarray:
@@ -100,45 +160,95 @@ class SelectionState:
             raise ValueError(f"target must be one of {TARGETS}, got {target!r}")
         return self.roi if target == ROI else self.handle
 
-    def _mask_key(self) -> tuple:
+    def key(self) -> tuple:
+        """The masks and mirror as they are now, as a key (what :attr:`given` is compared with)."""
         return (np.packbits(self.roi).tobytes(), self.handle_group.tobytes(), self.symmetry)
 
-    def _engine_has_masks(self) -> bool:
+    def engine_has_masks(self) -> bool:
         """The engine's selection was set from the masks (and mirror) as they are now."""
-        return self._engine_masks == self._mask_key()
+        return self.given == self.key()
+
+    # ------------------------------------------------------------------ the engine's side
+    def give_to_engine(self) -> list[int] | None:
+        """Give the engine the selection as it is now (empty handle groups dropped first); returns the
+        groups kept when some were dropped (see :meth:`compact_groups`), else None."""
+        kept = self.compact_groups()
+        # given in shape vertices (the cage picks exactly, see HybridEditor.shape_roles), so that the edit
+        # file it saves replays with ``hybridedit deform`` to the same vertices
+        roles = self._engine_shape_roles()
+        handles = [np.flatnonzero(roles == handle_role(g)) for g in range(self.n_groups)]
+        self._editor.set_selection(handles, roi=np.flatnonzero(roles != FIXED), symmetry=self.symmetry)
+        self.given = self.key()
+        return kept
+
+    def take_from_engine(self, n_groups: int) -> None:
+        """The engine's selection (after it replayed an edit) as the masks: ``n_groups`` handle groups,
+        the first one active; the engine has them."""
+        roles = self._editor.cage_roles
+        self.roi = roles != FIXED
+        self.handle_group = np.where(is_handle(roles), roles, NO_GROUP).astype(np.int8)
+        self.n_groups = max(n_groups, 1)
+        self.active = 0
+        self.given = self.key()
+
+    def engine_replaced(self) -> None:
+        """The owner has a new engine: it has no selection from these masks yet."""
+        self.given = self._preview_cache = None
+
+    def carry_over(self, dominant: np.ndarray) -> None:
+        """Carry the masks over to the owner's new engine (a rebuild) through the shape: ``dominant`` gives
+        the old cage vertex of each shape vertex; the groups keep their numbers."""
+        roi_s = np.flatnonzero(self.roi[dominant])
+        groups_s = self.handle_group[dominant]
+        editor = self._editor
+        c = editor.cage.n_vertices
+        self.roi = np.zeros(c, dtype=bool)
+        self.roi[editor.to_cage(roi_s, "shape")] = True
+        self.handle_group = np.full(c, NO_GROUP, dtype=np.int8)
+        for g in range(self.n_groups):
+            self.handle_group[editor.to_cage(np.flatnonzero(groups_s == handle_role(g)), "shape")] = handle_role(g)
+
+    def restore(self, snap: Snapshot) -> None:
+        """The masks, groups, mirror and :attr:`given` of an undo snapshot (one group per transform it
+        holds, at least)."""
+        self.roi = snap.roi.copy()
+        self.handle_group = np.asarray(snap.handle).astype(np.int8)
+        n_transforms = len(np.asarray(snap.transform).reshape(-1, 4, 4))
+        self.n_groups = max(n_transforms, int(self.handle_group.max(initial=0)), 1)
+        self.active = min(snap.active, self.n_groups - 1)
+        self.symmetry = snap.symmetry
+        self.given = snap.engine_masks
 
     # ------------------------------------------------------------------ handle groups
     def new_group(self) -> bool:
         """Start a new, empty handle group and make it the active one (False: the active one is empty)."""
-        self.finish_settle()
+        self._owner.finish_settle()
         if not self.handle.any():
             return False
         self.n_groups += 1
         self.active = self.n_groups - 1
-        self.transforms = list(self.transforms) + [np.eye(4)]
-        self._bases = list(self._bases) + [np.eye(4)]
-        self._push("new handle group")
+        self._owner.group_added("new handle group")
         return True
 
     def next_group(self) -> int:
         """Make the next handle group the active one (cycling); returns its index."""
-        self.finish_settle()
+        self._owner.finish_settle()
         self.active = (self.active + 1) % self.n_groups
         return self.active
 
-    def _compact_groups(self) -> None:
-        """Drop empty handle groups (the engine numbers groups 0..G-1, all non-empty)."""
+    def compact_groups(self) -> list[int] | None:
+        """Drop empty handle groups (the engine numbers groups 0..G-1, all non-empty); returns the groups
+        kept, in their old numbers (the new group k was group ``kept[k]``), or None when none was empty."""
         used = [g for g in range(self.n_groups) if np.any(self.handle_group == handle_role(g))]
         if len(used) == self.n_groups:
-            return
+            return None
         lut = np.full(handle_role(self.n_groups), NO_GROUP, dtype=np.int8)  # old role -> new role
         for k, g in enumerate(used):
             lut[handle_role(g)] = handle_role(k)
         self.handle_group = lut[self.handle_group]
         self.active = used.index(self.active) if self.active in used else 0
-        self.transforms = [self.transforms[g] for g in used] or [np.eye(4)]
-        self._bases = [self._bases[g] if g < len(self._bases) else np.eye(4) for g in used] or [np.eye(4)]
         self.n_groups = max(len(used), 1)
+        return used
 
     # ------------------------------------------------------------------ commands (one undo step each)
     def set_symmetry(self, axis: str | None) -> None:
@@ -149,23 +259,23 @@ class SelectionState:
         if axis not in (None, "x", "y", "z"):
             raise ValueError(f"symmetry must be None, 'x', 'y' or 'z', got {axis!r}")
         if axis is not None:
-            self.editor.mirror(axis)  # raises SelectionError for a shape too asymmetric
+            self._editor.mirror(axis)  # raises SelectionError for a shape too asymmetric
         if axis != self.symmetry:
             self.symmetry = axis
-            self._selection_changed(f"mirror {axis.upper()}" if axis else "no mirror")
+            self._owner.selection_changed(f"mirror {axis.upper()}" if axis else "no mirror")
 
     def set_mask(self, target: str, mask: np.ndarray, label: str | None = None) -> bool:
         """Replace the ROI or handle mask ((c,) bool); returns False when nothing changed."""
         new = np.asarray(mask, dtype=bool).copy()
-        if new.shape != (self.n_cage,):
-            raise ValueError(f"a {target} mask must have {self.n_cage} entries")
+        if new.shape != (self._n_cage,):
+            raise ValueError(f"a {target} mask must have {self._n_cage} entries")
         if np.array_equal(new, self.mask(target)):
             return False
         if target == ROI:
             self.roi = new
         else:
             self.handle = new
-        self._selection_changed(label or f"select {'ROI' if target == ROI else 'handle'}")
+        self._owner.selection_changed(label or f"select {'ROI' if target == ROI else 'handle'}")
         return True
 
     def select(self, target: str, hits: np.ndarray, op: str) -> bool:
@@ -174,18 +284,18 @@ class SelectionState:
 
     def clear(self, target: str) -> bool:
         """Empty the ROI or the active handle group; returns False when it was empty."""
-        return self.set_mask(target, np.zeros(self.n_cage, dtype=bool), f"clear {target}")
+        return self.set_mask(target, np.zeros(self._n_cage, dtype=bool), f"clear {target}")
 
     def clear_all(self) -> bool:
         """Empty the ROI and every handle group, back to one (empty) handle group, as one undo step;
         returns False when there was nothing to clear."""
         if not self.roi.any() and not self.all_handles.any():
             return False
-        self.roi = np.zeros(self.n_cage, dtype=bool)
-        self.handle_group = np.full(self.n_cage, NO_GROUP, dtype=np.int8)
+        self.roi = np.zeros(self._n_cage, dtype=bool)
+        self.handle_group = np.full(self._n_cage, NO_GROUP, dtype=np.int8)
         self.n_groups, self.active = 1, 0
-        self._identity_transforms()
-        self._selection_changed("clear selection")
+        self._owner.reset_transforms()
+        self._owner.selection_changed("clear selection")
         return True
 
     def invert(self, target: str) -> bool:
@@ -194,7 +304,7 @@ class SelectionState:
 
     def select_all(self, target: str) -> bool:
         """Every cage vertex into the ROI or the active handle group; returns False when all were."""
-        return self.set_mask(target, np.ones(self.n_cage, dtype=bool), f"select all {target}")
+        return self.set_mask(target, np.ones(self._n_cage, dtype=bool), f"select all {target}")
 
     # ------------------------------------------------------------------ gestures (one undo step each)
     def begin_stroke(self, target: str) -> None:
@@ -221,15 +331,15 @@ class SelectionState:
         self._stroke = None
         if np.array_equal(before, self.mask(target)):
             return False
-        self._selection_changed(f"select {'ROI' if target == ROI else 'handle'}")
+        self._owner.selection_changed(f"select {'ROI' if target == ROI else 'handle'}")
         return True
 
     # ------------------------------------------------------------------ the roles it gives
     def cage_roles(self) -> np.ndarray:
         """(c,) int8 role of each cage vertex (:mod:`hybridedit.deform.roles`): the engine's cage roles
         once it has the selection, else the masks'; mirror images included in both cases."""
-        if self._engine_has_masks() and (self.roi.any() or self.all_handles.any()):
-            roles = self.editor.cage_roles
+        if self.engine_has_masks() and (self.roi.any() or self.all_handles.any()):
+            roles = self._editor.cage_roles
         elif self.symmetry is not None and (self.roi.any() or self.all_handles.any()):
             roles = self._preview()[1]  # the mirrored selection, drawn on both sides as it is made
         else:
@@ -243,21 +353,21 @@ class SelectionState:
         what it will hold (:meth:`~hybridedit.HybridEditor.preview_roles`, mirror images included).
         """
         if not self.roi.any() and not self.all_handles.any():
-            return np.zeros(self.mesh.n_vertices, dtype=np.int8)
-        if self._engine_has_masks():
-            return self.editor.vertex_roles
+            return np.zeros(self._editor.mesh.n_vertices, dtype=np.int8)
+        if self.engine_has_masks():
+            return self._editor.vertex_roles
         return self._preview()[0]
 
     def _engine_shape_roles(self) -> np.ndarray:
         """(n,) the shape-space roles the engine is given for the current masks (see
-        :meth:`~.session.Session.apply_selection`)."""
-        return self.editor.shape_roles(selection_roles(self.roi, self.handle_group))
+        :meth:`give_to_engine`)."""
+        return self._editor.shape_roles(selection_roles(self.roi, self.handle_group))
 
     def _preview(self) -> tuple[np.ndarray, np.ndarray]:
         """(shape roles, cage roles) the engine will take for the current masks and mirror (cached)."""
-        key = self._mask_key()
+        key = self.key()
         if self._preview_cache is None or self._preview_cache[0] != key:
-            self._preview_cache = (key, self.editor.preview_roles(self._engine_shape_roles(), symmetry=self.symmetry))
+            self._preview_cache = (key, self._editor.preview_roles(self._engine_shape_roles(), symmetry=self.symmetry))
         return self._preview_cache[1]
 
     def tearing(self) -> dict[int, int]:
@@ -265,7 +375,7 @@ class SelectionState:
         no free point between them, a drag stretches those edges and tears the shape there (the front of a
         limb taken as handle, its back left fixed). Mirror images count in their group; empty when none."""
         r = self.cage_roles()
-        e = self.editor.cage_edges
+        e = self._editor.cage_edges
         touching = np.zeros(len(r), dtype=bool)
         for x, y in ((e[:, 0], e[:, 1]), (e[:, 1], e[:, 0])):
             touching[x[is_handle(r[x]) & (r[y] == FIXED)]] = True

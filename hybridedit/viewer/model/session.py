@@ -2,9 +2,10 @@
 
 No Qt here: the window turns user actions into calls on a :class:`Session`. The
 selection (the ROI and handle-group masks, the gestures that change them, the roles
-they give) is :class:`~.selection_masks.SelectionState`, which the session builds on;
-here are the engine, the pose, drags and their settle, polish, undo, rebuilds and
-edit files.
+they give) is the session's :attr:`~Session.selection`, a
+:class:`~.selection_masks.Selection` that sees the session as its
+:class:`~.selection_masks.SelectionOwner`; here are the engine, the pose, drags and
+their settle, polish, undo, rebuilds and edit files.
 
 Vocabulary
 ----------
@@ -42,13 +43,12 @@ from ...fileio.editfile import Edit
 from ...deform.editor import HybridEditor
 from ...deform.selection import SelectionError
 from ...core.mesh import Mesh, rrms_edge_error
-from ...deform.roles import FIXED, handle as handle_role, is_handle
 from .history import History, Snapshot
 from ...core.region_metrics import ShapeMetrics
-from .selection_masks import NO_GROUP, SelectionState
+from .selection_masks import Selection
 
 
-class Session(SelectionState):
+class Session:
     """One shape being edited: engine, selection, handle transform and undo history.
 
     Parameters
@@ -66,6 +66,11 @@ class Session(SelectionState):
     SelectionError
         ``symmetry`` given for a shape that is not symmetric enough across it (the
         message gives the measured asymmetry).
+
+    Attributes
+    ----------
+    selection : the ROI and handle groups, and the gestures and commands that change them
+        (:class:`~.selection_masks.Selection`; each handle group has a transform here).
     """
 
     def __init__(self, editor: HybridEditor, path: Path | None = None, cage_size: int | float = CAGE_SIZE,
@@ -77,7 +82,7 @@ class Session(SelectionState):
         self.cage_size = cage_size
         self.metrics = metrics if metrics is not None else ShapeMetrics(self.mesh.vertices, self.mesh.faces)
         self.dominant = editor.dominant_cage_vertex
-        self._init_selection(editor.cage.n_vertices, roi, handle, symmetry)
+        self.selection = Selection(self, roi, handle, symmetry)
         #: transform of each handle group since the selection was applied
         self.transforms: list[np.ndarray] = [np.eye(4)]
         self._settle_left = 0
@@ -120,23 +125,36 @@ class Session(SelectionState):
     @property
     def transform(self) -> np.ndarray:
         """(4, 4) transform of the active handle group since the selection was applied."""
-        return self.transforms[self.active]
+        return self.transforms[self.selection.active]
 
     @transform.setter
     def transform(self, T) -> None:
         self.transforms = list(self.transforms)
-        self.transforms[self.active] = np.asarray(T, dtype=np.float64).copy()
+        self.transforms[self.selection.active] = np.asarray(T, dtype=np.float64).copy()
 
     def _all_transforms(self, active: np.ndarray | None = None) -> dict[int, np.ndarray]:
         """{group: transform} for the engine, with the active group at ``active`` when given."""
         Ts = {g: T for g, T in enumerate(self.transforms)}
         if active is not None:
-            Ts[self.active] = active
+            Ts[self.selection.active] = active
         return Ts
 
-    def _identity_transforms(self) -> None:
-        self.transforms = [np.eye(4) for _ in range(self.n_groups)]
-        self._bases = [np.eye(4) for _ in range(self.n_groups)]
+    def reset_transforms(self) -> None:
+        """Every handle group's transform back to the identity, and the pose its drags start from."""
+        self.transforms = [np.eye(4) for _ in range(self.selection.n_groups)]
+        self._bases = [np.eye(4) for _ in range(self.selection.n_groups)]
+
+    def group_added(self, label: str) -> None:
+        """A handle group was added (:meth:`~.selection_masks.Selection.new_group`): its transform
+        starts at the identity; one undo step."""
+        self.transforms = list(self.transforms) + [np.eye(4)]
+        self._bases = list(self._bases) + [np.eye(4)]
+        self._push(label)
+
+    def _keep_groups(self, kept: list[int]) -> None:
+        """The transforms of the handle groups the selection kept (``kept[k]``: group k's old number)."""
+        self.transforms = [self.transforms[g] for g in kept] or [np.eye(4)]
+        self._bases = [self._bases[g] if g < len(self._bases) else np.eye(4) for g in kept] or [np.eye(4)]
 
     def _engine_transforms(self, active: np.ndarray | None = None) -> dict[int, np.ndarray]:
         """{group: transform} relative to the pose the engine's drags start from (see ``_bases``)."""
@@ -144,6 +162,11 @@ class Session(SelectionState):
         bases = self._bases
         return {g: T if g >= len(bases) or np.array_equal(bases[g], np.eye(4)) else T @ np.linalg.inv(bases[g])
                 for g, T in Ts.items()}
+
+    @property
+    def n_cage(self) -> int:
+        """The cage's vertex count (the length of the selection's masks)."""
+        return self.editor.cage.n_vertices
 
     @property
     def shown_positions(self) -> np.ndarray:
@@ -175,9 +198,10 @@ class Session(SelectionState):
 
     def handle_centroid(self) -> np.ndarray | None:
         """Centroid of the handle's cage vertices in the current pose, or None without a handle."""
-        if not self.handle.any():
+        handle = self.selection.handle
+        if not handle.any():
             return None
-        return self.cage_positions[self.handle].mean(axis=0)
+        return self.cage_positions[handle].mean(axis=0)
 
     def rrms_error(self) -> float:
         """Relative RMS edge-length error of the current pose, in percent."""
@@ -188,12 +212,13 @@ class Session(SelectionState):
 
     # ------------------------------------------------------------------ history
     def _snapshot(self, label: str) -> Snapshot:
+        sel = self.selection
         return Snapshot(
-            roi=self.roi.copy(), handle=self.handle_group.copy(), positions=self.cage_positions,
-            transform=np.stack(self.transforms), active=self.active,
+            roi=sel.roi.copy(), handle=sel.handle_group.copy(), positions=self.cage_positions,
+            transform=np.stack(self.transforms), active=sel.active,
             anchor=None if self._anchor is None else self._anchor.copy(), label=label,
-            editor=self.editor, cage_size=self.cage_size, symmetry=self.symmetry,
-            engine=self.editor.save_state(), engine_masks=self._engine_masks, anchor_state=self._anchor_state,
+            editor=self.editor, cage_size=self.cage_size, symmetry=sel.symmetry,
+            engine=self.editor.save_state(), engine_masks=sel.given, anchor_state=self._anchor_state,
             bases=np.stack(self._bases), anchor_bases=np.stack(self._anchor_bases),
         )
 
@@ -206,23 +231,18 @@ class Session(SelectionState):
         self.polished = None
         if snap.editor is not None and snap.editor is not self.editor:
             self._use_editor(snap.editor, snap.cage_size)
-        self.roi = snap.roi.copy()
-        self.handle_group = np.asarray(snap.handle).astype(np.int8)
+        self.selection.restore(snap)
         Ts = np.asarray(snap.transform).reshape(-1, 4, 4)
-        self.n_groups = max(len(Ts), int(self.handle_group.max(initial=0)), 1)
-        self.active = min(snap.active, self.n_groups - 1)
-        self.symmetry = snap.symmetry
         self.editor.restore_state(snap.engine)
-        self._engine_masks = snap.engine_masks
         self._anchor_state = snap.anchor_state
         if snap.anchor is not None:
             self._anchor = snap.anchor.copy()
-            self.transforms = [T.copy() for T in Ts] + [np.eye(4)] * (self.n_groups - len(Ts))
+            self.transforms = [T.copy() for T in Ts] + [np.eye(4)] * (self.selection.n_groups - len(Ts))
             self._bases = self._padded(snap.bases)
             self._anchor_bases = self._padded(snap.anchor_bases)
         else:
             self._anchor = None
-            self._identity_transforms()
+            self.reset_transforms()
         # a pose a polish made, nothing dragged since (a selection changed, a rebuild), is still the polish
         self.polished = self.editor.deformed_vertices if self._pose_is_a_polish() else None
 
@@ -234,7 +254,8 @@ class Session(SelectionState):
     def _padded(self, stack: np.ndarray | None) -> list[np.ndarray]:
         """One transform per handle group from a snapshot's stack (identities where it has none)."""
         got = [] if stack is None else [T.copy() for T in np.asarray(stack).reshape(-1, 4, 4)]
-        return got[: self.n_groups] + [np.eye(4)] * max(self.n_groups - len(got), 0)
+        n = self.selection.n_groups
+        return got[:n] + [np.eye(4)] * max(n - len(got), 0)
 
     def undo(self) -> bool:
         self.finish_settle()
@@ -260,7 +281,7 @@ class Session(SelectionState):
         self.dominant = editor.dominant_cage_vertex
         if cage_size is not None:
             self.cage_size = cage_size
-        self._engine_masks = self._preview_cache = None
+        self.selection.engine_replaced()
         self.polished = None
         self.generation += 1
 
@@ -277,17 +298,11 @@ class Session(SelectionState):
         self.finish_settle()
         old = self.editor
         posed = self.is_posed()
-        roi_s = np.flatnonzero(self.roi[self.dominant])
-        groups_s = self.handle_group[self.dominant]
+        dominant = self.dominant
         self._use_editor(editor, cage_size)
-        c = editor.cage.n_vertices
-        self.roi = np.zeros(c, dtype=bool)
-        self.roi[editor.to_cage(roi_s, "shape")] = True
-        self.handle_group = np.full(c, NO_GROUP, dtype=np.int8)
-        for g in range(self.n_groups):
-            self.handle_group[editor.to_cage(np.flatnonzero(groups_s == handle_role(g)), "shape")] = handle_role(g)
+        self.selection.carry_over(dominant)
         self._anchor = None
-        self._identity_transforms()
+        self.reset_transforms()
         if posed:
             self.editor.carry_pose(old)  # the pose exactly, and the steps that made it (each on its cage)
         else:
@@ -296,22 +311,13 @@ class Session(SelectionState):
         return "the pose was carried over to the new cage as it is; the next drag starts from it" if posed else None
 
     # ------------------------------------------------------------------ selection and the engine
-    def _selection_changed(self, label: str) -> None:
-        """The masks changed (:class:`~.selection_masks.SelectionState`): one undo step; a selection given
+    def selection_changed(self, label: str) -> None:
+        """The masks changed (:class:`~.selection_masks.Selection`): one undo step; a selection given
         to the engine before is no longer the one dragged next."""
-        if self._anchor is not None and not self._engine_has_masks():
+        if self._anchor is not None and not self.selection.engine_has_masks():
             self._anchor = None
-            self._identity_transforms()
+            self.reset_transforms()
         self._push(label)
-
-    def _give_engine_selection(self) -> None:
-        self._compact_groups()
-        # given in shape vertices (the cage picks exactly, see HybridEditor.shape_roles), so that the edit
-        # file it saves replays with ``hybridedit deform`` to the same vertices
-        roles = self._engine_shape_roles()
-        handles = [np.flatnonzero(roles == handle_role(g)) for g in range(self.n_groups)]
-        self.editor.set_selection(handles, roi=np.flatnonzero(roles != FIXED), symmetry=self.symmetry)
-        self._engine_masks = self._mask_key()
 
     def apply_selection(self) -> None:
         """Give the selection to the engine; the current pose becomes the anchor.
@@ -321,15 +327,18 @@ class Session(SelectionState):
         SelectionError
             Empty handle, or a cage part with no fixed or handle vertex.
         """
-        if not self.handle.any():
-            which = f"Handle group {self.active + 1}" if self.n_groups > 1 else "The handle"
+        sel = self.selection
+        if not sel.handle.any():
+            which = f"Handle group {sel.active + 1}" if sel.n_groups > 1 else "The handle"
             raise SelectionError(
                 f"{which} is empty. Choose the Handle target and select the cage vertices to drag first"
-                + (" (G switches group)." if self.n_groups > 1 else ".")
+                + (" (G switches group)." if sel.n_groups > 1 else ".")
             )
-        self._give_engine_selection()
+        kept = sel.give_to_engine()
+        if kept is not None:
+            self._keep_groups(kept)
         self._anchor = self.cage_positions
-        self._identity_transforms()
+        self.reset_transforms()
         self._mark_anchor()
 
     def _mark_anchor(self) -> None:
@@ -366,7 +375,7 @@ class Session(SelectionState):
         """Start a drag gesture: applies a changed selection; returns the current handle transform."""
         self.finish_settle()
         self.polished = None  # a drag starts from the engine's pose
-        if self._anchor is None or not self._engine_has_masks():
+        if self._anchor is None or not self.selection.engine_has_masks():
             self.apply_selection()
         return self.transform.copy()
 
@@ -451,7 +460,7 @@ class Session(SelectionState):
         self.finish_settle()
         self.polished = None
         self.editor.reset()
-        self._identity_transforms()
+        self.reset_transforms()
         if self._anchor is not None:
             self._anchor = self.cage_positions
             self._mark_anchor()
@@ -465,9 +474,10 @@ class Session(SelectionState):
         replays to this pose. A selection not dragged yet is its last step.
         """
         self.finish_settle()
-        if not self.all_handles.any() and not self.is_posed():
+        sel = self.selection
+        if not sel.all_handles.any() and not self.is_posed():
             raise SelectionError("The handle is empty: there is nothing to save. Select a handle first.")
-        if self.all_handles.any() and (self._anchor is None or not self._engine_has_masks()):
+        if sel.all_handles.any() and (self._anchor is None or not sel.engine_has_masks()):
             self.apply_selection()  # the selection as it is now, not dragged yet
         return self.editor.edit
 
@@ -476,16 +486,11 @@ class Session(SelectionState):
         step is run here, so that its selection is the session's, anchored where it starts."""
         self.editor.reset()
         self.editor.apply_edit(edit, frames=0, path=path)
-        roles = self.editor.cage_roles
-        self.roi = roles != FIXED
-        self.handle_group = np.where(is_handle(roles), roles, NO_GROUP).astype(np.int8)
         Ts = self.editor.edit_transforms(edit)
-        self.n_groups = max(len(Ts), 1)
-        self.active = 0
+        self.selection.take_from_engine(len(Ts))
         self.transforms = [np.asarray(Ts[g], dtype=np.float64) for g in range(len(Ts))] or [np.eye(4)]
-        self._engine_masks = self._mask_key()
         self._anchor = self.editor.cage_positions
-        self._bases = [np.eye(4) for _ in range(self.n_groups)]
+        self._bases = [np.eye(4) for _ in range(self.selection.n_groups)]
         self._mark_anchor()
         if edit.iterations is None:
             self.settle()

@@ -445,7 +445,7 @@ class ActionSet(Mapping):
             a[f"look_{mode}"].setChecked(s is not None and scene.look_mode == mode)
         for axis in "xyz":  # the session's mirror, also after undo and redo (none on show: the choice stays)
             if s is not None:
-                a[f"mirror_{axis}"].setChecked(s.symmetry == axis)
+                a[f"mirror_{axis}"].setChecked(s.selection.symmetry == axis)
         for axis in AXES:
             a[f"up_{axis}"].setEnabled(s is not None)
             a[f"up_{axis}"].setChecked(s is not None and s.up_axis == axis)

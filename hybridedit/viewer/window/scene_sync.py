@@ -93,7 +93,7 @@ class SceneSync:
         s = w.session
         if s is None:
             return
-        w.scene.update_roles(s.cage_roles(), s.shape_roles())
+        w.scene.update_roles(s.selection.cage_roles(), s.selection.shape_roles())
         w.scene.gizmo.place(s.handle_centroid())
         w.status.show_session()
         w.view.request_render()
@@ -116,8 +116,8 @@ class SceneSync:
         self._generation = s.generation
         w.cage_control.set_value(s.cage_size, of_shape=True)
         w.scene.up_axis = s.up_axis
-        w.scene.load(s.metrics, s.shown_positions, s.cage_positions, s.editor.cage.faces, s.cage_roles(),
-                     s.shape_roles(), look=s.look, mode=s.look_mode)
+        w.scene.load(s.metrics, s.shown_positions, s.cage_positions, s.editor.cage.faces, s.selection.cage_roles(),
+                     s.selection.shape_roles(), look=s.look, mode=s.look_mode)
         s.look_mode = w.scene.look_mode
         w.scene.gizmo.place(s.handle_centroid())
         self._rrms_full = True

@@ -102,7 +102,7 @@ class Selecting:
         w = self.w
         self.target = target
         w.actions_["target_roi" if target == ROI else "target_handle"].setChecked(True)
-        active = w.session.active if w.session is not None else 0
+        active = w.session.selection.active if w.session is not None else 0
         rgb = ROLE_COLORS[role_rows(FREE if target == ROI else handle_role(active))]
         w.controller.target_color = QtGui.QColor(int(rgb[0]), int(rgb[1]), int(rgb[2]))
 
@@ -110,7 +110,8 @@ class Selecting:
         s = self.w.session
         if target == ROI:
             return "ROI"
-        return f"Handle group {s.active + 1}" if s is not None and s.n_groups > 1 else "Handle"
+        sel = s.selection if s is not None else None
+        return f"Handle group {sel.active + 1}" if sel is not None and sel.n_groups > 1 else "Handle"
 
     # ------------------------------------------------------------------ gestures (called by the view controller)
     # cage_points completes the settle only, not the guard: it reads the pose and changes nothing (it also
@@ -134,7 +135,7 @@ class Selecting:
         if w.session is None:
             return False
         self._stroke_target = self.target
-        w.session.begin_stroke(self.target)
+        w.session.selection.begin_stroke(self.target)
         return True
 
     def select_hits(self, hits: np.ndarray, op: str) -> None:
@@ -142,7 +143,7 @@ class Selecting:
         w = self.w
         if w.session is None:
             return
-        w.session.stroke(hits, op)
+        w.session.selection.stroke(hits, op)
         w.sync.refresh_selection()
 
     def missed(self) -> None:
@@ -155,9 +156,9 @@ class Selecting:
         s = w.session
         if s is None:
             return
-        if s.end_stroke():
+        if s.selection.end_stroke():
             target = self._stroke_target or self.target
-            if not s.mask(target).any():
+            if not s.selection.mask(target).any():
                 w.status.message(f"{self._target_name(target)} cleared (Ctrl+Z restores it)")
             elif not self._warn_if_tearing():
                 w.status.clear_message()
@@ -166,13 +167,14 @@ class Selecting:
 
     def _warn_if_tearing(self) -> bool:
         """Say so (and return True) when a handle group touches held cage points with nothing free between
-        them: a drag would tear the shape there (:meth:`~..model.session.Session.tearing`)."""
+        them: a drag would tear the shape there (:meth:`~..model.selection_masks.Selection.tearing`)."""
         s = self.w.session
-        tears = s.tearing() if s is not None and s.all_handles.any() and s.roi.any() else {}
+        sel = s.selection if s is not None else None
+        tears = sel.tearing() if sel is not None and sel.all_handles.any() and sel.roi.any() else {}
         if not tears:
             return False
         g, n = max(tears.items(), key=lambda kv: kv[1])
-        who = f"Handle group {g + 1}" if s.n_groups > 1 else "The handle"
+        who = f"Handle group {g + 1}" if sel.n_groups > 1 else "The handle"
         self.w.status.message(
             f"{who} touches the held part at {n} cage point{'s' if n != 1 else ''} with nothing free between "
             "them: a drag tears the shape there (the back of a limb left out of the ROI?). Take the ROI around "
@@ -188,10 +190,11 @@ class Selecting:
             return
         w.posing.settle_and_stop_polish()
         if op == "clear_all":
-            changed = s.clear_all()
+            changed = s.selection.clear_all()
             said = "Selection cleared: the ROI and every handle group (Ctrl+Z restores them)"
         else:
-            changed = {"all": s.select_all, "clear": s.clear, "invert": s.invert}[op](self.target)
+            sel = s.selection
+            changed = {"all": sel.select_all, "clear": sel.clear, "invert": sel.invert}[op](self.target)
             said = f"{self._target_name(self.target)} cleared (Ctrl+Z restores it)" if op == "clear" else ""
         if op == "clear_all" and changed:
             self.set_target(self.target)  # (back to one handle group: its colour)
@@ -225,13 +228,14 @@ class Selecting:
         if s is None:
             return
         w.posing.settle_and_stop_polish()
-        before = s.symmetry
+        sel = s.selection
+        before = sel.symmetry
         try:
-            s.set_symmetry(axis if on else None)  # a shape too asymmetric is refused here, nothing changed
-            if s.handle.any():
+            sel.set_symmetry(axis if on else None)  # a shape too asymmetric is refused here, nothing changed
+            if sel.handle.any():
                 s.apply_selection()  # the mirrored selection is drawn on both sides at once
         except SelectionError as e:
-            if s.symmetry != before:
+            if sel.symmetry != before:
                 s.undo()  # back to the selection before the toggle
             w.actions_[f"mirror_{axis}"].setChecked(before == axis)
             w.status.show_error(f"Cannot mirror across {axis.upper()}", str(e))
@@ -244,8 +248,9 @@ class Selecting:
     # ------------------------------------------------------------------ handle groups
     def _group_name(self) -> str:
         """The active group in words: "handle group 2 of 3 (magenta)"."""
-        s = self.w.session
-        return f"handle group {s.active + 1} of {s.n_groups} ({ROLE_COLOR_NAMES[role_rows(handle_role(s.active))]})"
+        sel = self.w.session.selection
+        colour = ROLE_COLOR_NAMES[role_rows(handle_role(sel.active))]
+        return f"handle group {sel.active + 1} of {sel.n_groups} ({colour})"
 
     @guarded
     def new_group(self) -> None:
@@ -255,10 +260,10 @@ class Selecting:
         if s is None or w.controller.busy:
             return
         # only the polish is dropped here, not the whole guard: a new, empty group moves no point and selects
-        # none, and Session.new_group completes a settle under way itself (the settle timer's next tick then
+        # none, and Selection.new_group completes a settle under way itself (the settle timer's next tick then
         # shows the final pose and may start a polish: after_drag)
         w.polisher.cancel()
-        if not s.new_group():
+        if not s.selection.new_group():
             w.status.message("The current handle group is still empty: select its cage points first")
             return
         self.set_target(HANDLE)
@@ -273,7 +278,7 @@ class Selecting:
         s = w.session
         if s is None or w.controller.busy:
             return
-        s.next_group()
+        s.selection.next_group()
         self.set_target(self.target)
         w.sync.refresh_selection()
         w.status.message(f"Now {self._group_name()}: selections and drags act on it")

@@ -189,11 +189,12 @@ class StatusBar:
             self.sel_label.setText("")
             return
         self._show_sizes(s.mesh.n_vertices, s.mesh.n_faces, s.editor.cage.n_vertices)
-        h = s.all_handles
-        n_roi = int(np.count_nonzero(s.roi & ~h))
-        n_h = int(np.count_nonzero(s.handle))
-        n_f = int(np.count_nonzero(~s.roi & ~h))
-        group = f" (group {s.active + 1} of {s.n_groups})" if s.n_groups > 1 else ""
+        sel = s.selection
+        h = sel.all_handles
+        n_roi = int(np.count_nonzero(sel.roi & ~h))
+        n_h = int(np.count_nonzero(sel.handle))
+        n_f = int(np.count_nonzero(~sel.roi & ~h))
+        group = f" (group {sel.active + 1} of {sel.n_groups})" if sel.n_groups > 1 else ""
         self.sel_label.setText(f"ROI {n_roi} · handle {n_h}{group} · fixed {n_f}")
 
     def show_edge_error(self, err: float | None) -> None:
