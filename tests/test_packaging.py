@@ -60,6 +60,8 @@ def test_the_wheel_ships_the_default_mesh_and_every_module(wheel):
     with zipfile.ZipFile(wheel) as z:
         names = set(z.namelist())
         assert z.read("hybridedit/data/creature.ply") == (REPO / "data" / "creature.ply").read_bytes()
+        help_text = "hybridedit/viewer/window/how_to_edit.md"  # Help ▸ How to Edit reads it at run time
+        assert z.read(help_text) == (REPO / help_text).read_bytes()
     for py in (REPO / "hybridedit").rglob("*.py"):
         assert py.relative_to(REPO).as_posix() in names
     assert not any(n.startswith(("tests/", "benchmarks/", "data/")) for n in names)

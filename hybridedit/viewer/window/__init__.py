@@ -15,7 +15,8 @@ unsaved_mark  : the unsaved-pose mark and the title
 file_actions  : open, save, edit files, screenshots, the unsaved-pose question
 file_drops    : files dropped on the window
 dialogs       : the dialogs: shortcuts, how to edit, about, mesh info
-help_texts    : the help texts
+help_texts    : the help texts (How to Edit's is how_to_edit.md, shipped with the package)
+first_steps   : the first-steps hint on the view, until the first selection or for good once dismissed
 cage_size_box : the toolbar's cage size box (% or vertex count)
 shape_loading : opening a shape, rebuilding the cage, the preview while building, installing a build
 selecting     : the selection target, selection gestures, the Select menu, mirror, handle groups

@@ -82,6 +82,28 @@ class ShortcutsDialog(QtWidgets.QDialog):
         self.resize(720, 560)
 
 
+class HowToDialog(QtWidgets.QDialog):
+    """Help ▸ How to Edit: :data:`~.help_texts.HOWTO` rendered from Markdown, wrapped to the dialog's
+    width and scrolled, at a size that fits a 700 px high screen (:attr:`SIZE`, less on a smaller one)."""
+
+    SIZE = (620, 600)  # logical pixels: with a title bar and a panel, still inside 700
+
+    def __init__(self, parent: QtWidgets.QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.setWindowTitle("How to edit")
+        self.text = QtWidgets.QTextBrowser(self)
+        self.text.setMarkdown(HOWTO)
+        self.text.setLineWrapMode(QtWidgets.QTextEdit.LineWrapMode.WidgetWidth)
+        buttons = QtWidgets.QDialogButtonBox(QtWidgets.QDialogButtonBox.StandardButton.Close)
+        buttons.rejected.connect(self.reject)
+        layout = QtWidgets.QVBoxLayout(self)
+        layout.addWidget(self.text)
+        layout.addWidget(buttons)
+        screen = (parent.screen() if parent is not None else None) or QtGui.QGuiApplication.primaryScreen()
+        room = screen.availableGeometry() if screen is not None else QtCore.QRect(0, 0, *self.SIZE)
+        self.resize(min(self.SIZE[0], room.width() - 40), min(self.SIZE[1], room.height() - 80))
+
+
 @runtime_checkable
 class PolishShown(Protocol):
     """The window's pose side as Mesh Info sees it: the latest polish on display."""
@@ -114,6 +136,7 @@ class InfoDialogs:
     ----------
     shortcuts_dialog : the last Shortcuts dialog opened, or None.
     mesh_info_box : the last Mesh Info box opened, or None.
+    howto_dialog : the last How to Edit dialog opened, or None.
     """
 
     def __init__(self, window: InfoSource, parent: QtWidgets.QWidget | None = None) -> None:
@@ -121,6 +144,7 @@ class InfoDialogs:
         self.parent = parent
         self.shortcuts_dialog: ShortcutsDialog | None = None
         self.mesh_info_box: QtWidgets.QMessageBox | None = None
+        self.howto_dialog: HowToDialog | None = None
 
     def shortcuts(self) -> ShortcutsDialog:
         """Help ▸ Shortcuts: every action with a key, and the mouse bindings (window-modal, not blocking)."""
@@ -130,9 +154,13 @@ class InfoDialogs:
         dlg.open()
         return dlg
 
-    def howto(self) -> None:
-        """Help ▸ How to Edit: the editing workflow in a few steps."""
-        QtWidgets.QMessageBox.information(self.parent, "How to edit", HOWTO)
+    def howto(self) -> HowToDialog:
+        """Help ▸ How to Edit: the editing workflow in a few steps (non-modal: it can stay open beside the view)."""
+        dlg = HowToDialog(self.parent)
+        dlg.setAttribute(QtCore.Qt.WidgetAttribute.WA_DeleteOnClose)
+        self.howto_dialog = dlg
+        dlg.show()
+        return dlg
 
     def mesh_info(self) -> QtWidgets.QMessageBox:
         """File ▸ Mesh Info: counts and repairs (:func:`mesh_info_text`), in a non-modal box."""

@@ -24,6 +24,7 @@ from .cage_size_box import CageSizeControl
 from .dialogs import InfoDialogs
 from .file_actions import FileActions
 from .file_drops import FileDrops
+from .first_steps import FirstSteps
 from .posing import Posing
 from .scene_sync import SceneSync
 from .selecting import Selecting
@@ -63,6 +64,7 @@ class MainWindow(QtWidgets.QMainWindow):
     actions_ : the actions by name, the menus and the toolbar (:class:`~.actions.ActionSet`).
     status : the status bar and the message log (:class:`~.status_bar.StatusBar`).
     drops : files dropped on the window (:class:`~.file_drops.FileDrops`).
+    first_steps : the hint on the view until the first selection (:class:`~.first_steps.FirstSteps`).
     """
 
     def __init__(self, cage_size: int | float = CAGE_SIZE) -> None:
@@ -91,6 +93,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.status = StatusBar(self, self)
         self.cage_control.set_value(cage_size)
         self.drops = FileDrops(self, self)
+        self.first_steps = FirstSteps(self)
         # the threads' results and the view's frames, to the collaborators that show them
         self.jobs.busy_changed.connect(lambda _busy: self.actions_.refresh())
         self.polisher.succeeded.connect(self.posing.show_polish)

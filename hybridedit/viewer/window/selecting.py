@@ -57,6 +57,13 @@ class Says(Protocol):
 
 
 @runtime_checkable
+class Hint(Protocol):
+    """The first-steps hint as the selection sees it (:class:`~.first_steps.FirstSteps`)."""
+
+    def selected(self) -> None: ...
+
+
+@runtime_checkable
 class SelectHost(Protocol):
     """What :class:`Selecting` asks of the window (:class:`~.main_window.MainWindow`)."""
 
@@ -74,6 +81,8 @@ class SelectHost(Protocol):
     def status(self) -> Says: ...
     @property
     def actions_(self) -> ActionChecks: ...
+    @property
+    def first_steps(self) -> Hint: ...
 
 
 class Selecting:
@@ -157,6 +166,7 @@ class Selecting:
         if s is None:
             return
         if s.selection.end_stroke():
+            w.first_steps.selected()
             target = self._stroke_target or self.target
             if not s.selection.mask(target).any():
                 w.status.message(f"{self._target_name(target)} cleared (Ctrl+Z restores it)")
@@ -198,6 +208,8 @@ class Selecting:
             said = f"{self._target_name(self.target)} cleared (Ctrl+Z restores it)" if op == "clear" else ""
         if op == "clear_all" and changed:
             self.set_target(self.target)  # (back to one handle group: its colour)
+        if changed:
+            w.first_steps.selected()
         if changed and said:
             w.status.message(said)
         elif op in ("clear", "clear_all") and not changed:
