@@ -61,3 +61,53 @@ def test_nothing_telling_is_y_up_and_gltf_is_y_up_by_its_specification():
     z_up_statue = turned(statue_on_a_base(), "+Z")
     assert guess_up_axis(z_up_statue, path="statue.glb") == "+Y"  # the format says so
     assert guess_up_axis(z_up_statue, path="statue.ply") == "+Z"
+
+
+def quadruped() -> Mesh:
+    """A horse-like shape, +Z up: a round body on four thin legs, a head forward; mirrored left to right."""
+    body = trimesh.creation.capsule(height=1.2, radius=0.4, count=[16, 16])
+    body.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [0, 1, 0]))
+    body.apply_translation([0, 0, 1.4])
+    parts = [body]
+    for x in (-0.7, 0.7):
+        for y in (-0.25, 0.25):
+            leg = trimesh.creation.cylinder(radius=0.08, height=1.1, sections=12)
+            leg.apply_translation([x, y, 0.55])
+            parts.append(leg)
+    head = trimesh.creation.icosphere(subdivisions=2, radius=0.25)
+    head.apply_scale([1.4, 1, 1])
+    head.apply_translation([1.2, 0, 2.0])
+    parts.append(head)
+    return as_mesh(trimesh.util.concatenate(parts))
+
+
+def y_up_to_z_up(mesh: Mesh) -> Mesh:
+    v = mesh.vertices
+    return Mesh(np.c_[v[:, 0], -v[:, 2], v[:, 1]], mesh.faces)
+
+
+def shared_shape(name: str) -> Mesh:
+    from hybridedit.fileio.meshfiles import read_mesh
+
+    from shapes import SHARED_MESHES
+
+    path = SHARED_MESHES / name
+    if not path.exists():
+        pytest.skip(f"{path} is not there")
+    return y_up_to_z_up(read_mesh(path))  # (all of them are +Y up)
+
+
+@pytest.mark.parametrize("shape", ["quadruped", "armadillo43k.obj", "spot/spot_triangulated.obj", "cat/cat.obj",
+                                   "creature"])
+def test_shapes_lying_on_their_side_in_each_axis_come_out_upright(shape):
+    from shapes import REPO
+    from hybridedit.fileio.meshfiles import read_mesh
+
+    if shape == "quadruped":
+        mesh = quadruped()
+    elif shape == "creature":
+        mesh = y_up_to_z_up(read_mesh(REPO / "data" / "creature.ply"))
+    else:
+        mesh = shared_shape(shape)
+    got = {up: guess_up_axis(turned(mesh, up)) for up in AXES}
+    assert got == {up: up for up in AXES}
