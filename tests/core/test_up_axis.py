@@ -111,3 +111,45 @@ def test_shapes_lying_on_their_side_in_each_axis_come_out_upright(shape):
         mesh = shared_shape(shape)
     got = {up: guess_up_axis(turned(mesh, up)) for up in AXES}
     assert got == {up: up for up in AXES}
+
+
+def biped() -> Mesh:
+    """A figure +Z up, wider (X) than deep (Y), its head and arms reaching out towards -Y."""
+    body = trimesh.creation.box(extents=[1.0, 0.5, 1.6])
+    body.apply_translation([0, 0, 0.8])
+    head = trimesh.creation.icosphere(subdivisions=2, radius=0.25)
+    head.apply_translation([0, -0.1, 1.85])
+    arms = trimesh.creation.box(extents=[0.9, 0.5, 0.2])
+    arms.apply_translation([0, -0.4, 1.3])
+    return as_mesh(trimesh.util.concatenate([body, head, arms]))
+
+
+@pytest.mark.parametrize("up", AXES)
+def test_the_front_is_the_broad_side_the_shape_leans_to(up):
+    from hybridedit.core.facing import conventional_front, front_direction
+
+    R = turned(Mesh(np.eye(3), np.zeros((0, 3), dtype=np.int64)), up).vertices.T  # (+Z goes to up)
+    # a figure faces where its arms reach (-Y, Z up), whichever way it is turned ...
+    assert np.allclose(front_direction(turned(biped(), up).vertices, up), R @ [0, -1, 0])
+    # ... and the horse is seen from its side: the camera looks across its length (X, Z up)
+    got = front_direction(turned(quadruped(), up).vertices, up)
+    assert abs(got @ (R @ [1.0, 0, 0])) < 1e-9 and abs(got @ axis_vector(up)) < 1e-9
+    # a shape with nothing to tell faces the convention's front
+    assert np.allclose(front_direction(turned(as_mesh(trimesh.creation.icosphere(2)), up).vertices, up),
+                       conventional_front(up))
+
+
+def test_the_creature_and_the_armadillo_face_the_first_camera_and_the_cow_shows_its_side():
+    from shapes import REPO
+    from hybridedit.core.facing import front_direction
+    from hybridedit.fileio.meshfiles import read_mesh
+
+    from shapes import SHARED_MESHES
+
+    # (all three +Y up; the creature and the armadillo face +Z, the cow -Z: it is seen from its side)
+    for path, front in ((REPO / "data" / "creature.ply", [0, 0, 1]), (SHARED_MESHES / "armadillo43k.obj", [0, 0, 1]),
+                        (SHARED_MESHES / "spot" / "spot_triangulated.obj", [1, 0, 0])):
+        if not path.exists():
+            pytest.skip(f"{path} is not there")
+        mesh = read_mesh(path)
+        assert np.allclose(front_direction(mesh.vertices, guess_up_axis(mesh)), front), path.name
