@@ -74,7 +74,7 @@ def _ball(subdivisions: int, radius: float, z: float):
 @pytest.fixture
 def rig(qtbot):
     """A view of two balls (front one at z = 1.6, back one at z = -1.6), each with a "cage" of 162 points
-    just inside its surface (as QEM puts some), front view; the controller in Select mode."""
+    just inside its surface (as QEM puts some), seen from +Z; the controller in Select mode."""
     Vf, Ff = _ball(4, 1.0, FRONT_Z)
     Vb, Fb = _ball(4, 1.0, BACK_Z)
     V = np.vstack([Vf, Vb])
@@ -90,6 +90,10 @@ def rig(qtbot):
     scene = Scene(view.plotter)
     scene.load(ShapeMetrics(V, F), V, P, CF, np.full(len(P), FIXED, dtype=np.int8), np.full(len(V), FREE, dtype=np.int8))
     scene.reset_camera(tilted=False)
+    cam = scene.renderer.GetActiveCamera()  # (looking down -Z, along the balls: the opening view shows their side)
+    cam.SetPosition(*(np.array(cam.GetFocalPoint()) + [0.0, 0.0, cam.GetDistance()]))
+    cam.SetViewUp(0.0, 1.0, 0.0)
+    scene.renderer.ResetCamera(scene.shape.bounds)
     win = Window(P, CF)
     ctl = ViewController(view, scene, win, win)
     ctl.set_mode(SELECT)
