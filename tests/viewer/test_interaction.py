@@ -15,6 +15,7 @@ from hybridedit.core.region_metrics import ShapeMetrics
 from hybridedit.viewer.render.scene import Scene
 from hybridedit.viewer.model.picking import REPLACE, combine, project_points
 from hybridedit.viewer.render.view import View
+from support.window_driving import look_down_minus_z
 
 Qt = QtCore.Qt
 FRONT_Z, BACK_Z = 1.6, -1.6
@@ -90,10 +91,7 @@ def rig(qtbot):
     scene = Scene(view.plotter)
     scene.load(ShapeMetrics(V, F), V, P, CF, np.full(len(P), FIXED, dtype=np.int8), np.full(len(V), FREE, dtype=np.int8))
     scene.reset_camera(tilted=False)
-    cam = scene.renderer.GetActiveCamera()  # (looking down -Z, along the balls: the opening view shows their side)
-    cam.SetPosition(*(np.array(cam.GetFocalPoint()) + [0.0, 0.0, cam.GetDistance()]))
-    cam.SetViewUp(0.0, 1.0, 0.0)
-    scene.renderer.ResetCamera(scene.shape.bounds)
+    look_down_minus_z(scene)
     win = Window(P, CF)
     ctl = ViewController(view, scene, win, win)
     ctl.set_mode(SELECT)
