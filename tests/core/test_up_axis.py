@@ -81,6 +81,18 @@ def quadruped() -> Mesh:
     return as_mesh(trimesh.util.concatenate(parts))
 
 
+def boat() -> Mesh:
+    """A closed boat, +Z up: a round hull, a flat stern, a flat deck with a cabin on it; mirrored port to
+    starboard."""
+    s = trimesh.creation.icosphere(subdivisions=4)
+    v = np.asarray(s.vertices) * [2.0, 0.6, 0.6]
+    v[:, 0] = np.maximum(v[:, 0], -1.4)
+    v[:, 2] = np.minimum(v[:, 2], 0.15)
+    cabin = trimesh.creation.box(extents=[0.8, 0.5, 0.3])
+    cabin.apply_translation([-0.3, 0, 0.3])
+    return as_mesh(trimesh.util.concatenate([trimesh.Trimesh(v, s.faces), cabin]))
+
+
 def y_up_to_z_up(mesh: Mesh) -> Mesh:
     v = mesh.vertices
     return Mesh(np.c_[v[:, 0], -v[:, 2], v[:, 1]], mesh.faces)
@@ -97,14 +109,14 @@ def shared_shape(name: str) -> Mesh:
     return y_up_to_z_up(read_mesh(path))  # (all of them are +Y up)
 
 
-@pytest.mark.parametrize("shape", ["quadruped", "armadillo43k.obj", "spot/spot_triangulated.obj", "cat/cat.obj",
+@pytest.mark.parametrize("shape", ["quadruped", "boat", "armadillo43k.obj", "spot/spot_triangulated.obj", "cat/cat.obj",
                                    "creature"])
 def test_shapes_lying_on_their_side_in_each_axis_come_out_upright(shape):
     from shapes import REPO
     from hybridedit.fileio.meshfiles import read_mesh
 
-    if shape == "quadruped":
-        mesh = quadruped()
+    if shape in ("quadruped", "boat"):
+        mesh = quadruped() if shape == "quadruped" else boat()
     elif shape == "creature":
         mesh = y_up_to_z_up(read_mesh(REPO / "data" / "creature.ply"))
     else:
