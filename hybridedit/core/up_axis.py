@@ -4,9 +4,10 @@ The window opens a shape standing the right way up, and its front, side and top 
 follow that axis. glTF says it in its specification (+Y up). Otherwise the geometry
 tells, when it can: an open scan (a statue scanned on its base, a terrain) has its
 outward normals summing to the side it is open away from, which is up; a closed shape
-standing on a flat base has a flat patch of faces at one end of its bounding box facing
-down. Nothing telling: +Y, the convention of most scans and of this window. What the
-user chooses (View ▸ Up Axis) is remembered per shape by :mod:`hybridedit.fileio.up_axes`.
+is up the way it rests on a table (:mod:`hybridedit.core.resting`: on a flat base, on
+its feet; never on its side across its mirror plane). Nothing telling: +Y, the
+convention of most scans and of this window. What the user chooses (View ▸ Up Axis) is
+remembered per shape by :mod:`hybridedit.fileio.up_axes`.
 """
 
 from __future__ import annotations
@@ -16,21 +17,16 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 
+from .bounds import points_box
 from .face_geometry import face_vector
 from .mesh import Mesh
-from .bounds import points_box
+from .resting import BAND, resting_up
 
 AXES = ("+Y", "+Z", "-Y", "-Z", "+X", "-X")
 """The up axes a shape can have."""
 DEFAULT = "+Y"
 #: An open shape's outward normals must sum to at least this fraction of its area to tell which way is up.
 OPEN_SHARE = 0.01
-#: A flat base: faces within this angle of facing straight down ...
-FLAT_DEGREES = 10.0
-#: ... within this fraction of the extent from the bottom of the bounding box ...
-FLAT_BAND = 0.01
-#: ... covering at least this fraction of the shape's area.
-FLAT_SHARE = 0.03
 #: File suffixes whose format fixes the up axis.
 FORMAT_UP = {".glb": "+Y", ".gltf": "+Y"}
 
@@ -81,27 +77,25 @@ def guess_up_axis(mesh: Mesh, *, path: str | Path | None = None) -> str:
         return DEFAULT
     lo, hi = points_box(v)
     extent = max(float(np.max(hi - lo)), 1e-300)
-    # the bottom of the box along each axis, as the height measured down it goes
-    bottom = np.array([lo[1], lo[2], -hi[1], -hi[2], lo[0], -hi[0]]) + FLAT_BAND * extent
-    total, summed, flat = _face_sums(v, f, bottom, np.cos(np.radians(FLAT_DEGREES)))
+    # the bottom of the box along each axis of AXES, as the height measured along it
+    bottom = np.array([lo[1], lo[2], -hi[1], -hi[2], lo[0], -hi[0]]) + BAND * extent
+    total, summed, moment, on_table = _face_sums(v, f, bottom)
     if total <= 0:
         return DEFAULT
     if np.linalg.norm(summed) > OPEN_SHARE * total and np.max(np.abs(summed)) > 0.7 * np.linalg.norm(summed):
         return _name(summed)  # open: the normals sum to the side it is open away from
-    best = int(np.argmax(flat))  # (the first of equal areas, in the order of AXES)
-    if flat[best] > 0 and flat[best] > FLAT_SHARE * total:
-        return AXES[best]
-    return DEFAULT
+    return resting_up(v, on_table / total, moment / total, AXES) or DEFAULT
 
 
 @njit(cache=True)
-def _face_sums(v, f, bottom, cos):
-    """One pass over the faces: their total area, their area-weighted normals summed (3,), and for
-    each axis of :data:`AXES` (6,) the area of the faces facing down it (within ``cos``) whose
-    centre lies below ``bottom`` of it (heights measured along the axis)."""
+def _face_sums(v, f, bottom):
+    """One pass over the faces: their total area, their area-weighted normals summed (3,), their
+    area-weighted centres summed (3,), and for each axis of :data:`AXES` (6,) the area of the faces
+    whose centre lies below ``bottom`` of it (heights measured along the axis)."""
     total = 0.0
     summed = np.zeros(3)
-    flat = np.zeros(6)
+    moment = np.zeros(3)
+    on_table = np.zeros(6)
     # (the coordinate and the sign of each axis of AXES: +Y +Z -Y -Z +X -X)
     coord = (1, 2, 1, 2, 0, 0)
     sign = (1.0, 1.0, -1.0, -1.0, 1.0, -1.0)
@@ -114,13 +108,11 @@ def _face_sums(v, f, bottom, cos):
         summed[0] += nx
         summed[1] += ny
         summed[2] += nz
-        if area <= 0.0:
-            continue
-        n = (nx / area, ny / area, nz / area)
+        centre = ((v[a, 0] + v[b, 0] + v[c, 0]) / 3.0, (v[a, 1] + v[b, 1] + v[c, 1]) / 3.0,
+                  (v[a, 2] + v[b, 2] + v[c, 2]) / 3.0)
+        for d in range(3):
+            moment[d] += area * centre[d]
         for k in range(6):
-            d = coord[k]
-            facing_down = -sign[k] * n[d]
-            height = sign[k] * (v[a, d] + v[b, d] + v[c, d]) / 3.0
-            if facing_down > cos and height <= bottom[k]:
-                flat[k] += area
-    return total, summed, flat
+            if sign[k] * centre[coord[k]] <= bottom[k]:
+                on_table[k] += area
+    return total, summed, moment, on_table

@@ -109,3 +109,12 @@ def select_tip_to_drag(qtbot, w) -> None:
     """:func:`select_tip`, then Drag mode (D): the tip is ready to be dragged with the mouse."""
     select_tip(w)
     key(qtbot, w, Qt.Key.Key_D)
+
+
+def look_down_minus_z(scene) -> None:
+    """Frame the scene's shape from +Z, +Y up on screen, whatever its opening view (which shows a shape's
+    broad side: parts lined up along Z open side by side)."""
+    cam = scene.renderer.GetActiveCamera()
+    cam.SetPosition(*(np.array(cam.GetFocalPoint()) + [0.0, 0.0, cam.GetDistance()]))
+    cam.SetViewUp(0.0, 1.0, 0.0)
+    scene.renderer.ResetCamera(scene.shape.bounds)

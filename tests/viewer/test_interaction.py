@@ -15,6 +15,7 @@ from hybridedit.core.region_metrics import ShapeMetrics
 from hybridedit.viewer.render.scene import Scene
 from hybridedit.viewer.model.picking import REPLACE, combine, project_points
 from hybridedit.viewer.render.view import View
+from support.window_driving import look_down_minus_z
 
 Qt = QtCore.Qt
 FRONT_Z, BACK_Z = 1.6, -1.6
@@ -74,7 +75,7 @@ def _ball(subdivisions: int, radius: float, z: float):
 @pytest.fixture
 def rig(qtbot):
     """A view of two balls (front one at z = 1.6, back one at z = -1.6), each with a "cage" of 162 points
-    just inside its surface (as QEM puts some), front view; the controller in Select mode."""
+    just inside its surface (as QEM puts some), seen from +Z; the controller in Select mode."""
     Vf, Ff = _ball(4, 1.0, FRONT_Z)
     Vb, Fb = _ball(4, 1.0, BACK_Z)
     V = np.vstack([Vf, Vb])
@@ -90,6 +91,7 @@ def rig(qtbot):
     scene = Scene(view.plotter)
     scene.load(ShapeMetrics(V, F), V, P, CF, np.full(len(P), FIXED, dtype=np.int8), np.full(len(V), FREE, dtype=np.int8))
     scene.reset_camera(tilted=False)
+    look_down_minus_z(scene)
     win = Window(P, CF)
     ctl = ViewController(view, scene, win, win)
     ctl.set_mode(SELECT)

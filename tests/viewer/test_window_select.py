@@ -12,7 +12,7 @@ from qtpy import QtCore
 
 from hybridedit.core.mesh import Mesh
 from hybridedit.viewer.window.main_window import MainWindow
-from support.window_driving import key, mouse_drag, projected, to_widget, wait_loaded
+from support.window_driving import key, look_down_minus_z, mouse_drag, projected, to_widget, wait_loaded
 
 Qt = QtCore.Qt
 CTRL, SHIFT, ALT = (Qt.KeyboardModifier.ControlModifier, Qt.KeyboardModifier.ShiftModifier,
@@ -38,7 +38,7 @@ def two_limbs() -> Mesh:
 
 @pytest.fixture
 def limbs(qtbot) -> MainWindow:
-    """The window with the two limbs loaded (cage of 160 points), front view (looking down -Z), Select mode."""
+    """The window with the two limbs loaded (cage of 160 points), seen from +Z (looking down -Z), Select mode."""
     w = MainWindow(cage_size=160)
     w.resize(1000, 760)
     w.show()
@@ -48,7 +48,7 @@ def limbs(qtbot) -> MainWindow:
     w.view.setFocus()
     assert w.loading.open_mesh(two_limbs())
     wait_loaded(qtbot, w)
-    w.scene.reset_camera(tilted=False)
+    look_down_minus_z(w.scene)
     w.view.request_render()
     qtbot.wait(30)
     key(qtbot, w, Qt.Key.Key_S)

@@ -35,6 +35,7 @@ from .palette import (
     stretch_lookup_table,
 )
 from ...core.bounds import points_box
+from ...core.facing import front_direction
 from ...core.region_metrics import ShapeMetrics
 from .shape_parts import ShapeParts
 
@@ -58,16 +59,15 @@ VIEWS = ("front", "back", "right", "left", "top", "bottom")
 """The sides the shape can be looked at from (View menu; numpad 1, 3, 7, with Ctrl the opposite side)."""
 
 
-def view_directions(up: str, view: str) -> tuple[np.ndarray, np.ndarray]:
-    """(direction from the shape to the camera, the camera's up) of a view of a shape with ``up`` up.
-
-    The front of a shape with +Y (or -Y, or +-X) up faces +Z; with +Z up it faces -Y and with -Z up +Y
-    (Blender's front view, Z up, looks along +Y); its right is up x front.
-    """
+def view_directions(up: str, view: str, front: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(direction from the shape to the camera, the camera's up) of a view of a shape with ``up`` up
+    whose front faces ``front`` (default: :func:`hybridedit.core.facing.conventional_front`); its right
+    is up x front."""
+    from ...core.facing import conventional_front
     from ...core.up_axis import axis_vector
 
     u = axis_vector(up)
-    front = {"Y": np.array([0.0, 0, 1]), "X": np.array([0.0, 0, 1])}.get(up[1], np.array([0.0, -u[2], 0]))
+    front = conventional_front(up) if front is None else front
     right = np.cross(u, front)
     return {"front": (front, u), "back": (-front, u), "right": (right, u), "left": (-right, u),
             "top": (u, -front), "bottom": (-u, front)}[view]
@@ -112,6 +112,7 @@ class Scene:
         self.points_actor: pv.Actor | None = None
         #: the shape's up axis ("+Y", "+Z", ...: :data:`hybridedit.core.up_axis.AXES`); the views follow it
         self.up_axis = "+Y"
+        self._front: tuple[str, np.ndarray] | None = None  # (up axis, the front it tells) of this shape
         self._cage_faces = np.zeros((0, 3), dtype=np.int64)
         self._cage_pos = np.zeros((0, 3))
         self._cage_bounds: tuple[np.ndarray, np.ndarray] | None = None
@@ -144,6 +145,7 @@ class Scene:
         self.shape = self.cage_poly = self.points_poly = self.points_actor = None
         self.metrics = None
         self.look = None
+        self._front = None
 
     def show_preview(self, vertices: np.ndarray, faces: np.ndarray) -> None:
         """Show a shape read but not yet bound (its cage and binding are being built): plain, flat shaded,
@@ -434,17 +436,20 @@ class Scene:
 
     # ------------------------------------------------------------------ camera
     def reset_camera(self, tilted: bool = True) -> None:
-        """Frame the shape: a front view (with +Y up, looking down -Z), slightly turned when ``tilted``."""
+        """Frame the shape: a front view, slightly turned when ``tilted``."""
         self.set_view("front", tilted=tilted)
 
     def set_view(self, view: str, *, tilted: bool = False) -> None:
         """Look at the whole shape from one side (:data:`VIEWS`), as Blender's numpad views do, with
-        :attr:`up_axis` up on screen (the top and bottom views: the front down on screen)."""
+        :attr:`up_axis` up on screen (the top and bottom views: the front down on screen); its front is
+        the side :func:`hybridedit.core.facing.front_direction` tells."""
         if view not in VIEWS:
             raise ValueError(f"view must be one of {VIEWS}, got {view!r}")
         if self.shape is None:
             return
-        direction, screen_up = view_directions(self.up_axis, view)
+        if self._front is None or self._front[0] != self.up_axis:  # (told once per shape and up axis)
+            self._front = (self.up_axis, front_direction(self.points32, self.up_axis))
+        direction, screen_up = view_directions(self.up_axis, view, self._front[1])
         cam = self.renderer.GetActiveCamera()
         lo, hi = points_box(self.points32)
         centre = 0.5 * (lo + hi)
