@@ -131,16 +131,24 @@ def test_failures_show_one_error_and_keep_the_shape(qtbot, win, tmp_path, monkey
     s = w.session
     n_cage = s.n_cage
     errors = record_errors(w, monkeypatch)
-    # an unreadable file
+    # an unreadable file: refused before a build starts (window/file_check.py)
     bad = tmp_path / "bad.obj"
     bad.write_text("v 0 0 0\nf 1 2 3\n")
+    assert not w.loading.open_path(bad)
+    assert len(errors) == 1 and errors[0][0] == "Could not open the mesh" and "bad.obj" in errors[0][1]
+    assert w.session is s and w.jobs.worker is None
+    # one too large to be read first: the build reads it, and says why it cannot
+    from hybridedit.viewer.window import file_check
+
+    monkeypatch.setattr(file_check, "READ_FIRST_BYTES", 0)
     assert w.loading.open_path(bad)
     wait_loaded(qtbot, w)
     qtbot.wait(50)  # (nothing else arrives)
-    assert len(errors) == 1 and errors[0][0] == "Could not open the mesh" and "bad.obj" in errors[0][1]
-    assert w.session is s and w.status.last_error == errors[0][1]
+    assert len(errors) == 2 and errors[1] == errors[0]
+    assert w.session is s and w.status.last_error == errors[1][1]
     assert_idle(w)
     close_boxes(w)
+    del errors[0]
 
     # a rebuild that fails says so in its own words
     def no_cage(mesh, **kwargs):

@@ -161,6 +161,31 @@ def test_the_selection_tint_leaves_the_texture_readable(tmp_path):
         assert np.mean(red > 80) > 0.03 and np.mean(red < -80) > 0.03
 
 
+def test_the_tint_over_a_mid_grey_texel_stays_light(tmp_path):
+    """Every role's tint on a texture, as drawn (the factor VTK multiplies the texel by), keeps at least 80%
+    of each channel of a mid-grey texel: the tint multiplies, so the texture's own contrast stays, and it
+    darkens or shifts a texel by at most a fifth (26 of 128 levels), less than the darkest tint's own
+    distance from white; a large ROI or handle over a textured face then reads as the texture."""
+    path = uv_sphere_obj(tmp_path)
+    doc = he.read_document(path)
+    n_groups = 8  # a whole cycle of the handle colours (palette.ROLE_COLORS)
+    x = doc.mesh.vertices[:, 0]
+    bands = np.digitize(x, np.linspace(x.min(), x.max(), n_groups + 3)[1:-1])  # FIXED, FREE, each group
+    roles = (bands - 1).astype(np.int8)
+    _, sc, _ = render(path, roles=roles)
+    grey = 128.0
+    seen = set()
+    for part in sc.parts.parts:
+        if part.texture is None:
+            continue
+        seen.add(part.role)
+        texel = grey * np.asarray(part.actor.GetProperty().GetColor())
+        assert np.all(texel >= 0.8 * grey), (part.role, texel)
+        if part.role != FREE:  # and the tint is there: the held region and each handle group show
+            assert np.max(grey - texel) >= 4.0, (part.role, texel)
+    assert seen == set(range(FIXED, n_groups + 1))
+
+
 def painted_ply(folder):
     """A sphere in a PLY with vertex colours: red where x > 0, green elsewhere."""
     from plyfile import PlyData, PlyElement

@@ -157,6 +157,7 @@ class DragFrames(QtCore.QObject):
             return False
         w.status.clear_message()
         self._failed = False
+        self.scene.set_dragging(True)  # (the cage points hide meanwhile, unless asked otherwise)
         self.scene.set_moving(s.moving_vertices())
         w.sync.measure()  # every edge once: then each frame only the moving region's
         return True
@@ -235,6 +236,9 @@ class DragFrames(QtCore.QObject):
     def end(self) -> None:
         """The button was released: the last move's frame, then the settle in slices (or the final pose)."""
         w = self.w
+        if self.scene.dragging:
+            self.scene.set_dragging(False)
+            self.view.request_render()
         s = w.session
         if s is None or not s.applied:
             return

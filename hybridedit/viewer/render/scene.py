@@ -9,7 +9,9 @@ What is drawn: the shape, tinted blue where it is held fixed and orange where
 it is a handle (the faces whose vertices share one of the engine's vertex roles;
 one plain-coloured actor per role, :mod:`.shape_parts`); cage points only where
 they help (the ROI and the handle, and all points near the cursor in Select
-mode); the cage wireframe on request (View > Show Cage Wireframe). The colours
+mode), a dense ROI's thinned out on screen (:mod:`.point_thinning`), none while
+dragging unless asked (View > Show Cage Points, Hide Points While Dragging);
+the cage wireframe on request (View > Show Cage Wireframe). The colours
 are :mod:`.palette`'s.
 
 Layers: the shape and the depth-tested cage wireframe are drawn in the main
@@ -27,7 +29,7 @@ import pyvista as pv
 from vtkmodules.vtkRenderingCore import vtkRenderer
 
 from ...core.mesh import unique_edges
-from ...deform.roles import FIXED
+from ...deform.roles import FIXED, FREE
 from ..model.gizmo import RING_RATIO
 from .gizmo_actors import Gizmo
 from .palette import (
@@ -37,6 +39,7 @@ from .palette import (
 from ...core.bounds import points_box
 from ...core.facing import front_direction
 from ...core.region_metrics import ShapeMetrics
+from .point_thinning import CELL_WIDTHS, THIN_FROM, one_per_cell
 from .shape_parts import ShapeParts
 
 
@@ -125,6 +128,11 @@ class Scene:
         self.cage_spacing = 0.0
         self._near = np.zeros(0, dtype=bool)
         self._shown_points = np.zeros(0, dtype=np.int64)
+        self._drawn_points = np.zeros(0, dtype=np.int64)
+        #: View > Show Cage Points; View > Hide Points While Dragging; a drag under way (:meth:`set_dragging`)
+        self.points_visible = True
+        self.hide_points_dragging = True
+        self.dragging = False
         self.stretch_visible = False
         self.stretch_lut = stretch_lookup_table()
         self.stretch_bar = stretch_colour_bar(self.stretch_lut)
@@ -269,6 +277,7 @@ class Scene:
         self._cage_roles = np.asarray(cage_roles, dtype=np.int64).copy()
         self._near = np.zeros(cage.n_points, dtype=bool)
         self._shown_points = np.zeros(0, dtype=np.int64)
+        self._drawn_points = np.zeros(0, dtype=np.int64)
         self.points_poly = pts
         pmapper = pv.DataSetMapper(pts)
         pmapper.SetColorModeToDirectScalars()
@@ -282,6 +291,7 @@ class Scene:
         self.points_actor = pactor
         self._overlay_actors.append(pactor)
         self._update_point_cells()
+        self._show_points_actor()
 
     @staticmethod
     def _line_actor(poly: pv.PolyData, opacity: float, width: float) -> pv.Actor:
@@ -298,15 +308,72 @@ class Scene:
     # ------------------------------------------------------------------ which cage points are drawn
     @property
     def shown_points(self) -> np.ndarray:
-        """Indices of the cage points drawn: the ROI, the handle and those near the cursor, (k,) int64."""
+        """Indices of the cage points shown: the ROI, the handle and those near the cursor, (k,) int64
+        (a dense ROI's are thinned on screen when drawn: :attr:`drawn_points`)."""
         return self._shown_points
 
+    @property
+    def drawn_points(self) -> np.ndarray:
+        """Indices of the cage points the last frame drew: :attr:`shown_points` with a dense ROI thinned
+        out on screen (:mod:`.point_thinning`), (d,) int64."""
+        return self._drawn_points
+
+    @property
+    def points_drawn(self) -> bool:
+        """The cage points actor is drawn: Show Cage Points on, and no drag under way that hides it."""
+        return self.points_actor is not None and bool(self.points_actor.GetVisibility())
+
     def _update_point_cells(self) -> None:
+        """The points shown are the ROI, the handle and those near the cursor: all drawn until the next
+        frame thins them (:meth:`_draw_point_cells`)."""
         show = np.flatnonzero((self._cage_roles != FIXED) | self._near)
-        if np.array_equal(show, self._shown_points) and self.points_poly.n_verts == len(show):
+        if np.array_equal(show, self._shown_points) and np.array_equal(show, self._drawn_points) \
+                and self.points_poly.n_verts == len(show):
             return
         self._shown_points = show
-        self.points_poly.verts = np.column_stack([np.ones(len(show), dtype=np.int64), show]).ravel()
+        self._set_point_cells(show)
+
+    def _set_point_cells(self, idx: np.ndarray) -> None:
+        if not (np.array_equal(idx, self._drawn_points) and self.points_poly.n_verts == len(idx)):
+            self._drawn_points = idx
+            self.points_poly.verts = np.column_stack([np.ones(len(idx), dtype=np.int64), idx]).ravel()
+
+    def _draw_point_cells(self, facing: np.ndarray) -> np.ndarray:
+        """Draw :attr:`shown_points`, a dense ROI's thinned out on screen, points facing the camera kept
+        first (``facing``: (k,) bool, of the shown points); returns which of them are drawn, (k,) bool."""
+        show = self._shown_points
+        drawn = np.ones(len(show), dtype=bool)
+        roi = (self._cage_roles[show] == FREE) & ~self._near[show]
+        if np.count_nonzero(roi) > THIN_FROM:
+            rows = np.flatnonzero(roi)
+            rows = rows[np.argsort(~facing[rows], kind="stable")]  # facing first, then by index
+            C = self.composite_matrix()
+            X = self._cage_pos[show[rows]] @ C[:3, :3].T + C[:3, 3]
+            wh = np.asarray(self.display_size(), dtype=np.float64)
+            ndc = X[:, :2] / np.maximum(self._cage_pos[show[rows]] @ C[3, :3] + C[3, 3], 1e-300)[:, None]
+            kept = one_per_cell((ndc + 1.0) * 0.5 * wh, CELL_WIDTHS * self.point_pixels())
+            drawn[rows[~kept]] = False
+        self._set_point_cells(show[drawn])
+        return drawn
+
+    def set_points_visible(self, visible: bool) -> None:
+        """View > Show Cage Points: draw the ROI, handle and nearby cage points, or none."""
+        self.points_visible = bool(visible)
+        self._show_points_actor()
+
+    def set_hide_points_dragging(self, hide: bool) -> None:
+        """View > Hide Points While Dragging: a drag under way draws no cage points (the pose in full view)."""
+        self.hide_points_dragging = bool(hide)
+        self._show_points_actor()
+
+    def set_dragging(self, dragging: bool) -> None:
+        """A drag began (True) or ended (False): the points hide meanwhile when :attr:`hide_points_dragging`."""
+        self.dragging = bool(dragging)
+        self._show_points_actor()
+
+    def _show_points_actor(self) -> None:
+        if self.points_actor is not None:
+            self.points_actor.SetVisibility(self.points_visible and not (self.dragging and self.hide_points_dragging))
 
     def set_points_near(self, near: np.ndarray | None) -> bool:
         """Also draw the cage points of the (c,) mask ``near`` (None: none); True when that changed."""
@@ -490,9 +557,13 @@ class Scene:
                 self.points_actor.prop.point_size = size
 
     def _fade_back_points(self) -> None:
-        """Cage points facing away from the camera are drawn faintly (Select Through takes the hidden ones)."""
+        """Cage points facing away from the camera are drawn faintly (Select Through takes the hidden ones);
+        a dense ROI is thinned out on screen, those facing the camera kept first."""
         shown = self._shown_points
-        if self.points_poly is None or len(shown) == 0:
+        if self.points_poly is None or not self.points_drawn:
+            return
+        if len(shown) == 0:
+            self._draw_point_cells(np.zeros(0, dtype=bool))
             return
         if self._cage_normals is None:
             self._cage_normals = np.zeros((len(self._cage_pos), 3), dtype=np.float32)
@@ -503,6 +574,8 @@ class Scene:
             facing = normals @ -np.asarray(cam.GetDirectionOfProjection()) > 0
         else:
             facing = np.einsum("ij,ij->i", normals, np.asarray(cam.GetPosition()) - self._cage_pos[shown]) > 0
+        drawn = self._draw_point_cells(facing)
+        shown, facing = shown[drawn], facing[drawn]
         alpha = POINT_ALPHA[role_rows(self._cage_roles[shown], len(POINT_ALPHA)), np.where(facing, 0, 1)]
         if not np.array_equal(self._rgba[shown, 3], alpha):  # (only the drawn points' opacity matters)
             self._rgba[shown, 3] = alpha

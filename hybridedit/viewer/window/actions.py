@@ -29,7 +29,8 @@ MENUS: dict[str, list] = {
     "&Mode": ["mode_camera", "mode_select", "mode_drag", None, "target_roi", "target_handle", None,
               "new_group", "next_group", None, "mirror_x", "mirror_y", "mirror_z", None,
               "tool_rect", "tool_brush", "brush_bigger", "brush_smaller"],
-    "&View": ["look_texture", "look_colors", "look_plain", None, "show_cage", "stretch", "reset_camera",
+    "&View": ["look_texture", "look_colors", "look_plain", None, "show_cage", "show_points", "hide_points_dragging", "stretch",
+              "reset_camera",
               ("&Viewpoint", ["view_front", "view_back", "view_right", "view_left", "view_top", "view_bottom"]),
               ("&Up Axis", [f"up_{axis}" for axis in AXES]), "antialias", None, "messages"],
     "&Cage": ["rebuild", "cancel_job"],
@@ -113,6 +114,8 @@ class ViewCommands(Protocol):
     def scale_brush(self, factor: float) -> None: ...
     def focus_view(self) -> None: ...
     def toggle_cage(self) -> None: ...
+    def toggle_points(self) -> None: ...
+    def toggle_points_dragging(self) -> None: ...
     def toggle_stretch(self) -> None: ...
     def reset_camera(self) -> None: ...
     def set_view(self, view: str) -> None: ...
@@ -326,7 +329,13 @@ class ActionSet(Mapping):
     def _view_actions(self) -> None:
         A, opt = self._action, self.w.options
         A("show_cage", "Show Cage &Wireframe", opt.toggle_cage, "W", checkable=True,
-          tip="Show the cage wireframe (the ROI and handle cage points are always shown)", short="Cage")
+          tip="Show the cage wireframe (the ROI and handle cage points: Show Cage Points)", short="Cage")
+        A("show_points", "Show Cage &Points", opt.toggle_points, "P", checkable=True,
+          tip="Show the ROI and handle cage points (a dense ROI thinned out on screen); off, the shape alone")
+        A("hide_points_dragging", "&Hide Points While Dragging", opt.toggle_points_dragging, checkable=True,
+          tip="While a drag is under way no cage point is drawn: the pose in full view")
+        self._actions["show_points"].setChecked(True)
+        self._actions["hide_points_dragging"].setChecked(True)
         A("stretch", "S&tretch Map", opt.toggle_stretch, "T", checkable=True,
           tip="Colour the shape by the relative edge-length change against the rest shape (0 to 20 %)",
           short="Stretch")

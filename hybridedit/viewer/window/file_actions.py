@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Callable, Protocol, runtime_checkable
 
 from qtpy import QtCore, QtWidgets
 
@@ -82,9 +82,10 @@ def dropped_path(mime: QtCore.QMimeData) -> Path | None:
 
 @runtime_checkable
 class Screenshots(Protocol):
-    """The 3D view as the file actions see it."""
+    """The 3D view as the file actions see it: its screenshots, and the keyboard back after a dialog."""
 
     def screenshot(self, filename: str) -> object: ...
+    def setFocus(self, reason: QtCore.Qt.FocusReason) -> None: ...  # noqa: N802 (Qt's name)
 
 
 @runtime_checkable
@@ -175,7 +176,8 @@ class FileActions:
     Attributes
     ----------
     save_path : where Save writes without asking (set by the first Save As), or None.
-    edit_path : the last edit file saved or loaded, or None.
+    edit_path : the last edit file saved or loaded, or None (where Load Edit starts).
+    saved_edit_path : the last edit file saved, or None (where Save Edit starts; else in the mesh's folder).
     """
 
     def __init__(self, window: FileHost, parent: QtWidgets.QWidget | None = None) -> None:
@@ -183,6 +185,7 @@ class FileActions:
         self.parent = parent
         self.save_path: Path | None = None
         self.edit_path: Path | None = None
+        self.saved_edit_path: Path | None = None
         self.unsaved_box: QtWidgets.QMessageBox | None = None
 
     @property
@@ -204,12 +207,26 @@ class FileActions:
         """A new shape: nothing saved yet."""
         self.save_path = None
         self.edit_path = None
+        self.saved_edit_path = None
 
     def suggested_path(self, suffix: str, ext: str) -> str:
+        """A new file beside the opened mesh, named after it (``suffix``, ``ext``), as an absolute path (a
+        file dialog reads a relative one from where the process started); else in the working folder."""
         s = self.session
         if s is not None and s.path is not None:
-            return str(s.path.with_name(f"{s.path.stem}{suffix}{ext}"))
+            return str(s.path.absolute().with_name(f"{s.path.stem}{suffix}{ext}"))
         return str(Path.cwd() / f"shape{suffix}{ext}")
+
+    def file_dialog(self, ask: Callable, *args, **kwargs) -> tuple[str, str]:
+        """``QFileDialog.ask(parent, *args, **kwargs)``, then the keyboard back to the 3D view: without a
+        window manager nothing reactivates the window after a dialog, and the single-key shortcuts would
+        do nothing until a click."""
+        try:
+            return ask(self.parent, *args, **kwargs)
+        finally:
+            if self.parent is not None:
+                self.parent.activateWindow()
+            self.w.view.setFocus(QtCore.Qt.FocusReason.OtherFocusReason)
 
     # ------------------------------------------------------------------ unsaved work
     def keep_work(self, doing: str) -> bool:
@@ -239,7 +256,7 @@ class FileActions:
     def open_dialog(self) -> None:
         s = self.session
         start = str(s.path.parent) if s and s.path else os.getcwd()
-        path, _ = QtWidgets.QFileDialog.getOpenFileName(self.parent, "Open mesh", start, MESH_FILTER)
+        path, _ = self.file_dialog(QtWidgets.QFileDialog.getOpenFileName, "Open mesh", start, MESH_FILTER)
         if path:
             self.w.loading.open_path(path)
 
@@ -256,8 +273,8 @@ class FileActions:
             return False
         ext = s.path.suffix.lower() if s.path else ".ply"
         start = str(self.save_path) if self.save_path else self.suggested_path("-edited", ext)
-        path, selected = QtWidgets.QFileDialog.getSaveFileName(
-            self.parent, "Save deformed mesh", start, MESH_FILTER,
+        path, selected = self.file_dialog(
+            QtWidgets.QFileDialog.getSaveFileName, "Save deformed mesh", start, MESH_FILTER,
             options=QtWidgets.QFileDialog.Option.DontConfirmOverwrite)
         if not path:
             return False
@@ -316,8 +333,9 @@ class FileActions:
     def save_edit_dialog(self) -> bool:
         if self.session is None:
             return False
-        start = str(self.edit_path) if self.edit_path else self.suggested_path("-edit", ".json")
-        path, _ = QtWidgets.QFileDialog.getSaveFileName(self.parent, "Save edit", start, EDIT_FILTER)
+        # beside the mesh (not where an edit was loaded from), or where the last one was saved
+        start = str(self.saved_edit_path) if self.saved_edit_path else self.suggested_path("-edit", ".json")
+        path, _ = self.file_dialog(QtWidgets.QFileDialog.getSaveFileName, "Save edit", start, EDIT_FILTER)
         if not path:
             return False
         p = Path(path)
@@ -338,7 +356,7 @@ class FileActions:
         except (SelectionError, ValueError, WriteError, OSError) as e:
             w.status.show_error("Could not save the edit", str(e))
             return False
-        self.edit_path = Path(path)
+        self.edit_path = self.saved_edit_path = Path(path).absolute()
         w.status.message(f"Saved the edit to {path}: {edit_summary(edit)} from the rest pose, in shape vertices. "
                   + ("'hybridedit deform --edit' replays them to the pose on screen."
                      if s.replayable else
@@ -351,7 +369,7 @@ class FileActions:
             self.w.status.show_error("Load edit", "Open a mesh first.")
             return False
         start = str(self.edit_path) if self.edit_path else self.suggested_path("-edit", ".json")
-        path, _ = QtWidgets.QFileDialog.getOpenFileName(self.parent, "Load edit", start, EDIT_FILTER)
+        path, _ = self.file_dialog(QtWidgets.QFileDialog.getOpenFileName, "Load edit", start, EDIT_FILTER)
         if not path:
             return False
         return self.load_edit_from(path)
@@ -381,8 +399,8 @@ class FileActions:
     # ------------------------------------------------------------------ screenshots
     def screenshot_dialog(self) -> bool:
         w = self.w
-        path, _ = QtWidgets.QFileDialog.getSaveFileName(self.parent, "Save screenshot", self.suggested_path("", ".png"),
-                                                        "PNG images (*.png)")
+        path, _ = self.file_dialog(QtWidgets.QFileDialog.getSaveFileName, "Save screenshot",
+                                   self.suggested_path("", ".png"), "PNG images (*.png)")
         if not path:
             return False
         try:

@@ -14,6 +14,7 @@ from qtpy import QtCore
 
 from ...deform.selection import SelectionError
 from ..model.session import Session
+from .file_check import why_unopenable
 from .interfaces import ActionChecks, Cancels, Renders
 from .slot_errors import guarded
 
@@ -138,7 +139,14 @@ class ShapeLoading:
 
     @guarded
     def open_path(self, path: str | os.PathLike) -> bool:
-        """Read a mesh and build its cage and binding in the worker thread (asks first if the pose is unsaved)."""
+        """Read a mesh and build its cage and binding in the worker thread (asks first if the pose is unsaved).
+
+        A file that cannot be opened is refused first, in one line, with nothing asked and the shape on
+        display kept (:func:`~.file_check.why_unopenable`)."""
+        refusal = why_unopenable(path)
+        if refusal is not None:
+            self.w.status.show_error("Could not open the mesh", refusal)
+            return False
         return self.w.jobs.open_file(path)
 
     def open_mesh(self, mesh: Mesh, path: Path | None = None) -> bool:

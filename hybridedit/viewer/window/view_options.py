@@ -139,6 +139,16 @@ class ViewOptions:
         w.scene.set_cage_visible(w.actions_["show_cage"].isChecked())
         w.view.request_render()
 
+    def toggle_points(self) -> None:
+        """View ▸ Show Cage Points."""
+        w = self.w
+        w.scene.set_points_visible(w.actions_["show_points"].isChecked())
+        w.view.request_render()
+
+    def toggle_points_dragging(self) -> None:
+        """View ▸ Hide Points While Dragging."""
+        self.w.scene.set_hide_points_dragging(self.w.actions_["hide_points_dragging"].isChecked())
+
     def toggle_stretch(self) -> None:
         """View ▸ Stretch Map."""
         w = self.w
