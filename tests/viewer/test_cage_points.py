@@ -30,7 +30,7 @@ def test_p_and_the_view_menu_hide_and_show_the_cage_points(qtbot, win):
     select_tip(w)
     drawn(qtbot, w)
     assert w.scene.points_drawn and len(w.scene.drawn_points) > 0
-    key(qtbot, w, Qt.Key.Key_P)
+    key(qtbot, w, Qt.Key.Key_V)
     drawn(qtbot, w)
     assert not w.scene.points_drawn and not w.actions_["show_points"].isChecked()
     view_menu_entry(w, "Show Cage Points").trigger()  # back from the menu

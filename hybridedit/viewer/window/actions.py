@@ -330,7 +330,7 @@ class ActionSet(Mapping):
         A, opt = self._action, self.w.options
         A("show_cage", "Show Cage &Wireframe", opt.toggle_cage, "W", checkable=True,
           tip="Show the cage wireframe (the ROI and handle cage points: Show Cage Points)", short="Cage")
-        A("show_points", "Show Cage &Points", opt.toggle_points, "P", checkable=True,
+        A("show_points", "Show Cage &Points", opt.toggle_points, "V", checkable=True,
           tip="Show the ROI and handle cage points (a dense ROI thinned out on screen); off, the shape alone")
         A("hide_points_dragging", "&Hide Points While Dragging", opt.toggle_points_dragging, checkable=True,
           tip="While a drag is under way no cage point is drawn: the pose in full view")
