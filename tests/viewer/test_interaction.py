@@ -13,7 +13,9 @@ from hybridedit.viewer.input import mouse_gestures as interaction
 from hybridedit.viewer.input.mouse_gestures import BRUSH, CAMERA, SELECT, ViewController
 from hybridedit.core.region_metrics import ShapeMetrics
 from hybridedit.viewer.render.scene import Scene
+from hybridedit.core.normals import vertex_normals
 from hybridedit.viewer.model.picking import REPLACE, combine, project_points
+from hybridedit.viewer.model.surface_pick import thickness
 from hybridedit.viewer.render.view import View
 from support.window_driving import look_down_minus_z
 
@@ -29,6 +31,7 @@ class Window:
         self.P = P
         self.edges = None if cage_faces is None else np.sort(
             np.vstack([cage_faces[:, [0, 1]], cage_faces[:, [1, 2]], cage_faces[:, [2, 0]]]), axis=1)
+        self.thick = None if cage_faces is None else thickness(P, vertex_normals(P, cage_faces))
         self.mask = np.zeros(len(P), dtype=bool)
         self.calls: list[tuple[np.ndarray, str]] = []
         self.missed_clicks = 0
@@ -39,6 +42,9 @@ class Window:
 
     def cage_edges(self):
         return self.edges
+
+    def cage_thickness(self):
+        return self.thick
 
     def handle_center(self):
         return None

@@ -193,19 +193,3 @@ def test_history_undo_redo_and_branching():
     for k in range(5):
         h2.push(_snap(k))
     assert len(h2) == 3 and h2.current.label == "s4"
-
-
-def test_through_the_part_takes_the_pieces_that_are_seen_whole():
-    from hybridedit.viewer.model.picking import through_the_part
-
-    # a chain 0-1-2-3 (an arm: 0 and 1 in front, 2 and 3 behind), and 4-5 (a leg behind it), 6 outside
-    edges = np.array([[0, 1], [1, 2], [2, 3], [3, 6], [6, 4], [4, 5]])
-    hits = np.array([1, 1, 1, 1, 1, 1, 0], dtype=bool)
-    seen = np.array([1, 1, 0, 0, 0, 0, 0], dtype=bool)
-    assert through_the_part(hits, seen, edges).tolist() == [True, True, True, True, False, False, False]
-    # the leg peeks out: it is taken too, whole
-    seen[5] = True
-    assert through_the_part(hits, seen, edges).tolist() == [True] * 6 + [False]
-    # nothing seen: nothing taken; a seen point not hit: not taken
-    assert not through_the_part(hits, np.zeros(7, dtype=bool), edges).any()
-    assert through_the_part(np.eye(7, dtype=bool)[6], np.eye(7, dtype=bool)[6], edges).tolist() == [False] * 6 + [True]

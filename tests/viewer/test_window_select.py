@@ -192,7 +192,8 @@ def test_the_select_menu_toolbar_and_shortcuts_list(qtbot, limbs):
     w = limbs
     menus = {m.title(): m for m in (a.menu() for a in w.menuBar().actions()) if m is not None}
     names = [a.text() for a in menus["&Select"].actions() if not a.isSeparator()]
-    assert names == ["Select &All", "&Invert Selection", "&Clear All", "Clear &Target", "Select &Through"]
+    assert names == ["Select &All", "&Invert Selection", "&Clear All", "Clear &Target", "Select &Through",
+                     "&Free Around Handle"]
     assert w.actions_["select_through"] in w.findChild(QtCore.QObject, "tools").actions()
     w.actions_["shortcuts"].trigger()
     dlg = w.dialogs.shortcuts_dialog
@@ -221,7 +222,7 @@ def test_the_default_rectangle_takes_an_end_as_select_through_does(qtbot, win):
         key(qtbot, w, Qt.Key.Key_H)
         mouse_drag(qtbot, w.view, *around(w, end, margin=3.0))
         taken[through] = (s.selection.roi.copy(), s.selection.handle.copy())
-        assert "tears the shape" not in w.status.current_message()
+        assert "would tear" not in w.status.current_message()
     assert np.array_equal(taken[False][0], taken[True][0]) and np.array_equal(taken[False][1], taken[True][1])
     assert np.all(s.selection.handle[end & (P[:, 2] < -0.2)])  # the back of the end, hidden from the front
     # a handle of one point in the held part (a click, in sight): said before any drag
@@ -230,5 +231,18 @@ def test_the_default_rectangle_takes_an_end_as_select_through_does(qtbot, win):
     i = int(np.argmax(np.where(P[:, 0] < -1.0, P[:, 2], -np.inf)))  # the left end's point facing the camera
     click(qtbot, w, to_widget(w, d[i]))
     assert np.flatnonzero(s.selection.handle).tolist() == [i] and not s.selection.roi[i]
-    assert "touches the held part" in w.status.current_message() and "Alt+Z" in w.status.current_message()
+    assert "touches 1 held cage point" in w.status.current_message()
     assert s.selection.tearing() == {0: 1}
+    # the message is whole on screen, and offers its fix beside it: one key (or click) frees the points around
+    assert not w.status.message_label.is_cut()
+    assert w.status.offered_fix() is w.actions_["free_around_handle"]
+    roi_before = s.selection.roi.copy()
+    key(qtbot, w, Qt.Key.Key_F, Qt.KeyboardModifier.ShiftModifier)
+    assert s.selection.tearing() == {} and w.status.offered_fix() is None
+    freed = s.selection.roi & ~roi_before
+    edges = s.editor.cage_edges
+    ring = np.unique(edges[(edges == i).any(axis=1)])
+    assert freed[ring[ring != i]].all() and not freed[i]  # every held neighbour of the handle, at least
+    assert "Freed" in w.status.current_message()
+    key(qtbot, w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
+    assert np.array_equal(s.selection.roi, roi_before) and s.selection.tearing() == {0: 1}

@@ -8,12 +8,13 @@ shortcuts handle the keyboard.
 
 The controller turns gestures into calls on a :class:`SelectionHandler` and a :class:`DragHandler`.
 
-Selection takes what the user points at, as in Blender and MeshLab: the cage
-points in sight, and with them, for the rectangle and the brush, the part they
-are drawn over through its thickness (:func:`~..model.picking.through_the_part`: the
-back of an arm drawn over from the front, the fingers behind other fingers),
-so that a limb picked from one side moves whole. A point hidden behind another
-part (a hind leg behind a front leg) is not taken, unless
+Selection takes the surface the user points at: for the rectangle and the brush,
+the part they are drawn over (what they see of it, not a sliver of another part
+beside it), grown along the surface through its thickness
+(:func:`~..model.surface_pick.surface_under`: the back of an arm drawn over from
+the front), so that a limb picked from one side moves whole. A part hidden
+behind another or only overlapping it on screen (a hind leg behind a front leg)
+is not taken, unless
 :attr:`ViewController.select_through` is on (Blender's X-ray); a click takes the
 nearest point in sight. Whether a point is in sight is decided once per
 gesture from the depth buffer of the shape's layer (:class:`~..render.view.DepthGrab`,
@@ -37,8 +38,9 @@ from qtpy import QtCore, QtGui
 from ..model import gizmo as gz
 from ..model.picking import (
     ADD, REPLACE, brush_hits, nearest_hit, op_from_modifiers, project_points, rectangle_hits, stroke_hits,
-    through_the_part, visible_points,
+    visible_points,
 )
+from ..model.surface_pick import edge_graph, surface_under
 from ..render.scene import Scene
 from ..render.view import OutlineOverlay, View
 
@@ -70,6 +72,7 @@ class SelectionHandler(Protocol):
 
     def cage_points(self) -> np.ndarray | None: ...
     def cage_edges(self) -> np.ndarray | None: ...
+    def cage_thickness(self) -> np.ndarray | None: ...  # (c,) how thick the part is at each cage point
     def begin_select(self) -> bool: ...
     def select_hits(self, hits: np.ndarray, op: str) -> None: ...
     def end_select(self) -> None: ...
@@ -103,7 +106,9 @@ class Gesture:
         self.display: np.ndarray | None = None
         self.front: np.ndarray | None = None  # in front of the camera
         self.in_front: np.ndarray | None = None  # in front of the camera and takeable (in sight, or select through)
-        self.edges: np.ndarray | None = None  # the cage's edges (a part is taken through its thickness)
+        self.points: np.ndarray | None = None  # the cage as posed now
+        self.graph = None  # its edge graph (a part is taken through its thickness along the surface)
+        self.thick: np.ndarray | None = None  # how thick the part is at each cage point
 
 
 class ViewController(QtCore.QObject):
@@ -132,6 +137,7 @@ class ViewController(QtCore.QObject):
         self.visibility_seconds = 0.0  # duration of the last visibility test (with a render when one was needed)
         self._visible: tuple[int, np.ndarray, np.ndarray] | None = None  # (depth serial, cage points, mask)
         self._hover_pos: QtCore.QPointF | None = None
+        self._graph_cache: tuple | None = None  # (edges, cage pose, edge graph)
         self._passthrough = False
         self.rubber = OutlineOverlay(view, circle=False)
         view.depth.key_fn = self._view_key
@@ -247,6 +253,16 @@ class ViewController(QtCore.QObject):
         self.visibility_seconds = time.perf_counter() - t0
         return in_front & vis
 
+    def _graph(self, P: np.ndarray):
+        """The cage's edge graph at its pose ``P`` (kept while the pose and the edges stay)."""
+        edges = self.selection.cage_edges()
+        if edges is None:
+            return None
+        cached = self._graph_cache
+        if cached is None or not np.array_equal(cached[0], edges) or not np.array_equal(cached[1], P):
+            cached = self._graph_cache = (edges, np.array(P, copy=True), edge_graph(P, edges))
+        return cached[2]
+
     def _matrices(self) -> tuple[np.ndarray, tuple[int, int]]:
         return self.scene.composite_matrix(), self.scene.display_size()
 
@@ -285,7 +301,7 @@ class ViewController(QtCore.QObject):
         g.display, g.front = project_points(P, C, size)
         take = self.takeable(P, C, size, g.display, g.front)
         g.in_front = g.front if take is None else take  # (no depth to be had: everything in front)
-        g.edges = self.selection.cage_edges()
+        g.points, g.graph, g.thick = P, self._graph(P), self.selection.cage_thickness()
         self.gesture = g
         if g.kind != RECTANGLE:  # (the rectangle is shown once the mouse moves: a click shows none)
             r = self.brush_radius * self.view.devicePixelRatioF()
@@ -296,9 +312,9 @@ class ViewController(QtCore.QObject):
     def _taken(self, g: Gesture, hits: np.ndarray) -> np.ndarray:
         """What a rectangle or brush gesture takes of its ``hits`` (every point in it, in front of the camera):
         with Select Through all, else those in sight and the parts they lie in, through their thickness."""
-        if self.select_through or g.edges is None:
+        if self.select_through or g.graph is None or g.thick is None:
             return hits & g.in_front
-        return through_the_part(hits, hits & g.in_front, g.edges)
+        return surface_under(hits, hits & g.in_front, g.graph, g.thick)
 
     def _dab(self, g: Gesture, hits: np.ndarray) -> None:
         """Apply a brush dab. A replacing stroke replaces with its first dab that touches a cage point
@@ -405,8 +421,9 @@ class ViewController(QtCore.QObject):
                     self.view.request_render()
                 r = max(NEAR_PIXELS, 1.5 * self.brush_radius) * self.view.devicePixelRatioF()
                 near = brush_hits(display, front, self.view.to_display(pos), r)
-                edges = None if self.select_through else self.selection.cage_edges()
-                near = near & take if edges is None else through_the_part(near, near & take, edges)
+                graph = None if self.select_through else self._graph(P)
+                thick = None if graph is None else self.selection.cage_thickness()
+                near = near & take if thick is None else surface_under(near, near & take, graph, thick)
         if self.scene.set_points_near(near):
             self.view.request_render()
 

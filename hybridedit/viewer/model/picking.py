@@ -165,43 +165,6 @@ def stroke_hits(display: np.ndarray, in_front: np.ndarray, start: tuple[float, f
     return in_front & (dist2 <= float(radius) ** 2)
 
 
-def through_the_part(hits: np.ndarray, seen: np.ndarray, edges: np.ndarray) -> np.ndarray:
-    """The hit points connected to a seen one through hit points: the parts a gesture is drawn over,
-    whole, through their thickness.
-
-    A rectangle drawn over an arm from the front sees the front of the arm only; its back lies in
-    the rectangle too, hidden by the arm itself, and joined to the front by the cage edges around
-    the arm, all in the rectangle. A hind leg hidden behind a front leg is joined to it only through
-    the body, outside the rectangle, and nothing of it is seen: it is not taken.
-
-    Parameters
-    ----------
-    hits : (k,) bool, the points in the gesture (in front of the camera, seen or not).
-    seen : (k,) bool, those of them in sight.
-    edges : (e, 2) int, the cage's edges.
-
-    Returns
-    -------
-    (k,) bool: the hits in a connected piece (of the cage graph restricted to the hits) that has a
-    seen point.
-    """
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    h = np.asarray(hits, dtype=bool)
-    start = h & np.asarray(seen, dtype=bool)
-    if not start.any():
-        return np.zeros_like(h)
-    e = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
-    e = e[h[e[:, 0]] & h[e[:, 1]]]
-    n = len(h)
-    graph = coo_matrix((np.ones(len(e), dtype=np.int8), (e[:, 0], e[:, 1])), shape=(n, n))
-    _, labels = connected_components(graph, directed=False)
-    keep = np.zeros(labels.max() + 1, dtype=bool)
-    keep[labels[start]] = True
-    return h & keep[labels]
-
-
 def op_from_modifiers(shift: bool, ctrl: bool) -> str:
     """Shift adds, Ctrl removes, neither replaces (Shift wins when both are held)."""
     if shift:

@@ -27,8 +27,10 @@ from typing import TYPE_CHECKING, Protocol, runtime_checkable
 import numpy as np
 
 from ...core.index_sets import unique_sorted
+from ...core.normals import vertex_normals
 from ...deform.roles import FIXED, group, handle as handle_role, is_handle
 from .picking import combine, selection_roles
+from .surface_pick import edge_graph, thickness
 
 if TYPE_CHECKING:
     from ...deform.editor import HybridEditor
@@ -113,6 +115,7 @@ class Selection:
         self._stroke: tuple[str, np.ndarray] | None = None
         self.given: tuple | None = None
         self._preview_cache: tuple | None = None
+        self._thickness: tuple | None = None  # (engine, the thickness of its cage)
         if symmetry is not None:
             owner.editor.mirror(symmetry)  # a shape too asymmetric is refused now, not at the first drag
         self.symmetry: str | None = symmetry
@@ -193,7 +196,16 @@ class Selection:
 
     def engine_replaced(self) -> None:
         """The owner has a new engine: it has no selection from these masks yet."""
-        self.given = self._preview_cache = None
+        self.given = self._preview_cache = self._thickness = None
+
+    def cage_thickness(self) -> np.ndarray:
+        """(c,) how thick the shape is at each cage point, at rest (:func:`~.surface_pick.thickness`): how far
+        a selection grows through a part, and how wide a band :meth:`free_around_handles` frees."""
+        editor = self._editor
+        if self._thickness is None or self._thickness[0] is not editor:
+            cage = editor.cage
+            self._thickness = (editor, thickness(cage.vertices, vertex_normals(cage.vertices, cage.faces)))
+        return self._thickness[1]
 
     def carry_over(self, dominant: np.ndarray) -> None:
         """Carry the masks over to the owner's new engine (a rebuild) through the shape: ``dominant`` gives
@@ -305,6 +317,35 @@ class Selection:
     def select_all(self, target: str) -> bool:
         """Every cage vertex into the ROI or the active handle group; returns False when all were."""
         return self.set_mask(target, np.ones(self._n_cage, dtype=bool), f"select all {target}")
+
+    def free_around_handles(self) -> int:
+        """Free the held cage points around the handle groups where they touch (what :meth:`tearing`
+        finds): the held points within the part's thickness of a touching handle point, along the cage,
+        join the ROI, so that a band of free points lies between the handle and the held part. One undo
+        step; returns how many points were freed (0: nothing touched).
+
+        Mirror images follow with the mirror, as the rest of the selection does."""
+        r = selection_roles(self.roi, self.handle_group)
+        e = self._editor.cage_edges
+        held = r == FIXED
+        touching = np.zeros(len(r), dtype=bool)
+        for x, y in ((e[:, 0], e[:, 1]), (e[:, 1], e[:, 0])):
+            touching[x[is_handle(r[x]) & held[y]]] = True
+        if not touching.any():
+            return 0
+        from scipy.sparse.csgraph import dijkstra
+
+        cage = self._editor.cage.vertices
+        graph = edge_graph(cage, e)
+        reach = self.cage_thickness()[touching]
+        d = dijkstra(graph, directed=False, indices=np.flatnonzero(touching), min_only=True,
+                     limit=float(reach.max()))
+        band = held & (d <= float(np.median(reach)))
+        for x, y in ((e[:, 0], e[:, 1]), (e[:, 1], e[:, 0])):  # at least every held neighbour
+            band[y[touching[x] & held[y]]] = True
+        self.roi = self.roi | band
+        self._owner.selection_changed("free around handle")
+        return int(np.count_nonzero(band))
 
     # ------------------------------------------------------------------ gestures (one undo step each)
     def begin_stroke(self, target: str) -> None:

@@ -25,7 +25,8 @@ MENUS: dict[str, list] = {
     "&File": ["open", "save", "save_as", None, "load_edit", "save_edit", None, "screenshot", None,
               "mesh_info", None, "quit"],
     "&Edit": ["undo", "redo", None, "reset_pose", None, "settle", "polish"],
-    "&Select": ["select_all", "invert_sel", None, "clear_sel", "clear_target", None, "select_through"],
+    "&Select": ["select_all", "invert_sel", None, "clear_sel", "clear_target", None, "select_through", None,
+                "free_around_handle"],
     "&Mode": ["mode_camera", "mode_select", "mode_drag", None, "target_roi", "target_handle", None,
               "new_group", "next_group", None, "mirror_x", "mirror_y", "mirror_z", None,
               "tool_rect", "tool_brush", "brush_bigger", "brush_smaller"],
@@ -97,6 +98,7 @@ class SelectCommands(Protocol):
 
     def selection_op(self, op: str) -> None: ...
     def toggle_select_through(self) -> None: ...
+    def free_around_handles(self) -> None: ...
     def set_target(self, target: str) -> None: ...
     def toggle_mirror(self, axis: str) -> None: ...
     def new_group(self) -> None: ...
@@ -297,6 +299,9 @@ class ActionSet(Mapping):
               "(Blender's X-ray); off, the part drawn over, through its thickness", short="Through")
         A("invert_sel", "&Invert Selection", lambda: sel.selection_op("invert"), "Ctrl+I",
           tip="Invert the current target (ROI or handle)")
+        A("free_around_handle", "&Free Around Handle", sel.free_around_handles, "Shift+F",
+          tip="Free the held cage points where a handle touches them (they join the ROI), so that a drag "
+              "bends the shape there instead of tearing it", short="Free")
 
     def _mode_actions(self) -> None:
         A, sel, opt = self._action, self.w.selecting, self.w.options
@@ -444,7 +449,7 @@ class ActionSet(Mapping):
         for n in ("open", "rebuild", "load_edit"):
             a[n].setEnabled(not busy)
         for n in ("save", "save_as", "save_edit", "reset_pose", "select_all", "clear_sel", "clear_target", "invert_sel",
-                  "screenshot", "mesh_info"):
+                  "free_around_handle", "screenshot", "mesh_info"):
             a[n].setEnabled(s is not None)
         a["cancel_job"].setEnabled(busy)
         scene = self.w.scene

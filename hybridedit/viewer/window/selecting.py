@@ -51,7 +51,7 @@ class Redraws(Protocol):
 class Says(Protocol):
     """The status bar as the selection sees it."""
 
-    def message(self, text: str) -> None: ...
+    def message(self, text: str, *, fix: QtGui.QAction | None = None) -> None: ...
     def clear_message(self) -> None: ...
     def show_error(self, title: str, text: str) -> None: ...
 
@@ -137,6 +137,11 @@ class Selecting:
         s = self.w.session
         return None if s is None else s.editor.cage_edges
 
+    def cage_thickness(self) -> np.ndarray | None:
+        """(c,) how thick the shape is at each cage point (a selection grows through a part's thickness)."""
+        s = self.w.session
+        return None if s is None else s.selection.cage_thickness()
+
     def begin_select(self) -> bool:
         """A selection gesture begins (after the guard: ``settle_and_stop_polish``); False: no shape."""
         w = self.w
@@ -176,8 +181,9 @@ class Selecting:
         w.actions_.refresh()
 
     def _warn_if_tearing(self) -> bool:
-        """Say so (and return True) when a handle group touches held cage points with nothing free between
-        them: a drag would tear the shape there (:meth:`~..model.selection_masks.Selection.tearing`)."""
+        """Say so, offering the fix (and return True), when a handle group touches held cage points with
+        nothing free between them: a drag would tear the shape there
+        (:meth:`~..model.selection_masks.Selection.tearing`)."""
         s = self.w.session
         sel = s.selection if s is not None else None
         tears = sel.tearing() if sel is not None and sel.all_handles.any() and sel.roi.any() else {}
@@ -185,11 +191,29 @@ class Selecting:
             return False
         g, n = max(tears.items(), key=lambda kv: kv[1])
         who = f"Handle group {g + 1}" if sel.n_groups > 1 else "The handle"
-        self.w.status.message(
-            f"{who} touches the held part at {n} cage point{'s' if n != 1 else ''} with nothing free between "
-            "them: a drag tears the shape there (the back of a limb left out of the ROI?). Take the ROI around "
-            "the handle (R, Shift+drag), or select through (Alt+Z).")
+        # (short enough for the status bar's two lines at the window's smallest width: never cut off)
+        self.w.status.message(f"{who} touches {n} held cage point{'s' if n != 1 else ''}: a drag would tear the "
+                              "shape there. Shift+F frees the held points around it.",
+                              fix=self.w.actions_["free_around_handle"])
         return True
+
+    @guarded
+    def free_around_handles(self) -> None:
+        """Select ▸ Free Around Handle: the held cage points where a handle touches them join the ROI (one
+        undo step), so that a drag bends the shape there instead of tearing it."""
+        w = self.w
+        s = w.session
+        if s is None or w.controller.busy:
+            return
+        w.posing.settle_and_stop_polish()
+        n = s.selection.free_around_handles()
+        w.sync.refresh_selection()
+        w.actions_.refresh()
+        if n == 0:
+            w.status.message("No handle touches the held part: nothing to free")
+        elif not self._warn_if_tearing():
+            w.status.message(f"Freed {n} held cage point{'s' if n != 1 else ''} around the handle: they join the "
+                             "ROI (Ctrl+Z restores them)")
 
     # ------------------------------------------------------------------ the Select menu
     def selection_op(self, op: str) -> None:

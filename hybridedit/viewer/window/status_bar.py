@@ -100,6 +100,12 @@ class StatusBar:
         self.message_label = MessageLine(2, hint="Click for every message (View ▸ Messages)")
         self.message_label.clicked.connect(self.show_log)
         sb.addWidget(self.message_label, 1)
+        # the fix a message offers, one click away beside it (e.g. Free Around Handle when a drag would tear)
+        self.fix_button = QtWidgets.QToolButton()
+        self.fix_button.setToolButtonStyle(QtCore.Qt.ToolButtonStyle.ToolButtonTextOnly)
+        self.fix_button.setFocusPolicy(QtCore.Qt.FocusPolicy.NoFocus)  # (the keyboard stays with the view)
+        sb.addWidget(self.fix_button)
+        self.fix_button.hide()
         # fields of fixed size: a new frame rate or edge error while dragging re-lays nothing out; the row
         # shows those that fit its width, by priority (edge error, selection, sizes, timing), never one over
         # another; the build's progress bar and Cancel button come first
@@ -145,10 +151,12 @@ class StatusBar:
         r = QtWidgets.QMessageBox.question(self.parent, title, text, Btn.Yes | Btn.No, Btn.No)
         return r == Btn.Yes
 
-    def message(self, text: str) -> None:
+    def message(self, text: str, *, fix: QtGui.QAction | None = None) -> None:
         """Show a message in the status bar until the next one (or until it is out of date): what fits in two
-        lines, the rest cut with "…" and whole in its tooltip; and log it."""
+        lines, the rest cut with "…" and whole in its tooltip; and log it. ``fix``: the action that does what
+        the message suggests, offered as a button beside it while the message shows."""
         self.message_label.setText(text)
+        self._offer(fix)
         if text:
             self.log.appendPlainText(f"{time.strftime('%H:%M:%S')}  {text}")
 
@@ -159,6 +167,19 @@ class StatusBar:
     def clear_message(self) -> None:
         """The state changed: the message on show may no longer be true."""
         self.message_label.setText("")
+        self._offer(None)
+
+    def offered_fix(self) -> QtGui.QAction | None:
+        """The action offered beside the message on show, or None."""
+        return self.fix_button.defaultAction() if self.fix_button.isVisible() else None
+
+    def _offer(self, fix: QtGui.QAction | None) -> None:
+        if fix is None:
+            self.fix_button.hide()
+            return
+        if self.fix_button.defaultAction() is not fix:
+            self.fix_button.setDefaultAction(fix)
+        self.fix_button.show()
 
     def toggle_log(self) -> None:
         """View ▸ Messages: the message log shown or hidden."""
