@@ -43,7 +43,7 @@ from .roles import FIXED, FREE, handle as handle_role
 from .skeleton import _edge_graph, find_skeleton
 
 __all__ = ["Limb", "LimbPose", "CrossSections", "cross_sections", "find_limbs", "limb_at", "swing_axis",
-           "MAX_LIMB_EXTREMITIES", "ELONGATION", "JUMP", "AHEAD", "GROWTH", "MAX_SHARE", "MIN_POINTS", "RETIP",
+           "MAX_LIMB_EXTREMITIES", "ELONGATION", "JUMP", "AHEAD", "GROWTH", "MAX_SHARE", "MIN_POINTS", "MIN_VERTICES", "RETIP",
            "HOVER_MARGIN", "STEP"]
 
 #: extremities of the skeleton looked at for limbs (fingers, ears and bumps come after the limbs)
@@ -60,6 +60,8 @@ GROWTH = 0.1
 MAX_SHARE = 0.25
 #: a cross-section is measured from at least this many points
 MIN_POINTS = 3
+#: a limb holds at least this many cage vertices (fewer is a bump too small to bend)
+MIN_VERTICES = 5
 #: :func:`limb_at` takes a vertex to lie on a limb up to this many times the limb's length from its tip
 HOVER_MARGIN = 1.15
 #: the tip moves to the limb's point farthest from its joint when its joint's cross-section is then
@@ -332,8 +334,9 @@ class Limb:
         """The handle, region of interest and pivot that pose the limb with its joint at ``at`` times
         its length from the tip.
 
-        The free band about the joint is the limb's radius there each side (an elbow bends over about
-        its thickness), at least half a cage edge and at most half the way back to the tip, so that
+        The free band about the joint is the radius of the cross-section there each side (an elbow
+        bends over about its thickness; past the limb's joint, the cut through the body is as wide as
+        the body there), at least half a cage edge and at most half the way back to the tip, so that
         it is never empty and never the whole limb; it stops short of the shape's centre, so that
         something stays fixed.
 
@@ -358,9 +361,9 @@ class Limb:
             raise ValueError(f"at must be a positive number, got {at!r}")
         d = self.cage_distance
         t = at * self.length
-        # (beyond the joint the cross-section is the body's: the band keeps to the limb's own radius)
-        w = min(self.radius_at(t), self.radius)
-        w = min(max(w, 0.5 * self.edge_length), 0.5 * t)
+        # (beyond the joint the cross-section is the body's, wider: so is the band, the cut through
+        # the body bending over as much as its thickness)
+        w = min(max(self.radius_at(t), 0.5 * self.edge_length), 0.5 * t)
         inner = t - w
         outer = max(min(t + w, np.nextafter(self.reach, 0.0)), inner)
         handle = d <= inner
@@ -398,7 +401,7 @@ def find_limbs(cage_vertices: np.ndarray, cage_edges: np.ndarray, *, centre_poin
     0.07 to 0.09 from the wrist to 0.88 from the tip, then 0.16 at 1.0 and 0.38 at 1.3 on the chest:
     its joint is at 0.88, the shoulder. A radius that only grows as fast as the distance from the
     start (a point on the body, a belly, a back) is no limb, nor is a region holding more than
-    :data:`MAX_SHARE` of the cage's surface.
+    :data:`MAX_SHARE` of the cage's surface or fewer than :data:`MIN_VERTICES` of its vertices.
 
     The tip is then put at the limb's point farthest from its joint and the walk made again from there,
     kept when the joint's cross-section comes out narrower (an extremity is the farthest point from
@@ -469,7 +472,7 @@ def find_limbs(cage_vertices: np.ndarray, cage_edges: np.ndarray, *, centre_poin
             if again is not None and again[1] < RETIP * found[1]:  # (square across the limb: narrower)
                 x, d, found = far, d_far, again
         length, radius, cs, (ring, weights) = found
-        if any(prev.cage_distance[x] <= prev.length or d[prev.extremity] <= length for prev in limbs):
+        if np.count_nonzero(d <= length) < MIN_VERTICES or any(prev.cage_distance[x] <= prev.length or d[prev.extremity] <= length for prev in limbs):
             continue
         measured = cs.count >= MIN_POINTS
         limbs.append(Limb(len(limbs), x, v[x].copy(), length, radius, weights @ v[ring], d,
