@@ -43,8 +43,8 @@ from .roles import FIXED, FREE, handle as handle_role
 from .skeleton import _edge_graph, find_skeleton
 
 __all__ = ["Limb", "LimbPose", "CrossSections", "cross_sections", "find_limbs", "limb_at", "swing_axis",
-           "MAX_LIMB_EXTREMITIES", "ELONGATION", "JUMP", "AHEAD", "GROWTH", "MAX_SHARE", "MIN_POINTS", "MIN_VERTICES", "RETIP",
-           "HOVER_MARGIN", "STEP"]
+           "MAX_LIMB_EXTREMITIES", "ELONGATION", "JUMP", "AHEAD", "GROWTH", "MAX_SHARE", "MIN_POINTS",
+           "MIN_VERTICES", "RETIP", "HOVER_MARGIN", "STEP"]
 
 #: extremities of the skeleton looked at for limbs (fingers, ears and bumps come after the limbs)
 MAX_LIMB_EXTREMITIES = 16
@@ -392,23 +392,24 @@ def find_limbs(cage_vertices: np.ndarray, cage_edges: np.ndarray, *, centre_poin
     from its tip through the cross-sections of the geodesic distance from it (:func:`cross_sections`,
     a quarter of a cage edge apart). The rule for its joint: a cross-section is a joint candidate when
     the part from the tip to it is at least :data:`ELONGATION` of its radii long and, :data:`AHEAD`
-    radii further on, the cross-section is :data:`JUMP` times as wide (the level set has left the limb:
-    on the body around it, it grows about as fast as the distance). Among the candidates the most
-    elongated (length over radius) is taken: a finger's joint on a hand or a horn's on a head loses to
-    the arm's or the head's, and the joint is put at the last cross-section after it whose radius is
-    within :data:`GROWTH` of its: where the growth starts, so that a limb that thickens slowly keeps its
-    thick part. On the creature (``data/creature.ply``, its default cage) the right arm's radius is
-    0.07 to 0.09 from the wrist to 0.88 from the tip, then 0.16 at 1.0 and 0.38 at 1.3 on the chest:
-    its joint is at 0.88, the shoulder. A radius that only grows as fast as the distance from the
-    start (a point on the body, a belly, a back) is no limb, nor is a region holding more than
-    :data:`MAX_SHARE` of the cage's surface or fewer than :data:`MIN_VERTICES` of its vertices.
+    radii further on, the cross-section is :data:`JUMP` times as wide (the level set has left the
+    limb: on the body around it, it grows about as fast as the distance). Among the candidates the
+    most elongated (length over radius) is taken: a finger's joint on a hand or a horn's on a head
+    loses to the arm's or the head's. The joint is put at the last cross-section after it whose
+    radius is within :data:`GROWTH` of its, where the growth starts, so that a limb that thickens
+    slowly keeps its thick part. On the creature (``data/creature.ply``, its default cage) the right
+    arm's radius is 0.05 to 0.08 from the wrist (0.4 from the fingertip) to 0.8, 0.087 at 0.86, then
+    0.16 at 1.0 and 0.34 at 1.3 on the chest: its joint is at 0.86, the shoulder (x = -0.34, the
+    hand at -1.15). A radius that only grows as fast as the distance from the start (a point on the
+    body, a belly, a back) is no limb, nor is a region holding more than :data:`MAX_SHARE` of the
+    cage's surface or fewer than :data:`MIN_VERTICES` of its vertices.
 
-    The tip is then put at the limb's point farthest from its joint and the walk made again from there,
-    kept when the joint's cross-section comes out narrower (an extremity is the farthest point from
-    the centre: on a foot's side as often as on its sole, and cross-sections from the side run askew
-    across the limb, wider than it). An extremity that lies on a limb
-    found before (a second finger of a hand, a point half way along a tail), or whose limb holds the
-    tip of one found before, is left out.
+    The tip is then put at the limb's point farthest from its joint and the walk made again from
+    there, kept when the joint's cross-section comes out narrower (an extremity is the farthest point
+    from the centre: on a foot's side as often as on its sole, and cross-sections from the side run
+    askew across the limb, wider than it). An extremity that lies on a limb found before (a second
+    finger of a hand, a point half way along a tail), or whose limb holds the tip of one found
+    before, is left out.
 
     Parameters
     ----------
@@ -472,7 +473,9 @@ def find_limbs(cage_vertices: np.ndarray, cage_edges: np.ndarray, *, centre_poin
             if again is not None and again[1] < RETIP * found[1]:  # (square across the limb: narrower)
                 x, d, found = far, d_far, again
         length, radius, cs, (ring, weights) = found
-        if np.count_nonzero(d <= length) < MIN_VERTICES or any(prev.cage_distance[x] <= prev.length or d[prev.extremity] <= length for prev in limbs):
+        if np.count_nonzero(d <= length) < MIN_VERTICES:
+            continue
+        if any(prev.cage_distance[x] <= prev.length or d[prev.extremity] <= length for prev in limbs):
             continue
         measured = cs.count >= MIN_POINTS
         limbs.append(Limb(len(limbs), x, v[x].copy(), length, radius, weights @ v[ring], d,

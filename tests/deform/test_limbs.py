@@ -245,7 +245,8 @@ def test_pose_limb_holds_the_body_and_turns_the_limb_about_its_joint(editor, whi
     # the selection is the limb's parts, in shape vertices: by their distance from the tip
     assert np.array_equal(roles, editor.limb_roles(limb))
     d = editor.limb_distance(limb)
-    assert d[hand].max() <= parts.inner < d[roles == 0].min() and d[roles == 0].max() <= parts.outer < d[roles == -1].min()
+    assert d[hand].max() <= parts.inner < d[roles == 0].min()
+    assert d[roles == 0].max() <= parts.outer < d[roles == -1].min()
 
 
 def test_pose_limb_takes_an_axis_a_joint_place_and_a_translation(editor):
