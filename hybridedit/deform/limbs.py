@@ -238,8 +238,8 @@ class LimbPose:
     half_width: float
     inner: float
     outer: float
-    cage_handle: np.ndarray
-    cage_roi: np.ndarray
+    cage_handle: np.ndarray = field(repr=False)
+    cage_roi: np.ndarray = field(repr=False)
     joint: np.ndarray
     axis: np.ndarray
     extremity: int
