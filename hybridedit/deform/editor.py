@@ -14,7 +14,8 @@ its drags, the polish, poses set from outside); each stage is its own module:
 Its other methods are in the parts it is made of, one job each: ``role_queries`` (the
 roles a selection gives each vertex), ``editor_state`` (snapshots, for undo),
 ``recorded_edits`` (the pose as an edit, an edit replayed), ``editor_files`` (a mesh
-file opened, the pose saved into it); ``rig_arguments`` gives it its rig.
+file opened, the pose saved into it), ``limb_posing`` (its limbs, one bent at its joint);
+``rig_arguments`` gives it its rig.
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ from .arap import ARAPSolver
 from .base_pose import BasePose, current_base, fit_cage, propagate_from, propagated_residual, rest_base
 from .editor_files import EditorFiles
 from .editor_state import EditorState, StateSnapshots
+from .limb_posing import LimbPosing
 from .frame_steps import Frame, FrameSteps, build_frame_steps, cage_targets, solve_cage
 from .polish import MAX_ITERATIONS as POLISH_MAX_ITERATIONS
 from .polish import TOLERANCE as POLISH_TOLERANCE
@@ -53,7 +55,7 @@ FRAME_HISTORY = 10000
 PROPAGATIONS = ("residual", "linear")
 
 
-class HybridEditor(RoleQueries, StateSnapshots, RecordedEdits, EditorFiles):
+class HybridEditor(RoleQueries, StateSnapshots, RecordedEdits, EditorFiles, LimbPosing):
     """Interactive hybrid mesh editing of one shape.
 
     Takes a :class:`~hybridedit.binding.rig.Rig` (cage + binding, see :func:`hybridedit.build_rig`),

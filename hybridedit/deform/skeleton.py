@@ -70,7 +70,8 @@ def _edge_graph(vertices: np.ndarray, edges: np.ndarray) -> sp.csr_matrix:
     return (g + g.T).tocsr()
 
 
-def find_skeleton(cage_vertices: np.ndarray, cage_edges: np.ndarray, centre_point: np.ndarray) -> Skeleton:
+def find_skeleton(cage_vertices: np.ndarray, cage_edges: np.ndarray, centre_point: np.ndarray, *,
+                  max_extremities: int = MAX_EXTREMITIES) -> Skeleton:
     """The centre and extremities of a shape, on its cage.
 
     Parameters
@@ -81,6 +82,8 @@ def find_skeleton(cage_vertices: np.ndarray, cage_edges: np.ndarray, centre_poin
         The cage's edges (the links between its parts included).
     centre_point : (3,) float64
         The shape's centre of mass.
+    max_extremities : int
+        Most extremities kept (the farthest first, so a larger count only adds to a smaller one's).
 
     Returns
     -------
@@ -96,7 +99,7 @@ def find_skeleton(cage_vertices: np.ndarray, cage_edges: np.ndarray, centre_poin
     nearest = np.where(reachable, from_centre, -np.inf)  # distance to the centre and the extremities so far
     found: list[int] = []
     rows: list[np.ndarray] = []
-    while len(found) < MAX_EXTREMITIES and largest > 0:
+    while len(found) < int(max_extremities) and largest > 0:
         i = int(np.argmax(nearest))
         if not nearest[i] >= MIN_SPREAD * largest:
             break
