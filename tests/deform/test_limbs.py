@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import itertools
 
 import numpy as np
 import pytest
@@ -12,93 +11,12 @@ from scipy.spatial.transform import Rotation
 
 import hybridedit as he
 from hybridedit.core.face_geometry import centre_of_mass
-from hybridedit.core.mesh import Mesh, edge_error_stats
+from hybridedit.core.mesh import edge_error_stats
 from hybridedit.core.transforms import apply_transform, rigid_transform
 from hybridedit.deform.limbs import cross_sections, find_limbs, limb_at, swing_axis
+from shapes import ARM_TIPS, FEET, HIPS, SHOULDERS, figure
 
 CAGE = 0.1  # (a fraction of the figure's vertices: 571 cage vertices)
-
-
-def capsule_distance(p: np.ndarray, a, b, radius: float) -> np.ndarray:
-    """Signed distance from points ``p`` (..., 3) to the capsule of ``radius`` about segment a-b."""
-    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-    t = np.clip((p - a) @ (b - a) / np.dot(b - a, b - a), 0.0, 1.0)
-    return np.linalg.norm(p - (a + t[..., None] * (b - a)), axis=-1) - radius
-
-
-def smooth_union(d1: np.ndarray, d2: np.ndarray, k: float) -> np.ndarray:
-    """The union of two signed distances, filleted over about ``k``."""
-    h = np.maximum(k - np.abs(d1 - d2), 0.0) / k
-    return np.minimum(d1, d2) - h * h * k / 4
-
-
-def surface_nets(f: np.ndarray, lo: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
-    """The closed surface f = 0 of samples f (f < 0 inside) at lo + h (i, j, k), by surface nets:
-    a vertex per grid cell the surface crosses (the mean of its edges' crossings), a quad (two
-    triangles) per grid edge it crosses, between the four cells around that edge."""
-    n = np.array(f.shape)
-    cells = n - 1
-    corners = list(itertools.product((0, 1), repeat=3))
-    inside = f < 0
-    count = sum(inside[i:i + cells[0], j:j + cells[1], k:k + cells[2]].astype(np.int8) for i, j, k in corners)
-    active = (count > 0) & (count < 8)
-    vid = np.full(cells, -1, dtype=np.int64)
-    vid[active] = np.arange(int(active.sum()))
-    at = np.argwhere(active)
-    total, hits = np.zeros((len(at), 3)), np.zeros(len(at))
-    for a in range(3):
-        step = np.eye(3, dtype=np.int64)[a]
-        for u, w in itertools.product((0, 1), repeat=2):
-            o = np.zeros(3, dtype=np.int64)
-            o[(a + 1) % 3], o[(a + 2) % 3] = u, w
-            p0 = at + o
-            f0, f1 = f[tuple(p0.T)], f[tuple((p0 + step).T)]
-            x = (f0 < 0) != (f1 < 0)
-            total[x] += p0[x] + (f0[x] / (f0[x] - f1[x]))[:, None] * step
-            hits[x] += 1
-    quads = []
-    for a in range(3):
-        b, c = (a + 1) % 3, (a + 2) % 3
-        head = [slice(None)] * 3
-        head[a] = slice(0, n[a] - 1)
-        tail = list(head)
-        tail[a] = slice(1, n[a])
-        p = np.argwhere(inside[tuple(head)] != inside[tuple(tail)])
-        p = p[(p[:, b] >= 1) & (p[:, c] >= 1) & (p[:, b] < n[b] - 1) & (p[:, c] < n[c] - 1)]
-        around = []
-        for db, dc in ((1, 1), (0, 1), (0, 0), (1, 0)):
-            q = p.copy()
-            q[:, b] -= db
-            q[:, c] -= dc
-            around.append(vid[tuple(q.T)])
-        q = np.stack(around, axis=1)
-        q[inside[tuple(p.T)]] = q[inside[tuple(p.T)]][:, ::-1]  # (outward)
-        quads.append(q)
-    q = np.concatenate(quads)
-    return lo + h * total / hits[:, None], np.concatenate([q[:, [0, 2, 1]], q[:, [0, 3, 2]]])
-
-
-#: where the figure's limbs end and where they leave the body (the arms at shoulder height)
-ARM_TIPS = np.array([[-2.04, 0.6, 0.0], [2.04, 0.6, 0.0]])
-FEET = np.array([[-0.25, -1.98, 0.0], [0.25, -1.98, 0.0]])
-SHOULDERS = np.array([[-0.45, 0.6, 0.0], [0.45, 0.6, 0.0]])
-HIPS = np.array([[-0.25, -0.97, 0.0], [0.25, -0.97, 0.0]])
-
-
-def figure(h: float = 0.05) -> Mesh:
-    """A standing figure as benchmarks/select_tear.py's, as one closed surface: a capsule body (radius
-    0.45, y in [-1.05, 1.05]), two arms out to the sides at the shoulders (radius 0.14, tips at
-    x = +-2.04), two legs (radius 0.18, feet at y = -1.98), filleted where they meet; sampled every
-    ``h`` (5,708 vertices)."""
-    lo = np.array([-2.25, -2.2, -0.65]) + [0.0131, 0.0077, 0.0113]  # (off the grid: no sample on the surface)
-    axes = [np.arange(lo[i], hi + h / 2, h) for i, hi in enumerate((2.25, 1.3, 0.65))]
-    p = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
-    d = capsule_distance(p, (0, -0.6, 0), (0, 0.6, 0), 0.45)
-    for sx in (-1, 1):
-        d = smooth_union(d, capsule_distance(p, (sx * 0.3, 0.6, 0), (sx * 1.9, 0.6, 0), 0.14), 0.1)
-        d = smooth_union(d, capsule_distance(p, (sx * 0.25, -0.9, 0), (sx * 0.25, -1.8, 0), 0.18), 0.1)
-    v, f = surface_nets(d, lo, h)
-    return Mesh(v, f, name="figure")
 
 
 def bottle() -> tuple[np.ndarray, np.ndarray, np.ndarray]:

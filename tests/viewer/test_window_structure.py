@@ -19,10 +19,10 @@ from qtpy import QtCore, QtWidgets
 
 import hybridedit.viewer as viewer
 from hybridedit.viewer.input import drags
-from hybridedit.viewer.input.mouse_gestures import DragHandler, SelectionHandler
+from hybridedit.viewer.input.mouse_gestures import DragHandler, PoseHandler, SelectionHandler
 from hybridedit.viewer.jobs import build_jobs
 from hybridedit.viewer.window import (
-    actions, dialogs, file_actions, file_drops, first_steps, posing, scene_sync, selecting, shape_loading,
+    actions, dialogs, file_actions, file_drops, first_steps, limb_posing, posing, scene_sync, selecting, shape_loading,
     status_bar, undo_commands, unsaved_mark, view_options,
 )
 from hybridedit.viewer.window.main_window import MainWindow
@@ -36,7 +36,7 @@ HOSTS = {
     actions: (actions.ActionsHost, "actions_"), dialogs: (dialogs.InfoSource, "dialogs"),
     drags: (drags.DragHost, "dragging"), build_jobs: (build_jobs.BuildHost, "jobs"),
     file_actions: (file_actions.FileHost, "files"), file_drops: (file_drops.DropsHost, "drops"),
-    first_steps: (first_steps.HintHost, "first_steps"),
+    first_steps: (first_steps.HintHost, "first_steps"), limb_posing: (limb_posing.PoseHost, "limb_posing"),
     posing: (posing.PosingHost, "posing"), scene_sync: (scene_sync.SyncHost, "sync"),
     selecting: (selecting.SelectHost, "selecting"), shape_loading: (shape_loading.LoadingHost, "loading"),
     status_bar: (status_bar.StatusHost, "status"), undo_commands: (undo_commands.UndoHost, "undo_commands"),
@@ -191,6 +191,7 @@ def test_main_window_satisfies_its_collaborators_protocols(qtbot):
         assert nested_checked > 60, nested_checked
         # the mouse's gestures go to the selection and to the drags, and the drag draws in the scene and view
         assert isinstance(w.selecting, SelectionHandler) and isinstance(w.dragging, DragHandler)
+        assert isinstance(w.limb_posing, PoseHandler) and w.controller.poses is w.limb_posing
         assert w.controller.selection is w.selecting and w.controller.drags is w.dragging
         assert w.dragging.scene is w.scene and w.dragging.view is w.view
     finally:

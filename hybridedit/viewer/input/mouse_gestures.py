@@ -1,12 +1,18 @@
 """Mouse handling on the 3D view: rubber band and brush selection, gizmo and screen-plane drags.
 
-An event filter on the view takes the left button in the Select and Drag
-modes (and on the gizmo in every mode but Select); everything else goes on to
+An event filter on the view takes the left button in the Select, Drag and Pose
+modes (and on the gizmo in the Camera and Drag modes); everything else goes on to
 VTK's camera style (left: rotate in Camera mode, middle: pan, right / wheel:
 zoom; Alt + left rotates in any mode). Key events never reach VTK: the window's
 shortcuts handle the keyboard.
 
-The controller turns gestures into calls on a :class:`SelectionHandler` and a :class:`DragHandler`.
+The controller turns gestures into calls on a :class:`SelectionHandler`, a :class:`DragHandler` and
+a :class:`PoseHandler`.
+
+In Pose mode (as Blender's Pose brush) the limb under the cursor is shown; a drag on it makes it the
+selection and turns it about its joint in the view plane by the angle the cursor sweeps round the
+joint (Shift at the press: moves it in the view plane instead); the wheel over it moves the joint
+along it.
 
 Selection takes the surface the user points at: for the rectangle and the brush,
 the part they are drawn over (what they see of it, not a sliver of another part
@@ -38,14 +44,14 @@ from qtpy import QtCore, QtGui
 from ..model import gizmo as gz
 from ..model.picking import (
     ADD, REPLACE, brush_hits, nearest_hit, op_from_modifiers, project_points, rectangle_hits, stroke_hits,
-    visible_points,
+    unproject, visible_points,
 )
 from ..model.surface_pick import edge_graph, surface_under
 from ..render.scene import Scene
 from ..render.view import OutlineOverlay, View
 
-CAMERA, SELECT, DRAG = "camera", "select", "drag"
-MODES = (CAMERA, SELECT, DRAG)
+CAMERA, SELECT, DRAG, POSE = "camera", "select", "drag", "pose"
+MODES = (CAMERA, SELECT, DRAG, POSE)
 RECTANGLE, BRUSH = "rectangle", "brush"
 NEAR_PIXELS = 60.0
 """In Select mode the cage points within this many pixels of the cursor are drawn."""
@@ -89,15 +95,25 @@ class DragHandler(Protocol):
     def end(self) -> None: ...
 
 
+@runtime_checkable
+class PoseHandler(Protocol):
+    """What the Pose mode's gestures call (the window's :class:`~..window.limb_posing.LimbPosing`)."""
+
+    def hover(self, cage_vertex: int | None) -> bool: ...  # show the limb there (None: none); True: one shown
+    def grab(self, cage_vertex: int) -> np.ndarray | None: ...  # the limb there made the selection; its pivot
+    def move_joint(self, steps: int) -> None: ...  # the joint of the limb shown, along it (+: toward the body)
+
+
 class Gesture:
     """State of one left-button gesture."""
 
     def __init__(self, kind: str, start_qt: QtCore.QPointF, start: tuple[float, float]) -> None:
-        self.kind = kind            # "rectangle", "brush", "gizmo", "plane"
+        self.kind = kind            # "rectangle", "brush", "gizmo", "plane", "pose"
         self.start_qt = start_qt    # widget coordinates
         self.start = start          # display coordinates
         self.last = start
         self.op = REPLACE
+        self.shift = False  # (a Pose drag with Shift moves the limb instead of turning it)
         self.part: gz.Part | None = None
         self.center = np.zeros(3)
         self.grab: np.ndarray | None = None
@@ -119,14 +135,18 @@ class ViewController(QtCore.QObject):
     view : the 3D view widget; scene : its actors.
     selection : what the selection gestures call (:class:`SelectionHandler`).
     drags : what the drag gestures call (:class:`DragHandler`).
+    poses : what the Pose mode's gestures call (:class:`PoseHandler`); None: no Pose mode.
     """
 
-    def __init__(self, view: View, scene: Scene, selection: SelectionHandler, drags: DragHandler) -> None:
+    def __init__(self, view: View, scene: Scene, selection: SelectionHandler, drags: DragHandler,
+                 poses: PoseHandler | None = None) -> None:
         super().__init__(view)
         self.view = view
         self.scene = scene
         self.selection = selection
         self.drags = drags
+        self.poses = poses
+        self._limb_shown = False  # Pose mode: a limb is shown under the cursor
         self.mode = CAMERA
         self.target_color = QtGui.QColor(60, 190, 70)
         self.tool = RECTANGLE
@@ -160,10 +180,15 @@ class ViewController(QtCore.QObject):
             CAMERA: QtCore.Qt.CursorShape.ArrowCursor,
             SELECT: QtCore.Qt.CursorShape.CrossCursor,
             DRAG: QtCore.Qt.CursorShape.SizeAllCursor,
+            POSE: QtCore.Qt.CursorShape.PointingHandCursor,
         }
         self.view.setCursor(cursors[mode])
         self.view.brush.hide()
-        self.view.depth.wanted = mode == SELECT  # the frames shown in Select mode keep the depth up to date
+        # the frames shown in Select and Pose mode keep the depth up to date (what is in sight, under the cursor)
+        self.view.depth.wanted = mode in (SELECT, POSE)
+        self.scene.gizmo.suppress(mode == POSE)
+        if mode != POSE and self.poses is not None and self._limb_shown:
+            self._limb_shown = self.poses.hover(None)
         if self.scene.set_points_near(None):
             self.view.request_render()
         if self.scene.gizmo.set_hover(None):
@@ -214,10 +239,17 @@ class ViewController(QtCore.QObject):
             return self._release(ev)
         if t == E.MouseButtonDblClick:
             return ev.button() == QtCore.Qt.MouseButton.LeftButton and self.mode != CAMERA
+        if t == E.Wheel and self.mode == POSE and self._limb_shown and self.gesture is None:
+            steps = 1 if ev.angleDelta().y() > 0 else -1 if ev.angleDelta().y() < 0 else 0
+            if steps:
+                self.poses.move_joint(steps)  # (over a limb the wheel moves its joint; elsewhere it zooms)
+            return True
         if t == E.Leave:
             self._hover_pos = None
             self.view.brush.hide()
             self._show_points_near(None)
+            if self._limb_shown and self.gesture is None:
+                self._limb_shown = self.poses.hover(None)
         return False
 
     # ------------------------------------------------------------------ what is in sight
@@ -278,12 +310,14 @@ class ViewController(QtCore.QObject):
         pos = ev.position()
         d = self.view.to_display(pos)
         C, size = self._matrices()
-        if self.mode != SELECT:
+        if self.mode in (CAMERA, DRAG):
             part = self.scene.gizmo.hit(d, C, size)
             if part is not None:
                 return self._start_drag("gizmo", pos, d, C, size, part)
         if self.mode == SELECT:
             return self._start_select(pos, d, C, size, mods)
+        if self.mode == POSE and self.poses is not None:
+            return self._start_pose(pos, d, C, size, bool(mods & QtCore.Qt.KeyboardModifier.ShiftModifier))
         if self.mode == DRAG:
             return self._start_drag("plane", pos, d, C, size, None)
         self._passthrough = True
@@ -341,6 +375,44 @@ class ViewController(QtCore.QObject):
         self.gesture = g
         return True
 
+    def _start_pose(self, pos: QtCore.QPointF, d: tuple[float, float], C: np.ndarray, size: tuple[int, int],
+                    shift: bool) -> bool:
+        """A press in Pose mode: the limb under the cursor becomes the selection, and a drag turns it about its
+        joint (moves it with ``shift``)."""
+        i = self.cage_vertex_at(d)
+        pivot = None if i is None else self.poses.grab(i)
+        if pivot is None:  # (the window says why)
+            return True
+        self._limb_shown = False
+        if not self.drags.begin():
+            return True
+        g = Gesture("pose", pos, d)
+        g.composite, g.size, g.shift = C, size, shift
+        g.center = np.asarray(pivot, dtype=np.float64)
+        self.gesture = g
+        return True
+
+    def cage_vertex_at(self, d: tuple[float, float], render: bool = True) -> int | None:
+        """The cage point of the surface under display point ``d``: nearest (in space) to the surface point
+        the depth buffer shows there, else the nearest cage point in sight within :data:`PICK_PIXELS`;
+        None over empty space (or, without ``render``, when the depth on hand is out of date)."""
+        P = self.selection.cage_points()
+        if P is None:
+            return None
+        depth = self.view.fresh_depth() if render else self.view.depth
+        if depth is None or not depth.current():
+            return None
+        x, y = int(np.floor(d[0])) - depth.origin[0], int(np.floor(d[1])) - depth.origin[1]
+        h, w = depth.depth.shape
+        if 0 <= x < w and 0 <= y < h and depth.depth[y, x] < 1.0:
+            at = unproject(d[0], d[1], 2.0 * float(depth.depth[y, x]) - 1.0, depth.composite, depth.size)
+            return int(np.argmin(np.sum((P - at) ** 2, axis=1)))
+        C, size = self._matrices()
+        display, front = project_points(P, C, size)
+        take = self.takeable(P, C, size, display, front, render=render)
+        hit = nearest_hit(display, front if take is None else take, d, PICK_PIXELS * self.view.devicePixelRatioF())
+        return int(np.flatnonzero(hit)[0]) if hit.any() else None
+
     def _move(self, ev: QtGui.QMouseEvent) -> bool:
         pos = ev.position()
         g = self.gesture
@@ -367,6 +439,8 @@ class ViewController(QtCore.QObject):
         return max(abs(d[0] - g.start[0]), abs(d[1] - g.start[1])) <= CLICK_PIXELS * self.view.devicePixelRatioF()
 
     def _drag_transform(self, g: Gesture, d: tuple[float, float]) -> np.ndarray:
+        if g.kind == "pose" and not g.shift:
+            return gz.swept_rotation(g.start, d, g.center, g.composite, g.size)
         if g.kind == "gizmo":
             return gz.part_transform(g.part, g.start, d, g.center, self.scene.gizmo.length, g.grab,
                                      g.composite, g.size)
@@ -427,16 +501,32 @@ class ViewController(QtCore.QObject):
         if self.scene.set_points_near(near):
             self.view.request_render()
 
+    def _hover_limb(self, pos: QtCore.QPointF) -> None:
+        """Pose mode: show the limb under the cursor (the depth on hand read; a frame reads it when stale)."""
+        if self.poses is None:
+            return
+        d = self.view.to_display(pos)
+        i = self.cage_vertex_at(d, render=False)
+        if i is None and not self.view.depth.current():
+            self.view.request_render()  # (the depth comes with it, then _rehover)
+            return
+        self._limb_shown = self.poses.hover(i)
+
     def _rehover(self) -> None:
         """The depth was read: show the cage points near the cursor that a selection would take."""
         if self._hover_pos is not None and self.gesture is None and self.mode == SELECT:
             self._show_points_near(self._hover_pos)
+        elif self._hover_pos is not None and self.gesture is None and self.mode == POSE:
+            self._hover_limb(self._hover_pos)
 
     def _hover(self, pos: QtCore.QPointF) -> None:
         self._hover_pos = QtCore.QPointF(pos)
         self._show_points_near(pos)
         if self.mode == SELECT and self.tool == BRUSH:
             self.view.brush.show_at(pos, self.brush_radius, self.target_color)
+            return
+        if self.mode == POSE:
+            self._hover_limb(pos)
             return
         part = None
         if self.mode != SELECT:

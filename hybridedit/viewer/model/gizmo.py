@@ -171,3 +171,35 @@ def part_transform(part: Part, start: tuple[float, float], now: tuple[float, flo
     g = grab if grab is not None else grab_direction(start, center, part.axis, radius, composite, size)
     deg = ring_angle(start, now, center, part.axis, radius, g, composite, size)
     return rigid_transform(axis=AXES[part.axis], degrees=deg, center=center)
+
+
+def swept_rotation(start: tuple[float, float], now: tuple[float, float], pivot: np.ndarray,
+                   composite: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    """The (4, 4) world rotation about ``pivot``, in the view plane, by the angle the mouse swept around
+    the pivot's place on screen from ``start`` to ``now`` (the Pose tool's drag: a limb turned about its
+    joint follows the cursor round it, as Blender's Pose brush does).
+
+    Counter-clockwise on screen is counter-clockwise as seen: about the line of sight through the pivot,
+    pointing at the viewer. A mouse on the pivot itself turns nothing.
+
+    Examples
+    --------
+    Seen from +Z (an orthographic view of the unit square), a quarter turn round the origin:
+
+    >>> C = np.diag([1.0, 1.0, -1.0, 1.0])
+    >>> T = swept_rotation((100, 50), (50, 100), np.zeros(3), C, (100, 100))
+    >>> np.round(T[:3, :3] @ [1.0, 0, 0], 6).tolist()
+    [0.0, 1.0, 0.0]
+    """
+    c = np.asarray(pivot, dtype=np.float64)
+    p, _ = project_points(c[None], composite, size)
+    at = p[0, :2]
+    s = np.asarray(start, dtype=np.float64) - at
+    n = np.asarray(now, dtype=np.float64) - at
+    if not (np.hypot(*s) > 0 and np.hypot(*n) > 0):
+        return np.eye(4)
+    angle = float(np.degrees(np.angle(np.exp(1j * (np.arctan2(n[1], n[0]) - np.arctan2(s[1], s[0]))))))
+    near = unproject(at[0], at[1], -1.0, composite, size)
+    far = unproject(at[0], at[1], 1.0, composite, size)
+    toward = near - far
+    return rigid_transform(axis=toward / np.linalg.norm(toward), degrees=angle, center=c)

@@ -290,6 +290,22 @@ class Selection:
         self._owner.selection_changed(label or f"select {'ROI' if target == ROI else 'handle'}")
         return True
 
+    def replace(self, roi: np.ndarray, handle: np.ndarray, label: str) -> bool:
+        """The ROI and one handle group, replacing the whole selection (every handle group) as one undo
+        step called ``label`` (the Pose tool's limb); returns False when it was that already."""
+        r = np.asarray(roi, dtype=bool)
+        h = np.asarray(handle, dtype=bool)
+        if r.shape != (self._n_cage,) or h.shape != (self._n_cage,):
+            raise ValueError(f"selection masks must have {self._n_cage} entries (the cage vertex count)")
+        groups = np.where(h, handle_role(0), NO_GROUP).astype(np.int8)
+        if self.n_groups == 1 and np.array_equal(r, self.roi) and np.array_equal(groups, self.handle_group):
+            return False
+        self.roi, self.handle_group = r.copy(), groups
+        self.n_groups, self.active = 1, 0
+        self._owner.reset_transforms()
+        self._owner.selection_changed(label)
+        return True
+
     def select(self, target: str, hits: np.ndarray, op: str) -> bool:
         """Apply hit-tested cage vertices ((c,) bool) to the ROI or the handle (replace / add / remove)."""
         return self.set_mask(target, combine(self.mask(target), hits, op))

@@ -31,8 +31,10 @@ class Gizmo:
         self.length = 1.0
         self.center = np.zeros(3)
         self.visible = False
+        self.suppressed = False  # hidden whatever is placed (the Pose tool turns limbs, not the handle)
         self.hover: Part | None = None
         self._actors: dict[Part, pv.Actor] = {}
+        self._placed = False  # a centre was placed (shown unless suppressed)
 
     def build(self, length: float) -> None:
         """(Re)create the actors for an arrow length in world units."""
@@ -73,9 +75,15 @@ class Gizmo:
         self._actors.clear()
         self.hover = None
 
+    def suppress(self, on: bool) -> None:
+        """Hide the gizmo wherever it is placed (True), or show it again where it was (False)."""
+        self.suppressed = bool(on)
+        self.place(self.center if self._placed else None)
+
     def place(self, center: np.ndarray | None) -> None:
-        """Move the gizmo to ``center``, or hide it for None."""
-        self.visible = center is not None
+        """Move the gizmo to ``center``, or hide it for None (hidden anyway while suppressed)."""
+        self._placed = center is not None
+        self.visible = center is not None and not self.suppressed
         if center is not None:
             self.center = np.asarray(center, dtype=np.float64).copy()
         for actor in self._actors.values():

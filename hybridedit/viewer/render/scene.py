@@ -32,6 +32,7 @@ from ...core.mesh import unique_edges
 from ...deform.roles import FIXED, FREE
 from ..model.gizmo import RING_RATIO
 from .gizmo_actors import Gizmo
+from .pivot_marker import PivotMarker
 from .palette import (
     BACKGROUND, CAGE_COLOR, POINT_ALPHA, ROLE_COLORS, SHAPE_COLOR, role_rows, shape_tint, stretch_colour_bar,
     stretch_lookup_table,
@@ -104,6 +105,7 @@ class Scene:
         ren_win.AddRenderer(self.overlay)
         self.renderer.AddObserver("StartEvent", self._before_render)
         self.gizmo = Gizmo(self.overlay)
+        self.pivot = PivotMarker(self.overlay)  # the Pose tool's joint
         self.shape: pv.PolyData | None = None
         self.parts: ShapeParts | None = None
         self.look = None  # what the file says the shape looks like (.look.Look), or None
@@ -150,6 +152,7 @@ class Scene:
             self.parts.remove()
             self.parts = None
         self.gizmo.remove()
+        self.pivot.place(None)
         self.shape = self.cage_poly = self.points_poly = self.points_actor = None
         self.metrics = None
         self.look = None
@@ -202,6 +205,7 @@ class Scene:
         self._build_points(cage, cage_vertices, cage_faces, cage_roles)
         lo, hi = V.min(axis=0), V.max(axis=0)
         self.gizmo.build(0.12 * float(np.linalg.norm(hi - lo)))
+        self.pivot.build(0.01 * float(np.linalg.norm(hi - lo)))
         self.set_cage_visible(self.cage_visible)
         self.set_stretch_visible(self.stretch_visible)
 

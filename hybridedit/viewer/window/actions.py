@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Callable, Protocol, runtime_checkable
 from qtpy import QtCore, QtGui, QtWidgets
 
 from ...core.up_axis import AXES
-from ..input.mouse_gestures import BRUSH, CAMERA, DRAG, RECTANGLE, SELECT
+from ..input.mouse_gestures import BRUSH, CAMERA, DRAG, POSE, RECTANGLE, SELECT
 from ..model.selection_masks import HANDLE, ROI
 from ..render.scene import VIEWS
 from .interfaces import Busy
@@ -27,7 +27,7 @@ MENUS: dict[str, list] = {
     "&Edit": ["undo", "redo", None, "reset_pose", None, "settle", "polish"],
     "&Select": ["select_all", "invert_sel", None, "clear_sel", "clear_target", None, "select_through", None,
                 "free_around_handle"],
-    "&Mode": ["mode_camera", "mode_select", "mode_drag", None, "target_roi", "target_handle", None,
+    "&Mode": ["mode_camera", "mode_select", "mode_drag", "mode_pose", None, "target_roi", "target_handle", None,
               "new_group", "next_group", None, "mirror_x", "mirror_y", "mirror_z", None,
               "tool_rect", "tool_brush", "brush_bigger", "brush_smaller"],
     "&View": ["look_texture", "look_colors", "look_plain", None, "show_cage", "show_points", "hide_points_dragging", "stretch",
@@ -39,7 +39,7 @@ MENUS: dict[str, list] = {
 }
 """The menu bar: each menu's actions by name, None a separator, (title, names) a submenu."""
 
-EXCLUSIVE = (("mode_camera", "mode_select", "mode_drag"), ("target_roi", "target_handle"),
+EXCLUSIVE = (("mode_camera", "mode_select", "mode_drag", "mode_pose"), ("target_roi", "target_handle"),
              ("tool_rect", "tool_brush"))
 """The checkable actions of which one is on at a time."""
 
@@ -311,6 +311,9 @@ class ActionSet(Mapping):
           tip="Left drag selects cage vertices (Shift adds, Ctrl removes)", short="Select")
         A("mode_drag", "&Drag Mode", lambda: opt.set_mode(DRAG), "D", checkable=True,
           tip="Left drag moves the handle parallel to the view", short="Drag")
+        A("mode_pose", "&Pose Mode", lambda: opt.set_mode(POSE), "P", checkable=True,
+          tip="Hover a limb to see its joint; left drag turns it about the joint (Shift: moves it); "
+              "[ ] or the wheel move the joint", short="Pose")
         A("target_roi", "Target &ROI", lambda: sel.set_target(ROI), "R", checkable=True,
           tip="Selections change the region of interest (green)", short="ROI")
         A("target_handle", "Target &Handle", lambda: sel.set_target(HANDLE), "H", checkable=True,
@@ -328,8 +331,10 @@ class ActionSet(Mapping):
         A("tool_rect", "Rec&tangle", lambda: opt.set_tool(RECTANGLE), "X", checkable=True,
           tip="Rubber-band rectangle selection", short="Rect")
         A("tool_brush", "&Brush", lambda: opt.set_tool(BRUSH), "B", checkable=True, tip="Brush selection")
-        A("brush_bigger", "Bigger Brush", lambda: opt.scale_brush(1.25), "]", tip="Enlarge the brush")
-        A("brush_smaller", "Smaller Brush", lambda: opt.scale_brush(0.8), "[", tip="Shrink the brush")
+        A("brush_bigger", "Bigger Brush", lambda: opt.scale_brush(1.25), "]",
+          tip="Enlarge the brush (Pose mode: the joint toward the body)")
+        A("brush_smaller", "Smaller Brush", lambda: opt.scale_brush(0.8), "[",
+          tip="Shrink the brush (Pose mode: the joint toward the tip)")
 
     def _view_actions(self) -> None:
         A, opt = self._action, self.w.options
@@ -408,7 +413,7 @@ class ActionSet(Mapping):
         tb.setMovable(False)
         a, opt = self._actions, self.w.options
         tb.addWidget(QtWidgets.QLabel(" Mode "))
-        for n in ("mode_camera", "mode_select", "mode_drag"):
+        for n in ("mode_camera", "mode_select", "mode_drag", "mode_pose"):
             tb.addAction(a[n])
         tb.addSeparator()
         tb.addWidget(QtWidgets.QLabel(" Target "))

@@ -25,6 +25,7 @@ from .dialogs import InfoDialogs
 from .file_actions import FileActions
 from .file_drops import FileDrops
 from .first_steps import FirstSteps
+from .limb_posing import LimbPosing
 from .posing import Posing
 from .scene_sync import SceneSync
 from .selecting import Selecting
@@ -65,6 +66,7 @@ class MainWindow(QtWidgets.QMainWindow):
     status : the status bar and the message log (:class:`~.status_bar.StatusBar`).
     drops : files dropped on the window (:class:`~.file_drops.FileDrops`).
     first_steps : the hint on the view until the first selection (:class:`~.first_steps.FirstSteps`).
+    limb_posing : the Pose tool (:class:`~.limb_posing.LimbPosing`).
     """
 
     def __init__(self, cage_size: int | float = CAGE_SIZE) -> None:
@@ -86,7 +88,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self.undo_commands = UndoCommands(self)
         self.options = ViewOptions(self)
         self.loading = ShapeLoading(self)
-        self.controller = ViewController(self.view, self.scene, self.selecting, self.dragging)
+        self.limb_posing = LimbPosing(self)
+        self.controller = ViewController(self.view, self.scene, self.selecting, self.dragging, self.limb_posing)
         self.cage_control = CageSizeControl(lambda: self.session.mesh.n_vertices if self.session else None)
         self.actions_ = ActionSet(self, self)
         # (after the toolbar: its widgets come after the toolbar's in the keyboard focus order)

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Protocol, runtime_checkable
 from qtpy import QtCore, QtWidgets
 
 from ...fileio.up_axes import remember_up_axis, shape_key
-from ..input.mouse_gestures import CAMERA, DRAG, RECTANGLE, SELECT
+from ..input.mouse_gestures import CAMERA, DRAG, POSE, RECTANGLE, SELECT
 from .interfaces import ActionChecks, Named
 from .slot_errors import guarded
 
@@ -23,9 +23,18 @@ if TYPE_CHECKING:
 class Mouse(Protocol):
     """The view controller as the view options see it: the mode, the tool, the brush."""
 
+    @property
+    def mode(self) -> str: ...
     def set_mode(self, mode: str) -> None: ...
     def set_tool(self, tool: str) -> None: ...
     def set_brush_radius(self, radius: float) -> None: ...
+
+
+@runtime_checkable
+class Joints(Protocol):
+    """The Pose tool as the view options see it: ``[`` / ``]`` move the joint of the limb shown."""
+
+    def move_joint(self, steps: int) -> None: ...
 
 
 @runtime_checkable
@@ -84,6 +93,8 @@ class OptionsHost(Protocol):
     def files(self) -> Named: ...
     @property
     def actions_(self) -> ActionChecks: ...
+    @property
+    def limb_posing(self) -> Joints: ...
 
 
 class ViewOptions:
@@ -110,14 +121,16 @@ class ViewOptions:
 
     # ------------------------------------------------------------------ the mouse
     def set_mode(self, mode: str) -> None:
-        """What a left drag does: ``CAMERA``, ``SELECT`` or ``DRAG`` (:mod:`..input.mouse_gestures`)."""
+        """What a left drag does: ``CAMERA``, ``SELECT``, ``DRAG`` or ``POSE`` (:mod:`..input.mouse_gestures`)."""
         w = self.w
         w.controller.set_mode(mode)
         w.actions_[f"mode_{mode}"].setChecked(True)
         w.status.message({CAMERA: "Camera mode: left drag rotates the view",
                           SELECT: "Select mode: left drag selects (Shift adds, Ctrl removes); R / H switch ROI / "
                                   "handle",
-                          DRAG: "Drag mode: left drag moves the handle in the view plane; the gizmo rotates it"}[mode])
+                          DRAG: "Drag mode: left drag moves the handle in the view plane; the gizmo rotates it",
+                          POSE: "Pose mode: hover a limb to see its joint, drag to turn it about the joint (Shift: "
+                                "move it); [ ] or the wheel move the joint"}[mode])
 
     def set_tool(self, tool: str) -> None:
         """The selection tool: ``RECTANGLE`` or ``BRUSH``."""
@@ -125,7 +138,11 @@ class ViewOptions:
         self.w.actions_["tool_rect" if tool == RECTANGLE else "tool_brush"].setChecked(True)
 
     def scale_brush(self, factor: float) -> None:
-        """The brush radius times ``factor`` (Mode ▸ Bigger / Smaller Brush)."""
+        """The brush radius times ``factor`` (Mode ▸ Bigger / Smaller Brush); in Pose mode the same keys move
+        the joint of the limb shown (bigger: toward the body)."""
+        if self.w.controller.mode == POSE:
+            self.w.limb_posing.move_joint(1 if factor > 1 else -1)
+            return
         self.brush_spin.setValue(int(round(self.brush_spin.value() * factor)))
 
     def focus_view(self) -> None:
