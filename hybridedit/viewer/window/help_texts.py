@@ -5,9 +5,12 @@ from __future__ import annotations
 from importlib import resources
 
 MOUSE_HELP = [
-    ("Left drag", "Camera mode: rotate the view; Select mode: rectangle or brush (the part it is drawn over, "
-                  "through its thickness, not what another part hides; Select Through, Alt+Z, takes that too); "
-                  "Drag mode: move the handle in the view plane"),
+    ("Left drag", "Camera mode: rotate the view; Select mode: rectangle or brush (the surface it is drawn over, "
+                  "through its thickness, not another part behind it or beside it on screen; Select Through, "
+                  "Alt+Z, takes everything under it); Drag mode: move the handle in the view plane; Pose mode: "
+                  "turn the limb under the cursor about its joint"),
+    ("Shift + left drag (Pose mode)", "move the limb in the view plane instead of turning it"),
+    ("Wheel over a limb (Pose mode)", "move its joint along it (as [ and ])"),
     ("Left click", "Select mode, rectangle tool: take the nearest cage point (Shift adds, Ctrl removes); "
                    "a click on empty space changes nothing"),
     ("Shift + left drag", "Select mode: add to the selection (Camera mode: pan)"),
@@ -33,6 +36,7 @@ FIRST_STEPS = (
     "<tr><td><b>S</b></td><td>Select mode, then drag over the part that may move (<b>R</b>: the ROI, green)</td></tr>"
     "<tr><td><b>H</b></td><td>then drag over the cage points to pull (the handle, orange)</td></tr>"
     "<tr><td><b>D</b></td><td>Drag mode: drag the handle, and the shape follows</td></tr>"
+    "<tr><td><b>P</b></td><td>or Pose mode: drag a limb to bend it at its joint</td></tr>"
     "<tr><td><b>C</b></td><td>Camera mode: left drag turns, the wheel zooms, <b>F</b> frames</td></tr>"
     "</table>"
     "Help ▸ How to Edit tells more; × or Esc: not shown again."
