@@ -89,3 +89,16 @@ def test_edge_graph_counts_each_edge_once():
     P = np.array([[0.0, 0, 0], [3, 4, 0], [3, 0, 0]])
     g = edge_graph(P, np.array([[0, 1], [1, 0], [0, 1], [1, 2]]))
     assert g[0, 1] == g[1, 0] == 5.0 and g[1, 2] == 4.0 and g.nnz == 4
+
+
+def test_a_part_seen_as_much_but_behind_is_left_out_with_the_depth():
+    P, E, N, n = two_tubes()
+    g, t = edge_graph(P, E), thickness(P, N)
+    seen = np.zeros(len(P), dtype=bool)
+    seen[:n] = P[:n, 1] >= 0
+    seen[n:] = (P[n:, 1] >= -6.0) & (P[n:, 0] > -0.5)  # the tube behind peeks out nearly as much
+    depth = -P[:, 1]  # seen from +y: the second tube 6 behind the first
+    took = surface_under(np.ones(len(P), dtype=bool), seen, g, t, depth=depth)
+    assert took[:n].all() and not took[n:].any()
+    level = np.zeros(len(P))  # the same two side by side at one depth: both are taken
+    assert surface_under(np.ones(len(P), dtype=bool), seen, g, t, depth=level)[n:].any()

@@ -125,6 +125,7 @@ class Gesture:
         self.points: np.ndarray | None = None  # the cage as posed now
         self.graph = None  # its edge graph (a part is taken through its thickness along the surface)
         self.thick: np.ndarray | None = None  # how thick the part is at each cage point
+        self.depth: np.ndarray | None = None  # how far each cage point lies along the line of sight
 
 
 class ViewController(QtCore.QObject):
@@ -295,6 +296,12 @@ class ViewController(QtCore.QObject):
             cached = self._graph_cache = (edges, np.array(P, copy=True), edge_graph(P, edges))
         return cached[2]
 
+    def _depth(self, P: np.ndarray) -> np.ndarray:
+        """(c,) how far each cage point lies along the camera's line of sight (world units)."""
+        cam = self.scene.renderer.GetActiveCamera()
+        ahead = np.asarray(cam.GetDirectionOfProjection(), dtype=np.float64)
+        return (np.asarray(P, dtype=np.float64) - np.asarray(cam.GetPosition(), dtype=np.float64)) @ ahead
+
     def _matrices(self) -> tuple[np.ndarray, tuple[int, int]]:
         return self.scene.composite_matrix(), self.scene.display_size()
 
@@ -336,6 +343,7 @@ class ViewController(QtCore.QObject):
         take = self.takeable(P, C, size, g.display, g.front)
         g.in_front = g.front if take is None else take  # (no depth to be had: everything in front)
         g.points, g.graph, g.thick = P, self._graph(P), self.selection.cage_thickness()
+        g.depth = self._depth(P)
         self.gesture = g
         if g.kind != RECTANGLE:  # (the rectangle is shown once the mouse moves: a click shows none)
             r = self.brush_radius * self.view.devicePixelRatioF()
@@ -348,7 +356,7 @@ class ViewController(QtCore.QObject):
         with Select Through all, else those in sight and the parts they lie in, through their thickness."""
         if self.select_through or g.graph is None or g.thick is None:
             return hits & g.in_front
-        return surface_under(hits, hits & g.in_front, g.graph, g.thick)
+        return surface_under(hits, hits & g.in_front, g.graph, g.thick, depth=g.depth)
 
     def _dab(self, g: Gesture, hits: np.ndarray) -> None:
         """Apply a brush dab. A replacing stroke replaces with its first dab that touches a cage point
@@ -497,7 +505,8 @@ class ViewController(QtCore.QObject):
                 near = brush_hits(display, front, self.view.to_display(pos), r)
                 graph = None if self.select_through else self._graph(P)
                 thick = None if graph is None else self.selection.cage_thickness()
-                near = near & take if thick is None else surface_under(near, near & take, graph, thick)
+                near = near & take if thick is None else surface_under(near, near & take, graph, thick,
+                                                                       depth=self._depth(P))
         if self.scene.set_points_near(near):
             self.view.request_render()
 

@@ -11,12 +11,13 @@ do, on the cage):
    overlap on screen are joined on the surface only through what the gesture does not see, so
    they are separate pieces;
 2. the main pieces: the piece with the most seen points, and any other seen nearly as much
-   (:data:`KEEP_SHARE`: two fingertips drawn over together), not a sliver of another part;
+   (:data:`KEEP_SHARE`: two fingertips drawn over together) that does not lie behind it (the far
+   front leg of a cow seen broadside, beside the near one), not a sliver of another part;
 3. each main piece grown along the surface (geodesic distance on the cage graph) through the
    hidden points of the gesture within :data:`GROW` times the part's thickness at each seen point
-   (:func:`thickness`, the shape's own, whatever the gesture's size): the back of a limb is about a
-   quarter of its circumference from its seen rim; the hind leg behind a front leg is a body's
-   length away.
+   (:func:`thickness`, the shape's own, whatever the gesture's size) and a cage edge: the back of
+   a limb is about a quarter of its circumference from its seen rim; the hind leg behind a front
+   leg is a body's length away.
 
 Pure numpy and scipy, no Qt or VTK.
 """
@@ -120,7 +121,7 @@ def thickness(points: np.ndarray, normals: np.ndarray, *, neighbours: int = NEIG
 
 
 def surface_under(hits: np.ndarray, seen: np.ndarray, graph: sp.csr_matrix, thick: np.ndarray, *,
-                  keep_share: float = KEEP_SHARE, grow: float = GROW) -> np.ndarray:
+                  depth: np.ndarray | None = None, keep_share: float = KEEP_SHARE, grow: float = GROW) -> np.ndarray:
     """The cage points a gesture takes: the main pieces of the surface it sees, grown through their
     thickness (see the module's notes).
 
@@ -134,6 +135,10 @@ def surface_under(hits: np.ndarray, seen: np.ndarray, graph: sp.csr_matrix, thic
         The cage's edge graph, weighted by length (:func:`edge_graph`).
     thick : (c,) float64
         How thick the part is at each cage point (:func:`thickness`).
+    depth : (c,) float64, optional
+        How far each cage point lies along the line of sight (world units): a piece lying behind the
+        largest by more than its thickness is another part, however much of it is seen. None: no
+        piece is behind another.
     keep_share, grow : float
         :data:`KEEP_SHARE` and :data:`GROW`.
 
@@ -141,8 +146,8 @@ def surface_under(hits: np.ndarray, seen: np.ndarray, graph: sp.csr_matrix, thic
     -------
     (c,) bool
         A subset of ``hits``: the seen points of the main pieces and the hidden points within ``grow``
-        times a seen point's thickness of it along the surface. Empty when nothing in the gesture is
-        seen.
+        times a seen point's thickness (and a median cage edge) of it along the surface. Empty when
+        nothing in the gesture is seen.
 
     Examples
     --------
@@ -174,11 +179,19 @@ def surface_under(hits: np.ndarray, seen: np.ndarray, graph: sp.csr_matrix, thic
     counts = np.bincount(labels[s], minlength=labels.max() + 1)
     # 2. the main pieces
     main = np.flatnonzero(counts >= max(keep_share * counts.max(), 1))
+    if depth is not None and len(main) > 1:
+        z = np.asarray(depth, dtype=np.float64)
+        first = int(np.argmax(counts))
+        ours = s & (labels == first)
+        behind = float(np.median(z[ours])) + float(np.median(np.asarray(thick, dtype=np.float64)[ours]))
+        main = np.array([k for k in main if k == first or np.median(z[s & (labels == k)]) <= behind], dtype=np.int64)
     seeds = s & np.isin(labels, main)
     out[seeds] = True
     # 3. grown along the surface through the hidden points of the gesture, each seen point as far as
     # its own thickness allows (seen points in bands of thickness within 25 % of each other, one search each)
-    reach = grow * np.asarray(thick, dtype=np.float64)
+    # (plus a median cage edge: a path along a coarse cage's edges runs up to an edge longer than the
+    # surface's geodesic, and a cage edge on a thin part can be longer than the part is thick)
+    reach = grow * np.asarray(thick, dtype=np.float64) + (float(np.median(g.data)) if g.nnz else 0.0)
     idx = np.flatnonzero(seeds & (reach > 0))
     if idx.size == 0:
         return out
