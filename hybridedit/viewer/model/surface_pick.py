@@ -28,6 +28,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components, dijkstra
 
+from ...core.index_sets import unique_sorted
+
 __all__ = ["surface_under", "edge_graph", "thickness", "KEEP_SHARE", "GROW"]
 
 KEEP_SHARE = 0.5
@@ -65,8 +67,10 @@ def edge_graph(points: np.ndarray, edges: np.ndarray) -> sp.csr_matrix:
     (np.float64(5.0), np.float64(5.0))
     """
     p = np.asarray(points, dtype=np.float64)
-    e = np.unique(np.sort(np.asarray(edges, dtype=np.int64).reshape(-1, 2), axis=1), axis=0)  # (summed if repeated)
     n = len(p)
+    e = np.sort(np.asarray(edges, dtype=np.int64).reshape(-1, 2), axis=1)
+    key = unique_sorted(e[:, 0] * n + e[:, 1])  # each edge once (a repeat would be summed into a longer one)
+    e = np.stack([key // max(n, 1), key % max(n, 1)], axis=1)
     if len(e) == 0:
         return sp.csr_matrix((n, n))
     length = np.linalg.norm(p[e[:, 0]] - p[e[:, 1]], axis=1)
@@ -196,7 +200,7 @@ def surface_under(hits: np.ndarray, seen: np.ndarray, graph: sp.csr_matrix, thic
     if idx.size == 0:
         return out
     band = np.floor(np.log(reach[idx] / reach[idx].min()) / np.log(1.25)).astype(np.int64)
-    for b in np.unique(band):
+    for b in unique_sorted(band):
         these = idx[band == b]
         limit = float(reach[these].max())
         d = dijkstra(g, directed=False, indices=these, min_only=True, limit=limit)
