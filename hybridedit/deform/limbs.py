@@ -5,7 +5,8 @@ to its joint, where it meets the body. Walking from the tip, the level sets of t
 from it (the points of the cage's edges at distance t, :func:`cross_sections`) are the limb's
 cross-sections: their spread about their centroid (the RMS radius) stays about the limb's radius
 along it, then grows fast where the level set leaves the limb for the body around it. The joint is
-where that growth starts (:func:`find_limbs` says the rule and why). A limb is posed by its
+where that growth starts; a head's, at its neck, the narrowest cross-section between the head and
+the body (:func:`find_limbs` says the rules and why). A limb is posed by its
 :meth:`Limb.parts`: the limb beyond a free band around the joint turns rigidly (the handle) about
 the centre of the cross-section there, ARAP bends the band (:meth:`hybridedit.HybridEditor.pose_limb`).
 
@@ -35,7 +36,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy.sparse.csgraph import dijkstra
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components, dijkstra
 
 from ..core.facing import conventional_front
 from ..core.up_axis import axis_vector
@@ -43,8 +45,8 @@ from .roles import FIXED, FREE, handle as handle_role
 from .skeleton import _edge_graph, find_skeleton
 
 __all__ = ["Limb", "LimbPose", "CrossSections", "cross_sections", "find_limbs", "limb_at", "swing_axis",
-           "MAX_LIMB_EXTREMITIES", "ELONGATION", "JUMP", "AHEAD", "GROWTH", "MAX_SHARE", "MIN_POINTS",
-           "MIN_VERTICES", "RETIP", "HOVER_MARGIN", "STEP"]
+           "MAX_LIMB_EXTREMITIES", "ELONGATION", "JUMP", "AHEAD", "GROWTH", "MAX_SHARE", "NECK_SHARE", "MIN_POINTS",
+           "MIN_VERTICES", "RETIP", "HEAD_TIPS", "HOVER_MARGIN", "STEP"]
 
 #: extremities of the skeleton looked at for limbs (fingers, ears and bumps come after the limbs)
 MAX_LIMB_EXTREMITIES = 16
@@ -58,6 +60,8 @@ AHEAD = 2.0
 GROWTH = 0.1
 #: a limb holds at most this fraction of the cage's surface (more is the body, not a limb)
 MAX_SHARE = 0.25
+#: ... but a head on its neck (:func:`find_limbs`) up to this fraction (more is the rest of the shape)
+NECK_SHARE = 0.5
 #: a cross-section is measured from at least this many points
 MIN_POINTS = 3
 #: a limb holds at least this many cage vertices (fewer is a bump too small to bend)
@@ -67,6 +71,9 @@ HOVER_MARGIN = 1.15
 #: the tip moves to the limb's point farthest from its joint when its joint's cross-section is then
 #: narrower than this fraction of the first one's (it was askew)
 RETIP = 0.95
+#: a head's tip is looked for among this many of its points, spread over those farther from its joint
+#: than its tip (from an extremity with no neck, a quarter as many spread round it find the head first)
+HEAD_TIPS = 16
 #: cross-sections are taken this fraction of the cage's median edge length apart
 STEP = 0.25
 
@@ -176,21 +183,117 @@ def _filled(values: np.ndarray, valid: np.ndarray) -> np.ndarray:
     return np.where(last >= 0, values[np.maximum(last, 0)], 0.0)
 
 
-def _joint_index(cs: CrossSections, share: np.ndarray, *, edge: float) -> int | None:
-    """The cross-section at the joint (see :func:`find_limbs`), or None when the profile has none."""
+def _loop_radius(distance: np.ndarray, vertices: np.ndarray, edges: np.ndarray, faces: np.ndarray, *,
+                 step: float, m: int) -> np.ndarray:
+    """(m,) the RMS radius of each level set's longest loop, as :func:`cross_sections` samples them (0
+    where there is none): a level set that crosses other limbs besides the part walked (the loops round
+    a cat's front legs beside the one round its chest) counts its main loop only.
+
+    A triangle the level set crosses joins its points on two of its sides (the side between its lowest
+    and highest corner, and one of the two others): a loop is a connected set of points."""
+    d = np.asarray(distance, dtype=np.float64)
+    p = np.asarray(vertices, dtype=np.float64)
+    e, da, db = _crossings(d, edges)
+    lo, hi = np.minimum(da, db), np.maximum(da, db)
+    first = np.ceil(lo / step).astype(np.int64)
+    n = np.maximum(np.ceil(hi / step).astype(np.int64) - first, 0)  # (as cross_sections: lo <= k step < hi)
+    start = np.cumsum(n) - n  # (edge i's points are start[i] ... start[i] + n[i] - 1, k = first[i] on)
+    which = np.repeat(np.arange(len(e)), n)
+    k = np.repeat(first, n) + (np.arange(int(n.sum())) - np.repeat(start, n))
+    out = np.zeros(m)
+    if not k.size:
+        return out
+    w = (k * step - da[which]) / (db[which] - da[which])
+    x = p[e[which, 0]] + w[:, None] * (p[e[which, 1]] - p[e[which, 0]])
+    nv = len(p)
+    key = np.minimum(e[:, 0], e[:, 1]) * nv + np.maximum(e[:, 0], e[:, 1])
+    by_key = np.argsort(key)
+    f = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    f = f[np.isfinite(d[f]).all(axis=1)]
+    f = np.take_along_axis(f, np.argsort(d[f], axis=1, kind="stable"), axis=1)  # (lowest, middle, highest)
+
+    def side(i: int, j: int) -> np.ndarray:  # (the crossing edge between two of its corners, -1: none)
+        q = np.minimum(f[:, i], f[:, j]) * nv + np.maximum(f[:, i], f[:, j])
+        at = np.minimum(np.searchsorted(key, q, sorter=by_key), len(key) - 1)
+        return np.where(key[by_key[at]] == q, by_key[at], -1)
+
+    across, low, high = side(0, 2), side(0, 1), side(1, 2)
+    has = across >= 0
+    across, low, high = across[has], low[has], high[has]
+    count = n[across]  # (each of the long side's points is joined to the one of the same level on a short side)
+    kf = np.repeat(first[across], count) + (np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count))
+    across, low, high = np.repeat(across, count), np.repeat(low, count), np.repeat(high, count)
+    other = np.where((low >= 0) & (kf < first[np.maximum(low, 0)] + n[np.maximum(low, 0)]), low, high)
+    o = np.maximum(other, 0)
+    ok = (other >= 0) & (kf >= first[o]) & (kf < first[o] + n[o])
+    a = start[across[ok]] + kf[ok] - first[across[ok]]
+    b = start[other[ok]] + kf[ok] - first[other[ok]]
+    count, label = connected_components(sp.coo_matrix((np.ones(len(a)), (a, b)), shape=(len(k), len(k))),
+                                        directed=False)
+    size = np.bincount(label, minlength=count)
+    level = np.zeros(count, dtype=np.int64)
+    level[label] = k
+    centre = np.stack([np.bincount(label, x[:, j], count) for j in range(3)], axis=1) / size[:, None]
+    square = np.bincount(label, np.einsum("ij,ij->i", x, x), count) / size
+    radius = np.sqrt(np.maximum(square - np.einsum("ij,ij->i", centre, centre), 0.0))
+    by = np.lexsort((size, level))  # (by level, then size: each level's longest loop last)
+    longest = by[np.r_[level[by][1:] != level[by][:-1], True]]
+    longest = longest[(level[longest] < m) & (size[longest] >= MIN_POINTS)]
+    out[level[longest]] = radius[longest]
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class _Joint:
+    """Where a walk found its joint: the cross-section's ``index``; ``neck`` when it is a head's neck
+    (:func:`find_limbs`), and then ``clear`` when the head, up to its widest cross-section, holds at
+    most :data:`MAX_SHARE` of the surface (a limb's share)."""
+
+    index: int
+    neck: bool = False
+    clear: bool = True
+
+
+def _joint_index(cs: CrossSections, share: np.ndarray, *, edge: float, loops=None) -> _Joint | None:
+    """The cross-section at the joint (see :func:`find_limbs`), or None when the profile has none;
+    ``loops()`` gives the radius of each cross-section's longest loop (:func:`_loop_radius`), to look
+    for a neck when there is no other joint (None: no neck)."""
     t, r = cs.t, cs.radius
     measured = cs.count >= MIN_POINTS
     rf = _filled(r, measured)
     valid = measured & (t > 0) & (r > 0) & (share <= MAX_SHARE)
     ahead = np.minimum(np.searchsorted(t, t + AHEAD * np.maximum(r, 0.5 * edge)), len(t) - 1)
     candidate = valid & (t >= ELONGATION * r) & (rf[ahead] >= JUMP * r)
-    if not candidate.any():
+    if candidate.any():
+        elongation = np.where(candidate, t / np.where(r > 0, r, 1.0), -np.inf)
+        best = int(np.argmax(elongation))  # (the candidate runs' best overall: the run with the most elongated limb)
+        return _Joint(_grown(best, rf, share, measured, MAX_SHARE))
+    if loops is None:
         return None
-    elongation = np.where(candidate, t / np.where(r > 0, r, 1.0), -np.inf)
-    best = int(np.argmax(elongation))  # (the candidate runs' best overall: the run with the most elongated limb)
+    # a head on its neck (see find_limbs): the narrowest cross-section narrower by more than GROWTH than
+    # the widest one before it (the head) with a wider one than that head within AHEAD of its radii (the
+    # body), and so on the level sets' longest loops too (a "head" may be the loops round other limbs)
+    head = np.maximum.accumulate(rf)
+    widest = np.maximum.accumulate(np.where(rf >= head, np.arange(len(t)), 0))  # (where the head is widest)
+    wider = np.searchsorted(head, head, side="right") <= ahead  # (the first cross-section wider than the head)
+    neck = (measured & (t > 0) & (r > 0) & (share <= NECK_SHARE) & (t >= ELONGATION * r)
+            & (head > (1.0 + GROWTH) * r) & wider)
+    if not neck.any():
+        return None
+    rl = loops()
+    rl = _filled(rl, measured & (rl > 0))
+    neck &= np.maximum.accumulate(rl) > (1.0 + GROWTH) * rl
+    if not neck.any():
+        return None
+    best = int(np.argmin(np.where(neck, r, np.inf)))
+    return _Joint(_grown(best, rf, share, measured, NECK_SHARE), True, bool(share[widest[best]] <= MAX_SHARE))
+
+
+def _grown(best: int, rf: np.ndarray, share: np.ndarray, measured: np.ndarray, cap: float) -> int:
+    """The last measured cross-section from ``best`` on whose radius is within GROWTH of its."""
     j = best
-    limit = (1.0 + GROWTH) * r[best]
-    while j + 1 < len(t) and rf[j + 1] <= limit and share[j + 1] <= MAX_SHARE:
+    limit = (1.0 + GROWTH) * rf[best]
+    while j + 1 < len(rf) and rf[j + 1] <= limit and share[j + 1] <= cap:
         j += 1
     while not measured[j]:
         j -= 1
@@ -405,11 +508,32 @@ def find_limbs(cage_vertices: np.ndarray, cage_edges: np.ndarray, *, centre_poin
     cage's surface or fewer than :data:`MIN_VERTICES` of its vertices.
 
     The tip is then put at the limb's point farthest from its joint and the walk made again from
-    there, kept when the joint's cross-section comes out narrower (an extremity is the farthest point
-    from the centre: on a foot's side as often as on its sole, and cross-sections from the side run
-    askew across the limb, wider than it). An extremity that lies on a limb found before (a second
-    finger of a hand, a point half way along a tail), or whose limb holds the tip of one found
-    before, is left out.
+    there, kept when the joint's cross-section comes out narrower and the walk reaches the first tip
+    (an extremity is the farthest point from the centre: on a foot's side as often as on its sole, and
+    cross-sections from the side run askew across the limb, wider than it).
+
+    A head on a neck about as wide as it has no such jump, and with its neck it holds more than
+    :data:`MAX_SHARE` of the surface; a walk with no joint looks for one as a neck instead: the
+    narrowest cross-section narrower by more than :data:`GROWTH` than the widest before it (the head),
+    with a wider one than that head within :data:`AHEAD` of its radii (the body: however gradual the
+    widening), holding at most :data:`NECK_SHARE` of the surface, and so too on the level sets' longest
+    loops (a level set that spans the loops round other limbs is wide by them, not by a head). Its
+    tip is then the point from which the neck is narrowest, of :data:`HEAD_TIPS` spread over the head
+    farther from its joint than the tip, again while narrower by :data:`RETIP` (the extremities on a
+    head are a horn's, an ear's or a side of its face, from which the cross-sections run askew across
+    the neck); from an extremity with no neck, a quarter as many spread over the quarter of the
+    surface around it find the head first. The head is kept when, from its best tip, its part up to
+    its widest cross-section holds at most :data:`MAX_SHARE` of the surface (a body's front walked
+    from a point on it is widest past that). On Spot (``spot_triangulated.obj``, its default cage of
+    148 vertices) the extremity on the head is a corner of the muzzle, from which the radius is 0.44
+    at 0.95 and 0.39 at 1.05; from the top of the face it is 0.39 at 0.63 (the head), 0.26 at 0.95 (the
+    neck), 0.31 at 1.16, 0.44 at 1.47 (the body): the joint is at 1.05, between the withers and the
+    brisket (y = 0.18, the back at 0.35 and the chin at 0.1), the head a third of the surface.
+
+    An extremity that lies on a limb found before (a second finger of a hand, a point half way along
+    a tail), or whose limb holds the tip of one found before, is left out; but for a part of a head
+    (an ear, a horn): wholly on it, away from its tip and :data:`JUMP` times thinner than its neck
+    (the head is to it what the body is to a limb).
 
     Parameters
     ----------
@@ -420,9 +544,10 @@ def find_limbs(cage_vertices: np.ndarray, cage_edges: np.ndarray, *, centre_poin
     centre_point : (3,) float64
         The shape's centre of mass.
     cage_faces : (f, 3) int64, optional
-        The cage's triangles, to measure a limb's share of the surface by their areas; without them
-        each vertex counts a quarter of its edges' squared lengths (about its area on a mesh of
-        triangles alike, far from it on long thin ones).
+        The cage's triangles, to measure a limb's share of the surface by their areas and to find a
+        head's neck (by its level sets' loops); without them each vertex counts a quarter of its
+        edges' squared lengths (about its area on a mesh of triangles alike, far from it on long thin
+        ones), and there is no head on a neck.
     links : (k, 2) int64, optional
         Extra edges tying separate cage parts together (:attr:`hybridedit.Rig.links`): they carry the
         geodesic distance from part to part, but no cross-section is measured on them.
@@ -453,53 +578,164 @@ def find_limbs(cage_vertices: np.ndarray, cage_edges: np.ndarray, *, centre_poin
     edge = float(np.median(lengths[lengths > 0])) if (lengths > 0).any() else 0.0
     if not edge > 0:
         return []
-    area = _vertex_areas(v, surface, lengths, cage_faces)
-    graph = _edge_graph(v, np.concatenate([surface, extra]))
+    cage = _Cage(v, surface, None if cage_faces is None else np.asarray(cage_faces, dtype=np.int64).reshape(-1, 3),
+                 _vertex_areas(v, surface, lengths, cage_faces), edge, _edge_graph(v, np.concatenate([surface, extra])))
     limbs: list[Limb] = []
+    heads: list[bool] = []
     for k, x in enumerate(skeleton.extremities):
         x, d = int(x), skeleton.distances[k]
-        found = _walk(d, v, surface, area, edge)
-        if found is None:
-            continue
-        # the tip again, as the limb's point farthest from its joint: an extremity is the farthest
-        # point from the centre, on a foot's side as often as on its sole, and the cross-sections
-        # from a point on the side run askew across the limb (a curled tail's farthest point from its
-        # base may be on the curl: then the cross-sections are no narrower and the tip stays)
-        ring, weights = found[3]
-        far = int(np.argmax(np.where(d <= found[0], np.linalg.norm(v - weights @ v[ring], axis=1), -np.inf)))
-        if far != x:
-            d_far = dijkstra(graph, indices=far)
-            again = _walk(d_far, v, surface, area, edge)
-            if again is not None and again[1] < RETIP * found[1]:  # (square across the limb: narrower)
-                x, d, found = far, d_far, again
-        length, radius, cs, (ring, weights) = found
+        found = _walk(d, cage)
+        if found is not None and not found.neck:
+            x, d, found = _retip(x, d, found, cage)
+        else:
+            if cage.faces is None or any(prev.cage_distance[x] <= prev.length and not heads[prev.index]
+                                         for prev in limbs):
+                continue  # (no head without triangles, nor from a point on a limb found before)
+            head = _head(x, d, found, cage)
+            if head is None or not head[2].clear:  # (from its best tip, its widest part is the body's)
+                continue
+            x, d, found = head
+        length, radius, cs, (ring, weights) = found.length, found.radius, found.cs, found.level
         if np.count_nonzero(d <= length) < MIN_VERTICES:
             continue
-        if any(prev.cage_distance[x] <= prev.length or d[prev.extremity] <= length for prev in limbs):
+        if any(not _nested(d, x, length, radius, found.neck, prev, heads[prev.index]) for prev in limbs
+               if prev.cage_distance[x] <= prev.length or d[prev.extremity] <= length):
             continue
         measured = cs.count >= MIN_POINTS
         limbs.append(Limb(len(limbs), x, v[x].copy(), length, radius, weights @ v[ring], d,
                           float(d[skeleton.centre]), edge, cs.t[measured], cs.radius[measured], v, surface))
+        heads.append(found.neck)
     return limbs
 
 
-def _walk(d: np.ndarray, v: np.ndarray, surface: np.ndarray, area: np.ndarray, edge: float):
-    """Walk a limb from its tip (``d``, the distance from it): (its length, its radius at the joint, its
-    cross-sections, the joint's level set as (vertices, weights)); None when it has no joint."""
+@dataclass(frozen=True, eq=False)
+class _Cage:
+    """What a walk reads of the cage: vertices (c, 3), surface edges (e, 2), triangles (f, 3) or None,
+    each vertex's area (c,), the median edge length and the edge graph (links included)."""
+
+    v: np.ndarray
+    surface: np.ndarray
+    faces: np.ndarray | None
+    area: np.ndarray
+    edge: float
+    graph: object
+
+
+@dataclass(frozen=True, eq=False)
+class _Found:
+    """A walk's limb: its length, its radius at the joint, its cross-sections, the joint's level set as
+    (vertices, weights), and whether the joint is a neck, and a clear one (:class:`_Joint`)."""
+
+    length: float
+    radius: float
+    cs: CrossSections
+    level: tuple
+    neck: bool
+    clear: bool
+
+
+def _walk(d: np.ndarray, cage: _Cage) -> _Found | None:
+    """Walk a limb from its tip (``d``, the distance from it); None when it has no joint."""
     finite = np.isfinite(d)
     order = np.argsort(d[finite], kind="stable")
-    held = np.cumsum(area[finite][order])
-    cs = cross_sections(d, v, surface, step=STEP * edge)
+    held = np.cumsum(cage.area[finite][order])
+    step = STEP * cage.edge
+    cs = cross_sections(d, cage.v, cage.surface, step=step)
     at = np.searchsorted(d[finite][order], cs.t, side="right")
     share = np.where(at > 0, held[np.maximum(at - 1, 0)], 0.0) / max(float(held[-1]), np.finfo(float).tiny)
-    j = _joint_index(cs, share, edge=edge)
-    if j is None:
+    loops = None if cage.faces is None else (lambda: _loop_radius(d, cage.v, cage.surface, cage.faces, step=step,
+                                                                   m=len(cs.t)))
+    joint = _joint_index(cs, share, edge=cage.edge, loops=loops)
+    if joint is None:
         return None
-    length = float(cs.t[j])
-    level = _level_weights(d, surface, length)
+    length = float(cs.t[joint.index])
+    level = _level_weights(d, cage.surface, length)
     if level is None:  # (a measured cross-section has points: never)
         return None
-    return length, float(cs.radius[j]), cs, level
+    return _Found(length, float(cs.radius[joint.index]), cs, level, joint.neck, joint.clear)
+
+
+def _retip(x: int, d: np.ndarray, found: _Found, cage: _Cage) -> tuple[int, np.ndarray, _Found]:
+    """The tip again, as the limb's point farthest from its joint: (the tip, the distance from it, its
+    walk). An extremity is the farthest point from the centre, on a foot's side as often as on its sole,
+    and the cross-sections from a point on the side run askew across the limb (a curled tail's farthest
+    point from its base may be on the curl: then the cross-sections are no narrower and the tip stays);
+    the walk from there is kept when narrower and the same limb's (it reaches the first tip: not a
+    finger's or a horn's on it)."""
+    ring, weights = found.level
+    far = int(np.argmax(np.where(d <= found.length, np.linalg.norm(cage.v - weights @ cage.v[ring], axis=1),
+                                 -np.inf)))
+    if far != x:
+        d_far = dijkstra(cage.graph, indices=far)
+        again = _walk(d_far, cage)
+        if again is not None and not again.neck and again.radius < RETIP * found.radius and d_far[x] <= again.length:
+            return far, d_far, again  # (square across the limb: narrower)
+    return x, d, found
+
+
+def _head(x: int, d: np.ndarray, found: _Found | None, cage: _Cage) -> tuple[int, np.ndarray, _Found] | None:
+    """The head the tip ``x`` lies on (see :func:`find_limbs`), walked from its best tip: (the tip, the
+    distance from it, its walk); None when no walk from near ``x`` finds a neck."""
+    if found is None:  # (no neck from x: from points spread over the quarter of the surface around it)
+        order = np.argsort(d, kind="stable")
+        held = np.cumsum(cage.area[order])
+        reach = d[order][min(int(np.searchsorted(held, MAX_SHARE * held[-1])), len(order) - 1)]
+        best = _narrowest(x, _spread(cage.v, np.flatnonzero(d <= reach), cage.v[x], HEAD_TIPS // 4), cage, np.inf)
+    else:
+        best = (x, d, found)
+    while best is not None:  # (then from points spread over the head beyond its tip, from its joint)
+        y, d_y, walk = best
+        ring, weights = walk.level
+        far = np.where(d_y <= walk.length, np.linalg.norm(cage.v - weights @ cage.v[ring], axis=1), -np.inf)
+        better = _narrowest(y, _spread(cage.v, np.flatnonzero(far > far[y]), weights @ cage.v[ring], HEAD_TIPS),
+                            cage, RETIP * walk.radius)
+        if better is None:
+            return best
+        best = better
+    return None
+
+
+def _narrowest(x: int, tries: list[int], cage: _Cage, below: float) -> tuple[int, np.ndarray, _Found] | None:
+    """Of the walks from ``tries`` that find a neck holding ``x`` narrower than ``below``, the one
+    whose neck is narrowest: (its tip, the distance from it, the walk); None when there is none."""
+    best = None
+    for y in tries:
+        if y == x:
+            continue
+        d_y = dijkstra(cage.graph, indices=y)
+        walk = _walk(d_y, cage)
+        if walk is None or not walk.neck or d_y[x] > walk.length or not walk.radius < below:
+            continue  # (no neck, or another limb's: a horn on the head)
+        if best is None or walk.radius < best[2].radius:
+            best = (y, d_y, walk)
+    return best
+
+
+def _nested(d: np.ndarray, x: int, length: float, radius: float, head: bool, prev: Limb, prev_head: bool) -> bool:
+    """Whether a limb from ``x`` (``d`` the distance from it, ``length``, ``radius``, ``head`` if it is a
+    head on a neck) and ``prev``, found before, one of which holds the other's tip, nest: a head and a
+    part wholly on it, away from its tip and :data:`JUMP` times thinner than its neck (an ear, a horn:
+    the head is to it what a body is to a limb)."""
+    region = d <= length
+    if prev.cage_distance[x] <= prev.length:  # (its tip on prev: the part)
+        return (prev_head and bool(prev.cage_region[region].all()) and not d[prev.extremity] <= length
+                and JUMP * radius <= prev.radius)
+    return head and bool(region[prev.cage_region].all()) and JUMP * prev.radius <= radius
+
+
+def _spread(v: np.ndarray, idx: np.ndarray, start: np.ndarray, n: int) -> list[int]:
+    """Up to ``n`` of the vertices ``idx`` spread over them: the farthest from the point ``start``, then
+    each the farthest from those before."""
+    p = v[idx]
+    gap = np.linalg.norm(p - start, axis=1)
+    out: list[int] = []
+    while len(out) < n and len(gap):
+        i = int(np.argmax(gap))
+        if not gap[i] > 0:
+            break
+        out.append(int(idx[i]))
+        gap = np.minimum(gap, np.linalg.norm(p - p[i], axis=1))
+    return out
 
 
 def _vertex_areas(v: np.ndarray, edges: np.ndarray, lengths: np.ndarray, faces: np.ndarray | None) -> np.ndarray:

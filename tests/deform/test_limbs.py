@@ -11,10 +11,11 @@ from scipy.spatial.transform import Rotation
 
 import hybridedit as he
 from hybridedit.core.face_geometry import centre_of_mass
-from hybridedit.core.mesh import edge_error_stats
+from hybridedit.core.mesh import Mesh, edge_error_stats
 from hybridedit.core.transforms import apply_transform, rigid_transform
-from hybridedit.deform.limbs import cross_sections, find_limbs, limb_at, swing_axis
-from shapes import ARM_TIPS, FEET, HIPS, SHOULDERS, figure
+from hybridedit.deform.limbs import MAX_SHARE, cross_sections, find_limbs, limb_at, swing_axis
+from shapes import (ARM_TIPS, FEET, HIPS, SHARED_MESHES, SHOULDERS, capsule_distance, figure, smooth_union,
+                    surface_nets)
 
 CAGE = 0.1  # (a fraction of the figure's vertices: 571 cage vertices)
 
@@ -28,9 +29,46 @@ def bottle() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return np.asarray(m.vertices), np.asarray(m.edges_unique), np.asarray(m.faces)
 
 
+#: the beast's head (a ball), its neck (a capsule from inside the body to the head's centre) and horn
+HEAD, HEAD_RADIUS = np.array([0.0, 0.6, -1.05]), 0.5
+NECK, NECK_RADIUS = (np.array([0.0, 0.25, -0.5]), HEAD), 0.35
+BODY, BODY_RADIUS = (np.array([0.0, 0.0, -0.4]), np.array([0.0, 0.0, 0.6])), 0.5
+HORN_TIP = np.array([0.3, 1.3, -0.95])
+
+
+def beast(h: float = 0.05) -> Mesh:
+    """Spot's build: a body (a capsule of radius 0.5 along z, as wide as the head) on four legs (radius
+    0.15), its head a ball of radius 0.5 in front, up on a neck of radius 0.35, and a horn (0.07) on
+    the head; one closed surface sampled every ``h`` (6,270 vertices)."""
+    lo = np.array([-0.9, -1.2, -1.7]) + [0.0131, 0.0077, 0.0113]  # (off the grid: no sample on the surface)
+    axes = [np.arange(lo[i], hi + h / 2, h) for i, hi in enumerate((0.9, 1.5, 1.0))]
+    p = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
+    d = capsule_distance(p, *BODY, BODY_RADIUS)
+    d = smooth_union(d, capsule_distance(p, *NECK, NECK_RADIUS), 0.1)
+    d = smooth_union(d, np.linalg.norm(p - HEAD, axis=-1) - HEAD_RADIUS, 0.1)
+    d = smooth_union(d, capsule_distance(p, (0.15, 1.0, -1.0), HORN_TIP, 0.07), 0.05)
+    for x in (-0.25, 0.25):
+        for z in (-0.25, 0.45):
+            d = smooth_union(d, capsule_distance(p, (x, -0.3, z), (x, -1.0, z), 0.15), 0.1)
+    v, f = surface_nets(d, lo, h)
+    return Mesh(v, f, name="beast")
+
+
+def neck_base() -> np.ndarray:
+    """Where the neck's axis leaves the body."""
+    s = np.linspace(0.0, 1.0, 1001)
+    axis = NECK[0] + s[:, None] * (NECK[1] - NECK[0])
+    return axis[np.argmax(capsule_distance(axis, *BODY, BODY_RADIUS) >= 0)]
+
+
 @pytest.fixture(scope="module")
 def editor():
     return he.HybridEditor(figure(), CAGE)
+
+
+@pytest.fixture(scope="module")
+def beast_editor():
+    return he.HybridEditor(beast(), CAGE)
 
 
 def nearest(points: np.ndarray, p: np.ndarray) -> float:
@@ -83,6 +121,65 @@ def test_the_bottles_neck_is_its_one_limb_and_its_body_is_none():
     assert neck.tip[2] > 4.9 and 2.3 <= neck.joint[2] <= 2.9 and np.hypot(*neck.joint[:2]) < 0.1
     region = neck.cage_region
     assert region[v[:, 2] > 3].all() and not region[v[:, 2] < 2].any()
+
+
+def test_a_head_on_a_neck_about_as_wide_as_it_is_a_limb_joined_where_the_neck_meets_the_body(beast_editor):
+    ed = beast_editor
+    v, f = ed.cage.vertices, ed.cage.faces
+    limbs = ed.limbs()
+    heads = [limb for limb in limbs if np.linalg.norm(limb.tip - HEAD) < HEAD_RADIUS + 0.1]
+    assert len(heads) == 1
+    [head] = heads
+    assert np.linalg.norm(head.joint - neck_base()) < NECK_RADIUS  # (the base at (0, 0.39, -0.72))
+    assert np.linalg.norm(head.joint - HEAD) > HEAD_RADIUS  # (not in the head)
+    region = head.cage_region
+    assert region[np.linalg.norm(v - HEAD, axis=1) < HEAD_RADIUS + 0.05].all() and not region[v[:, 2] > 0].any()
+    area = np.bincount(f.ravel(), np.repeat(trimesh.triangles.area(v[f]), 3), len(v))
+    assert area[region].sum() / area.sum() > MAX_SHARE  # (more than a limb's share: the neck's rule)
+    # the legs are limbs as ever, and the horn, a part of the head's
+    assert sum(limb.tip[1] < -1.0 for limb in limbs) == 4
+    assert min(np.linalg.norm(limb.tip - HORN_TIP) for limb in limbs) < 0.1
+    # posed as any limb
+    rest = ed.mesh.vertices
+    ed.reset()
+    V = ed.pose_limb(head, degrees=30)
+    assert edge_error_stats(rest, V, ed.mesh.edges())[0] < 5.0
+    tip = int(np.argmin(np.linalg.norm(rest - head.tip, axis=1)))
+    assert ed.vertex_roles[tip] == 1 and ed.limb_at(tip) is head
+
+
+def test_a_rigid_motion_moves_the_head_with_it(beast_editor):
+    ed = beast_editor
+    v, e, f = ed.cage.vertices, ed.cage.edges(), ed.cage.faces
+    centre = centre_of_mass(ed.mesh.vertices, ed.mesh.faces)
+    R = Rotation.from_euler("xyz", [-70, 20, 155], degrees=True).as_matrix()
+    t = np.array([-2.0, 0.5, 4.0])
+    after = find_limbs(v @ R.T + t, e, centre_point=R @ centre + t, cage_faces=f)
+    assert [a.extremity for a in after] == [b.extremity for b in ed.limbs()]
+    assert all(np.allclose(a.joint, R @ b.joint + t, atol=1e-9) for a, b in zip(after, ed.limbs()))
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not (SHARED_MESHES / "spot" / "spot_triangulated.obj").is_file(), reason="no ../shared/meshes")
+def test_spot_s_head_is_a_limb_as_on_disk_and_loop_subdivided():
+    source = SHARED_MESHES / "spot" / "spot_triangulated.obj"
+    t = trimesh.load(source, process=False, force="mesh")
+    v, f = trimesh.remesh.subdivide_loop(np.asarray(t.vertices), np.asarray(t.faces), iterations=1)
+    found = {}
+    for name, ed in (("file", he.open(source, cache=False)), ("loop", he.HybridEditor(Mesh(v, f, name="spot"), 0.05))):
+        limbs = ed.limbs()
+        legs = [limb for limb in limbs if limb.tip[1] < -0.6]
+        heads = [limb for limb in limbs if limb.length > 0.8 and limb.tip[2] < -0.3]
+        assert len(legs) == 4 and len(heads) == 1, name
+        head = heads[0]
+        # the neck between the withers and the brisket, behind the head (its back at z = -0.15)
+        assert 0.1 < head.joint[1] < 0.3 and -0.15 < head.joint[2] < 0.05 and abs(head.joint[0]) < 0.05, name
+        found[name] = head
+        if name == "file":  # (the Pose tool's target: the head bent 30 degrees)
+            rest = ed.mesh.vertices
+            assert edge_error_stats(rest, ed.pose_limb(head, degrees=30), ed.mesh.edges())[0] < 5.0
+    assert np.linalg.norm(found["file"].joint - found["loop"].joint) < 0.05
+    assert np.linalg.norm(found["file"].tip - found["loop"].tip) < 0.1
 
 
 def test_the_parts_at_every_joint_place_the_window_offers():
