@@ -100,7 +100,7 @@ class PoseHandler(Protocol):
     """What the Pose mode's gestures call (the window's :class:`~..window.limb_posing.LimbPosing`)."""
 
     def hover(self, cage_vertex: int | None) -> bool: ...  # show the limb there (None: none); True: one shown
-    def grab(self, cage_vertex: int) -> np.ndarray | None: ...  # the limb there made the selection; its pivot
+    def grab(self, cage_vertex: int | None) -> np.ndarray | None: ...  # the limb there made the selection; its pivot
     def move_joint(self, steps: int) -> None: ...  # the joint of the limb shown, along it (+: toward the body)
 
 
@@ -122,7 +122,6 @@ class Gesture:
         self.display: np.ndarray | None = None
         self.front: np.ndarray | None = None  # in front of the camera
         self.in_front: np.ndarray | None = None  # in front of the camera and takeable (in sight, or select through)
-        self.points: np.ndarray | None = None  # the cage as posed now
         self.graph = None  # its edge graph (a part is taken through its thickness along the surface)
         self.thick: np.ndarray | None = None  # how thick the part is at each cage point
         self.depth: np.ndarray | None = None  # how far each cage point lies along the line of sight
@@ -342,7 +341,7 @@ class ViewController(QtCore.QObject):
         g.display, g.front = project_points(P, C, size)
         take = self.takeable(P, C, size, g.display, g.front)
         g.in_front = g.front if take is None else take  # (no depth to be had: everything in front)
-        g.points, g.graph, g.thick = P, self._graph(P), self.selection.cage_thickness()
+        g.graph, g.thick = self._graph(P), self.selection.cage_thickness()
         g.depth = self._depth(P)
         self.gesture = g
         if g.kind != RECTANGLE:  # (the rectangle is shown once the mouse moves: a click shows none)
@@ -387,8 +386,7 @@ class ViewController(QtCore.QObject):
                     shift: bool) -> bool:
         """A press in Pose mode: the limb under the cursor becomes the selection, and a drag turns it about its
         joint (moves it with ``shift``)."""
-        i = self.cage_vertex_at(d)
-        pivot = None if i is None else self.poses.grab(i)
+        pivot = self.poses.grab(self.cage_vertex_at(d))
         if pivot is None:  # (the window says why)
             return True
         self._limb_shown = False

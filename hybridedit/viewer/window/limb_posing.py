@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Protocol, runtime_checkable
 import numpy as np
 
 from ...deform.limbs import limb_at
+from .interfaces import Renders
 
 if TYPE_CHECKING:
     from ...deform.limbs import Limb, LimbPose
@@ -37,27 +38,30 @@ class Draws(Protocol):
 
 
 @runtime_checkable
-class Renders(Protocol):
-    def request_render(self) -> None: ...
-
-
-@runtime_checkable
 class Redraws(Protocol):
+    """The scene's upkeep as the Pose tool sees it (:class:`~.scene_sync.SceneSync`): the selection drawn."""
+
     def refresh_selection(self) -> None: ...
 
 
 @runtime_checkable
 class Guard(Protocol):
+    """The pose side as the Pose tool sees it (:class:`~.posing.Posing`): a settle done, a polish stopped."""
+
     def settle_and_stop_polish(self) -> None: ...
 
 
 @runtime_checkable
 class Says(Protocol):
+    """The status bar as the Pose tool sees it."""
+
     def message(self, text: str) -> None: ...
 
 
 @runtime_checkable
 class Hint(Protocol):
+    """The first-steps hint as the Pose tool sees it: a limb grabbed is a selection made."""
+
     def selected(self) -> None: ...
 
 
@@ -129,12 +133,13 @@ class LimbPosing:
         self._draw()
         return limb is not None
 
-    def grab(self, cage_vertex: int) -> np.ndarray | None:
-        """A press on the cage point ``cage_vertex``: its limb becomes the selection (one undo step) and its
-        pivot (3,) in the pose on display is returned; None (and said why) when no limb is there."""
+    def grab(self, cage_vertex: int | None) -> np.ndarray | None:
+        """A press on the cage point ``cage_vertex`` (None: on empty space): its limb becomes the selection
+        (one undo step) and its pivot (3,) in the pose on display is returned; None (and said why) when no
+        limb is there."""
         w = self.w
         limbs = self._limbs()
-        limb = limb_at(limbs, cage_vertex) if limbs else None
+        limb = limb_at(limbs, cage_vertex) if limbs and cage_vertex is not None else None
         if limb is None:
             w.status.message("No limb there: the Pose tool turns a limb (an arm, a leg, a tail, a head) about "
                              "its joint; hover one to see it")
