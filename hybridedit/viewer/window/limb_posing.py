@@ -179,6 +179,6 @@ class LimbPosing:
             return
         pose = self.parts(limb)
         roles = pose.cage_roles
-        w.scene.update_roles(roles, s.editor.limb_roles(limb, at=self.at(limb)))
+        w.scene.update_roles(roles, s.editor.shape_roles(roles))  # (what the drag will hold and move)
         w.scene.pivot.place(pose.joint, s.cage_positions[pose.extremity])
         w.view.request_render()
