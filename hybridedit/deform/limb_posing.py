@@ -45,7 +45,7 @@ class LimbPosing:
 
         Examples
         --------
-        >>> arm = ed.limbs()[0]  # doctest: +SKIP
+        >>> arm = max(ed.limbs(), key=lambda limb: limb.tip[0])  # the one reaching farthest to +X  # doctest: +SKIP
         >>> ed.pose_limb(arm, degrees=40)  # doctest: +SKIP
         """
         if self._limbs is None:
@@ -217,7 +217,7 @@ class LimbPosing:
         --------
         >>> import hybridedit as he
         >>> ed = he.open("creature.ply")  # doctest: +SKIP
-        >>> arm = ed.limbs()[0]  # doctest: +SKIP
+        >>> arm = max(ed.limbs(), key=lambda limb: limb.tip[0])  # the one reaching farthest to +X  # doctest: +SKIP
         >>> V = ed.pose_limb(arm, degrees=40)  # doctest: +SKIP
         """
         if not np.isfinite(float(degrees)):
