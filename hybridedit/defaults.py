@@ -20,25 +20,36 @@ POLISH_MAX_ITERATIONS = 200
 POLISH_TOLERANCE = 1e-6
 
 
+#: The cage sizes a user may give, in words (the messages that refuse one say them).
+CAGE_SIZE_FORMS = "a vertex count (2000), a fraction of the shape's vertices (0.05) or a percentage ('5%')"
+
+
 def check_cage_size(size) -> int | float:
-    """A cage size as the engine takes it: an int vertex count (at least 4) or a float fraction in
-    (0, 1] of the shape's vertices; anything else is a ValueError saying what was expected.
+    """A cage size as the engine takes it: an int vertex count (at least 4), a float fraction in
+    (0, 1] of the shape's vertices, or either written as text as the command line takes it
+    (:func:`parse_cage_size`: a config file's or a form's "0.05", "5%", "2000"); anything else is a
+    ValueError naming ``cage_size`` and what is accepted.
 
     Parameters
     ----------
-    size : int or float
+    size : int, float or str
 
     Returns
     -------
-    int or float, ``size`` itself (an int for an integral count, a float for a fraction)
+    int or float: an int for a vertex count, a float for a fraction
 
     Examples
     --------
-    >>> check_cage_size(2000), check_cage_size(0.05)
-    (2000, 0.05)
+    >>> check_cage_size(2000), check_cage_size(0.05), check_cage_size("5%"), check_cage_size(" 2000 ")
+    (2000, 0.05, 0.05, 2000)
     """
+    if isinstance(size, str):
+        try:
+            return parse_cage_size(size)
+        except ValueError:
+            raise ValueError(f"cage_size must be {CAGE_SIZE_FORMS}, got {size!r}") from None
     if isinstance(size, bool) or not isinstance(size, numbers.Real):
-        raise ValueError(f"cage size must be a vertex count or a fraction, got {size!r}")
+        raise ValueError(f"cage_size must be {CAGE_SIZE_FORMS}, got {size!r}")
     if isinstance(size, numbers.Integral):
         if int(size) < 4:
             raise ValueError(f"a cage needs at least 4 vertices, asked for {int(size)}")
@@ -66,5 +77,5 @@ def parse_cage_size(text: str) -> int | float:
         else:
             value = float(s)
     except ValueError:
-        raise ValueError(f"cage size must be a vertex count, a fraction or a percentage, got {text!r}") from None
+        raise ValueError(f"cage size must be {CAGE_SIZE_FORMS}, got {text!r}") from None
     return check_cage_size(value)

@@ -121,3 +121,23 @@ def test_open_passes_build_and_editor_options(spot: Path) -> None:
     assert any(s.startswith("reading spot.obj") for s in said) and len(set(said)) > 1
     with pytest.raises(he.MeshFileError, match="missing.obj"):
         he.open(spot.parent / "missing.obj")
+
+
+@pytest.mark.parametrize("text, number", [("0.05", 0.05), ("5%", 0.05), ("80", 80), (" 80 ", 80)])
+def test_open_takes_a_cage_size_written_as_the_command_line_takes_it(spot: Path, text: str, number) -> None:
+    """A cage size from a config file or a form ("0.05", "5%", "80") is the number it says: the same cage,
+    from the same cache entry, as that number."""
+    a, b = he.open(spot, cage_size=text, cache=False), he.open(spot, cage_size=number, cache=False)
+    assert a.rig.cage_size == number and type(a.rig.cage_size) is type(number)
+    assert np.array_equal(a.cage.vertices, b.cage.vertices)
+    from hybridedit.binding.cache import cache_key
+    from hybridedit.defaults import check_cage_size
+
+    assert cache_key(a.mesh, check_cage_size(text), 0.03) == cache_key(a.mesh, number, 0.03)
+
+
+@pytest.mark.parametrize("bad", ["lots", "0", "150%", "", [0.05], None, True])
+def test_open_refuses_another_cage_size_naming_it_and_the_forms(spot: Path, bad) -> None:
+    with pytest.raises(ValueError, match=r"cage_size must be a vertex count \(2000\), a fraction .* or a "
+                                         r"percentage \('5%'\), got"):
+        he.open(spot, cage_size=bad, cache=False)

@@ -18,7 +18,7 @@ from typing import Callable
 import numpy as np
 import scipy.sparse as sp
 
-from ..defaults import CAGE_SIZE, TRUNCATION
+from ..defaults import CAGE_SIZE, TRUNCATION, check_cage_size
 from . import cache as bindcache
 from .assemble import cage_and_binding
 from ..cage.links import cage_links
@@ -127,8 +127,9 @@ def build_rig(
     ----------
     mesh : Mesh
         The shape (n vertices).
-    cage_size : int or float
-        Cage vertex count (int) or fraction of the shape's vertices (float).
+    cage_size : int, float or str
+        Cage vertex count (int) or fraction of the shape's vertices (float), or either as text
+        ("2000", "0.05", "5%": :func:`hybridedit.defaults.check_cage_size`).
     cage : Mesh, optional
         Use this cage instead of simplifying the shape.
     binding : (n, c) scipy sparse matrix, optional
@@ -155,6 +156,8 @@ def build_rig(
     """
     if binding is not None and cage is None:
         raise ValueError("a binding needs its cage")
+    if cage is None:
+        cage_size = check_cage_size(cage_size)  # ("0.05" from a config file: the cache key of 0.05)
     say = progress or (lambda stage, fraction: None)
     t0 = time.perf_counter()
     notes: list[str] = []

@@ -53,12 +53,15 @@ def test_a_cage_size_is_checked_by_one_rule_wherever_it_comes_from(blob):
     from hybridedit.cli import parse_cage_size
     from hybridedit.defaults import check_cage_size
 
-    for bad, words in ((2, "at least 4"), (1.5, "fraction"), (0.0, "fraction"), (True, "count or a fraction"),
-                       ("5%", "count or a fraction")):
+    for bad, words in ((2, "at least 4"), (1.5, "fraction"), (0.0, "fraction"),
+                       (True, "cage_size must be a vertex count"), ("many", "cage_size must be a vertex count"),
+                       ("3", "cage_size must be")):
         with pytest.raises(ValueError, match=words):
             check_cage_size(bad)
         with pytest.raises(ValueError, match=words):
             build_cage(blob, bad)
+    # a size written as text (a config file's, a form's) is read as the command line reads it
+    assert check_cage_size("5%") == parse_cage_size("5%") == 0.05 and check_cage_size("2000") == 2000
     for text, want in (("5%", 0.05), ("2000", 2000), ("0.25", 0.25)):
         assert parse_cage_size(text) == want and type(parse_cage_size(text)) is type(want)
     for text in ("3", "150%", "many"):
