@@ -119,6 +119,20 @@ def grab_direction(mouse: tuple[float, float], center: np.ndarray, axis: int, ra
     return u / np.linalg.norm(u)
 
 
+def swept_degrees(start, now, at) -> float:
+    """The angle (degrees, in (-180, 180], counter-clockwise positive) the mouse sweeps round display
+    point ``at`` from ``start`` to ``now``.
+
+    Examples
+    --------
+    >>> swept_degrees((1, 0), (0, 1), (0, 0)), round(swept_degrees((-1, 1), (-1, -1), (0, 0)), 9)
+    (90.0, 90.0)
+    """
+    s = np.asarray(start, dtype=np.float64) - np.asarray(at, dtype=np.float64)
+    n = np.asarray(now, dtype=np.float64) - np.asarray(at, dtype=np.float64)
+    return float(np.degrees(np.angle(np.exp(1j * (np.arctan2(n[1], n[0]) - np.arctan2(s[1], s[0]))))))
+
+
 def ring_angle(start: tuple[float, float], now: tuple[float, float], center: np.ndarray, axis: int,
                radius: float, grab: np.ndarray, composite: np.ndarray, size: tuple[int, int]) -> float:
     """Rotation angle (degrees, right-hand rule about world ``axis``) for a mouse move along a ring.
@@ -140,10 +154,7 @@ def ring_angle(start: tuple[float, float], now: tuple[float, float], center: np.
     if float(np.linalg.norm(v)) * radius >= 4.0:
         arc = float((n - s) @ v) / float(v @ v)
         return float(np.degrees(arc / radius))
-    c2 = p[2, :2]
-    a0 = np.arctan2(*(s - c2)[::-1])
-    a1 = np.arctan2(*(n - c2)[::-1])
-    ang = np.degrees(np.angle(np.exp(1j * (a1 - a0))))
+    ang = swept_degrees(s, n, p[2, :2])
     # counter-clockwise on screen is positive about an axis pointing at the viewer
     toward = p[3, 2] < p[2, 2]
     return float(ang if toward else -ang)
@@ -194,11 +205,9 @@ def swept_rotation(start: tuple[float, float], now: tuple[float, float], pivot: 
     c = np.asarray(pivot, dtype=np.float64)
     p, _ = project_points(c[None], composite, size)
     at = p[0, :2]
-    s = np.asarray(start, dtype=np.float64) - at
-    n = np.asarray(now, dtype=np.float64) - at
-    if not (np.hypot(*s) > 0 and np.hypot(*n) > 0):
+    if not (np.hypot(*(np.asarray(start) - at)) > 0 and np.hypot(*(np.asarray(now) - at)) > 0):
         return np.eye(4)
-    angle = float(np.degrees(np.angle(np.exp(1j * (np.arctan2(n[1], n[0]) - np.arctan2(s[1], s[0]))))))
+    angle = swept_degrees(start, now, at)
     near = unproject(at[0], at[1], -1.0, composite, size)
     far = unproject(at[0], at[1], 1.0, composite, size)
     toward = near - far
