@@ -6,6 +6,8 @@ The window itself, loaded with the test shape, is the ``win`` fixture of tests/v
 
 from __future__ import annotations
 
+from contextlib import contextmanager
+
 import numpy as np
 from qtpy import QtCore
 
@@ -19,6 +21,30 @@ Qt = QtCore.Qt
 def wait_loaded(qtbot, w, timeout: int = 180000) -> None:
     """Wait until the build under way has ended and a shape is on display."""
     qtbot.waitUntil(lambda: w.jobs.worker is None and w.session is not None, timeout=timeout)
+
+
+@contextmanager
+def opened_window(qtbot, *, cage_size, path=None, mesh=None, size=(1000, 760)):
+    """A window shown, active (window shortcuts need it) and with the keyboard on its view, the shape of
+    ``path`` (a file) or ``mesh`` (a Mesh) loaded; closed afterwards, here and not by qtbot (an unsaved
+    pose would ask first), also when loading fails: no window is left open to confuse the next test."""
+    from hybridedit.viewer.window.main_window import MainWindow
+
+    w = MainWindow(cage_size=cage_size)
+    w.resize(*size)
+    w.show()
+    qtbot.waitExposed(w)
+    w.activateWindow()
+    qtbot.waitActive(w)
+    w.view.setFocus()
+    try:
+        assert w.loading.open_path(path) if path is not None else w.loading.open_mesh(mesh)
+        wait_loaded(qtbot, w)
+        yield w
+    finally:
+        w.unsaved.set_modified(False)
+        w.close()
+        w.deleteLater()
 
 
 def to_widget(w, display_xy) -> QtCore.QPoint:

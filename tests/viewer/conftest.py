@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from shapes import capsule_blob
-from support.window_driving import CAGE, wait_loaded
+from support.window_driving import CAGE, opened_window
 from support.xvfb import ensure_display
 
 _XVFB = ensure_display("1280x1024x24") if sys.platform.startswith("linux") else None
@@ -101,29 +101,11 @@ def capsule_file(tmp_path_factory) -> Path:
 @pytest.fixture
 def win(qtbot, blob_file):
     """The window with the test shape loaded, front view (looking down -Z, Y up)."""
-    from hybridedit.viewer.window.main_window import MainWindow
-
-    w = MainWindow(cage_size=CAGE)  # closed here, not by qtbot: an unsaved pose would ask first
-    w.resize(1000, 760)
-    w.show()
-    qtbot.waitExposed(w)
-    w.activateWindow()
-    qtbot.waitActive(w)  # window shortcuts need the active window
-    w.view.setFocus()
-    try:
-        assert w.loading.open_path(blob_file)
-        wait_loaded(qtbot, w)
-    except BaseException:  # no window left open to confuse the next test
-        w.unsaved.set_modified(False)
-        w.close()
-        raise
-    w.scene.reset_camera(tilted=False)
-    w.view.request_render()
-    qtbot.wait(30)
-    yield w
-    w.unsaved.set_modified(False)
-    w.close()
-    w.deleteLater()
+    with opened_window(qtbot, cage_size=CAGE, path=blob_file) as w:
+        w.scene.reset_camera(tilted=False)
+        w.view.request_render()
+        qtbot.wait(30)
+        yield w
 
 
 @pytest.fixture

@@ -8,7 +8,7 @@ import pytest
 from qtpy import QtCore, QtWidgets
 
 from hybridedit.viewer.render.point_thinning import CELL_WIDTHS, THIN_FROM, one_per_cell
-from support.window_driving import handle_point, key, projected, select_tip, select_tip_to_drag, settled, wait_loaded
+from support.window_driving import handle_point, key, opened_window, projected, select_tip, select_tip_to_drag, settled
 
 Qt = QtCore.Qt
 
@@ -65,20 +65,8 @@ def test_while_dragging_the_points_are_hidden_by_default(qtbot, win, hide):
 @pytest.fixture
 def dense_win(qtbot, blob_file):
     """The window with the test shape at a cage of 1,000 vertices: its ROI draws many points."""
-    from hybridedit.viewer.window.main_window import MainWindow
-
-    w = MainWindow(cage_size=1000)
-    w.resize(1000, 760)
-    w.show()
-    qtbot.waitExposed(w)
-    try:
-        assert w.loading.open_path(blob_file)
-        wait_loaded(qtbot, w)
+    with opened_window(qtbot, cage_size=1000, path=blob_file) as w:
         yield w
-    finally:
-        w.unsaved.set_modified(False)
-        w.close()
-        w.deleteLater()
 
 
 def test_a_dense_roi_is_thinned_on_screen_and_the_selection_is_not(qtbot, dense_win):

@@ -12,9 +12,8 @@ from qtpy import QtCore, QtGui, QtWidgets
 from hybridedit import cli
 from hybridedit.core.mesh import edge_error_stats
 from hybridedit.fileio.meshfiles import read_mesh, write_mesh
-from hybridedit.viewer.window.main_window import MainWindow
 from shapes import figure
-from support.window_driving import key, mouse_drag, projected, settled, to_widget, wait_loaded
+from support.window_driving import key, mouse_drag, opened_window, projected, settled, to_widget
 
 Qt = QtCore.Qt
 CTRL = Qt.KeyboardModifier.ControlModifier
@@ -31,29 +30,13 @@ def figure_file(tmp_path_factory):
 @pytest.fixture
 def posing(qtbot, figure_file):
     """The window on the figure (arms out along X, legs down), seen from the front, in Pose mode."""
-    w = MainWindow(cage_size=0.1)
-    w.resize(1000, 760)
-    w.show()
-    qtbot.waitExposed(w)
-    w.activateWindow()
-    qtbot.waitActive(w)
-    w.view.setFocus()
-    try:
-        assert w.loading.open_path(figure_file)
-        wait_loaded(qtbot, w)
-    except BaseException:
-        w.unsaved.set_modified(False)
-        w.close()
-        raise
-    w.polisher.enabled = False
-    w.options.set_view("front")
-    qtbot.wait(30)
-    key(qtbot, w, Qt.Key.Key_P)
-    assert w.controller.mode == "pose" and w.actions_["mode_pose"].isChecked()
-    yield w
-    w.unsaved.set_modified(False)
-    w.close()
-    w.deleteLater()
+    with opened_window(qtbot, cage_size=0.1, path=figure_file) as w:
+        w.polisher.enabled = False
+        w.options.set_view("front")
+        qtbot.wait(30)
+        key(qtbot, w, Qt.Key.Key_P)
+        assert w.controller.mode == "pose" and w.actions_["mode_pose"].isChecked()
+        yield w
 
 
 def right_arm(w):

@@ -12,7 +12,7 @@ from qtpy import QtCore
 
 from hybridedit.core.mesh import Mesh
 from hybridedit.viewer.window.main_window import MainWindow
-from support.window_driving import key, look_down_minus_z, mouse_drag, projected, to_widget, wait_loaded
+from support.window_driving import key, look_down_minus_z, mouse_drag, opened_window, projected, to_widget
 
 Qt = QtCore.Qt
 CTRL, SHIFT, ALT = (Qt.KeyboardModifier.ControlModifier, Qt.KeyboardModifier.ShiftModifier,
@@ -39,24 +39,13 @@ def two_limbs() -> Mesh:
 @pytest.fixture
 def limbs(qtbot) -> MainWindow:
     """The window with the two limbs loaded (cage of 160 points), seen from +Z (looking down -Z), Select mode."""
-    w = MainWindow(cage_size=160)
-    w.resize(1000, 760)
-    w.show()
-    qtbot.waitExposed(w)
-    w.activateWindow()
-    qtbot.waitActive(w)
-    w.view.setFocus()
-    assert w.loading.open_mesh(two_limbs())
-    wait_loaded(qtbot, w)
-    look_down_minus_z(w.scene)
-    w.view.request_render()
-    qtbot.wait(30)
-    key(qtbot, w, Qt.Key.Key_S)
-    assert w.controller.mode == "select"
-    yield w
-    w.unsaved.set_modified(False)
-    w.close()
-    w.deleteLater()
+    with opened_window(qtbot, cage_size=160, mesh=two_limbs()) as w:
+        look_down_minus_z(w.scene)
+        w.view.request_render()
+        qtbot.wait(30)
+        key(qtbot, w, Qt.Key.Key_S)
+        assert w.controller.mode == "select"
+        yield w
 
 
 def around(w: MainWindow, mask: np.ndarray, margin: float = 8.0) -> tuple[QtCore.QPoint, QtCore.QPoint]:
