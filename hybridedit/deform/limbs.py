@@ -42,7 +42,7 @@ from scipy.sparse.csgraph import connected_components, dijkstra
 from ..core.facing import conventional_front
 from ..core.up_axis import axis_vector
 from .roles import FIXED, FREE, handle as handle_role
-from .skeleton import _edge_graph, find_skeleton
+from .skeleton import edge_graph, find_skeleton
 
 __all__ = ["Limb", "LimbPose", "CrossSections", "cross_sections", "find_limbs", "limb_at", "swing_axis",
            "MAX_LIMB_EXTREMITIES", "ELONGATION", "JUMP", "AHEAD", "GROWTH", "MAX_SHARE", "NECK_SHARE", "MIN_POINTS",
@@ -579,7 +579,7 @@ def find_limbs(cage_vertices: np.ndarray, cage_edges: np.ndarray, *, centre_poin
     if not edge > 0:
         return []
     cage = _Cage(v, surface, None if cage_faces is None else np.asarray(cage_faces, dtype=np.int64).reshape(-1, 3),
-                 _vertex_areas(v, surface, lengths, cage_faces), edge, _edge_graph(v, np.concatenate([surface, extra])))
+                 _vertex_areas(v, surface, lengths, cage_faces), edge, edge_graph(v, np.concatenate([surface, extra])))
     limbs: list[Limb] = []
     heads: list[bool] = []
     for k, x in enumerate(skeleton.extremities):

@@ -26,9 +26,9 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import dijkstra
 
-from ..core.index_sets import unique_in_range
+from ..core.index_sets import unique_in_range, unique_sorted
 
-__all__ = ["Skeleton", "find_skeleton", "joint_centre", "MAX_EXTREMITIES", "MIN_SPREAD"]
+__all__ = ["Skeleton", "edge_graph", "find_skeleton", "joint_centre", "MAX_EXTREMITIES", "MIN_SPREAD"]
 
 #: most extremities a shape's skeleton keeps
 MAX_EXTREMITIES = 8
@@ -59,14 +59,39 @@ class Skeleton:
     distances: np.ndarray
 
 
-def _edge_graph(vertices: np.ndarray, edges: np.ndarray) -> sp.csr_matrix:
-    """The symmetric (c, c) graph of ``edges`` weighted by their lengths."""
-    n = len(vertices)
-    if len(edges) == 0:
+def edge_graph(points: np.ndarray, edges: np.ndarray) -> sp.csr_matrix:
+    """The symmetric (c, c) graph of a cage's ``edges`` weighted by their lengths at ``points``
+    (the skeleton's geodesic distances, the window's selection growing along the surface).
+
+    Parameters
+    ----------
+    points : (c, 3) float64
+        The cage, as posed now.
+    edges : (e, 2) int
+        Its edges (in either direction, repeats allowed: each edge counts once).
+
+    Returns
+    -------
+    (c, c) scipy.sparse.csr_matrix
+        Both directions of every edge; a zero-length edge weighs a tiny positive length (a stored zero
+        would mean no edge).
+
+    Examples
+    --------
+    >>> g = edge_graph(np.array([[0.0, 0, 0], [3, 4, 0]]), np.array([[0, 1]]))
+    >>> g[0, 1], g[1, 0]
+    (np.float64(5.0), np.float64(5.0))
+    """
+    p = np.asarray(points, dtype=np.float64)
+    n = len(p)
+    e = np.sort(np.asarray(edges, dtype=np.int64).reshape(-1, 2), axis=1)
+    key = unique_sorted(e[:, 0] * n + e[:, 1])  # each edge once (a repeat would be summed into a longer one)
+    e = np.stack([key // max(n, 1), key % max(n, 1)], axis=1)
+    if len(e) == 0:
         return sp.csr_matrix((n, n))
-    length = np.linalg.norm(vertices[edges[:, 0]] - vertices[edges[:, 1]], axis=1)
-    length = np.maximum(length, 1e-12 * max(float(length.max()), 1e-300))  # 0 would mean "no edge"
-    g = sp.coo_matrix((length, (edges[:, 0], edges[:, 1])), shape=(n, n)).tocsr()
+    length = np.linalg.norm(p[e[:, 0]] - p[e[:, 1]], axis=1)
+    length = np.maximum(length, 1e-12 * max(float(length.max()), 1e-300))
+    g = sp.coo_matrix((length, (e[:, 0], e[:, 1])), shape=(n, n)).tocsr()
     return (g + g.T).tocsr()
 
 
@@ -91,7 +116,7 @@ def find_skeleton(cage_vertices: np.ndarray, cage_edges: np.ndarray, centre_poin
         With no extremity when the cage has a single vertex reachable from the centre.
     """
     v = np.asarray(cage_vertices, dtype=np.float64)
-    graph = _edge_graph(v, np.asarray(cage_edges, dtype=np.int64).reshape(-1, 2))
+    graph = edge_graph(v, cage_edges)
     centre = int(np.argmin(np.linalg.norm(v - np.asarray(centre_point, dtype=np.float64), axis=1)))
     from_centre = dijkstra(graph, indices=centre)
     reachable = np.isfinite(from_centre)

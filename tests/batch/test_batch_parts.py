@@ -33,12 +33,12 @@ def test_the_extremities_are_farthest_points_from_the_centre(bound):
     farthest from the centre and those before it, while that is at least MIN_SPREAD of the first."""
     from scipy.sparse.csgraph import dijkstra
 
-    from hybridedit.deform.skeleton import MIN_SPREAD, _edge_graph
+    from hybridedit.deform.skeleton import MIN_SPREAD, edge_graph
 
     s = bound.skeleton
     cage = bound.rig.cage
     assert 2 <= len(s.extremities) <= 8 and s.distances.shape == (len(s.extremities), cage.n_vertices)
-    from_centre = dijkstra(_edge_graph(cage.vertices, cage.edges()), indices=s.centre)
+    from_centre = dijkstra(edge_graph(cage.vertices, cage.edges()), indices=s.centre)
     assert s.extremities[0] == np.argmax(from_centre) and s.reach[0] == from_centre.max()
     assert np.allclose(s.distances[np.arange(len(s.extremities)), s.extremities], 0)
     for k in range(1, len(s.extremities)):

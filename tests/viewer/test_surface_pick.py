@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from hybridedit.viewer.model.surface_pick import edge_graph, surface_under, thickness
+from hybridedit.deform.skeleton import edge_graph
+from hybridedit.viewer.model.surface_pick import surface_under, thickness
 
 RING = 16
 

@@ -41,12 +41,13 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from qtpy import QtCore, QtGui
 
+from ...deform.skeleton import edge_graph
 from ..model import gizmo as gz
 from ..model.picking import (
     ADD, REPLACE, brush_hits, nearest_hit, op_from_modifiers, project_points, rectangle_hits, stroke_hits,
     unproject, visible_points,
 )
-from ..model.surface_pick import edge_graph, surface_under
+from ..model.surface_pick import surface_under
 from ..render.scene import Scene
 from ..render.view import OutlineOverlay, View
 

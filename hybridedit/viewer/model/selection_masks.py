@@ -29,8 +29,9 @@ import numpy as np
 from ...core.index_sets import unique_sorted
 from ...core.normals import vertex_normals
 from ...deform.roles import FIXED, group, handle as handle_role, is_handle
+from ...deform.skeleton import edge_graph
 from .picking import combine, selection_roles
-from .surface_pick import edge_graph, thickness
+from .surface_pick import thickness
 
 if TYPE_CHECKING:
     from ...deform.editor import HybridEditor
@@ -40,6 +41,16 @@ ROI, HANDLE = "roi", "handle"
 TARGETS = (ROI, HANDLE)
 NO_GROUP = 0
 """``handle_group`` of a cage vertex in no handle group."""
+
+
+def touching_held(roles: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """(c,) bool: the handle points (of any group) that share a cage edge with a held (fixed) point, for
+    cage roles ``roles`` (c,) and cage ``edges`` (e, 2): where a drag would tear the shape."""
+    touching = np.zeros(len(roles), dtype=bool)
+    held = roles == FIXED
+    for x, y in ((edges[:, 0], edges[:, 1]), (edges[:, 1], edges[:, 0])):
+        touching[x[is_handle(roles[x]) & held[y]]] = True
+    return touching
 
 
 @runtime_checkable
@@ -344,19 +355,15 @@ class Selection:
         r = selection_roles(self.roi, self.handle_group)
         e = self._editor.cage_edges
         held = r == FIXED
-        touching = np.zeros(len(r), dtype=bool)
-        for x, y in ((e[:, 0], e[:, 1]), (e[:, 1], e[:, 0])):
-            touching[x[is_handle(r[x]) & held[y]]] = True
+        touching = touching_held(r, e)
         if not touching.any():
             return 0
         from scipy.sparse.csgraph import dijkstra
 
-        cage = self._editor.cage.vertices
-        graph = edge_graph(cage, e)
-        reach = self.cage_thickness()[touching]
-        d = dijkstra(graph, directed=False, indices=np.flatnonzero(touching), min_only=True,
-                     limit=float(reach.max()))
-        band = held & (d <= float(np.median(reach)))
+        reach = float(np.median(self.cage_thickness()[touching]))
+        d = dijkstra(edge_graph(self._editor.cage.vertices, e), directed=False, indices=np.flatnonzero(touching),
+                     min_only=True, limit=reach)
+        band = held & (d <= reach)
         for x, y in ((e[:, 0], e[:, 1]), (e[:, 1], e[:, 0])):  # at least every held neighbour
             band[y[touching[x] & held[y]]] = True
         self.roi = self.roi | band
@@ -432,8 +439,5 @@ class Selection:
         no free point between them, a drag stretches those edges and tears the shape there (the front of a
         limb taken as handle, its back left fixed). Mirror images count in their group; empty when none."""
         r = self.cage_roles()
-        e = self._editor.cage_edges
-        touching = np.zeros(len(r), dtype=bool)
-        for x, y in ((e[:, 0], e[:, 1]), (e[:, 1], e[:, 0])):
-            touching[x[is_handle(r[x]) & (r[y] == FIXED)]] = True
+        touching = touching_held(r, self._editor.cage_edges)
         return {int(group(g)): int(np.count_nonzero(touching & (r == g))) for g in unique_sorted(r[touching])}

@@ -29,8 +29,9 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components, dijkstra
 
 from ...core.index_sets import unique_sorted
+from ...deform.skeleton import edge_graph
 
-__all__ = ["surface_under", "edge_graph", "thickness", "KEEP_SHARE", "GROW"]
+__all__ = ["surface_under", "thickness", "KEEP_SHARE", "GROW"]
 
 KEEP_SHARE = 0.5
 """A seen piece other than the largest is taken when it has at least this share of the largest's seen
@@ -42,41 +43,6 @@ along cage edges zigzags; 1.2 D still stops a body's length short of another lim
 NEIGHBOURS = 48
 """:func:`thickness` looks for the far side of the part among this many nearest cage points (a limb's
 cross-section on a cage has 8 to 16)."""
-
-
-def edge_graph(points: np.ndarray, edges: np.ndarray) -> sp.csr_matrix:
-    """The symmetric (c, c) graph of the cage's ``edges`` weighted by their lengths at ``points``.
-
-    Parameters
-    ----------
-    points : (c, 3) float64
-        The cage, as posed now.
-    edges : (e, 2) int
-        Its edges (in either direction, repeats allowed: each edge counts once).
-
-    Returns
-    -------
-    (c, c) scipy.sparse.csr_matrix
-        Both directions of every edge; a zero-length edge weighs a tiny positive length (a stored zero
-        would mean no edge).
-
-    Examples
-    --------
-    >>> g = edge_graph(np.array([[0.0, 0, 0], [3, 4, 0]]), np.array([[0, 1]]))
-    >>> g[0, 1], g[1, 0]
-    (np.float64(5.0), np.float64(5.0))
-    """
-    p = np.asarray(points, dtype=np.float64)
-    n = len(p)
-    e = np.sort(np.asarray(edges, dtype=np.int64).reshape(-1, 2), axis=1)
-    key = unique_sorted(e[:, 0] * n + e[:, 1])  # each edge once (a repeat would be summed into a longer one)
-    e = np.stack([key // max(n, 1), key % max(n, 1)], axis=1)
-    if len(e) == 0:
-        return sp.csr_matrix((n, n))
-    length = np.linalg.norm(p[e[:, 0]] - p[e[:, 1]], axis=1)
-    length = np.maximum(length, 1e-12 * max(float(length.max()), 1e-300))
-    g = sp.coo_matrix((length, (e[:, 0], e[:, 1])), shape=(n, n)).tocsr()
-    return (g + g.T).tocsr()
 
 
 def thickness(points: np.ndarray, normals: np.ndarray, *, neighbours: int = NEIGHBOURS) -> np.ndarray:
@@ -136,7 +102,7 @@ def surface_under(hits: np.ndarray, seen: np.ndarray, graph: sp.csr_matrix, thic
     seen : (c,) bool
         Those in sight (only those among ``hits`` count).
     graph : (c, c) sparse
-        The cage's edge graph, weighted by length (:func:`edge_graph`).
+        The cage's edge graph, weighted by length (:func:`hybridedit.deform.skeleton.edge_graph`).
     thick : (c,) float64
         How thick the part is at each cage point (:func:`thickness`).
     depth : (c,) float64, optional
