@@ -15,7 +15,6 @@ from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import numpy as np
 
-from ...deform.limbs import limb_at
 from .interfaces import Renders
 
 if TYPE_CHECKING:
@@ -105,13 +104,15 @@ class LimbPosing:
         self._engine = None
 
     # ------------------------------------------------------------------ the limbs
-    def _limbs(self) -> list[Limb]:
+    def _limb_at(self, cage_vertex: int | None) -> Limb | None:
+        """The engine's limb the cage point ``cage_vertex`` lies on (:meth:`hybridedit.HybridEditor.limb_at`),
+        or None (no shape, no point, no limb there)."""
         s = self.w.session
         if s is None:
-            return []
+            return None
         if s.editor is not self._engine:  # another shape or cage: its own joints
             self._engine, self._at, self.shown = s.editor, {}, None
-        return s.editor.limbs()
+        return None if cage_vertex is None else s.editor.limb_at(int(cage_vertex), space="cage")
 
     def at(self, limb: Limb) -> float:
         """Where ``limb``'s joint is now, as a fraction of its length from the tip (1: where it meets the body)."""
@@ -125,8 +126,7 @@ class LimbPosing:
     def hover(self, cage_vertex: int | None) -> bool:
         """Show the limb the cage point ``cage_vertex`` lies on (None or no limb there: the selection as it
         is); True when a limb is shown."""
-        limbs = self._limbs()
-        limb = limb_at(limbs, cage_vertex) if cage_vertex is not None and limbs else None
+        limb = self._limb_at(cage_vertex)
         if limb is self.shown:
             return limb is not None
         self.shown = limb
@@ -138,8 +138,7 @@ class LimbPosing:
         (one undo step) and its pivot (3,) in the pose on display is returned; None (and said why) when no
         limb is there."""
         w = self.w
-        limbs = self._limbs()
-        limb = limb_at(limbs, cage_vertex) if limbs and cage_vertex is not None else None
+        limb = self._limb_at(cage_vertex)
         if limb is None:
             w.status.message("No limb there: the Pose tool turns a limb (an arm, a leg, a tail, a head) about "
                              "its joint; hover one to see it")
