@@ -58,6 +58,13 @@ def projected(w, pts: np.ndarray):
     return project_points(pts, C, size)
 
 
+def around(w, mask: np.ndarray, margin: float = 8.0) -> tuple[QtCore.QPoint, QtCore.QPoint]:
+    """Corners of a rectangle around the cage points of ``mask`` on screen (widget coordinates)."""
+    d, _ = projected(w, w.session.cage_positions[mask])
+    return (to_widget(w, (d[:, 0].min() - margin, d[:, 1].max() + margin)),
+            to_widget(w, (d[:, 0].max() + margin, d[:, 1].min() - margin)))
+
+
 def mouse_drag(qtbot, widget, a: QtCore.QPoint, b: QtCore.QPoint, steps: int = 6,
                modifier=Qt.KeyboardModifier.NoModifier) -> None:
     """Press at a, move in steps to b, release: real Qt mouse events."""

@@ -12,7 +12,7 @@ from qtpy import QtCore
 
 from hybridedit.core.mesh import Mesh
 from hybridedit.viewer.window.main_window import MainWindow
-from support.window_driving import key, look_down_minus_z, mouse_drag, opened_window, projected, to_widget
+from support.window_driving import around, key, look_down_minus_z, mouse_drag, opened_window, projected, to_widget
 
 Qt = QtCore.Qt
 CTRL, SHIFT, ALT = (Qt.KeyboardModifier.ControlModifier, Qt.KeyboardModifier.ShiftModifier,
@@ -46,13 +46,6 @@ def limbs(qtbot) -> MainWindow:
         key(qtbot, w, Qt.Key.Key_S)
         assert w.controller.mode == "select"
         yield w
-
-
-def around(w: MainWindow, mask: np.ndarray, margin: float = 8.0) -> tuple[QtCore.QPoint, QtCore.QPoint]:
-    """Corners of a rectangle around the cage points of ``mask`` on screen."""
-    d, _ = projected(w, w.session.cage_positions[mask])
-    return (to_widget(w, (d[:, 0].min() - margin, d[:, 1].max() + margin)),
-            to_widget(w, (d[:, 0].max() + margin, d[:, 1].min() - margin)))
 
 
 def click(qtbot, w: MainWindow, at: QtCore.QPoint, modifier=Qt.KeyboardModifier.NoModifier) -> None:

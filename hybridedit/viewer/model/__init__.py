@@ -5,7 +5,9 @@ Modules
 session         : the editing state on top of the engine: pose, drags and settle, polish, undo, edit files
 selection_masks : the session's selection (held, not inherited): ROI and handle-group masks, strokes, roles
 history         : the undo/redo stack of snapshots
+recovery        : the recovery file of an unsaved pose, found after an unclean exit and replayed exactly
 picking         : projection, hit tests and add/remove/replace on cage points
+surface_pick    : the cage points a gesture takes: the surface in sight and the part behind it
 gizmo           : the handle gizmo's parts, hit test and drag transforms
 cage_size       : the rule that fits a cage size (fraction or vertex count) to a shape
 """

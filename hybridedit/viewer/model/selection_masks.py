@@ -317,6 +317,35 @@ class Selection:
         self._owner.selection_changed(label)
         return True
 
+    def recovered(self, roi: np.ndarray, handle_group: np.ndarray, *, n_groups: int, active: int,
+                  symmetry: str | None) -> bool:
+        """The masks, handle groups and mirror of a recovered session (:func:`~.recovery.recover`), as one
+        undo step when they are not the ones the replayed edit left; returns False when they are.
+
+        Raises
+        ------
+        ValueError
+            Masks of another size than the cage, or a role that is not a handle group.
+        SelectionError
+            A mirror the shape is not symmetric enough for.
+        """
+        r = np.asarray(roi, dtype=bool)
+        g = np.asarray(handle_group, dtype=np.int8)
+        if r.shape != (self._n_cage,) or g.shape != (self._n_cage,):
+            raise ValueError(f"selection masks must have {self._n_cage} entries (the cage vertex count)")
+        if g.size and (g.min() < NO_GROUP or g.max() > handle_role(max(int(n_groups), 1) - 1)):
+            raise ValueError("a handle group role out of range")
+        n = max(int(n_groups), 1)
+        if symmetry is not None:
+            self._editor.mirror(symmetry)
+        self.active = min(max(int(active), 0), n - 1)
+        if (np.array_equal(r, self.roi) and np.array_equal(g, self.handle_group) and n == self.n_groups
+                and symmetry == self.symmetry):
+            return False
+        self.roi, self.handle_group, self.n_groups, self.symmetry = r.copy(), g.copy(), n, symmetry
+        self._owner.selection_changed("recovered selection")
+        return True
+
     def select(self, target: str, hits: np.ndarray, op: str) -> bool:
         """Apply hit-tested cage vertices ((c,) bool) to the ROI or the handle (replace / add / remove)."""
         return self.set_mask(target, combine(self.mask(target), hits, op))

@@ -13,6 +13,7 @@ slot_errors   : a slot's unexpected error shown in a message box, not as a trace
 interfaces    : the small interfaces several collaborators see one another through
 unsaved_mark  : the unsaved-pose mark and the title
 file_actions  : open, save, edit files, screenshots, the unsaved-pose question
+autosave      : the unsaved pose kept in a recovery file, and offered back after an unclean exit
 file_drops    : files dropped on the window
 dialogs       : the dialogs: shortcuts, how to edit, about, mesh info
 help_texts    : the help texts (How to Edit's is how_to_edit.md, shipped with the package)
@@ -21,6 +22,7 @@ cage_size_box : the toolbar's cage size box (% or vertex count)
 shape_loading : opening a shape, rebuilding the cage, the preview while building, installing a build
 selecting     : the selection target, selection gestures, the Select menu, mirror, handle groups
 posing        : the guard before any change, what follows a drag, polish on release and its result
+limb_posing   : the Pose tool: the limb under the mouse, its joint, bent by a drag
 undo_commands : undo, redo, reset pose
 view_options  : mode, tool, brush, what is drawn (cage, stretch map, look, anti-aliasing), camera, up axis
 scene_sync    : the scene kept in step with the session; edge error and stretch map

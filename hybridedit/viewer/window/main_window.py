@@ -20,6 +20,7 @@ from ..model.session import Session
 from ..render.scene import Scene
 from ..render.view import View
 from .actions import ActionSet
+from .autosave import Autosave
 from .cage_size_box import CageSizeControl
 from .dialogs import InfoDialogs
 from .file_actions import FileActions
@@ -67,6 +68,7 @@ class MainWindow(QtWidgets.QMainWindow):
     drops : files dropped on the window (:class:`~.file_drops.FileDrops`).
     first_steps : the hint on the view until the first selection (:class:`~.first_steps.FirstSteps`).
     limb_posing : the Pose tool (:class:`~.limb_posing.LimbPosing`).
+    autosave : the unsaved pose kept for recovery, and recovered (:class:`~.autosave.Autosave`).
     """
 
     def __init__(self, cage_size: int | float = CAGE_SIZE) -> None:
@@ -97,6 +99,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.cage_control.set_value(cage_size)
         self.drops = FileDrops(self, self)
         self.first_steps = FirstSteps(self)
+        self.autosave = Autosave(self, self)
         # the threads' results and the view's frames, to the collaborators that show them
         self.jobs.busy_changed.connect(lambda _busy: self.actions_.refresh())
         self.polisher.succeeded.connect(self.posing.show_polish)
@@ -108,10 +111,11 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def closeEvent(self, ev: QtGui.QCloseEvent) -> None:  # noqa: N802
         """Quit, unless the unsaved-pose question is cancelled (:meth:`~.file_actions.FileActions.keep_work`);
-        the drag frames, the polish and the build end first."""
+        the drag frames, the polish and the build end first, and the recovery file goes (a clean quit)."""
         if not self.files.keep_work("quitting"):
             ev.ignore()
             return
+        self.autosave.quit_cleanly()
         self.dragging.stop()
         self.polisher.wait()
         self.jobs.wait()

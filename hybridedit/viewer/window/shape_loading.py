@@ -91,6 +91,13 @@ class Says(Protocol):
 
 
 @runtime_checkable
+class Recovers(Protocol):
+    """The autosave as the loading sees it (:class:`~.autosave.Autosave`): a build is on display."""
+
+    def shape_installed(self, rebuilt: bool) -> None: ...
+
+
+@runtime_checkable
 class LoadingHost(Protocol):
     """What :class:`ShapeLoading` asks of the window (:class:`~.main_window.MainWindow`)."""
 
@@ -119,6 +126,8 @@ class LoadingHost(Protocol):
     def status(self) -> Says: ...
     @property
     def actions_(self) -> ActionChecks: ...
+    @property
+    def autosave(self) -> Recovers: ...
 
 
 class ShapeLoading:
@@ -228,6 +237,7 @@ class ShapeLoading:
             w.scene.reset_camera()
         w.unsaved.update_title()
         w.actions_.refresh()
+        w.autosave.shape_installed(rebuilt)
         return rebuilt, note
 
     def _install_new_shape(self, result: BuildResult) -> str | None:
