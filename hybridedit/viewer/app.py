@@ -114,17 +114,26 @@ def _quit_on_interrupt(app):
 
 
 def _install_excepthook(window):
-    """Unexpected errors in Qt callbacks go to a message box and one line on stderr, not a traceback
-    (set HYBRIDEDIT_DEBUG=1 for the traceback). Returns what to call to undo it."""
+    """Unexpected errors in Qt callbacks go to a message box naming their crash report (written to the
+    user cache folder, :mod:`.model.crash_reports`) and one line on stderr, not a traceback (set
+    HYBRIDEDIT_DEBUG=1 for the traceback too). Returns what to call to undo it."""
+    from .model.crash_reports import describe, is_crash, session_details, write_crash_report
+
     previous = sys.excepthook
 
     def hook(etype, value, tb):
         if os.environ.get("HYBRIDEDIT_DEBUG"):
             traceback.print_exception(etype, value, tb, file=sys.stderr)
-        else:
-            print(f"hybridedit: unexpected error: {etype.__name__}: {value}", file=sys.stderr)
+        text = describe(value)
+        if is_crash(value):
+            if value.__traceback__ is None and tb is not None:
+                value = value.with_traceback(tb)
+            report = write_crash_report(value, context="unexpected error",
+                                        details=session_details(getattr(window, "session", None)))
+            text += f". Report: {report}" if report is not None else ". No crash report could be written."
+        print(f"hybridedit: unexpected error: {text}", file=sys.stderr)
         try:
-            window.status.show_error("Unexpected error", f"{etype.__name__}: {value}")
+            window.status.show_error("Unexpected error", text)
         except Exception:  # noqa: BLE001
             previous(etype, value, tb)
 

@@ -165,14 +165,17 @@ def test_failures_show_one_error_and_keep_the_shape(qtbot, win, tmp_path, monkey
     monkeypatch.undo()  # the real build again (and the real show_error)
     errors = record_errors(w, monkeypatch)
 
-    # a build that cannot be shown
+    # a build that cannot be shown: an unexpected error, said in the status bar with its crash report
     def broken(result):
         raise RuntimeError("no room on screen")
 
     monkeypatch.setattr(w.loading, "install_build", broken)
     assert w.loading.open_path(w.session.path)
     wait_loaded(qtbot, w)
-    assert errors == [("Could not show the shape", "RuntimeError: no room on screen")]
+    assert errors == []
+    assert w.status.last_error == w.status.current_message()
+    assert w.status.last_error.startswith(f"The build of {s.path.name} failed (RuntimeError: no room on screen); "
+                                          "the shape on display is kept. Report: ")
     assert w.session is s
     assert_idle(w)
     close_boxes(w)

@@ -21,9 +21,12 @@ import numpy as np
 from qtpy import QtCore
 
 from ...deform.selection import SelectionError
+from ..model.crash_reports import describe, is_crash
 from .frame_thread import DragFrame, FrameThread, Job
 
 if TYPE_CHECKING:
+    from pathlib import Path
+
     from .mouse_gestures import Gesture
     from ..render.scene import Scene
     from ..model.session import Session
@@ -44,9 +47,12 @@ class GestureHolder(Protocol):
 
 @runtime_checkable
 class Says(Protocol):
-    """The status bar as a drag sees it: an error, or the message on show made out of date."""
+    """The status bar as a drag sees it: an error (an unexpected one reported), or the message on show
+    made out of date."""
 
     def show_error(self, title: str, text: str) -> None: ...
+    def report_crash(self, error: BaseException, *, what: str, context: str, kept: str | None = None,
+                     details: dict | None = None) -> Path | None: ...
     def clear_message(self) -> None: ...
 
 
@@ -199,21 +205,20 @@ class DragFrames(QtCore.QObject):
 
     def _show(self, ok: bool, frame) -> None:
         """A finished frame (UI thread): into VTK's buffers, and render; a failed one undoes the drag."""
-        w = self.w
-        s = w.session
+        s = self.w.session
         if s is None or (ok and frame.session is not s):
             return
         if not ok:
-            self.frames.discard()  # no later frame of this drag
-            self._failed = True
-            w.controller.gesture = None
-            s.cancel_drag()
-            w.sync.refresh_all()
-            if isinstance(frame, (ValueError, ArithmeticError)):  # e.g. a degenerate transform
-                w.status.show_error("Drag failed", f"{frame}; the drag was undone.")
-            else:
-                w.status.show_error("Drag failed", f"{frame.__class__.__name__}: {frame}; the drag was undone.")
+            self._fail(frame)
             return
+        try:
+            self._draw(frame)
+        except Exception as e:  # noqa: BLE001 -- said, and the drag undone
+            self._fail(e)
+
+    def _draw(self, frame: DragFrame) -> None:
+        """A frame the thread computed, drawn: the changed rows into VTK's buffers, the cage, the gizmo."""
+        w = self.w
         scene = self.scene
         upload_s = scene.show_shape()
         if frame.stretch:
@@ -233,6 +238,36 @@ class DragFrames(QtCore.QObject):
         w.unsaved.set_modified(True)
         self.view.request_render()
 
+    def _fail(self, error: BaseException, *, what: str = "The drag frame failed",
+              context: str = "drag frame") -> None:
+        """A frame, the release or the settle of a drag raised ``error``: no later frame or settle, the
+        gesture ended, the session back at its state before the drag (the history's current step, the last
+        good pose) and drawn; said in one line, and an unexpected error reported
+        (:meth:`~..window.status_bar.StatusBar.report_crash`)."""
+        w = self.w
+        self.frames.discard()  # no later frame of this drag
+        self.settle_timer.stop()
+        self._failed = True
+        w.controller.gesture = None  # (its release is then no drag's: end() is not called for it)
+        if self.scene.dragging:
+            self.scene.set_dragging(False)
+        restored = True
+        try:
+            w.session.cancel_drag()
+            w.sync.refresh_all()
+        except Exception as again:  # noqa: BLE001 -- the way back failed too: that is the state now
+            if again.__context__ is None:
+                again.__context__ = error  # (the report shows both)
+            error, restored = again, False
+        if not restored:
+            w.status.report_crash(error, what=what, context=context,
+                                  kept="the pose before the drag could not be restored")
+        elif is_crash(error):
+            w.status.report_crash(error, what=what, context=context,
+                                  kept="the drag was undone and the last good pose kept")
+        else:  # e.g. a transform the engine refuses: said in its words
+            w.status.show_error("Drag failed", f"{describe(error, named=False)}; the drag was undone.")
+
     def end(self) -> None:
         """The button was released: the last move's frame, then the settle in slices (or the final pose)."""
         w = self.w
@@ -245,12 +280,17 @@ class DragFrames(QtCore.QObject):
         self.frames.flush()  # the frame of the last mouse position
         if self._failed:
             return
-        if not np.all(np.isfinite(s.shape_positions)):
-            s.cancel_drag()
-            w.sync.refresh_all()
-            w.status.show_error("Drag failed", "The deformation became non-finite; the drag was undone.")
+        try:
+            if not np.all(np.isfinite(s.shape_positions)):
+                s.cancel_drag()
+                w.sync.refresh_all()
+                w.status.show_error("Drag failed", "The deformation became non-finite; the drag was undone.")
+                return
+            settles = s.end_drag()
+        except Exception as e:  # noqa: BLE001 -- said, and the drag undone
+            self._fail(e, what="The end of the drag failed", context="drag release")
             return
-        if s.end_drag():
+        if settles:
             self._settle_chunk = 2
             self.settle_timer.start()  # settle in slices; the last interactive frame stays on screen
         else:
@@ -266,7 +306,11 @@ class DragFrames(QtCore.QObject):
         done = True
         if s.settling:  # (something may have read the pose, which completes the settle)
             t0 = time.perf_counter()
-            done = s.settle_step(self._settle_chunk)
+            try:
+                done = s.settle_step(self._settle_chunk)
+            except Exception as e:  # noqa: BLE001 -- said once (the timer stops), and the drag undone
+                self._fail(e, what="The settle after the drag failed", context="settle")
+                return
             per = (time.perf_counter() - t0) / max(self._settle_chunk, 1)
             self._settle_chunk = int(min(max(SETTLE_SLICE / max(per, 1e-6), 1), 30))
         if done:
@@ -278,8 +322,12 @@ class DragFrames(QtCore.QObject):
         self.frames.flush()
         s = self.w.session
         if s is not None and s.settling:
-            s.finish_settle()
             self.settle_timer.stop()
+            try:
+                s.finish_settle()
+            except Exception as e:  # noqa: BLE001 -- said, and the drag undone
+                self._fail(e, what="The settle after the drag failed", context="settle")
+                return
             self.w.posing.after_drag()
 
     def flush(self) -> None:

@@ -24,6 +24,7 @@ from qtpy import QtCore, QtWidgets
 
 from . import build_worker
 from ..model.cage_size import DEFAULT_SIZE, fit_cage_size, is_count
+from ..model.crash_reports import is_crash
 from ..render.look import shown_look
 from .build_worker import BuildRequest, BuildResult, BuildWorker, Cancelled
 from .threads import release
@@ -59,10 +60,12 @@ class KeepsWork(Protocol):
 
 @runtime_checkable
 class Says(Protocol):
-    """The status bar as a build sees it: errors and messages."""
+    """The status bar as a build sees it: errors (an unexpected one reported) and messages."""
 
     def show_error(self, title: str, text: str) -> None: ...
     def message(self, text: str) -> None: ...
+    def report_crash(self, error: BaseException, *, what: str, context: str, kept: str | None = None,
+                     details: dict | None = None) -> Path | None: ...
 
 
 @runtime_checkable
@@ -378,6 +381,7 @@ class BuildJobs(QtCore.QObject):
         job.shape_read.connect(self._shape_read)
         job.succeeded.connect(self._succeeded)
         job.failed.connect(self._failed)
+        job.crashed.connect(self._crashed)
         job.cancelled.connect(self._cancelled)
         job.finished.connect(self._finished)
         self.worker = job
@@ -426,13 +430,35 @@ class BuildJobs(QtCore.QObject):
             w.status.message(built_message(result, w.session, rebuilt, note))
         except Exception as e:  # noqa: BLE001
             w.loading.end_preview()  # (the shape on display before comes back)
-            w.status.show_error("Could not show the shape", f"{e.__class__.__name__}: {e}")
+            if is_crash(e):
+                self._report(e, result.request, "showing")
+            else:
+                w.status.show_error("Could not show the shape", str(e))
 
     def _failed(self, message: str) -> None:
         self.w.loading.end_preview()
         req = self.worker.request if self.worker is not None else None
         rebuilding = req is not None and req.rebuild
         self.w.status.show_error("Could not rebuild the cage" if rebuilding else "Could not open the mesh", message)
+
+    def _crashed(self, error: BaseException) -> None:
+        """The build raised an unexpected error: the shape on display before is back (or none), reported."""
+        self.w.loading.end_preview()
+        if self.worker is not None:
+            self._report(error, self.worker.request, "building")
+
+    def _report(self, error: BaseException, req: BuildRequest, stage: str) -> None:
+        """One line and a crash report for a build that failed unexpectedly while ``stage`` ("building",
+        "showing"), naming its shape and what is on display now."""
+        w = self.w
+        name = req.path.name if req.path is not None else (req.mesh.name if req.mesh is not None else None)
+        what = f"{'rebuild of the cage of' if req.rebuild else 'build of'} {name or 'the shape'}"
+        kept = ("the shape and edit on display are kept" if req.rebuild else "the shape on display is kept") \
+            if w.session is not None else "no shape is open"
+        w.status.report_crash(error, what=f"The {what} failed", context=what, kept=kept,
+                              details={"building": f"{name or 'a shape'} at cage size {req.cage_size}"
+                                                   f"{f' from {req.path}' if req.path is not None else ''}",
+                                       "failed while": stage})
 
     def _cancelled(self) -> None:
         self.w.loading.end_preview()

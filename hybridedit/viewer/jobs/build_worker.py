@@ -19,6 +19,7 @@ from ...binding.rig import build_rig
 from ...core.region_metrics import ShapeMetrics
 from ...fileio.up_axes import shape_key, up_axis_of
 from ...fileio.meshfiles import read_document
+from ..model.crash_reports import is_crash
 from ..render.look import Look, shown_look
 from ...core.mesh import Mesh
 
@@ -65,7 +66,9 @@ class BuildWorker(QtCore.QThread):
     shape_read(mesh, look, up)   a new shape is read (its look or None, its up axis): the window shows
                                  it while the cage and binding are built (not for a rebuild)
     succeeded(BuildResult)
-    failed(message: str)   a one-line message for the user (never a traceback)
+    failed(message: str)   a one-line message for the user (never a traceback): the input's problem
+    crashed(error)         an unexpected error (:func:`~..model.crash_reports.is_crash`), with its
+                           traceback: the window reports it
     cancelled()
     """
 
@@ -73,6 +76,7 @@ class BuildWorker(QtCore.QThread):
     shape_read = QtCore.Signal(object, object, object)
     succeeded = QtCore.Signal(object)
     failed = QtCore.Signal(str)
+    crashed = QtCore.Signal(object)
     cancelled = QtCore.Signal()
 
     def __init__(self, request: BuildRequest, parent: QtCore.QObject | None = None) -> None:
@@ -147,10 +151,10 @@ class BuildWorker(QtCore.QThread):
             self.cancelled.emit()
         except MemoryError:
             self.failed.emit("not enough memory to build the cage and binding for this shape")
-        except Exception as e:  # noqa: BLE001 -- every failure becomes a message, never a traceback
-            msg = str(e).strip() or e.__class__.__name__
-            if not isinstance(e, (ValueError, OSError)):
-                msg = f"{e.__class__.__name__}: {msg}"
-            self.failed.emit(msg)
+        except Exception as e:  # noqa: BLE001 -- a message, or a crash report: never a traceback on screen
+            if is_crash(e):
+                self.crashed.emit(e)
+            else:  # the input's problem (a ValueError, an OSError), in the words it was raised with
+                self.failed.emit(str(e).strip() or e.__class__.__name__)
         else:
             self.succeeded.emit(BuildResult(req, mesh, editor, time.perf_counter() - t0, look, up, metrics))

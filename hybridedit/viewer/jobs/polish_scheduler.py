@@ -24,12 +24,12 @@ class PolishScheduler(QtCore.QObject):
     -------
     started()                  a polish thread started
     succeeded(PolishOutcome)   a current result (stale ones are dropped)
-    failed(message: str)
+    failed(error)              the exception a polish raised (its result is dropped: nothing is adopted)
     """
 
     started = QtCore.Signal()
     succeeded = QtCore.Signal(object)
-    failed = QtCore.Signal(str)
+    failed = QtCore.Signal(object)
 
     def __init__(self, parent: QtCore.QObject | None = None) -> None:
         super().__init__(parent)

@@ -69,12 +69,13 @@ class PolishWorker(QtCore.QThread):
     Signals
     -------
     succeeded(PolishOutcome)
-    failed(message: str)
+    failed(error)   the exception the polish raised, with its traceback (the window says it, and
+                    reports an unexpected one)
     cancelled()
     """
 
     succeeded = QtCore.Signal(object)
-    failed = QtCore.Signal(str)
+    failed = QtCore.Signal(object)
     cancelled = QtCore.Signal()
 
     def __init__(self, request: PolishRequest, parent: QtCore.QObject | None = None) -> None:
@@ -113,8 +114,8 @@ class PolishWorker(QtCore.QThread):
             e0 = rrms_edge_error(rest, req.vertices, req.edges)
             e1 = rrms_edge_error(rest, res.vertices, req.edges)
         except MemoryError:
-            self.failed.emit("not enough memory to polish this shape")
-        except Exception as e:  # noqa: BLE001
-            self.failed.emit(f"{e.__class__.__name__}: {e}")
+            self.failed.emit(MemoryError("not enough memory to polish this shape"))
+        except Exception as e:  # noqa: BLE001 -- handed to the UI thread, which says (and reports) it
+            self.failed.emit(e)
         else:
             self.succeeded.emit(PolishOutcome(req, res, e0, e1, setup, time.perf_counter() - t0))

@@ -5,6 +5,7 @@ Modules
 session         : the editing state on top of the engine: pose, drags and settle, polish, undo, edit files
 selection_masks : the session's selection (held, not inherited): ROI and handle-group masks, strokes, roles
 history         : the undo/redo stack of snapshots
+crash_reports   : an unexpected error written down (traceback, versions, sizes) in the user cache folder
 recovery        : the recovery file of an unsaved pose, found after an unclean exit and replayed exactly
 picking         : projection, hit tests and add/remove/replace on cage points
 surface_pick    : the cage points a gesture takes: the surface in sight and the part behind it

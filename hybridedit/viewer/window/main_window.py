@@ -103,7 +103,7 @@ class MainWindow(QtWidgets.QMainWindow):
         # the threads' results and the view's frames, to the collaborators that show them
         self.jobs.busy_changed.connect(lambda _busy: self.actions_.refresh())
         self.polisher.succeeded.connect(self.posing.show_polish)
-        self.polisher.failed.connect(lambda m: self.status.message(f"Polish failed: {m}"))
+        self.polisher.failed.connect(self.posing.polish_failed)
         self.view.rendered.connect(self.options.on_rendered)
         self.selecting.set_target(ROI)
         self.actions_.refresh()

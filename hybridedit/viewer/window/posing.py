@@ -11,9 +11,12 @@ from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import numpy as np
 
+from ..model.crash_reports import describe, is_crash
 from .interfaces import ActionChecks
 
 if TYPE_CHECKING:
+    from pathlib import Path
+
     from ..jobs.polish_worker import PolishOutcome
     from ..model.session import Session
 
@@ -40,14 +43,17 @@ class Redraws(Protocol):
 
     def refresh_pose(self) -> None: ...
     def show_shape(self) -> None: ...
+    def refresh_all(self) -> None: ...
 
 
 @runtime_checkable
 class Says(Protocol):
-    """The status bar as the pose side sees it."""
+    """The status bar as the pose side sees it (a polish that failed unexpectedly reported)."""
 
     def message(self, text: str) -> None: ...
     def show_polishing(self) -> None: ...
+    def report_crash(self, error: BaseException, *, what: str, context: str, kept: str | None = None,
+                     details: dict | None = None) -> Path | None: ...
 
 
 @runtime_checkable
@@ -70,8 +76,8 @@ class PosingHost(Protocol):
 
 class Posing:
     """The pose side of a :class:`~.main_window.MainWindow`: the guard, what follows a drag (the final
-    pose shown, a polish started), the polish's result adopted and shown, and Edit ▸ Settle / Polish
-    on Release.
+    pose shown, a polish started), the polish's result adopted and shown (or its failure said, the
+    settled pose kept), and Edit ▸ Settle / Polish on Release.
 
     Parameters
     ----------
@@ -145,10 +151,25 @@ class Posing:
         s = w.session
         if s is None:
             return
+        try:
+            s.adopt_polish(out.request.job, out.result)
+        except Exception as e:  # noqa: BLE001 -- the settled pose (the history's current step) comes back
+            s.cancel_drag()
+            w.sync.refresh_all()
+            self.polish_failed(e)
+            return
         self.last_polish = out
-        s.adopt_polish(out.request.job, out.result)
         w.sync.show_shape()
         r = out.result
         w.actions_.refresh()
         w.status.message(f"polished: {r.iterations} iterations, edge error {out.error_before:.2f}% → "
                          f"{out.error_after:.2f}% ({out.seconds:.2f} s); Ctrl+Z undoes the polish")
+
+    def polish_failed(self, error: BaseException) -> None:
+        """A polish raised ``error`` (on its thread): it is dropped, nothing of it adopted, and the pose on
+        display stays the settled one; said in one line, an unexpected error with its crash report."""
+        if is_crash(error):
+            self.w.status.report_crash(error, what="The polish failed", context="polish",
+                                       kept="the settled pose is kept")
+        else:
+            self.w.status.message(f"Polish failed: {describe(error, named=False)}; the settled pose is kept.")

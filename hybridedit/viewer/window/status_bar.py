@@ -6,11 +6,13 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping
+from pathlib import Path
 from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import numpy as np
 from qtpy import QtCore, QtGui, QtWidgets
 
+from ..model.crash_reports import failure_message, session_details, write_crash_report
 from .interfaces import Busy
 from .status_widgets import MessageLine, StatusField, StatusRow
 
@@ -144,6 +146,27 @@ class StatusBar:
         self.error_box = box
         box.open()
         self.message(f"{title}: {text}" if text else title)
+
+    def report_crash(self, error: BaseException, *, what: str, context: str, kept: str | None = None,
+                     details: dict | None = None) -> Path | None:
+        """An unexpected error the window recovered from: its crash report written (with the session's sizes
+        and ``details``) and one line in the status bar and the message log naming what failed, what was
+        kept and the report (no box: the window is usable at once). Returns the report's path, or None
+        when it could not be written (the line says so).
+
+        Parameters
+        ----------
+        error : the exception, with its traceback.
+        what : the line's start ("The drag frame failed"); context : the report's ("drag frame").
+        kept : what the window kept ("the last good pose is kept"), or None.
+        details : more for the report, ``{name: value}``.
+        """
+        report = write_crash_report(error, context=context,
+                                    details={**session_details(self.w.session), **(details or {})})
+        text = failure_message(what, error, report, kept=kept)
+        self.last_error = text
+        self.message(text)
+        return report
 
     def confirm(self, title: str, text: str) -> bool:
         """Ask a yes/no question (No is the default)."""
