@@ -59,6 +59,20 @@ def drag_works(qtbot, w, before: np.ndarray) -> None:
     shows(w, w.session.shown_positions.copy())
 
 
+def recovery_holds(qtbot, w, pose: np.ndarray) -> None:
+    """The autosave is intact: this window's recovery file, replayed on a new session of the shape, gives
+    ``pose`` exactly."""
+    import hybridedit as he
+    from hybridedit.viewer.model.recovery import read_recovery, recover
+    from hybridedit.viewer.model.session import Session
+
+    qtbot.waitUntil(w.autosave.up_to_date, timeout=5000)
+    s = w.session
+    fresh = Session(he.HybridEditor(s.mesh, s.cage_size, cache=True), cage_size=s.cage_size)
+    recover(fresh, read_recovery(w.autosave.keeper.path))
+    assert np.array_equal(fresh.shown_positions, pose)
+
+
 def close_boxes(w) -> None:
     for box in w.findChildren(QtWidgets.QMessageBox):
         if box.isVisible():
@@ -101,6 +115,7 @@ def test_a_failing_drag_frame_keeps_the_last_good_pose_and_the_window_usable(qtb
     shows(w, good)
     assert np.array_equal(w.scene.points_poly.points, s.cage_positions.astype(np.float32))
     assert s.history.current is step and not s.history.can_redo()  # (no undo step for the failed drag)
+    recovery_holds(qtbot, w, good)
     drag_works(qtbot, w, good)
 
 
@@ -155,6 +170,7 @@ def test_a_failing_polish_keeps_the_settled_pose(qtbot, win, monkeypatch):
     assert s.polished is None and w.posing.last_polish is None
     assert s.history.undo_label() == "drag"
     shows(w, settled_pose)
+    recovery_holds(qtbot, w, settled_pose)
     qtbot.waitUntil(lambda: w.status.time_label.text() != "polishing…", timeout=2000)
     # a polish that runs but cannot be adopted (on the UI thread): the settled pose is back
     monkeypatch.setattr(PolishJob, "run", real)
