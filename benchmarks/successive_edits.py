@@ -87,7 +87,7 @@ def main(argv=None) -> int:
     ap.add_argument("--frames", type=int, default=30, help="drags per edit (hybridedit deform's default)")
     ap.add_argument("--cage", type=float, default=0.05, help="cage size (fraction of the shape's vertices)")
     ap.add_argument("--polish", action="store_true", help="polish after each edit (until converged, as the window does)")
-    ap.add_argument("--smoke", action="store_true", help="tiny run for CI: 2% cage, 3 frames, short references")
+    ap.add_argument("--smoke", action="store_true", help="tiny run for CI: 2%% cage, 3 frames, short references")
     args = ap.parse_args(argv)
     frames = 3 if args.smoke else args.frames
     cage = 0.02 if args.smoke else args.cage
