@@ -142,3 +142,20 @@ def figure(h: float = 0.05) -> Mesh:
         d = smooth_union(d, capsule_distance(p, (sx * 0.25, -0.9, 0), (sx * 0.25, -1.8, 0), 0.18), 0.1)
     v, f = surface_nets(d, lo, h)
     return Mesh(v, f, name="figure")
+
+
+def textured_glb(path: Path) -> Path:
+    """A UV-mapped sphere with a material and an embedded PNG texture, split at its UV seam."""
+    from PIL import Image
+
+    sphere = trimesh.creation.uv_sphere(radius=1.0, count=[16, 16])
+    sphere = trimesh.Trimesh(sphere.vertices, sphere.faces, process=False)
+    uv = np.column_stack([np.arctan2(sphere.vertices[:, 1], sphere.vertices[:, 0]) / (2 * np.pi) + 0.5,
+                          np.arccos(np.clip(sphere.vertices[:, 2], -1, 1)) / np.pi])
+    image = Image.fromarray((np.random.default_rng(0).random((8, 8, 3)) * 255).astype(np.uint8))
+    material = trimesh.visual.material.PBRMaterial(baseColorTexture=image, name="skin")
+    sphere.visual = trimesh.visual.TextureVisuals(uv=uv, material=material)
+    scene = trimesh.Scene()
+    scene.add_geometry(sphere, transform=trimesh.transformations.translation_matrix([0, 0, 2]))
+    path.write_bytes(scene.export(file_type="glb", include_normals=True))
+    return path

@@ -15,7 +15,7 @@ from hybridedit import HybridEditor
 from hybridedit.core.normals import vertex_normals
 from hybridedit.fileio.meshfiles import read_document, read_mesh, write_document
 
-from shapes import SHARED_MESHES, bumpy_blob, icosphere
+from shapes import SHARED_MESHES, bumpy_blob, icosphere, textured_glb
 
 SPOT = SHARED_MESHES / "spot"
 
@@ -565,23 +565,6 @@ def test_stl_round_trip(tmp_path: Path, kind: str) -> None:
 
 
 # --------------------------------------------------------------------------- glTF binary
-
-
-def textured_glb(path: Path) -> Path:
-    """A UV-mapped sphere with a material and an embedded PNG texture, split at its UV seam."""
-    from PIL import Image
-
-    sphere = trimesh.creation.uv_sphere(radius=1.0, count=[16, 16])
-    sphere = trimesh.Trimesh(sphere.vertices, sphere.faces, process=False)
-    uv = np.column_stack([np.arctan2(sphere.vertices[:, 1], sphere.vertices[:, 0]) / (2 * np.pi) + 0.5,
-                          np.arccos(np.clip(sphere.vertices[:, 2], -1, 1)) / np.pi])
-    image = Image.fromarray((np.random.default_rng(0).random((8, 8, 3)) * 255).astype(np.uint8))
-    material = trimesh.visual.material.PBRMaterial(baseColorTexture=image, name="skin")
-    sphere.visual = trimesh.visual.TextureVisuals(uv=uv, material=material)
-    scene = trimesh.Scene()
-    scene.add_geometry(sphere, transform=trimesh.transformations.translation_matrix([0, 0, 2]))
-    path.write_bytes(scene.export(file_type="glb", include_normals=True))
-    return path
 
 
 def _accessor(gltf: pygltflib.GLTF2, index: int) -> np.ndarray:

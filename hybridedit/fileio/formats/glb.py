@@ -28,8 +28,9 @@ import pygltflib
 from ..document import Document, Material, Texturing, moved_vertices
 from ...core.normals import grouped_normals, vertex_normals
 from .common import _Bad, fan_triangles, _mesh
+from .glb_buffer import GltfBuffer
 
-__all__ = ["GlbNative", "read", "write"]
+__all__ = ["GlbNative", "PlainGlb", "plain_glb", "read", "write"]
 
 _TRIANGLES = 4
 
@@ -42,6 +43,8 @@ class _Slot:
     normal: int | None
     world: np.ndarray  # (4, 4)
     first: int  # first file vertex (over all slots) of this primitive
+    mesh: int = -1  # its mesh and its place among the mesh's primitives
+    primitive: int = -1
 
 
 @dataclass(eq=False)
@@ -179,12 +182,13 @@ def _triangle_primitives(gltf: pygltflib.GLTF2, blob: bytes) -> _Primitives:
     """Every triangle primitive of every mesh the scene places, in world space."""
     found = _Primitives()
     for mesh_index, world in _placed_meshes(gltf):
-        for prim in gltf.meshes[mesh_index].primitives:
+        for k, prim in enumerate(gltf.meshes[mesh_index].primitives):
             mode = _TRIANGLES if prim.mode is None else prim.mode
             if mode != _TRIANGLES or prim.attributes.POSITION is None:
                 found.skipped += 1
                 continue
             _add_primitive(found, gltf, blob, mesh_index, world, prim)
+            found.slots[-1].primitive = k
     return found
 
 
@@ -205,7 +209,7 @@ def _add_primitive(found: _Primitives, gltf: pygltflib.GLTF2, blob: bytes, mesh_
         nrm = nrm @ np.linalg.inv(world[:3, :3])  # (M^-T n) as rows
     else:
         nrm = np.zeros_like(pts)
-    found.slots.append(_Slot(prim.attributes.POSITION, nrm_index, world, found.first))
+    found.slots.append(_Slot(prim.attributes.POSITION, nrm_index, world, found.first, mesh_index))
     found.colors.append(None if prim.attributes.COLOR_0 is None
                         else _rgba(_read_accessor(gltf, blob, prim.attributes.COLOR_0), len(local)))
     found.uvs.append(prim.attributes.TEXCOORD_0)
@@ -360,6 +364,27 @@ def write(doc: Document) -> bytes:
 
 
 def _plain(doc: Document) -> bytes:
+    """A .glb of ``doc`` (from another format): see :func:`plain_glb`."""
+    return plain_glb(doc).buffer.finish()
+
+
+@dataclass(eq=False)
+class PlainGlb:
+    """A new .glb of a document, its binary chunk still open for more (:mod:`.glb_morphs` adds targets).
+
+    Attributes
+    ----------
+    buffer : GltfBuffer
+        The glTF (one mesh, ``buffer.gltf.meshes[0]``, placed by node 0) and its binary chunk.
+    source : (k,) int64
+        The document vertex of each glTF vertex (0..n-1 first, then the copies made at UV seams).
+    """
+
+    buffer: GltfBuffer
+    source: np.ndarray
+
+
+def plain_glb(doc: Document) -> PlainGlb:
     """A .glb of ``doc`` (from another format) written with pygltflib: its triangles, vertex
     normals, colours, texture coordinates (vertices split where a vertex's corners have
     different ones, the document's vertices first and in order) and materials (base colour
@@ -378,48 +403,24 @@ def _plain(doc: Document) -> bytes:
     if materials and tex.face_material is not None:
         face_material = tex.face_material
     tri_material = np.repeat(face_material, counts - 2)
-    blob = bytearray()
-    gltf = pygltflib.GLTF2(asset=pygltflib.Asset(generator="hybridedit", version="2.0"),
-                           scene=0, scenes=[pygltflib.Scene(nodes=[0])], nodes=[pygltflib.Node(mesh=0)])
-
-    def add(array: np.ndarray, kind: str, target: int | None, minmax: bool = False) -> int:
-        array = np.ascontiguousarray(array)
-        while len(blob) % 4:
-            blob.append(0)
-        gltf.bufferViews.append(pygltflib.BufferView(buffer=0, byteOffset=len(blob), byteLength=array.nbytes,
-                                                     target=target))
-        blob.extend(array.tobytes())
-        component = {np.dtype("<f4"): pygltflib.FLOAT, np.dtype("<u4"): pygltflib.UNSIGNED_INT}[array.dtype]
-        acc = pygltflib.Accessor(bufferView=len(gltf.bufferViews) - 1, componentType=component,
-                                 count=len(array), type=kind)
-        if minmax:
-            acc.min, acc.max = array.min(axis=0).tolist(), array.max(axis=0).tolist()
-        gltf.accessors.append(acc)
-        return len(gltf.accessors) - 1
-
+    out = GltfBuffer(pygltflib.GLTF2(asset=pygltflib.Asset(generator="hybridedit", version="2.0"),
+                                     scene=0, scenes=[pygltflib.Scene(nodes=[0])], nodes=[pygltflib.Node(mesh=0)]))
+    gltf = out.gltf
     attributes = pygltflib.Attributes(
-        POSITION=add(mesh.vertices[source].astype("<f4"), pygltflib.VEC3, pygltflib.ARRAY_BUFFER, True),
-        NORMAL=add(vertex_normals(mesh.vertices, mesh.faces)[source].astype("<f4"), pygltflib.VEC3,
-                   pygltflib.ARRAY_BUFFER))
+        POSITION=out.accessor(mesh.vertices[source].astype("<f4"), minmax=True),
+        NORMAL=out.accessor(vertex_normals(mesh.vertices, mesh.faces)[source].astype("<f4")))
     if has_uv:
-        attributes.TEXCOORD_0 = add(np.column_stack([uv[:, 0], 1.0 - uv[:, 1]]).astype("<f4"), pygltflib.VEC2,
-                                    pygltflib.ARRAY_BUFFER)
+        attributes.TEXCOORD_0 = out.accessor(np.column_stack([uv[:, 0], 1.0 - uv[:, 1]]).astype("<f4"))
     if doc.colors is not None:
-        attributes.COLOR_0 = add(doc.colors[source].astype("<f4"), pygltflib.VEC4, pygltflib.ARRAY_BUFFER)
-    for k, m in enumerate(materials):
+        attributes.COLOR_0 = out.accessor(doc.colors[source].astype("<f4"))
+    for m in materials:
         pbr = pygltflib.PbrMetallicRoughness(baseColorFactor=[float(c) for c in m.color], metallicFactor=0.0,
                                              roughnessFactor=1.0)
         if m.image is not None:
-            while len(blob) % 4:
-                blob.append(0)
-            gltf.bufferViews.append(pygltflib.BufferView(buffer=0, byteOffset=len(blob), byteLength=len(m.image)))
-            blob.extend(m.image)
-            mime = "image/jpeg" if m.image[:2] == b"\xff\xd8" else "image/png"
-            gltf.images.append(pygltflib.Image(bufferView=len(gltf.bufferViews) - 1, mimeType=mime,
-                                               name=m.image_name))
+            image = out.image(m.image, m.image_name)
             if not gltf.samplers:
                 gltf.samplers.append(pygltflib.Sampler())
-            gltf.textures.append(pygltflib.Texture(source=len(gltf.images) - 1, sampler=0))
+            gltf.textures.append(pygltflib.Texture(source=image, sampler=0))
             pbr.baseColorTexture = pygltflib.TextureInfo(index=len(gltf.textures) - 1)
         gltf.materials.append(pygltflib.Material(name=m.name, pbrMetallicRoughness=pbr))
     primitives = []
@@ -427,13 +428,9 @@ def _plain(doc: Document) -> bytes:
     for lo, hi in zip(np.r_[0, cuts].tolist(), np.r_[cuts, len(triangles)].tolist()):
         if hi <= lo:
             continue
-        indices = add(triangles[lo:hi].reshape(-1).astype("<u4"), pygltflib.SCALAR, pygltflib.ELEMENT_ARRAY_BUFFER)
+        indices = out.accessor(triangles[lo:hi].reshape(-1).astype("<u4"), target=pygltflib.ELEMENT_ARRAY_BUFFER)
         material = int(tri_material[lo])
         primitives.append(pygltflib.Primitive(attributes=attributes, indices=indices, mode=_TRIANGLES,
                                               material=None if material < 0 else material))
     gltf.meshes.append(pygltflib.Mesh(primitives=primitives))
-    while len(blob) % 4:
-        blob.append(0)
-    gltf.buffers.append(pygltflib.Buffer(byteLength=len(blob)))
-    gltf.set_binary_blob(bytes(blob))
-    return b"".join(gltf.save_to_bytes())
+    return PlainGlb(out, source)
