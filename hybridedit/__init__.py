@@ -54,6 +54,7 @@ _WHERE = {
     "rigid_transform": "core.transforms",
     "rrms_edge_error": "core.mesh",
     "save_edit": "fileio.editfile",
+    "save_poses": "fileio.poses",
     "write_document": "fileio.meshfiles",
     "write_mesh": "fileio.meshfiles",
 }

@@ -14,6 +14,7 @@ import os
 import struct
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -21,12 +22,12 @@ import numpy as np
 from ..atomic import atomic_write
 from ..document import Document
 from ...core.mesh import Mesh, MeshError
-from . import glb, obj, obj_materials, off, ply, stl
+from . import glb, glb_morphs, obj, obj_materials, off, ply, stl, usd_shapes
 from .common import MeshFileError, _Bad, _validate
 from .reporting import reporting, span
 
-__all__ = ["FORMATS", "Format", "MeshFileError", "SUPPORTED_EXTENSIONS", "conversion_note",
-           "read_document", "write_document"]
+__all__ = ["FORMATS", "Format", "MeshFileError", "POSE_FORMATS", "PoseFormat", "SUPPORTED_EXTENSIONS",
+           "conversion_note", "read_document", "write_document"]
 
 
 @dataclass(frozen=True)
@@ -80,6 +81,40 @@ FORMATS: dict[str, Format] = {
                    _none, frozenset()),
     ".glb": Format("glTF binary", glb.read, glb.write, lambda doc, target: glb.write(doc), _none,
                    frozenset({"colors", "normals", "uv", "materials", "textures"})),
+}
+
+
+
+@dataclass(frozen=True)
+class PoseFormat:
+    """A file format that holds a mesh at rest and poses of it (:func:`hybridedit.save_poses`).
+
+    Attributes
+    ----------
+    name : str
+        As shown to users ("USD").
+    write : callable (Document, poses, names, *, normals, sparse) -> bytes
+        The file of the document's mesh at rest (its ``mesh.vertices``) with ``poses`` ((k, n, 3)
+        float64, finite) named ``names`` (k str, unique); raises ``_Bad`` (a message without the
+        file name) when it cannot.
+    holds : frozenset of str
+        What it carries over of a document (as :attr:`Format.holds`).
+    """
+
+    name: str
+    write: Callable[..., bytes]
+    holds: frozenset[str]
+
+
+_USD_HOLDS = frozenset({"polygons", "colors", "normals", "uv"})
+
+#: the formats of :func:`hybridedit.save_poses`, by extension: glTF morph targets and USD blend shapes
+POSE_FORMATS: dict[str, PoseFormat] = {
+    ".glb": PoseFormat("glTF binary", glb_morphs.write, FORMATS[".glb"].holds),
+    ".gltf": PoseFormat("glTF", glb_morphs.write_gltf, FORMATS[".glb"].holds),
+    ".usda": PoseFormat("USD", partial(usd_shapes.write, suffix=".usda"), _USD_HOLDS),
+    ".usdc": PoseFormat("USD", partial(usd_shapes.write, suffix=".usdc"), _USD_HOLDS),
+    ".usd": PoseFormat("USD", partial(usd_shapes.write, suffix=".usd"), _USD_HOLDS),
 }
 
 #: What each inventory entry of a document (``Document.extras``) is, for the formats that hold it.
@@ -183,14 +218,22 @@ def conversion_note(doc: Document, ext: str) -> str | None:
     fmt = FORMATS[ext]
     if not doc.format or FORMATS.get("." + doc.format) is fmt:
         return None
+    return lost_note(doc, fmt.name, fmt.holds)
+
+
+def lost_note(doc: Document, name: str, holds: frozenset[str]) -> str | None:
+    """One line naming what of ``doc`` (read from a file) a file of format ``name`` holding ``holds``
+    (as :attr:`Format.holds`) cannot hold, or None."""
+    if not doc.format:
+        return None
     lost = []
     counts, _ = doc.polygon_lists()
     tex = doc.textures() if any(_CARRIED.get(k) for k in doc.extras) else None
-    if doc.polygons is not None and "polygons" not in fmt.holds:
+    if doc.polygons is not None and "polygons" not in holds:
         lost.append(f"polygons ({len(counts):,}; written as {doc.mesh.n_faces:,} triangles)")
-    if doc.colors is not None and "colors" not in fmt.holds:
+    if doc.colors is not None and "colors" not in holds:
         lost.append(f"vertex colours ({doc.mesh.n_vertices:,})")
-    if doc.normals and "normals" not in fmt.holds:
+    if doc.normals and "normals" not in holds:
         lost.append("vertex normals")
     carried = set()
     if tex is not None:
@@ -200,13 +243,13 @@ def conversion_note(doc: Document, ext: str) -> str | None:
                 else {"materials"}
     for what, count in doc.extras.items():
         kind = _CARRIED.get(what)
-        if kind is None or kind not in carried or kind not in fmt.holds:
-            kept = kind == "materials" and "textures" in fmt.holds and "textures" in carried
+        if kind is None or kind not in carried or kind not in holds:
+            kept = kind == "materials" and "textures" in holds and "textures" in carried
             lost.append(f"{what} ({count:,}{'; their texture images are kept' if kept else ''})")
     if not lost:
         return None
     src = FORMATS["." + doc.format].name
-    return f"{fmt.name} cannot hold everything from the {src} file; not written: " + ", ".join(lost)
+    return f"{name} cannot hold everything from the {src} file; not written: " + ", ".join(lost)
 
 
 def write_document(path: str | os.PathLike[str], doc: Document, *,
