@@ -12,11 +12,13 @@ extras="${1:-}"
 # none of this for solving: cholespy, a required dependency, brings CHOLMOD in its wheel; the
 # scikit-sparse built here is used instead where present, its supernodal factor being faster.)
 # The libraries Qt 6 (PySide6) and VTK load for a window.
-# xvfb: a virtual screen for the GUI tests.
+# xvfb: a virtual screen for the GUI tests; nodejs and npm (where there is no npm yet): the Khronos
+# glTF Validator, which the tests run on the .glb files he.save_poses writes.
 apt_pkgs=(libsuitesparse-dev libgl1 libegl1 libopengl0 libglib2.0-0 libdbus-1-3 libfontconfig1
           libxkbcommon0 libxkbcommon-x11-0 libxrender1 libxcb-cursor0 libxcb-icccm4 libxcb-image0
           libxcb-keysyms1 libxcb-randr0 libxcb-render-util0 libxcb-shape0 libxcb-xinerama0 libxcb-xkb1)
 [[ ",$extras," == *",test,"* ]] && apt_pkgs+=(xvfb xauth)
+[[ ",$extras," == *",test,"* ]] && ! command -v npm >/dev/null 2>&1 && apt_pkgs+=(nodejs npm)
 missing=()
 if command -v dpkg-query >/dev/null 2>&1; then
   for p in "${apt_pkgs[@]}"; do
@@ -51,6 +53,15 @@ fi
 spec="."
 [[ -n "$extras" ]] && spec=".[$extras]"
 "${pip[@]}" install -e "$spec"
+# the glTF Validator for the tests (scripts/gltf-validator: its version pinned in package-lock.json)
+if [[ ",$extras," == *",test,"* && ! -d scripts/gltf-validator/node_modules/gltf-validator ]]; then
+  if command -v npm >/dev/null 2>&1; then
+    echo "setup: installing the glTF Validator (npm)" >&2
+    npm ci --prefix scripts/gltf-validator --no-audit --no-fund --loglevel=error >/dev/null
+  else
+    echo "setup: no npm: the tests that run the glTF Validator will be skipped" >&2
+  fi
+fi
 # compile every kernel now (cached on disk), so the first window and the first deform do not wait on it
 echo "setup: compiling the kernels (once; about a minute or two)" >&2
 .venv/bin/python -m hybridedit.warmup -q
