@@ -35,6 +35,27 @@ def bumpy_blob(subdivisions: int = 4) -> Mesh:
     return Mesh(v, s.faces, name="blob")
 
 
+def skull_like(subdivisions: int = 3) -> Mesh:
+    """A closed round shape without limbs: an ellipsoid (0.9 x 1 x 1.15) with a jaw bulging at its
+    front below (642 vertices at subdivision 3)."""
+    s = icosphere(subdivisions)
+    v = s.vertices * [0.9, 1.0, 1.15]
+    d = np.linalg.norm(v - [0.0, -0.7, 0.7], axis=1)
+    v = v + (0.35 * np.exp(-(d / 0.5) ** 2))[:, None] * s.vertices
+    return Mesh(v, s.faces, name="skull")
+
+
+def bowl(subdivisions: int = 3) -> Mesh:
+    """An open hemisphere shell of radius 1, its rim at z = 0 and its bottom at z = -1 (the triangles of
+    an icosphere below z = 0.05)."""
+    s = icosphere(subdivisions)
+    faces = s.faces[(s.vertices[s.faces][:, :, 2] < 0.05).all(axis=1)]
+    used = np.unique(faces)
+    index = np.full(s.n_vertices, -1)
+    index[used] = np.arange(used.size)
+    return Mesh(s.vertices[used], index[faces], name="bowl")
+
+
 def capsule_blob(subdivisions: int = 4):
     """A closed, bumpy capsule about 4 long along X, 2.5K vertices at subdivision 4."""
     import trimesh

@@ -26,15 +26,22 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.index_sets import unique_sorted
+from ..core.index_sets import unique_in_range, unique_sorted
 from ..deform.skeleton import Skeleton, joint_centre
 
-__all__ = ["Limb", "draw_limbs", "draw_pose", "pose_rng", "ROI_FRACTION", "HANDLE_FRACTION"]
+__all__ = ["Limb", "draw_limbs", "draw_pose", "pose_rng", "limb_extremities", "limbs_only", "ROI_FRACTION",
+           "HANDLE_FRACTION", "NECK_LEVER", "NECK_DIAGONAL"]
 
 #: a region of interest's geodesic radius, as a fraction of its extremity's distance to the centre
 ROI_FRACTION = (0.35, 0.6)
 #: a handle's radius, as a fraction of its region's
 HANDLE_FRACTION = 0.25
+#: a limb's neck (its region's border ring, mean radius about the joint) is narrower than its lever
+#: (the handle's distance to the joint) times this ...
+NECK_LEVER = 1.0
+#: ... and than the shape's bounding-box diagonal times this (a ball's caps past its equator narrow
+#: too, but stay wide: 0.29 of its diagonal where a cow's stubby legs are 0.07 to 0.14)
+NECK_DIAGONAL = 0.15
 
 
 def pose_rng(seed: int, content_hash: str, index: int) -> np.random.Generator:
@@ -81,6 +88,60 @@ class Limb:
     joint: np.ndarray
     axis: np.ndarray
     degrees: float
+
+
+def _neck(region: np.ndarray, handle: np.ndarray, edges: np.ndarray, vertices: np.ndarray):
+    """(the region's border ring's mean radius about its centre, the handle centroid's distance to
+    that centre), or None when the region has no border."""
+    a, b = region[edges[:, 0]], region[edges[:, 1]]
+    border = unique_in_range(np.concatenate([edges[a & ~b, 0], edges[b & ~a, 1]]), len(region))
+    if border.size == 0 or not handle.any():
+        return None
+    joint = vertices[border].mean(axis=0)
+    ring = float(np.linalg.norm(vertices[border] - joint, axis=1).mean())
+    return ring, float(np.linalg.norm(vertices[handle].mean(axis=0) - joint))
+
+
+def limb_extremities(skeleton: Skeleton, *, dominant: np.ndarray, vertices: np.ndarray,
+                     edges: np.ndarray) -> np.ndarray:
+    """Which extremities are limbs: a region drawn about it (the smallest or the largest of
+    :data:`ROI_FRACTION`) joins the shape through a neck, a border ring narrower than both the
+    handle's lever (:data:`NECK_LEVER`) and a fraction of the shape's size (:data:`NECK_DIAGONAL`).
+
+    A round shape's extremities are not: swinging one of its caps about the cap's border shears
+    the ring around it over ``--max-stretch`` before the cap has moved 1% of the shape, so the poses
+    kept barely move (a ball, a skull, a bowl: 0.2% to 0.5% of the diagonal).
+
+    Parameters
+    ----------
+    skeleton : Skeleton
+    dominant : (n,) int64
+        Each shape vertex's dominant cage vertex.
+    vertices : (n, 3) float64
+    edges : (e, 2) int64
+
+    Returns
+    -------
+    (k,) bool
+        One flag per extremity of ``skeleton``.
+    """
+    size = float(np.linalg.norm(vertices.max(axis=0) - vertices.min(axis=0))) if len(vertices) else 0.0
+    flags = np.zeros(len(skeleton.extremities), dtype=bool)
+    for j in range(len(skeleton.extremities)):
+        d = skeleton.distances[j]
+        for fraction in ROI_FRACTION:
+            radius = fraction * float(skeleton.reach[j])
+            neck = _neck((d <= radius)[dominant], (d <= HANDLE_FRACTION * radius)[dominant], edges, vertices)
+            if neck is not None and neck[0] < NECK_LEVER * neck[1] and neck[0] < NECK_DIAGONAL * size:
+                flags[j] = True
+                break
+    return flags
+
+
+def limbs_only(skeleton: Skeleton, limbs: np.ndarray) -> Skeleton:
+    """The skeleton of the extremities flagged ``limbs`` (:func:`limb_extremities`) alone."""
+    keep = np.flatnonzero(limbs)
+    return Skeleton(skeleton.centre, skeleton.extremities[keep], skeleton.reach[keep], skeleton.distances[keep])
 
 
 def draw_limbs(skeleton: Skeleton, rng: np.random.Generator, *, dominant: np.ndarray, vertices: np.ndarray,
