@@ -52,9 +52,9 @@ def run(inputs: Sequence[str | os.PathLike[str]] | str | os.PathLike[str], out: 
         Dask is missing or the scheduler cannot be reached.
     """
     from .cluster import dashboard_link, needs_dask, open_client
-    from .graph import outputs_done, resubmit, results, submit
+    from .graph import plan_work, repack, resubmit, results, submit
     from .manifest import Manifest
-    from .plan import InputError
+    from .plan import InputError, PackJob
     from .progress import BatchProgress
 
     needs_dask()
@@ -66,45 +66,55 @@ def run(inputs: Sequence[str | os.PathLike[str]] | str | os.PathLike[str], out: 
     if settings.mode == "edits" and not Path(settings.edits).is_dir():
         raise InputError(f"{settings.edits}: the --edits folder does not exist")
     found = find_inputs(inputs, exclude=outdir)
-    jobs = plan_jobs(found, poses=settings.poses, edits=settings.edits, output_format=settings.output_format)
+    jobs = plan_jobs(found, poses=settings.poses, edits=settings.edits, output_format=settings.output_format,
+                     pack=settings.pack_extension)
     sources = {j.input for j in jobs}
-    clash = next((j.output for j in jobs if str((outdir / j.output).resolve()) in sources), None)
+    clash = next((j.pack or j.output for j in jobs if str((outdir / (j.pack or j.output)).resolve()) in sources), None)
     if clash is not None:
         raise InputError(f"{outdir / clash}: an output would replace its input; choose another output folder")
     outdir.mkdir(parents=True, exist_ok=True)
     manifest = Manifest(outdir)
     err = sys.stderr if stream is None else stream
-    made = failed = 0
+    final: dict[str, str] = {}  # each output's status as its last row says
     try:
         with open_client(client=client, scheduler=scheduler, workers=workers) as c:
             link = dashboard_link(c)
-            done = outputs_done(c, jobs, settings, manifest)
-            bar = BatchProgress(len(jobs), skipped=len(done), stream=err, quiet=not progress)
+            work = plan_work(c, jobs, settings, manifest)
+            bar = BatchProgress(len(jobs), skipped=len(jobs) - len(work.jobs), stream=err, quiet=not progress)
             if link:
                 bar.say(f"hybridedit: batch: Dask dashboard at {link}")
-            futures = submit(c, [j for j in jobs if j.output not in done], settings, str(outdir.resolve()),
-                             retries=retries)
             outpath = str(outdir.resolve())
-            for job, row in results(futures, settings,
-                                    again=lambda job: resubmit(c, job, settings, outpath, retries=retries)):
-                manifest.add(row)
-                bar.update(row["status"])
-                if row["status"] == "done":
-                    made += 1
-                else:
-                    failed += 1
-                    bar.say(f"hybridedit: failed: {job.output}: {row['message']}")
+            futures = submit(c, work, settings, outpath, retries=retries)
+            for what, got in results(futures, settings,
+                                     again=lambda job: resubmit(c, job, settings, outpath, retries=retries),
+                                     repack=lambda task, rows: repack(c, task, rows, settings, outpath,
+                                                                      retries=retries)):
+                if isinstance(what, PackJob):  # a pack written (its poses' rows), or not (why, once)
+                    for row in got:
+                        manifest.add(row)
+                        final[row["output"]] = row["status"]
+                    if got and got[0]["status"] == "failed":
+                        bar.say(f"hybridedit: failed: {what.pack}: {got[0]['message']}")
+                    continue
+                manifest.add(got)
+                final[what.output] = got["status"]
+                bar.update("failed" if got["status"] == "failed" else "done")  # (posed: made, to be packed)
+                if got["status"] == "failed":
+                    bar.say(f"hybridedit: failed: {what.output}: {got['message']}")
             bar.close()
     finally:
         manifest.close()
-    return BatchResult(manifest.table([j.output for j in jobs]), made, failed, len(done), manifest.path, link)
+    made = sum(status == "done" and out not in work.done for out, status in final.items())
+    failed = sum(status != "done" for status in final.values())
+    return BatchResult(manifest.table([j.output for j in jobs]), made, failed, len(work.done), manifest.path, link)
 
 
 def batch(inputs: Sequence[str | os.PathLike[str]] | str | os.PathLike[str], out: str | os.PathLike[str], *,
           poses: int | None = None, edits: str | os.PathLike[str] | None = None, seed: int = 0, client=None,
           scheduler: str | None = None, workers: int | None = None, cage_size: int | float = CAGE_SIZE,
-          output_format: str | None = None, max_degrees: float = 45.0, max_stretch: float = 50.0,
-          tries: int = 8, handles: int = 2, retries: int = 2, progress: bool = True):
+          output_format: str | None = None, pack: str | None = None, max_degrees: float = 45.0,
+          max_stretch: float = 50.0, min_move: float = 2.0, tries: int = 8, handles: int = 2, retries: int = 2,
+          progress: bool = True):
     """Pose every mesh of a dataset on a Dask cluster: N random plausible poses each, or the edit file
     given for each; every output with its edit file, and a manifest row per output.
 
@@ -132,10 +142,17 @@ def batch(inputs: Sequence[str | os.PathLike[str]] | str | os.PathLike[str], out
         The cage of the poses (vertex count or fraction).
     output_format : str, optional
         The outputs' extension (".ply"); default each input's own.
+    pack : {"glb", "usd"}, optional
+        With ``poses``: one file per input holding all its poses, ``<stem>-poses.glb`` (glTF morph
+        targets) or ``<stem>-poses.usdc`` (USD blend shapes; needs usd-core), instead of one mesh
+        per pose (see :func:`hybridedit.save_poses`).
     max_degrees : float
-        Largest rotation of a limb about its joint.
+        Largest rotation of a limb about its joint (or of a bend or twist of the main axis).
     max_stretch : float
         Largest edge stretch, in percent, of a pose kept; a pose over it is drawn again.
+    min_move : float
+        Least largest displacement of a pose kept, in percent of the bounding-box diagonal; a pose
+        under it is drawn again (after ``tries`` draws, the one that moved most, its row saying so).
     tries : int
         Draws of one pose before it is a failed row.
     handles : int
@@ -164,10 +181,11 @@ def batch(inputs: Sequence[str | os.PathLike[str]] | str | os.PathLike[str], out
     >>> import pyarrow.compute as pc  # doctest: +SKIP
     >>> table = he.batch(["scans/"], "posed/", poses=10, seed=1)  # doctest: +SKIP
     >>> table.filter(pc.field("status") == "failed").column("message")  # doctest: +SKIP
+    >>> he.batch(["scans/"], "packed/", poses=20, pack="glb").column("pack")  # doctest: +SKIP
     """
     settings = BatchSettings(poses=poses, edits=None if edits is None else str(edits), seed=seed,
-                             cage_size=cage_size, output_format=output_format,
+                             cage_size=cage_size, output_format=output_format, pack=pack,
                              pose=PoseSettings(max_degrees=max_degrees, max_stretch=max_stretch, tries=tries,
-                                               handles=handles))
+                                               handles=handles, min_move=min_move))
     return run(inputs, out, settings=settings, client=client, scheduler=scheduler, workers=workers,
                retries=retries, progress=progress).table

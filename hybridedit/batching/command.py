@@ -16,7 +16,8 @@ from ..defaults import CAGE_SIZE
 __all__ = ["add_parser", "run_batch"]
 
 #: hybridedit batch's pose options, with their defaults (given with --edits, they are refused)
-_POSE_OPTIONS = {"seed": 0, "max_degrees": 45.0, "max_stretch": 50.0, "tries": 8, "handles": 2, "cage": CAGE_SIZE}
+_POSE_OPTIONS = {"seed": 0, "max_degrees": 45.0, "max_stretch": 50.0, "min_move": 2.0, "tries": 8, "handles": 2,
+                 "cage": CAGE_SIZE, "pack": None}
 
 
 def run_batch(args: argparse.Namespace) -> int:
@@ -54,18 +55,27 @@ def _batch_settings(args: argparse.Namespace):
     if args.edits is not None and given:
         flags = ", ".join("--" + name.replace("_", "-") for name in given)
         raise CLIError(f"{flags}: for --poses only (an edit file replays on the cage it records)")
+    if args.pack is not None and args.format is not None:
+        raise CLIError("give --pack (one file of poses per input) or --format (a file per pose), not both")
     value = {name: default if getattr(args, name) is None else getattr(args, name)
              for name, default in _POSE_OPTIONS.items()}
     try:
         pose = PoseSettings(max_degrees=value["max_degrees"], max_stretch=value["max_stretch"], tries=value["tries"],
-                            handles=value["handles"])
-        return BatchSettings(poses=args.poses, edits=args.edits, seed=value["seed"], cage_size=value["cage"],
-                             output_format=args.format, pose=pose)
+                            handles=value["handles"], min_move=value["min_move"])
+        settings = BatchSettings(poses=args.poses, edits=args.edits, seed=value["seed"], cage_size=value["cage"],
+                                 output_format=args.format, pack=value["pack"], pose=pose)
     except ValueError as e:  # "max_degrees must be ...": said with the option's name
         text = one_line(e)
         name = text.split(" ", 1)[0]
         flag = "--format" if name == "output_format" else "--" + name.replace("_", "-")
         raise CLIError(flag + text[len(name):] if name in (*_POSE_OPTIONS, "poses", "output_format") else text) from None
+    if settings.pack == "usd" and args.scheduler is None:  # a local cluster: its workers import what we do
+        try:
+            import pxr.Usd  # noqa: F401
+        except ImportError:
+            raise CLIError("--pack usd: writing USD needs usd-core: pip install 'hybridedit[usd]'") from None
+    return settings
+
 
 def add_parser(sub) -> None:
     """Add the ``batch`` subcommand to the ``hybridedit`` parser's subparsers ``sub``."""
@@ -92,10 +102,16 @@ def add_parser(sub) -> None:
     pose.add_argument("--max-stretch", type=float, metavar="PERCENT",
                       help="largest edge stretch of a pose kept, in percent of the edge's length; a pose over "
                            "it is drawn again (default 50)")
+    pose.add_argument("--min-move", type=float, metavar="PERCENT",
+                      help="least a pose moves the shape (its largest vertex displacement), in percent of its "
+                           "bounding-box diagonal; a pose under it is drawn again (default 2)")
     pose.add_argument("--tries", type=int, help="draws of one pose before it is recorded as failed (default 8)")
     pose.add_argument("--handles", type=int, help="most limbs one pose moves (default 2)")
     pose.add_argument("--cage", type=parse_cage_size, help="cage vertices (2000) or fraction (0.05 or 5%%) the "
                       "poses are made on (default 5%%)")
+    pose.add_argument("--pack", choices=("glb", "usd"), help="write one file per input holding all its poses, "
+                      "STEM-poses.glb (glTF morph targets) or STEM-poses.usdc (USD blend shapes), instead of one "
+                      "mesh per pose")
     run = b.add_argument_group("where it runs")
     run.add_argument("--workers", type=int, metavar="K",
                      help="worker processes of a local Dask cluster (default: the core count)")

@@ -2,17 +2,20 @@
 
 A row says where an output came from (the input's path and SHA-256, the seed and pose index, the
 settings' key), what it is (the output and its edit file, relative to the output folder, with their
-SHA-256), how it went (``status`` "done" or "failed", a one-line ``message``, the ARAP pose's relative
-RMS ``edge_error`` and its ``max_stretch``, both in percent, the draws it took) and what it cost
-(seconds reading, binding, posing, writing; the worker). One row per output: a later attempt replaces
-an earlier one.
+SHA-256; with ``--pack``, the pack file holding it and the pack's SHA-256), how it went (``status``
+"done" or "failed", a one-line ``message``, the ARAP pose's relative RMS ``edge_error`` and its
+``max_stretch``, both in percent, how far it ``moved`` the shape, in percent of its diagonal, the
+draws it took) and what it cost (seconds reading, binding, posing, writing, packing; the worker).
+One row per output: a later attempt replaces an earlier one. A packed pose made and waiting for its
+pack is ``status`` "posed": its positions are staged (``output_sha256`` is the staged file's hash)
+until the pack task writes the pack and makes its row "done".
 
 Rows are safe as soon as they arrive: each is appended (and fsynced) to a journal,
 ``OUTDIR/.manifest.journal.jsonl``, and the Parquet file is rewritten atomically from time to time
 and at the end, after which the journal is emptied. Reading a manifest merges both, so a batch killed
 at any point loses no row it had received. :meth:`Manifest.done` tells a re-run which outputs need not
-be made again: a done row with the same settings and input hash whose output and edit files still
-have the hashes it records.
+be made again: a done row with the same settings and input hash whose output (or pack) and edit
+files still have the hashes it records.
 
 Examples
 --------
@@ -31,7 +34,8 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Iterable
 
-__all__ = ["COLUMNS", "MANIFEST", "JOURNAL", "new_row", "Manifest", "schema", "to_table", "verified", "file_sha256"]
+__all__ = ["COLUMNS", "MANIFEST", "JOURNAL", "new_row", "Manifest", "schema", "to_table", "verified", "row_files",
+           "file_sha256"]
 
 MANIFEST = "manifest.parquet"
 JOURNAL = ".manifest.journal.jsonl"
@@ -40,21 +44,25 @@ JOURNAL = ".manifest.journal.jsonl"
 COLUMNS: dict[str, str] = {
     "input": "string",           # the mesh file, absolute
     "input_sha256": "string",    # its content hash
-    "output": "string",          # the output mesh, relative to the output folder
-    "output_sha256": "string",
+    "output": "string",          # the output mesh, relative to the output folder (packed: PACK#TARGET)
+    "output_sha256": "string",   # (a posed pose waiting for its pack: the staged file's)
     "edit": "string",            # its edit file (replays it with hybridedit deform), relative
     "edit_sha256": "string",
+    "pack": "string",            # the file of poses holding it (--pack), relative
+    "pack_sha256": "string",
     "seed": "int64",             # the batch's seed (poses mode)
     "pose": "int64",             # the pose index (poses mode)
-    "status": "string",          # "done" or "failed"
+    "status": "string",          # "done" or "failed" ("posed": made, its pack not written yet)
     "message": "string",         # why it failed, or the writer's notes
     "draws": "int64",            # poses drawn to find one within --max-stretch
     "edge_error": "float64",     # relative RMS edge-length error, percent
     "max_stretch": "float64",    # largest |l' - l| / l over the edges, percent
+    "moved": "float64",          # largest vertex displacement, percent of the bounding-box diagonal
     "read_seconds": "float64",
     "bind_seconds": "float64",   # the cage and binding (shared by an input's poses)
     "pose_seconds": "float64",   # drawing, solving and judging the pose
     "write_seconds": "float64",
+    "pack_seconds": "float64",   # writing the pack (shared by an input's poses)
     "cache_hit": "bool",         # the cage and binding came from the cache
     "worker": "string",          # the Dask worker that made it
     "settings": "string",        # the key of the arguments that make it (BatchSettings.key)
@@ -200,22 +208,38 @@ class Manifest:
             return to_table(self.rows[k] for k in sorted(self.rows))
         return to_table(self.rows[k] for k in outputs if k in self.rows)
 
-    def claimed_done(self, output: str, *, settings: str, input_sha256: str | None) -> dict | None:
+    def claimed_done(self, output: str, *, settings: str, input_sha256: str | None,
+                     posed: bool = False) -> dict | None:
         """The row of ``output`` when it says done with these settings and input hash (its files are
-        not checked here: see :func:`verified`), else None."""
+        not checked here: see :func:`verified`), else None; with ``posed``, a "posed" row too."""
         r = self.rows.get(output)
-        if r is None or r.get("status") != "done" or r.get("settings") != settings:
+        if r is None or r.get("status") not in (("done", "posed") if posed else ("done",)) \
+                or r.get("settings") != settings:
             return None
         if input_sha256 is None or r.get("input_sha256") != input_sha256:
             return None
         return r
 
 
+def row_files(row: dict) -> list[tuple[str, str | None]]:
+    """The files a done (or posed) row stands for, relative to the output folder, with the hashes it
+    records: its edit file, and its output, its pack (a packed pose) or its staged positions (a
+    posed one, :func:`hybridedit.batching.plan.staged_path`)."""
+    from .plan import staged_path
+
+    if row.get("status") == "posed":
+        made = (staged_path(row["output"]), row.get("output_sha256"))
+    elif row.get("pack") is not None:
+        made = (row["pack"], row.get("pack_sha256"))
+    else:
+        made = (row["output"], row.get("output_sha256"))
+    return [made, (row["edit"], row.get("edit_sha256"))]
+
+
 def verified(row: dict, folder: str | os.PathLike[str]) -> bool:
-    """Whether a done row's output and edit files are in ``folder`` with the hashes it records."""
+    """Whether a done row's files (:func:`row_files`) are in ``folder`` with the hashes it records."""
     f = Path(folder)
-    return (row.get("output_sha256") is not None and file_sha256(f / row["output"]) == row["output_sha256"]
-            and row.get("edit_sha256") is not None and file_sha256(f / row["edit"]) == row["edit_sha256"])
+    return all(sha is not None and file_sha256(f / name) == sha for name, sha in row_files(row))
 
 
 def file_sha256(path: str | Path) -> str | None:

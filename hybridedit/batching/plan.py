@@ -7,6 +7,11 @@ input's folder below a folder given as an input (nothing for a file or a glob). 
 get the same name (``a/x.obj`` and ``b/x.obj`` given as files) each get a short hash of their path
 added to the stem.
 
+With a pack (``--pack glb``), the poses of an input go into one file, ``OUTDIR/<sub>/<stem>-poses.glb``
+(or ``.usdc``), as its morph targets ``pose-000``, ``pose-001``, ...: a pose's output is named
+``<stem>-poses.glb#pose-007`` (the pack, then the target), its edit file is as above, and until its
+pack is written its positions wait in ``OUTDIR/.hybridedit-staging/`` (:func:`staged_path`).
+
 Examples
 --------
 >>> jobs = plan_jobs([(Path("/data/cat.obj"), Path("."))], poses=2, edits=None, output_format=".ply")
@@ -24,10 +29,13 @@ from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 from typing import Sequence
 
-__all__ = ["Job", "InputError", "find_inputs", "plan_jobs", "MESH_EXTENSIONS"]
+__all__ = ["Job", "PackJob", "InputError", "find_inputs", "plan_jobs", "pack_jobs", "staged_path",
+           "MESH_EXTENSIONS", "STAGING"]
 
 #: the extensions a folder or glob is searched for (``hybridedit deform``'s formats)
 MESH_EXTENSIONS = (".obj", ".ply", ".stl", ".off", ".glb")
+#: the folder (in the output folder) where packed poses wait for their pack
+STAGING = ".hybridedit-staging"
 
 
 class InputError(ValueError):
@@ -50,6 +58,9 @@ class Job:
         The pose index (the poses mode), or None.
     source_edit : str or None
         The edit file given for the mesh (the edits mode; None: none was found).
+    pack : str or None
+        The file of poses this pose goes into, relative to the output folder (``--pack``); then
+        ``output`` is ``PACK#TARGET``, the pack and the pose's name in it.
     """
 
     input: str
@@ -57,6 +68,47 @@ class Job:
     edit: str
     pose: int | None = None
     source_edit: str | None = None
+    pack: str | None = None
+
+    @property
+    def target(self) -> str | None:
+        """The pose's name in its pack ("pose-007"), or None."""
+        return None if self.pack is None else self.output.rpartition("#")[2]
+
+    @property
+    def staged(self) -> str | None:
+        """Where the pose waits for its pack (:func:`staged_path`), or None."""
+        return None if self.pack is None else staged_path(self.output)
+
+
+@dataclass(frozen=True)
+class PackJob:
+    """One pack: an input's poses in one file.
+
+    Attributes
+    ----------
+    input : str
+        The mesh file, absolute.
+    pack : str
+        The pack, relative to the output folder.
+    jobs : tuple of Job
+        Its poses, in pose order.
+    """
+
+    input: str
+    pack: str
+    jobs: tuple
+
+
+def staged_path(output: str) -> str:
+    """Where a packed pose's positions wait for its pack, relative to the output folder:
+    ``.hybridedit-staging/<pack>/<target>.npy`` (float32 differences from the rest, (n, 3)).
+
+    >>> staged_path("sub/cat-poses.glb#pose-007")
+    '.hybridedit-staging/sub/cat-poses.glb/pose-007.npy'
+    """
+    pack, _, target = output.rpartition("#")
+    return str(PurePosixPath(STAGING) / pack / f"{target}.npy")
 
 
 def _is_mesh(path: Path) -> bool:
@@ -148,7 +200,7 @@ def _edit_for(edits: Path, sub: Path, stem: str) -> str | None:
 
 
 def plan_jobs(inputs: list[tuple[Path, Path]], *, poses: int | None, edits: str | os.PathLike[str] | None,
-              output_format: str | None) -> list[Job]:
+              output_format: str | None, pack: str | None = None) -> list[Job]:
     """One job per output: ``poses`` per input, or one per input replaying its edit file.
 
     Parameters
@@ -161,6 +213,8 @@ def plan_jobs(inputs: list[tuple[Path, Path]], *, poses: int | None, edits: str 
         The folder of edit files (the edits mode).
     output_format : str or None
         The outputs' extension (".ply"); None: each input's own.
+    pack : str or None
+        The packs' extension (".glb", ".usdc"): the poses of an input go into one file.
 
     Returns
     -------
@@ -174,8 +228,21 @@ def plan_jobs(inputs: list[tuple[Path, Path]], *, poses: int | None, edits: str 
         if poses is not None:
             for k in range(poses):
                 name = f"{stem}-pose{k:0{width}d}"
-                jobs.append(Job(str(f), f"{name}{ext}", f"{name}.edit.json", k))
+                if pack is not None:
+                    bundle = f"{stem}-poses{pack}"
+                    jobs.append(Job(str(f), f"{bundle}#pose-{k:0{width}d}", f"{name}.edit.json", k, pack=bundle))
+                else:
+                    jobs.append(Job(str(f), f"{name}{ext}", f"{name}.edit.json", k))
         else:
             jobs.append(Job(str(f), f"{stem}{ext}", f"{stem}.edit.json", None,
                             _edit_for(Path(edits), sub, f.stem)))
     return jobs
+
+
+def pack_jobs(jobs: list[Job]) -> list[PackJob]:
+    """The packs of ``jobs`` (those with a ``pack``), one per pack file, in the jobs' order."""
+    packs: dict[str, list[Job]] = {}
+    for j in jobs:
+        if j.pack is not None:
+            packs.setdefault(j.pack, []).append(j)
+    return [PackJob(its[0].input, name, tuple(its)) for name, its in packs.items()]

@@ -20,10 +20,12 @@ from dataclasses import asdict, dataclass, field
 
 from ..defaults import CAGE_SIZE, ITERATIONS, SETTLE_FRAMES, check_cage_size
 
-__all__ = ["PoseSettings", "BatchSettings", "OUTPUT_EXTENSIONS"]
+__all__ = ["PoseSettings", "BatchSettings", "OUTPUT_EXTENSIONS", "PACK_FORMATS"]
 
 #: the formats an output can be written in (``hybridedit deform``'s)
 OUTPUT_EXTENSIONS = (".obj", ".ply", ".stl", ".off", ".glb")
+#: the pose packs (one file per input holding all its poses): their extension by name
+PACK_FORMATS = {"glb": ".glb", "usd": ".usdc"}
 
 
 def _count(name: str, value, least: int) -> int:
@@ -54,6 +56,9 @@ class PoseSettings:
         Draws made for one pose before it is recorded as failed.
     handles : int
         Most handles (limbs) one pose moves; each pose moves 1 to ``handles`` of them.
+    min_move : float
+        Least distance a pose moves the shape (its largest vertex displacement), in percent of its
+        bounding-box diagonal, in [0, 100); a pose that moves less is redrawn (within ``tries``).
     iterations : int
         ARAP iterations run at a pose's transforms (the window's settle: 60).
     """
@@ -62,6 +67,7 @@ class PoseSettings:
     max_stretch: float = 50.0
     tries: int = 8
     handles: int = 2
+    min_move: float = 2.0
     iterations: int = SETTLE_FRAMES * ITERATIONS
 
     def __post_init__(self) -> None:
@@ -69,6 +75,10 @@ class PoseSettings:
         object.__setattr__(self, "max_stretch", _number("max_stretch", self.max_stretch, 0.0, float("inf")))
         object.__setattr__(self, "tries", _count("tries", self.tries, 1))
         object.__setattr__(self, "handles", _count("handles", self.handles, 1))
+        if isinstance(self.min_move, bool) or not isinstance(self.min_move, numbers.Real) \
+                or not 0.0 <= float(self.min_move) < 100.0:
+            raise ValueError(f"min_move must be a number in [0, 100), got {self.min_move!r}")
+        object.__setattr__(self, "min_move", float(self.min_move))
         object.__setattr__(self, "iterations", _count("iterations", self.iterations, 1))
 
 
@@ -90,6 +100,9 @@ class BatchSettings:
         it records.
     output_format : str or None
         Extension of the outputs (".ply", ...); None: each input's own.
+    pack : str or None
+        "glb" or "usd" (the poses mode): one file per input, ``<stem>-poses.glb`` (``.usdc``),
+        holding all its poses as morph targets (blend shapes), instead of one mesh per pose.
     pose : PoseSettings
         How poses are drawn and judged.
     """
@@ -99,6 +112,7 @@ class BatchSettings:
     seed: int = 0
     cage_size: int | float = CAGE_SIZE
     output_format: str | None = None
+    pack: str | None = None
     pose: PoseSettings = field(default_factory=PoseSettings)
 
     def __post_init__(self) -> None:
@@ -115,6 +129,17 @@ class BatchSettings:
                 raise ValueError(f"output_format must be one of {', '.join(OUTPUT_EXTENSIONS)}, "
                                  f"got {self.output_format!r}")
             object.__setattr__(self, "output_format", ext)
+        if self.pack is not None:
+            name = str(self.pack).lower().lstrip(".")
+            name = {"usdc": "usd"}.get(name, name)
+            if name not in PACK_FORMATS:
+                raise ValueError(f"pack must be one of {', '.join(PACK_FORMATS)}, got {self.pack!r}")
+            if self.poses is None:
+                raise ValueError("pack: for poses only (an edit file per mesh makes one output each)")
+            if self.output_format is not None:
+                raise ValueError("pack: give pack (one file of poses per input) or output_format (a file per "
+                                 "pose), not both")
+            object.__setattr__(self, "pack", name)
         if not isinstance(self.pose, PoseSettings):
             raise ValueError(f"pose must be a PoseSettings, got {type(self.pose).__name__}")
 
@@ -123,8 +148,13 @@ class BatchSettings:
         """"poses" (random poses) or "edits" (an edit file per mesh)."""
         return "poses" if self.poses is not None else "edits"
 
+    @property
+    def pack_extension(self) -> str | None:
+        """The packs' extension (".glb", ".usdc"), or None when every pose is a file of its own."""
+        return None if self.pack is None else PACK_FORMATS[self.pack]
+
     def key(self) -> str:
-        """16 hex digits naming what makes an output (mode, seed, cage, pose settings, format): a
+        """16 hex digits naming what makes an output (mode, seed, cage, pose settings, format, pack): a
         manifest row made with another key is redone, not skipped."""
         what = asdict(self)
         what.pop("poses")  # the count does not change pose k
@@ -133,5 +163,6 @@ class BatchSettings:
             what.pop("pose")
             what.pop("seed")
             what.pop("cage_size")
+            what.pop("pack")
         text = json.dumps({"mode": self.mode, **what}, sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:16]

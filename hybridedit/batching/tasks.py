@@ -1,4 +1,5 @@
-"""The work a batch's tasks do on a Dask worker: hash a file, bind a mesh, pose it, replay an edit.
+"""The work a batch's tasks do on a Dask worker: hash a file, bind a mesh, pose it, replay an edit
+(the pack task, which gathers an input's poses into one file, is :mod:`hybridedit.batching.packing`).
 
 Each function here runs in a worker process (Dask imports this module there by name): it imports
 the engine (``hybridedit.*``, never Qt or VTK), makes its outputs with the project's atomic writes,
@@ -8,7 +9,14 @@ one-line reason, never an exception; an exception that escapes (a bug, a lost re
 retry, and the client records it as failed once the retries are spent.
 
 An output is replayable: its edit file is written first, and the pose written is the replay of that
-very file (read back as ``hybridedit deform`` reads it) on the editor ``deform`` builds.
+very file (read back as ``hybridedit deform`` reads it) on the editor ``deform`` builds. A pose bound
+for a pack is not written as a mesh: its differences from the rest wait, as float32, in a staged file
+(:func:`hybridedit.batching.plan.staged_path`) for the pack task.
+
+A pose is drawn from the shape's limbs (:mod:`hybridedit.batching.poses`) when it has any, else
+along its main axis (:mod:`hybridedit.batching.axis_poses`), and drawn again while it stretches an
+edge over ``max_stretch`` or moves the shape less than ``min_move``; a shape with limbs whose first
+half of the draws found no such pose draws the rest along its axis.
 """
 
 from __future__ import annotations
@@ -25,12 +33,13 @@ from ..core.command_line import one_line
 from ..core.face_geometry import centre_of_mass
 from ..defaults import CAGE_SIZE, SETTLE_FRAMES
 from ..deform.skeleton import Skeleton, find_skeleton
+from .axis_poses import MainAxis, draw_axis_pose, main_axis, vertex_areas
 from .manifest import file_sha256, new_row
 from .plan import Job
-from .poses import draw_pose, pose_rng
+from .poses import draw_pose, limb_extremities, limbs_only, pose_rng
 from .settings import BatchSettings
 
-__all__ = ["Bound", "bind_input", "pose_output", "replay_output", "edge_errors"]
+__all__ = ["Bound", "bind_input", "pose_output", "replay_output", "edge_errors", "moved_percent", "stage"]
 
 #: the engine's errors that mean "this input cannot be served" (a failed row, no retry)
 _READ_ERRORS: tuple[type[BaseException], ...] = (OSError, ValueError, MemoryError, RecursionError)
@@ -63,6 +72,18 @@ def edge_errors(rest: np.ndarray, posed: np.ndarray, edges: np.ndarray) -> tuple
     return float(rrms_edge_error(rest, posed, edges)), stretch
 
 
+def moved_percent(rest: np.ndarray, posed: np.ndarray) -> float:
+    """How far a pose moved the shape: its largest vertex displacement, in percent of the rest's
+    bounding-box diagonal (0 for a shape of no size).
+
+    Parameters
+    ----------
+    rest, posed : (n, 3) float64
+    """
+    size = float(np.linalg.norm(rest.max(axis=0) - rest.min(axis=0))) if len(rest) else 0.0
+    return float(np.linalg.norm(posed - rest, axis=1).max() / size * 100.0) if size > 0 else 0.0
+
+
 @dataclass
 class Bound:
     """One input read and bound: what its pose tasks share (c cage vertices, n shape vertices).
@@ -77,6 +98,10 @@ class Bound:
     document : hybridedit.Document
     rig : hybridedit.Rig
     skeleton : Skeleton
+    limbs : (k,) bool
+        Which of the skeleton's extremities are limbs (:func:`hybridedit.batching.poses.limb_extremities`).
+    axis : MainAxis
+        The shape's main axis (the poses of a shape without limbs).
     dominant : (n,) int64
         Each shape vertex's dominant cage vertex.
     edges : (e, 2) int64
@@ -91,6 +116,8 @@ class Bound:
     document: object = None
     rig: object = None
     skeleton: Skeleton | None = None
+    limbs: np.ndarray | None = None
+    axis: MainAxis | None = None
     dominant: np.ndarray | None = None
     edges: np.ndarray | None = None
     read_seconds: float = 0.0
@@ -99,7 +126,8 @@ class Bound:
 
 
 def bind_input(path: str, cage_size: int | float = CAGE_SIZE) -> Bound:
-    """Read a mesh, bind it to its cage (through the on-disk cache) and find its skeleton.
+    """Read a mesh, bind it to its cage (through the on-disk cache), find its skeleton, its limbs and
+    its main axis.
 
     Parameters
     ----------
@@ -135,8 +163,11 @@ def bind_input(path: str, cage_size: int | float = CAGE_SIZE) -> Bound:
     mesh = doc.mesh
     skeleton = find_skeleton(rig.cage.vertices, edges, centre_of_mass(mesh.vertices, mesh.faces))
     dominant = np.asarray(rig.M.argmax(axis=1)).ravel().astype(np.int64)
-    return Bound(path, sha, None, doc, rig, skeleton, dominant, mesh.edges(), t1 - t0, time.perf_counter() - t1,
-                 bool(rig.cache_hit))
+    shape_edges = mesh.edges()
+    limbs = limb_extremities(skeleton, dominant=dominant, vertices=mesh.vertices, edges=shape_edges)
+    axis = main_axis(mesh.vertices, vertex_areas(mesh.vertices, mesh.faces))
+    return Bound(path, sha, None, doc, rig, skeleton, limbs, axis, dominant, shape_edges, t1 - t0,
+                 time.perf_counter() - t1, bool(rig.cache_hit))
 
 
 def _row(job: Job, settings: BatchSettings, **fields) -> dict:
@@ -172,19 +203,45 @@ def _write(outdir: Path, job: Job, document, V: np.ndarray) -> tuple[str, list[s
     return file_sha256(dst) or "", list(notes)
 
 
-def _draw(bound: Bound, job: Job, settings: BatchSettings, editor, cage: dict, fingerprint: dict):
-    """Draw pose ``job.pose`` until one is within the stretch allowed: (edit, V, rrms, stretch, draws), or
-    (None, reason, ..., draws)."""
+@dataclass
+class _Drawn:
+    """The pose kept for an output: its edit, shape, errors and the draws it took (edit None: no pose
+    within the stretch allowed, ``why`` says so; else ``why`` says why it moves less than asked,
+    or is empty)."""
+
+    edit: object
+    V: np.ndarray | None
+    rrms: float | None
+    stretch: float | None
+    moved: float | None
+    draws: int
+    why: str = ""
+
+
+def _draw(bound: Bound, job: Job, settings: BatchSettings, editor, cage: dict, fingerprint: dict) -> _Drawn:
+    """Draw pose ``job.pose`` until one is within the stretch allowed and moves at least ``min_move``;
+    failing that, the one within the stretch that moved most."""
     p = settings.pose
     rng = pose_rng(settings.seed, bound.sha256, job.pose)
     mesh = bound.rig.mesh
-    least, reason = np.inf, "no limb could be drawn on the shape"
+    limbs = limbs_only(bound.skeleton, bound.limbs)
+    along_axis_from = 1 if len(limbs.extremities) == 0 else (p.tries + 1) // 2 + 1
+    best: _Drawn | None = None
+    tried: list[tuple[float, float]] = []  # (moved, stretch) of each pose solved
+    reason = "no limb could be drawn on the shape"
     for draw in range(1, p.tries + 1):
-        edit = draw_pose(bound.skeleton, rng, dominant=bound.dominant, vertices=mesh.vertices, edges=bound.edges,
-                         handles=p.handles, max_degrees=p.max_degrees, iterations=p.iterations, cage=cage,
-                         fingerprint=fingerprint)
-        if edit is None:
-            continue
+        if draw >= along_axis_from:
+            edit, why = draw_axis_pose(bound.axis, rng, max_degrees=p.max_degrees, iterations=p.iterations,
+                                       cage=cage, fingerprint=fingerprint)
+            if edit is None:
+                reason = why
+                continue
+        else:
+            edit = draw_pose(limbs, rng, dominant=bound.dominant, vertices=mesh.vertices, edges=bound.edges,
+                             handles=p.handles, max_degrees=p.max_degrees, iterations=p.iterations, cage=cage,
+                             fingerprint=fingerprint)
+            if edit is None:
+                continue
         edit = _as_file_holds(edit)
         try:
             V = _replay(editor, edit, name=job.edit)
@@ -192,13 +249,40 @@ def _draw(bound: Bound, job: Job, settings: BatchSettings, editor, cage: dict, f
             reason = one_line(e)
             continue
         rrms, stretch = edge_errors(mesh.vertices, V, bound.edges)
-        if stretch <= p.max_stretch:
-            return edit, V, rrms, stretch, draw
-        least = min(least, stretch)
-    if np.isfinite(least):
+        moved = moved_percent(mesh.vertices, V)
+        tried.append((moved, stretch))
+        if stretch > p.max_stretch:
+            continue
+        if best is None or moved > best.moved:
+            best = _Drawn(edit, V, rrms, stretch, moved, draw)
+        if moved >= p.min_move:
+            return best
+    if best is not None:
+        more = sum(m > best.moved for m, _ in tried)
+        best.draws = p.tries
+        best.why = (f"moved {best.moved:.2f}% of the diagonal, under --min-move {p.min_move:g}%: "
+                    + (f"the {more} draw{'s' if more != 1 else ''} that moved more stretched over --max-stretch "
+                       f"{p.max_stretch:g}%" if more else f"no draw of {p.tries} moved more"))
+        return best
+    if tried:
         reason = (f"no pose within --max-stretch {p.max_stretch:g}% in {p.tries} draws "
-                  f"(the least stretched: {least:.1f}%)")
-    return None, reason, None, None, p.tries
+                  f"(the least stretched: {min(s for _, s in tried):.1f}%)")
+    return _Drawn(None, None, None, None, None, p.tries, reason)
+
+
+def stage(path: Path, deltas: np.ndarray) -> str:
+    """Write a pose's differences from the rest, (n, 3), as float32 to ``path`` (atomically); its
+    SHA-256.
+
+    Float32 differences, not positions: a vertex the pose leaves is an exact 0 (the pack stores
+    only what moved), and the rounding is relative to the motion, not to where the shape sits.
+    """
+    from ..fileio.atomic import atomic_write
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_write(path, "wb") as f:
+        np.save(f, np.ascontiguousarray(deltas, dtype="<f4"), allow_pickle=False)
+    return file_sha256(path) or ""
 
 
 def pose_output(bound: Bound, job: Job, settings: BatchSettings, outdir: str) -> dict:
@@ -226,25 +310,26 @@ def pose_output(bound: Bound, job: Job, settings: BatchSettings, outdir: str) ->
                   cache_hit=bound.cache_hit)
     if bound.failure is not None:
         return _row(job, settings, status="failed", message=bound.failure, **common)
-    if len(bound.skeleton.extremities) == 0:
-        return _row(job, settings, status="failed", message=f"{Path(job.input).name}: no extremity found on its cage",
-                    **common)
     t0 = time.perf_counter()
     rig = bound.rig
     editor = HybridEditor(rig)
     cage = {"size": rig.cage_size, "vertices": int(rig.cage.n_vertices)}
-    edit, V, rrms, stretch, draws = _draw(bound, job, settings, editor, cage, mesh_fingerprint(rig.mesh))
+    got = _draw(bound, job, settings, editor, cage, mesh_fingerprint(rig.mesh))
     t1 = time.perf_counter()
-    if edit is None:
-        return _row(job, settings, status="failed", message=f"{Path(job.input).name}: {V}", draws=draws,
+    if got.edit is None:
+        return _row(job, settings, status="failed", message=f"{Path(job.input).name}: {got.why}", draws=got.draws,
                     pose_seconds=t1 - t0, **common)
     out = Path(outdir)
     (out / job.edit).parent.mkdir(parents=True, exist_ok=True)
-    save_edit(out / job.edit, edit)
-    sha, notes = _write(out, job, bound.document, V)
-    return _row(job, settings, status="done", message="; ".join(notes), output_sha256=sha,
-                edit_sha256=file_sha256(out / job.edit), draws=draws, edge_error=rrms, max_stretch=stretch,
-                pose_seconds=t1 - t0, write_seconds=time.perf_counter() - t1, **common)
+    save_edit(out / job.edit, got.edit)
+    if job.pack is not None:  # the pack task writes it with the input's other poses
+        sha, notes, status = stage(out / job.staged, got.V - bound.document.mesh.vertices), [], "posed"
+    else:
+        (sha, notes), status = _write(out, job, bound.document, got.V), "done"
+    return _row(job, settings, status=status, message="; ".join([got.why, *notes] if got.why else notes),
+                output_sha256=sha, edit_sha256=file_sha256(out / job.edit), draws=got.draws, edge_error=got.rrms,
+                max_stretch=got.stretch, moved=got.moved, pose_seconds=t1 - t0,
+                write_seconds=time.perf_counter() - t1, **common)
 
 
 def replay_output(job: Job, settings: BatchSettings, outdir: str) -> dict:
@@ -308,5 +393,6 @@ def replay_output(job: Job, settings: BatchSettings, outdir: str) -> dict:
     rrms, stretch = edge_errors(mesh.vertices, V, mesh.edges())
     return _row(job, settings, status="done", message="; ".join(notes), input_sha256=sha, output_sha256=out_sha,
                 edit_sha256=file_sha256(out / job.edit), edge_error=rrms, max_stretch=stretch,
+                moved=moved_percent(mesh.vertices, V),
                 read_seconds=t1 - t0, bind_seconds=t2 - t1, pose_seconds=t3 - t2,
                 write_seconds=time.perf_counter() - t3, cache_hit=bool(editor.cache_hit))

@@ -12,12 +12,13 @@ import pytest
 import hybridedit as he
 from hybridedit.batching.manifest import COLUMNS, JOURNAL, MANIFEST, Manifest, file_sha256, new_row
 from hybridedit.batching.plan import InputError, find_inputs, plan_jobs
-from hybridedit.batching.poses import draw_limbs, pose_rng
+from hybridedit.batching.axis_poses import END_FRACTION, draw_axis_pose, main_axis, vertex_areas
+from hybridedit.batching.poses import draw_limbs, limb_extremities, pose_rng
 from hybridedit.batching.progress import BatchProgress
 from hybridedit.batching.settings import BatchSettings, PoseSettings
 from hybridedit.batching.tasks import bind_input
 
-from shapes import bumpy_blob
+from shapes import bumpy_blob, figure, icosphere, skull_like
 
 
 @pytest.fixture(scope="module")
@@ -66,6 +67,78 @@ def test_a_draw_depends_on_seed_hash_and_index_only(bound):
             assert np.isin(limb.handle, limb.region).all() and limb.handle.size < limb.region.size
             assert not taken[limb.region].any()  # regions do not overlap
             taken[limb.region] = True
+
+
+@pytest.mark.parametrize("shape, limbs", [(lambda: figure(0.1), 4), (lambda: icosphere(3), 0),
+                                          (lambda: skull_like(3), 0)])
+def test_limbs_are_the_extremities_with_a_neck(shape, limbs):
+    """The figure's arms and legs are limbs (their regions join the body through a narrow ring); a
+    ball's and a skull's caps are not, whatever their size. (The skeleton is found on the shape's own
+    edges here: its cage.)"""
+    from hybridedit.core.face_geometry import centre_of_mass
+    from hybridedit.deform.skeleton import find_skeleton
+
+    mesh = shape()
+    edges = mesh.edges()
+    s = find_skeleton(mesh.vertices, edges, centre_of_mass(mesh.vertices, mesh.faces))
+    flags = limb_extremities(s, dominant=np.arange(mesh.n_vertices), vertices=mesh.vertices, edges=edges)
+    assert len(flags) == len(s.extremities) == 8 and flags.sum() == limbs
+    if limbs:  # the arm tips (x = +-2) and the feet (y = -1.9)
+        tips = mesh.vertices[s.extremities[flags]]
+        assert np.all((np.abs(tips[:, 0]) > 1.8) | (tips[:, 1] < -1.8))
+
+
+def test_an_axis_pose_holds_one_end_and_turns_or_tapers_the_other():
+    blob = bumpy_blob(3)
+    v = blob.vertices * [1.0, 0.5, 0.5]  # x in [-2.2, 2.2]: the main axis
+    axis = main_axis(v, vertex_areas(v, blob.faces))
+    assert abs(axis.direction[0]) > 0.99 and axis.length == pytest.approx(np.ptp(v @ axis.direction))
+    kinds = set()
+    for k in range(12):
+        edit, what = draw_axis_pose(axis, pose_rng(3, "ab" * 32, k), max_degrees=30.0, iterations=60,
+                                    cage={"size": 0.2, "vertices": 128}, fingerprint={})
+        kinds.add(what.split()[0])
+        held, moving = edit.handles
+        assert edit.roi is None and edit.fixed is None  # the middle is free: ARAP bends it
+        t = axis.t
+        ends = [t[held.indices], t[moving.indices]]
+        low, high = sorted(ends, key=np.mean)
+        span = axis.length * END_FRACTION[1]
+        assert low.max() <= t.min() + span and high.min() >= t.max() - span  # the two ends, apart
+        assert not held.translate.any() and held.rotate is None and held.matrix is None
+        T = moving.transform()
+        middle = axis.middle
+        assert np.allclose(T[:3, :3] @ middle + T[:3, 3], middle)  # about the middle of the axis
+        if moving.matrix is not None:  # a taper: along the axis nothing changes, across it a scale
+            assert np.allclose(T[:3, :3] @ axis.direction, axis.direction)
+            across = np.cross(axis.direction, [0.0, 0.0, 1.0])
+            scale = float(np.linalg.norm(T[:3, :3] @ across) / np.linalg.norm(across))
+            assert np.allclose(T[:3, :3] @ across, scale * across)
+            assert 0.4 * 7.5 / 45 - 1e-12 <= abs(scale - 1) <= 0.4 * 30 / 45 + 1e-12  # (angles in [7.5, 30])
+        else:
+            assert 30 * 0.25 <= abs(moving.rotate["degrees"]) <= 30
+            turn = np.asarray(moving.rotate["axis"])
+            along = abs(turn @ axis.direction)
+            assert along == pytest.approx(1.0) if what.startswith("twist") else along == pytest.approx(0.0, abs=1e-12)
+    assert kinds == {"bend", "twist", "taper"}
+
+
+def test_a_pose_that_cannot_move_enough_is_the_one_that_moved_most_and_says_so(tmp_path):
+    """--min-move asks more than any draw within the stretch allowed reaches: every draw is made, the
+    one that moved most is kept, and its row says why it moved less."""
+    from hybridedit.batching.plan import Job
+    from hybridedit.batching.tasks import moved_percent, pose_output
+
+    path = tmp_path / "ball.ply"
+    he.write_mesh(path, icosphere(3))
+    settings = BatchSettings(poses=1, seed=2, cage_size=0.2, pose=PoseSettings(min_move=60.0, tries=3))
+    row = pose_output(bind_input(str(path), 0.2), Job(str(path), "ball-pose000.ply", "ball-pose000.edit.json", 0),
+                      settings, str(tmp_path))
+    assert row["status"] == "done" and row["draws"] == 3
+    assert row["message"].startswith(f"moved {row['moved']:.2f}% of the diagonal, under --min-move 60%: ")
+    assert 2.0 <= row["moved"] < 60.0
+    assert row["moved"] == pytest.approx(moved_percent(icosphere(3).vertices,
+                                                       he.read_mesh(tmp_path / "ball-pose000.ply").vertices))
 
 
 def test_find_inputs_from_files_folders_and_globs(tmp_path):

@@ -1,5 +1,6 @@
 """A batch on a cluster started with the ordinary commands (`dask scheduler`, two `dask worker`) on
-localhost: one worker is killed mid-run, and every output is still made."""
+localhost: one worker is killed mid-run, and every output is still made (with a pack too: the packs
+hold every pose)."""
 
 from __future__ import annotations
 
@@ -53,7 +54,8 @@ def wait_for(what, timeout: float, step: float = 0.1):
 
 
 @pytest.mark.slow
-def test_a_worker_killed_mid_run_loses_no_output(inputs, tmp_path, cage):
+@pytest.mark.parametrize("pack", [None, "glb"])
+def test_a_worker_killed_mid_run_loses_no_output(inputs, tmp_path, cage, pack):
     from distributed import Client
 
     scheduler_file = tmp_path / "scheduler.json"
@@ -70,11 +72,11 @@ def test_a_worker_killed_mid_run_loses_no_output(inputs, tmp_path, cage):
             out = tmp_path / "out"
             done: dict = {}
             run = threading.Thread(target=lambda: done.update(table=he.batch(
-                [inputs], out, poses=8, seed=3, scheduler=address, cage_size=cage, output_format="ply",
-                progress=False)))
+                [inputs], out, poses=8, seed=3, scheduler=address, cage_size=cage,
+                output_format=None if pack else "ply", pack=pack, progress=False)))
             run.start()
             # the first outputs are in: kill a worker (and its nanny) while the rest are being made
-            made_before = wait_for(lambda: len(list(out.glob("*-pose*.ply"))), 120, 0.02)
+            made_before = wait_for(lambda: len(list(out.glob("*-pose*.edit.json"))), 120, 0.02)
             stop(procs[1])
             run.join(timeout=300)
             assert not run.is_alive()
@@ -84,7 +86,15 @@ def test_a_worker_killed_mid_run_loses_no_output(inputs, tmp_path, cage):
         messages = table.column("message").to_pylist()
         assert statuses == ["done"] * 16, [(k, m) for k, (st, m) in enumerate(zip(statuses, messages)) if st != "done"]
         assert pq.read_table(out / "manifest.parquet").num_rows == 16
-        assert all((out / name).is_file() for name in table.column("output").to_pylist())
+        if pack:
+            import pygltflib
+
+            for stem in ("blob", "long"):
+                gltf = pygltflib.GLTF2.load(str(out / f"{stem}-poses.glb"))
+                assert gltf.meshes[0].extras["targetNames"] == [f"pose-00{k}" for k in range(8)]
+            assert set(table.column("pack").to_pylist()) == {"blob-poses.glb", "long-poses.glb"}
+        else:
+            assert all((out / name).is_file() for name in table.column("output").to_pylist())
     finally:
         for p in procs:
             stop(p)
