@@ -18,6 +18,11 @@ SETTLE_FRAMES = 30
 POLISH_MAX_ITERATIONS = 200
 #: A polish has converged when an iteration moves no vertex by more than this fraction of the diagonal.
 POLISH_TOLERANCE = 1e-6
+#: A converge (the cage's ARAP to its fixed point) stops when its bound on the distance to the fixed
+#: point is at most this fraction of the diagonal.
+CONVERGE_TOLERANCE = 1e-6
+#: Most iterations a converge runs (a run stopped there says it did not converge).
+CONVERGE_MAX_ITERATIONS = 10000
 
 
 #: The cage sizes a user may give, in words (the messages that refuse one say them).

@@ -208,6 +208,7 @@ class ARAPSolver:
         #: global step (right-hand side and solve)
         self.last_timings = {"local_seconds": 0.0, "global_seconds": 0.0}
         self._L_fc: sp.csr_matrix | None = None
+        self._L_ff: sp.csr_matrix | None = None
         self._touching = np.zeros(0, dtype=np.int64)  # constrained vertices with a free neighbour
         self.held = np.zeros(0, dtype=np.int64)
         self._given = self.constrained
@@ -266,6 +267,7 @@ class ARAPSolver:
         self.local_step()  # rotations a solve does not update stay these
         L = self.L
         self._solver = SPDSolver(L[free][:, free], backend=self.backend)
+        self._L_ff = None  # (made by the first :meth:`iteration_parts`)
         # the free rows' couplings to constrained vertices: only those next to a free vertex have
         # any, and a frame gathers only those (not every held vertex of a big cage)
         L_fc = L[free][:, c].tocsr()
@@ -328,6 +330,40 @@ class ARAPSolver:
         total = time.perf_counter() - t0
         self.last_timings = {"local_seconds": t_local, "global_seconds": total - t_local}
         return self.positions
+
+    def iteration_parts(self, constrained_positions: np.ndarray, *, slots: np.ndarray | None = None) -> dict:
+        """Move the constrained vertices (as :meth:`solve` does) and give what an iteration there
+        reads, as the keyword arguments of a
+        :class:`~hybridedit.deform.local_global.LocalGlobalMap` (made by
+        :func:`~hybridedit.deform.local_global.local_global_map`, to iterate to convergence;
+        :meth:`adopt` takes its result back). The arguments are :meth:`solve`'s.
+
+        Raises
+        ------
+        ValueError, FloatingPointError
+            As :meth:`solve` (nothing changed).
+        """
+        if self._solver is None:
+            raise RuntimeError("call set_constrained first")
+        cp = np.asarray(constrained_positions, dtype=np.float64).reshape(-1, 3)
+        moved = self._moved_by(slots)
+        if len(cp) != len(moved):
+            raise ValueError(f"expected {len(moved)} constrained positions, got {len(cp)}")
+        if not np.all(np.isfinite(cp)):
+            raise FloatingPointError("non-finite constrained positions; nothing changed")
+        put_rows(cp, moved, self.positions)
+        rhs_c = np.ascontiguousarray(self._L_fc @ take_rows(self.positions, self._touching))
+        if self._L_ff is None:  # (the metric of a converge's error estimate)
+            self._L_ff = self.L[self.free][:, self.free].tocsr()
+        return {"reference": self.reference, "positions": self.positions, "indptr": self._indptr,
+                "indices": self._indices, "weights": self._wts, "free": self.free, "active": self.active,
+                "solve": self._solver.solve, "rhs_fixed": rhs_c, "laplacian_free": self._L_ff}
+
+    def adopt(self, free_positions: np.ndarray, active_rotations: np.ndarray) -> None:
+        """Take an iteration's result: the (f, 3) positions of the free vertices and the (a, 3, 3)
+        rotations of the :attr:`active` ones its global step used (as :meth:`solve` leaves them)."""
+        put_rows(np.asarray(free_positions, dtype=np.float64), self.free, self.positions)
+        self.rotations[self.active] = active_rotations
 
     def _moved_by(self, slots: np.ndarray | None) -> np.ndarray:
         """The constrained vertices a :meth:`solve` given ``slots`` writes."""

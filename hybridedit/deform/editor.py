@@ -29,12 +29,15 @@ import scipy.sparse as sp
 from ..binding.rig import Progress, Rig
 from ..core.mesh import Mesh
 from ..core.row_copy import copied
-from ..defaults import CAGE_SIZE, ITERATIONS, TRUNCATION
+from ..defaults import CAGE_SIZE, CONVERGE_MAX_ITERATIONS, CONVERGE_TOLERANCE, ITERATIONS, TRUNCATION
+from . import anderson
+from .anderson import ConvergeResult
 from .arap import ARAPSolver
 from .base_pose import BasePose, current_base, fit_cage, propagate_from, propagated_residual, rest_base
 from .editor_files import EditorFiles
 from .editor_state import EditorState, StateSnapshots
 from .limb_posing import LimbPosing
+from .local_global import local_global_map
 from .frame_steps import Frame, FrameSteps, build_frame_steps, cage_targets, solve_cage
 from .polish import MAX_ITERATIONS as POLISH_MAX_ITERATIONS
 from .polish import TOLERANCE as POLISH_TOLERANCE
@@ -48,7 +51,7 @@ from .selection import CageMap, Selection, SelectionError, build_selection, choo
 from .symmetry import Mirror
 from .transform_arguments import requested_transforms
 
-__all__ = ["HybridEditor", "SelectionError", "EditorState"]
+__all__ = ["HybridEditor", "SelectionError", "EditorState", "ConvergeResult"]
 
 #: frame times kept in ``frame_seconds`` (the older half is dropped past this)
 FRAME_HISTORY = 10000
@@ -605,3 +608,114 @@ class HybridEditor(RoleQueries, StateSnapshots, RecordedEdits, EditorFiles, Limb
                       f"{moved / diagonal:.2g} of the diagonal, tolerance {tolerance:g})",
                       RuntimeWarning, stacklevel=2)
         return self._out.copy()
+
+    def converge(self, translate=None, *, rotate=None, transform: np.ndarray | None = None, group: int = 0,
+                 transforms: dict | None = None, tolerance: float = CONVERGE_TOLERANCE,
+                 max_iterations: int = CONVERGE_MAX_ITERATIONS, start: str = "current", cancel=None,
+                 progress: Progress | None = None) -> ConvergeResult:
+        """Solve the selection's transforms to convergence on the cage alone, then propagate once.
+
+        The cage's ARAP iterations run at the transforms, warm-started from the current cage
+        pose (or from the selection's start pose), until the cage is within ``tolerance`` of the
+        diagonal of the fixed point, by a bound (not the last step: Anderson-accelerated,
+        energy-safeguarded iterations, :mod:`hybridedit.deform.anderson`); then the shape is
+        propagated from it once, as a :meth:`drag` frame is. What a window's settle or an add-on
+        runs when the handles stop, and how an animation frame is solved from the start pose.
+
+        Parameters
+        ----------
+        translate, rotate, transform, group, transforms
+            The transforms, as :meth:`drag` takes them (absolute, relative to the pose when the
+            selection was set).
+        tolerance : float
+            The bound on the cage's distance to the fixed point (the largest coordinate of any
+            vertex's), a fraction of the bounding-box diagonal, > 0.
+        max_iterations : int
+            Cap on the iterations (>= 1); a run stopped there says so (``converged`` False) and
+            its pose is kept.
+        start : "current" or "base"
+            Warm-start from the current cage pose, or from the selection's start pose (the
+            pose :meth:`set_selection` was given, whatever ran since: the same transforms give
+            the same pose bit for bit, as a replay does).
+        cancel : callable() -> bool or threading.Event, optional
+            Checked between iterations; once true (set) the run stops and nothing is changed
+            (``stopped`` "cancelled").
+        progress : callable(stage, fraction), optional
+            Told ("converging", fraction) after each iteration, the fraction by a rule (the
+            reduction of the residual, on a log scale), never the clock.
+
+        Returns
+        -------
+        ConvergeResult
+            ``vertices`` (n, 3) float64 the shape (a read-only view, as :meth:`drag` gives),
+            ``converged``, ``stopped``, ``iterations``, ``distance`` (the bound, a fraction of
+            the diagonal).
+
+        Raises
+        ------
+        SelectionError
+            No selection is set.
+        ValueError
+            A bad transform, tolerance or cap, or the solve gave non-finite positions (then
+            nothing changed).
+
+        Notes
+        -----
+        The pose record (:attr:`edit`) keeps the converge as its step's ``"converge"``: a
+        converge from the start pose, or after iterations all at these transforms, replays bit
+        for bit; one warm-started from interactive frames replays as a converge from the start
+        pose, to the same tolerance.
+
+        Examples
+        --------
+        >>> ed.set_selection(hand, roi=arm)  # doctest: +SKIP
+        >>> r = ed.converge(transforms={0: T})  # doctest: +SKIP
+        >>> r.converged, r.iterations, r.vertices.shape  # doctest: +SKIP
+        (True, 172, (691858, 3))
+        """
+        sel = self._sel
+        if sel is None:
+            raise SelectionError("set a selection (handle) before converging")
+        if start not in ("current", "base"):
+            raise ValueError(f"start must be 'current' or 'base', got {start!r}")
+        new = requested_transforms(self._transforms, self._centers, translate=translate, rotate=rotate,
+                                   transform=transform, group=group, transforms=transforms)
+        tol = float(tolerance)
+        if not (tol > 0 and np.isfinite(tol)) or int(max_iterations) < 1:
+            raise ValueError(f"tolerance must be > 0 and max_iterations >= 1, got {tolerance!r}, {max_iterations!r}")
+        t0 = time.perf_counter()
+        base = self._base
+        internal = sel.group_transforms(new)
+        slots, target = cage_targets(base.cage, sel, internal, scale=self._scale)
+        before = self.arap.positions.copy()
+        if start == "base":
+            self.arap.positions[:] = base.cage
+        say = None if progress is None else (lambda fraction: progress("converging", fraction))
+        diagonal = max(self.mesh.bbox_diagonal(), np.finfo(float).tiny)
+        try:
+            gmap = local_global_map(self.arap, target, slots=slots)
+            x, stats = anderson.converge(gmap, tolerance=tol * diagonal, max_iterations=int(max_iterations),
+                                         cancel=cancel, progress=say)
+        except FloatingPointError:
+            self.arap.positions[:] = before
+            raise ValueError("the converge produced non-finite cage positions; refused, nothing changed") from None
+        except BaseException:
+            self.arap.positions[:] = before  # (a progress callback that raised: nothing changed either)
+            raise
+        if stats.stopped == "cancelled":
+            self.arap.positions[:] = before
+        else:
+            self.arap.adopt(x, gmap.rotations())
+            same = len(new) == len(self._transforms) and all(np.array_equal(a, b)
+                                                             for a, b in zip(new, self._transforms))
+            self._record = self._record.after_converge(
+                {"tolerance": tol, "max_iterations": int(max_iterations)}, same_transforms=same,
+                from_start=start == "base")
+            self._transforms = new
+            self._moved = True
+            self._steps.run(Frame(base_shape=base.shape, transforms=internal, cage=self.arap.positions,
+                                  cage_rotations=self.arap.rotations, rotations=self._rots,
+                                  propagation_rotations=self._prop_rotations(), out=self._out))
+        return ConvergeResult(vertices=self.deformed_vertices, converged=stats.converged, stopped=stats.stopped,
+                              iterations=stats.iterations, rejected=stats.rejected,
+                              distance=stats.distance / diagonal, seconds=time.perf_counter() - t0)

@@ -3,6 +3,7 @@
 The editor keeps a :class:`PoseRecord` beside its pose and takes it back with the
 pose on undo (it is part of :class:`~hybridedit.deform.editor_state.EditorState`). A *step* is
 a selection set on a pose, the ARAP iterations run at its handle transforms, and
+a converge to the fixed point at them (:meth:`~hybridedit.HybridEditor.converge`), and
 an optional full-resolution polish; the next selection (or the next drag after a
 polish) starts the next step from the pose it left. A step describes the pose it
 makes exactly when every iteration since the selection was set ran at the same
@@ -10,6 +11,13 @@ transforms (a settle, or a script's frames at one transform): then the replay
 runs the same iterations and gets the same pose. Interactive frames at changing
 transforms make a pose that depends on the mouse's path; such a step is *not
 settled*, and its replay settles it instead.
+
+A converge after settled iterations (or from the base pose) keeps the step settled:
+its replay runs the same iterations, then the same converge from the same start, bit
+for bit. A converge warm-started from unsettled frames (the window's or an add-on's
+settle after a drag), or drags after a converge, leave the step not settled: its
+replay converges from the step's start pose to the same tolerance instead (the same
+fixed point to within it, where the energy has only the one near there).
 """
 
 from __future__ import annotations
@@ -37,6 +45,9 @@ class PoseRecord:
         Every one of them ran at the current transforms.
     continues : bool
         The current selection is the last done step's, continued from its polished pose.
+    converge : dict or None
+        ``{"tolerance": t, "max_iterations": k}`` of the converge that ran since then, if any
+        (after the ``iterations``).
     unknown : str or None
         Why the pose cannot be replayed from the rest pose (it was set from outside,
         e.g. :meth:`~hybridedit.HybridEditor.set_pose`); ``done`` then holds only the
@@ -49,16 +60,26 @@ class PoseRecord:
     settled: bool = True
     continues: bool = False
     unknown: str | None = None
+    converge: dict | None = None
 
     def restarted(self, *, continues: bool = False) -> "PoseRecord":
         """A new step starts from the pose as it is (nothing dragged since)."""
-        return replace(self, dragged=False, iterations=0, settled=True, continues=continues)
+        return replace(self, dragged=False, iterations=0, settled=True, continues=continues, converge=None)
 
     def after_drag(self, *, same_transforms: bool, iterations: int) -> "PoseRecord":
         """A drag of ``iterations`` ARAP iterations ran (``same_transforms``: at the transforms of the
-        drags before it)."""
-        settled = self.settled and (same_transforms or not self.dragged)
+        drags before it). After a converge the step is no longer settled (its replay converges)."""
+        settled = self.settled and self.converge is None and (same_transforms or not self.dragged)
         return replace(self, dragged=True, iterations=self.iterations + int(iterations), settled=settled)
+
+    def after_converge(self, spec: dict, *, same_transforms: bool, from_start: bool) -> "PoseRecord":
+        """A converge ran (``spec``: its tolerance and iteration cap) at the transforms of the drags
+        before it (``same_transforms``), warm-started from the pose they left, or (``from_start``)
+        from the step's start pose: then it alone makes the pose."""
+        if from_start:
+            return replace(self, dragged=True, iterations=0, settled=True, converge=dict(spec))
+        settled = self.settled and self.converge is None and (same_transforms or not self.dragged)
+        return replace(self, dragged=True, settled=settled, converge=dict(spec))
 
     def closed(self, step: Edit) -> "PoseRecord":
         """The current step is done (``step`` describes it); a new one starts where it left off."""

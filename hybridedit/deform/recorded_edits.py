@@ -33,7 +33,8 @@ class RecordedEdits:
         replays: the current selection and handle transforms, after the steps before it
         (:attr:`Edit.before`: earlier selections, polishes). Each step records the ARAP
         iterations run at its transforms when they all ran at them (a settle, or frames at one
-        transform), its polish iterations, and its cage. See :attr:`replayable`.
+        transform), the converge that followed them, its polish iterations, and its cage. See
+        :attr:`replayable`.
 
         Raises
         ------
@@ -46,7 +47,7 @@ class RecordedEdits:
         last = steps[-1]
         return Edit(handles=last.handles, fixed=last.fixed, roi=last.roi, space=last.space, symmetry=last.symmetry,
                     iterations=last.iterations, polish=last.polish, cage=last.cage, continues=last.continues,
-                    before=steps[:-1], mesh=mesh_fingerprint(self.mesh))
+                    before=steps[:-1], mesh=mesh_fingerprint(self.mesh), converge=last.converge)
 
     @property
     def record(self) -> PoseRecord:
@@ -86,7 +87,7 @@ class RecordedEdits:
                 "vertices": int(self.cage.n_vertices)}
         return Edit(handles=handles, space="shape", symmetry=None if sel.mirror is None else sel.mirror.spec,
                     iterations=r.iterations if r.settled else None, polish=polish, cage=cage,
-                    continues=r.continues, **fixed_kw)
+                    continues=r.continues, converge=r.converge, **fixed_kw)
 
     def _record_closed(self, polish: int | None = None) -> PoseRecord:
         """The record with the current step closed (kept when it did something: a drag or a polish)."""

@@ -4,9 +4,11 @@ window's Load Edit, :meth:`hybridedit.HybridEditor.apply_edit`).
 Each step sets its selection on the pose the steps before it made (a step that
 *continues* keeps the selection and starts again from that pose), runs its ARAP
 iterations at its handle transforms (the count it recorded, else ``frames`` x
-``iterations``), then its polish (the recorded count of full-resolution
-iterations). These are the calls the window made, in the same order, so the replay
-of an edit saved in the window is the pose it showed.
+``iterations``, or none for a step that converges), then its converge (the cage's
+ARAP to its fixed point, :meth:`hybridedit.HybridEditor.converge`), then its polish
+(the recorded count of full-resolution iterations). These are the calls the window
+made, in the same order, so the replay of an edit saved in the window is the pose it
+showed.
 """
 
 from __future__ import annotations
@@ -44,12 +46,16 @@ def _runs_on(step: Edit, current: "HybridEditor", home: "HybridEditor",
     return made[key]
 
 
+#: units of work a converge counts for in a replay's progress (about a converge's iterations)
+CONVERGE_UNITS = 200
+
+
 def _plan(step: Edit, frames: int, per: int) -> list[int]:
     """The ARAP iterations of each drag a step runs: its recorded count (in drags of ``per``, as
     the window's settle ran them in slices: the split does not change the pose), else ``frames``
-    drags of ``per`` each."""
+    drags of ``per`` each, or none when the step converges (that settles it)."""
     if step.iterations is None:
-        return [per] * frames
+        return [] if step.converge is not None else [per] * frames
     size = max(per, 1)
     return [min(size, step.iterations - i) for i in range(0, step.iterations, size)]
 
@@ -104,7 +110,9 @@ def replay(editor: "HybridEditor", edit: Edit, *, frames: int = SETTLE_FRAMES, i
     steps = edit.steps
     plans = _plans(steps, frames, per)
     # a drag of c iterations counts c + 1 units (its propagation), a polish its iterations
-    work = _Work(total=max(sum(sum(p) + len(p) for p in plans) + sum(s.polish or 0 for s in steps), 1), say=say)
+    total = sum(sum(p) + len(p) for p in plans) + sum(s.polish or 0 for s in steps) \
+        + CONVERGE_UNITS * sum(s.converge is not None for s in steps[:len(steps) - (frames == 0)])
+    work = _Work(total=max(total, 1), say=say)
     current, made = editor, {}
     for k, step in enumerate(steps):
         target = _runs_on(step, current, editor, editor_for_cage, made)
@@ -159,11 +167,17 @@ def _select(current: "HybridEditor", step: Edit, k: int, name: str) -> None:
 
 
 def _run(current: "HybridEditor", step: Edit, plan: list[int], work: _Work) -> None:
-    """The drags of ``plan`` at the transforms of ``step``, then its polish."""
+    """The drags of ``plan`` at the transforms of ``step``, then its converge and its polish."""
     Ts = current.edit_transforms(step)
     for chunk in plan:
         work.tell("deforming", chunk + 1)
         current.drag(transforms=Ts, iterations=chunk)
+    if step.converge is not None:
+        work.tell("converging", CONVERGE_UNITS)
+        # (a step whose iterations are not recorded converges from its start pose, as it was replayed)
+        current.converge(transforms=Ts, tolerance=step.converge["tolerance"],
+                         max_iterations=step.converge["max_iterations"],
+                         start="current" if step.iterations is not None else "base")
     if step.polish is not None:
         work.tell("polishing", step.polish)
         current.polish(iterations=step.polish)

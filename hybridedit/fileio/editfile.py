@@ -13,6 +13,7 @@ Format (version 3)::
        "handles": [{"indices": [...], "translate": [x, y, z],
                     "rotate": {"axis": [x, y, z], "degrees": a, "center": [x, y, z]}}, ...],
        "iterations": 60,                    # optional: ARAP iterations at these transforms
+       "converge": {"tolerance": 1e-6, "max_iterations": 10000},  # optional: then to the fixed point
        "polish": 37},                       # optional: full-resolution polish iterations after them
       {"continues": true,                   # the selection of the step before, from its polished pose
        "handles": [{"translate": [...], "rotate": {...}}, ...], "iterations": 60},
@@ -23,8 +24,10 @@ Format (version 3)::
 Each step sets its selection on the pose the steps before it made (the rest pose
 for the first), which is the pose its transforms are measured from: successive
 edits compose, as in the window. ``iterations`` is how many ARAP iterations ran at
-the step's transforms (without it, the replayer's frames times iterations);
-``polish`` how many full-resolution iterations followed (a count, never a time, so
+the step's transforms (without it, the replayer's frames times iterations, or none
+when the step converges); ``converge`` that the cage's ARAP then ran to its fixed point
+at them (:meth:`hybridedit.HybridEditor.converge`: to ``tolerance`` of the diagonal, by
+a rule, at most ``max_iterations``); ``polish`` how many full-resolution iterations followed (a count, never a time, so
 that a replay gives the same pose on any machine). A step that ``continues`` keeps
 the selection of the step before (the window's next drag after a polish) and gives
 only its groups' transforms.
@@ -49,6 +52,7 @@ from pathlib import Path
 import numpy as np
 
 from .atomic import atomic_write
+from ..defaults import CONVERGE_MAX_ITERATIONS
 from ..core.fingerprint import shape_bytes
 from ..core.transforms import decompose_rigid, rigid_transform
 
@@ -138,6 +142,9 @@ class Edit:
         ARAP iterations run at the transforms (None: as many as the replayer runs by default).
     polish : int or None
         Full-resolution polish iterations after them (None: no polish).
+    converge : dict or None
+        ``{"tolerance": t, "max_iterations": k}``: after the iterations, the cage's ARAP run to
+        its fixed point at the transforms (None: not).
     cage : dict or None
         ``{"size": int count or float fraction, "vertices": c}``: the cage the step ran on.
     continues : bool
@@ -150,7 +157,7 @@ class Edit:
     def __init__(self, handle=None, fixed=None, roi=None, space: str = "shape", translate=None, rotate=None, *,
                  handles: list[HandleEdit] | None = None, symmetry=None, mesh: dict | None = None,
                  iterations: int | None = None, polish: int | None = None, cage: dict | None = None,
-                 continues: bool = False, before=()) -> None:
+                 continues: bool = False, before=(), converge: dict | None = None) -> None:
         if handles is None:
             if handle is None:
                 raise ValueError("an edit needs a handle or handles")
@@ -171,6 +178,7 @@ class Edit:
         self.iterations = None if iterations is None else int(iterations)
         self.polish = None if polish is None else int(polish)
         self.cage = cage
+        self.converge = None if converge is None else _converge_spec("<edit>", "converge", converge, ValueError)
         self.continues = bool(continues)
         self.before = tuple(before)
 
@@ -215,6 +223,9 @@ class Edit:
             d["handles"] = [h.to_json() for h in self.handles]
         if self.iterations is not None:
             d["iterations"] = self.iterations
+        if self.converge is not None:
+            d["converge"] = {"tolerance": float(self.converge["tolerance"]),
+                             "max_iterations": int(self.converge["max_iterations"])}
         if self.polish is not None:
             d["polish"] = self.polish
         return d
@@ -277,7 +288,9 @@ def check_mesh(edit: Edit, mesh, path: str) -> None:
 _KEYS_V1 = {"handle", "fixed", "roi", "space", "translate", "rotate"}
 _KEYS_V2 = {"format", "version", "mesh", "space", "fixed", "roi", "symmetry", "handles"}
 _KEYS_V3 = {"format", "version", "mesh", "steps"}
-_STEP_KEYS = {"cage", "space", "fixed", "roi", "symmetry", "handles", "iterations", "polish", "continues"}
+_STEP_KEYS = {"cage", "space", "fixed", "roi", "symmetry", "handles", "iterations", "polish", "continues",
+              "converge"}
+
 _HANDLE_KEYS = {"indices", "translate", "rotate", "matrix"}
 #: Most steps an edit file may hold (each is a selection and a solve to replay).
 MAX_STEPS = 10000
@@ -386,6 +399,16 @@ def _count(path: str, key: str, value) -> int:
     return int(value)
 
 
+def _converge_spec(path: str, key: str, c, error=EditFileError) -> dict:
+    """A step's ``converge``: ``{"tolerance": t > 0, "max_iterations": k >= 1 (optional)}``."""
+    ok = isinstance(c, dict) and "tolerance" in c and set(c) <= {"tolerance", "max_iterations"} \
+        and _is_number(c["tolerance"]) and c["tolerance"] > 0
+    cap = c.get("max_iterations", CONVERGE_MAX_ITERATIONS) if ok else None
+    if not ok or not isinstance(cap, (int, np.integer)) or isinstance(cap, bool) or not 1 <= cap <= 10 ** 9:
+        raise error(f"{path}: \"{key}\" must be {{\"tolerance\": a number > 0, \"max_iterations\": 1 to 10^9}}")
+    return {"tolerance": float(c["tolerance"]), "max_iterations": int(cap)}
+
+
 def _cage(path: str, key: str, c) -> dict:
     ok = isinstance(c, dict) and set(c) == {"size", "vertices"} and isinstance(c["vertices"], int) \
         and not isinstance(c["vertices"], bool) and c["vertices"] >= 4 and _is_number(c["size"]) and c["size"] > 0
@@ -421,7 +444,8 @@ def _step(path: str, k: int, d, previous: Edit | None) -> Edit:
         raise EditFileError(f"{path}: \"{where}handles\" must be a non-empty list of handle groups")
     extra = {"iterations": _count(path, where + "iterations", d["iterations"]) if "iterations" in d else None,
              "polish": _count(path, where + "polish", d["polish"]) if "polish" in d else None,
-             "cage": _cage(path, where + "cage", d["cage"]) if "cage" in d else None}
+             "cage": _cage(path, where + "cage", d["cage"]) if "cage" in d else None,
+             "converge": _converge_spec(path, where + "converge", d["converge"]) if "converge" in d else None}
     if continues:
         if previous is None:
             raise EditFileError(f"{path}: \"steps[0]\" cannot continue a step before it: there is none")
