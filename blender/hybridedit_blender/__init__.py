@@ -8,6 +8,9 @@ Apply bakes it into the mesh (one undo step), Reset zeroes it, Bake Animation tu
 frame range into keyed shape keys. The binding is saved with the .blend and bound
 again on opening. Only positions are written: UVs, colours, custom normals and every
 other attribute are untouched.
+
+Enabling the extension starts compiling the engine's kernels in a background process
+(:mod:`.kernels`), so that the first Bind loads them instead of compiling them.
 """
 
 from __future__ import annotations
@@ -35,6 +38,9 @@ def register():
         bpy.utils.register_class(cls)
     bpy.types.Object.hybrid_arap = bpy.props.PointerProperty(type=panel.HybridArapSettings)
     live.register()
+    from . import kernels
+
+    kernels.start()  # (returns at once: the kernels compile in a process of their own)
 
 
 def unregister():
