@@ -141,6 +141,14 @@ def child(case: str, n: int) -> dict:
     if bg is not None and case == "during":
         out["compile_s"] = bg.seconds
         out["compile_ok"] = bg.ok
+    if bg is not None and case != "thread":  # the compile's own CPU time (its log's last line)
+        import re
+
+        m = re.search(r"\(([\d.]+) s of CPU\)", Path(bg.log_path).read_text())
+        out["compile_cpu_s"] = float(m.group(1)) if m else None
+    elif case == "thread":
+        out["compile_cpu_s"] = None
+    out["load"] = os.getloadavg()[0]
     return out
 
 
@@ -169,7 +177,7 @@ def main() -> int:
             res = json.loads(line[7:])
             print(json.dumps(res), flush=True)
             rows.append(res)
-    head = ("case", "vertices", "background compile", "compile (s)", "main thread: 5 ms of Python took (median / p99 / max ms)",
+    head = ("case", "vertices", "background compile", "compile (s)", "its CPU time (s)", "load average", "main thread: 5 ms of Python took (median / p99 / max ms)",
             "the same, 1 s before Bind", "first Bind (s)", "compiled in Blender's process during Bind", "loaded from the cache")
     print("| " + " | ".join(head) + " |")
     print("|" + "---|" * len(head))
@@ -178,6 +186,7 @@ def main() -> int:
         print("| " + " | ".join([
             r["case"], f"{r['vertices']:,}", "yes" if r["background"] else "no",
             f"{r['compile_s']:.1f}" + ("" if r.get("compile_ok", True) else " (failed)") if "compile_s" in r else "-",
+            f"{r['compile_cpu_s']:.1f}" if r.get("compile_cpu_s") else "-", f"{r['load']:.1f}",
             " / ".join(f"{x:.1f}" for x in sl) if sl else "-", " / ".join(f"{x:.1f}" for x in r["idle_slice_ms"]),
             f"{r['bind_s']:.1f}" + ("" if r["bind_ok"] else " (failed)"), str(r["compiled_in_blender"]),
             str(r["loaded_from_cache"])]) + " |")

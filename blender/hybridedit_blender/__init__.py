@@ -20,12 +20,18 @@ import os
 
 def _numba_cache() -> None:
     """Compiled kernels go to a user-writable folder (an extension's own folder may be read-only),
-    so that they compile once, not at every start. Before numba is first imported."""
+    so that they compile once, not at every start, and the background compile writes them where
+    Blender's process looks. Numba reads the setting when a kernel is defined; if numba was
+    imported already (another add-on), its setting is changed too."""
     if os.environ.get("NUMBA_CACHE_DIR"):
         return
+    import sys
+
     from .bind import user_folder
 
-    os.environ["NUMBA_CACHE_DIR"] = user_folder("numba")
+    os.environ["NUMBA_CACHE_DIR"] = folder = user_folder("numba")
+    if "numba" in sys.modules:
+        sys.modules["numba"].config.CACHE_DIR = folder
 
 
 def register():

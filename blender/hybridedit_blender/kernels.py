@@ -64,7 +64,7 @@ class Compile:
         old = env.get("PYTHONPATH")
         env["PYTHONPATH"] = os.pathsep.join(paths + ([old] if old else []))
         flags = 0
-        if sys.platform == "win32":  # no console window; below Blender's priority (POSIX: nice 10, itself)
+        if sys.platform == "win32":  # no console window; below Blender's priority (POSIX: nice 5, itself)
             flags = subprocess.CREATE_NO_WINDOW | subprocess.BELOW_NORMAL_PRIORITY_CLASS
         self._log = open(log_path, "w", encoding="utf-8")  # noqa: SIM115 -- closed when it ends
         try:

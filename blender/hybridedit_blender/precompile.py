@@ -11,7 +11,7 @@ writes each kernel into the cache folder, and Blender's process then only loads 
 A process rather than a thread: numba types and lowers a kernel in Python, holding the GIL that
 Blender's main thread needs to draw its panels and run handlers, and a kernel called on Blender's
 side would wait for numba's compiler lock. This process holds neither, runs at a lower priority
-(nice 10) and, on a machine of two cores or more, leaves Blender a core.
+(nice 5) and, on a machine of two cores or more, leaves Blender a core.
 
 It prints ``progress FRACTION STAGE`` lines, writes :func:`stamp_path` when everything compiled
 (the sources the cache was compiled for), and ends when its stdin closes (Blender quit).
@@ -255,7 +255,7 @@ def _end_with_the_parent() -> None:
 def main() -> int:
     if hasattr(os, "nice"):
         try:
-            os.nice(10)  # (Windows: the parent starts it below normal priority)
+            os.nice(5)  # (Windows: the parent starts it below normal priority)
         except OSError:
             pass
     _end_with_the_parent()
