@@ -26,6 +26,10 @@ from . import precompile
 #: the compile running or last run in this Blender (None: none was needed)
 CURRENT: "Compile | None" = None
 
+#: a compile that printed nothing for this long is taken as hung: killed, and Bind compiles itself
+#: (one kernel takes seconds to a minute on a busy machine; the progress moves with each)
+STALL_SECONDS = 600.0
+
 #: names of CPython interpreters (python, python3.11, python.exe): only these are started with a
 #: script (as hybridedit.cage.qem's helper: Blender's own binary never is)
 _PYTHON_NAME = re.compile(r"python(\d+(\.\d+)*)?[dmtw]*(\.exe)?", re.IGNORECASE)
@@ -54,6 +58,7 @@ class Compile:
         self.cache_dir, self.log_path = cache_dir, log_path
         self.fraction, self.stage = 0.0, "starting"
         self.started, self.seconds = time.monotonic(), 0.0
+        self.heard = self.started  # when it last printed a line
         self.returncode: int | None = None
         self.done = threading.Event()
         self.waiting = 0  # Binds waiting for it (they show its progress themselves)
@@ -69,25 +74,31 @@ class Compile:
         self._log = open(log_path, "w", encoding="utf-8")  # noqa: SIM115 -- closed when it ends
         try:
             self.proc = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self._log,
-                                         env=env, text=True, creationflags=flags)
+                                         env=env, text=True, encoding="utf-8", errors="replace",
+                                         creationflags=flags)
         except OSError:
             self._log.close()
             raise
         threading.Thread(target=self._read, name="hybridedit-precompile", daemon=True).start()
 
     def _read(self) -> None:
-        for line in self.proc.stdout:
-            parts = line.split(" ", 2)
-            if len(parts) == 3 and parts[0] == "progress":
-                try:
-                    self.fraction = float(parts[1])
-                except ValueError:
-                    continue
-                self.stage = parts[2].strip()
-        self.returncode = self.proc.wait()
-        self.seconds = time.monotonic() - self.started
-        self._log.close()
-        self.done.set()
+        try:
+            for line in self.proc.stdout:
+                self.heard = time.monotonic()
+                parts = line.split(" ", 2)
+                if len(parts) == 3 and parts[0] == "progress":
+                    try:
+                        self.fraction = float(parts[1])
+                    except ValueError:
+                        continue
+                    self.stage = parts[2].strip()
+        except (OSError, ValueError):
+            pass
+        finally:  # (whatever happened, a waiting Bind goes on)
+            self.returncode = self.proc.wait()
+            self.seconds = time.monotonic() - self.started
+            self._log.close()
+            self.done.set()
 
     @property
     def running(self) -> bool:
@@ -105,6 +116,8 @@ class Compile:
             while not self.done.is_set():
                 if progress is not None:
                     progress("waiting for the engine's kernels, compiled in the background", self.fraction)
+                if time.monotonic() - self.heard > STALL_SECONDS:
+                    self.kill()  # hung: the Bind compiles what it needs itself
                 self.done.wait(poll)
         finally:
             self.waiting -= 1

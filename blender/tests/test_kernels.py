@@ -187,3 +187,15 @@ def test_the_rehearsal_shapes_are_what_bind_reads():
     assert tris.min() == 0 and tris.max() == len(rest32) // 3 - 1
     bad32, bad_tris = precompile.needs_repair(rest32, tris)
     assert bad32.dtype == np.float32 and bad_tris.dtype == np.int64 and len(bad_tris) == len(tris) - 2
+
+
+def test_a_compile_that_hangs_is_killed_and_the_bind_goes_on(scene, restore_current, monkeypatch):
+    """A compile silent for STALL_SECONDS is taken as hung: the waiting Bind kills it and binds."""
+    c = _fake_compile("import sys; print('progress 0.2 x', flush=True); sys.stdin.read()")
+    monkeypatch.setattr(kernels, "STALL_SECONDS", 1.0)
+    obj = icosphere(3)
+    Z = positions(obj.data)[:, 2]
+    rig_up(obj, Z > 0.75, Z > -0.1)
+    assert bpy.ops.hybrid_arap.bind() == {"FINISHED"}  # (waited about a second, then bound)
+    assert not c.running and c.returncode is not None and c.returncode < 0
+    assert "killed" in c.outcome()[1] and session_of(obj) is not None
