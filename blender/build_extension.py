@@ -1,7 +1,8 @@
 """Build the installable Blender extension: one zip per platform (Edit > Preferences > Get Extensions >
 Install from Disk), each holding the add-on, hybridedit's own wheel and its engine's dependency wheels
-for Python 3.11 (Blender 4.2 LTS, 4.5 LTS, 5.0) and 3.13 (Blender 5.1, 5.2), downloaded unmodified
-from the package index with ``pip download --only-binary=:all: --platform ... --python-version ...``.
+for the Pythons of the Blender versions the manifest admits (:data:`BUNDLED`: Python 3.11, Blender
+4.2 LTS, 4.5 LTS and 5.0, the versions tested), downloaded unmodified from the package index with
+``pip download --only-binary=:all: --platform ... --python-version ...``.
 
 Never bundled: numpy (Blender ships its own), and nothing Qt, VTK or file-format related (the
 extension uses hybridedit's engine only: hybridedit's wheel goes in with ``--no-deps``).
@@ -42,6 +43,10 @@ PINS = {
 #: wheels after 0.62 (0.62.1 takes numpy < 2.4, Blender 5.1's 2.3 included)
 OVERRIDES = {"macos-x64": {"numba": "numba==0.62.1", "llvmlite": "llvmlite==0.45.1"}}
 PYTHONS = {"cp311": "3.11", "cp313": "3.13"}
+#: the Pythons whose wheels go into the zips: those of the manifest's blender_version_min..max
+#: (4.2-5.0: 3.11). Blender 5.1+ (3.13, the cp313 pins) is not on the package index as bpy to be
+#: tested yet; raising the manifest's max to it adds "cp313" here
+BUNDLED = ("cp311",)
 #: Blender's platform names -> pip platform tags (pip also takes the older manylinux / macOS tags)
 PLATFORMS = {
     "linux-x64": ["manylinux_2_28_x86_64", "manylinux_2_17_x86_64", "manylinux2014_x86_64"],
@@ -99,7 +104,7 @@ def manifest_with(wheels: list[str], platform: str) -> str:
 
 def build(platform: str, out: Path, work: Path, he_wheel: Path) -> Path:
     wheels: dict[str, Path] = {he_wheel.name: he_wheel}
-    for py in PINS:
+    for py in BUNDLED:
         for w in download(platform, py, work / platform / py):
             wheels.setdefault(w.name, w)  # pure-Python wheels are shared by both Pythons
     version = next(ln.split('"')[1] for ln in (ADDON / "blender_manifest.toml").read_text().splitlines()

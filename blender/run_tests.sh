@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
 # The Blender extension's tests, in Blender itself: a venv (blender/.venv-bpy, reused between runs)
-# with Blender as a Python module (bpy 4.2 LTS, Python 3.11, numpy<2 as Blender 4.2 ships it), the
+# with Blender as a Python module (bpy 4.2 LTS, Python 3.11, numpy<2 as Blender 4.2-5.0 ship it), the
 # X client libraries bpy loads (apt, as root), hybridedit's own wheel and the wheels the extension
-# bundles (wheels only: nothing compiled). Prints pytest's summary line last.
-#   BPY_VERSION=4.2.* (default, venv blender/.venv-bpy) or e.g. 4.5.* (venv blender/.venv-bpy-4.5)
+# bundles (wheels only: nothing compiled). Prints pytest's summary line last; arguments after the
+# options go to pytest (e.g. -m "not slow", -k NAME, -s).
+#   BPY_VERSION=4.2.* (default, venv blender/.venv-bpy), 4.5.* or 5.0.* (venv blender/.venv-bpy-4.5,
+#   -5.0): the versions blender_manifest.toml admits (.ci/run runs all three)
 #   PYTHON=python3.11 (default python3)
 #   --zip (first argument): build the Linux zip and run the tests on it, installed through Blender's
 #   own extension installer (HYBRIDEDIT_BLENDER_ZIP, see tests/conftest.py)

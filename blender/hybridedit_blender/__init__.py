@@ -8,6 +8,9 @@ Apply bakes it into the mesh (one undo step), Reset zeroes it, Bake Animation tu
 frame range into keyed shape keys. The binding is saved with the .blend and bound
 again on opening. Only positions are written: UVs, colours, custom normals and every
 other attribute are untouched.
+
+Enabling the extension starts compiling the engine's kernels in a background process
+(:mod:`.kernels`), so that the first Bind loads them instead of compiling them.
 """
 
 from __future__ import annotations
@@ -17,12 +20,18 @@ import os
 
 def _numba_cache() -> None:
     """Compiled kernels go to a user-writable folder (an extension's own folder may be read-only),
-    so that they compile once, not at every start. Before numba is first imported."""
+    so that they compile once, not at every start, and the background compile writes them where
+    Blender's process looks. Numba reads the setting when a kernel is defined; if numba was
+    imported already (another add-on), its setting is changed too."""
     if os.environ.get("NUMBA_CACHE_DIR"):
         return
+    import sys
+
     from .bind import user_folder
 
-    os.environ["NUMBA_CACHE_DIR"] = user_folder("numba")
+    os.environ["NUMBA_CACHE_DIR"] = folder = user_folder("numba")
+    if "numba" in sys.modules:
+        sys.modules["numba"].config.CACHE_DIR = folder
 
 
 def register():
@@ -35,6 +44,9 @@ def register():
         bpy.utils.register_class(cls)
     bpy.types.Object.hybrid_arap = bpy.props.PointerProperty(type=panel.HybridArapSettings)
     live.register()
+    from . import kernels
+
+    kernels.start()  # (returns at once: the kernels compile in a process of their own)
 
 
 def unregister():

@@ -15,12 +15,13 @@ import os
 import threading
 import time
 import uuid
-from pathlib import Path
 
 import bpy
 import numpy as np
 
+from . import kernels
 from . import session as S
+from .engine import build_session
 
 #: the bound objects' sessions, by their hybrid_arap.uid (kept through a rename)
 SESSIONS: dict[str, S.Session] = {}
@@ -38,15 +39,6 @@ def user_folder(sub: str) -> str:
             path = os.path.join(bpy.utils.user_resource("DATAFILES"), "hybridedit_blender", sub)
     os.makedirs(path, exist_ok=True)
     return path
-
-
-def kernels_cached() -> bool:
-    """True when numba's cache folder holds compiled kernels of hybridedit (else the first
-    bind compiles them: a minute or two)."""
-    folder = os.environ.get("NUMBA_CACHE_DIR")
-    if not folder or not os.path.isdir(folder):
-        return False
-    return any("hybridedit" in str(p) or p.name.startswith(("binding", "arap", "mvc")) for p in Path(folder).rglob("*.nbi"))
 
 
 def session_of(obj) -> S.Session | None:
@@ -131,7 +123,7 @@ class BindJob:
         self.cache_dir = user_folder("bindings")
         self.cancel = cancel_event or threading.Event()
         self.stage, self.fraction = "starting", 0.0
-        self.first_compile = not kernels_cached()
+        self.first_compile = not kernels.ready()  # (and none is running: see status())
         self.session: S.Session | None = None
         self.error: str | None = None
         self.seconds = 0.0
@@ -145,28 +137,15 @@ class BindJob:
     def run(self) -> None:
         t0 = time.perf_counter()
         try:
+            if kernels.running() is not None:  # load what it compiles rather than compile it beside it
+                kernels.wait(self._progress)
+                self.first_compile = not kernels.ready()  # (it failed or was killed: compiled here)
             self._progress("loading the engine", 0.0)
-            import hybridedit as he
-
-            V = self.rest.reshape(-1, 3).astype(np.float64)
-            if self.stretch is not None:  # the world shape (as Apply Scale makes it)
-                V = V @ self.stretch.T
-            with S.ENGINE:
-                mesh = he.Mesh(V, self.tris, name=self.object_name)
-                rig = he.build_rig(mesh, cage_size=self.cage_size, cache=self.cache_dir, progress=self._progress)
-                self._progress("preparing the editor", 0.0)
-                ed = he.HybridEditor(rig, iterations=self.iterations)
-                base = S.Base(self.digest, self.rest.copy(), self.basis.copy())
-                s = S.Session(self.uid, self.object_name, ed, base, S.triangles_digest(self.tris), self.counts,
-                              groups=self.groups, roi_group=self.roi_group, roi=self.roi,
-                              handle_rows=self.handle_rows, stretch=self.stretch, cage_size=self.cage_size,
-                              cache_hit=rig.cache_hit, notes=tuple(rig.notes))
-                self._progress("factoring the selection", 0.0)
-                s.select()
-                # compile the frame kernels now (first use), not at the first move of an Empty
-                self._progress("compiling the frame", 0.0)
-                ed.drag(transforms={g: np.eye(4) for g in range(len(self.groups))})
-                ed.restore_state(s.base.state)
+            s = build_session(uid=self.uid, object_name=self.object_name, rest32=self.rest, basis32=self.basis,
+                              tris=self.tris, counts=self.counts, digest=self.digest, groups=self.groups,
+                              handle_rows=self.handle_rows, roi=self.roi, roi_group=self.roi_group,
+                              stretch=self.stretch, cage_size=self.cage_size, iterations=self.iterations,
+                              cache_dir=self.cache_dir, progress=self._progress)
             s.bind_seconds = time.perf_counter() - t0
             self.session = s
         except S.Cancelled:
@@ -179,7 +158,9 @@ class BindJob:
 
     def status(self) -> str:
         pct = int(round(100 * self.fraction))
-        first = " (first use: compiling the engine, a minute or two, once)" if self.first_compile else ""
+        waiting = self.stage.startswith("waiting for the engine")
+        first = " (first use: compiling the engine, a minute or two, once)" \
+            if self.first_compile and not waiting and kernels.running() is None else ""
         return f"Hybrid ARAP: binding '{self.object_name}': {self.stage} {pct}%{first}. Esc to cancel"
 
     def install(self, context=None) -> tuple[set, str]:

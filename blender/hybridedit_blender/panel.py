@@ -6,6 +6,7 @@ import bpy
 from bpy.props import (BoolProperty, CollectionProperty, FloatProperty, FloatVectorProperty, IntProperty,
                        PointerProperty, StringProperty)
 
+from . import kernels
 from .bind import session_of
 from .session import KEY
 
@@ -76,6 +77,9 @@ class VIEW3D_PT_hybrid_arap(bpy.types.Panel):
         row.scale_y = 1.3
         row.operator("hybrid_arap.bind", icon="MOD_MESHDEFORM")
         row.operator("hybrid_arap.unbind", text="", icon="X")
+        c = kernels.running()
+        if c is not None:
+            layout.label(text=f"compiling the engine: {int(100 * c.fraction)}% (once)", icon="SORTTIME")
         s = session_of(obj)
         if s is not None:
             layout.prop(st, "live")
