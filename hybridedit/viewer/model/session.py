@@ -249,7 +249,7 @@ class Session:
     def _pose_is_a_polish(self) -> bool:
         """The engine's pose is the end of a polish: its last step was polished and nothing dragged since."""
         r = self.editor.record
-        return not r.dragged and bool(r.done) and r.done[-1].polish is not None
+        return not r.dragged and r.last_polish is not None
 
     def _padded(self, stack: np.ndarray | None) -> list[np.ndarray]:
         """One transform per handle group from a snapshot's stack (identities where it has none)."""
