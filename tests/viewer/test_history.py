@@ -134,3 +134,16 @@ def test_the_window_says_once_that_the_history_is_full(qtbot, win):
     log = w.status.log.toPlainText()
     assert log.count("Undo history full") == 1, log
     assert "the oldest 1 was dropped" in log
+
+
+def test_the_heap_is_trimmed_once_half_the_budget_is_let_go(small_budget_session, monkeypatch):
+    import hybridedit.viewer.model.history as history
+
+    trims = []
+    monkeypatch.setattr(history, "trim_heap", lambda: trims.append(h.dropped) or True)
+    s = small_budget_session
+    h = s.history
+    for k in range(12):
+        _cycle(s, k)
+    # each trim after at least half a budget's snapshots went: a few over the run, not one a step
+    assert 2 <= len(trims) < h.dropped / 2

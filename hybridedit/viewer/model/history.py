@@ -8,6 +8,7 @@ from typing import Callable
 
 import numpy as np
 
+from ...core.heap import trim_heap
 from ...core.held_bytes import held_buffers
 
 #: Steps kept at most, whatever their size.
@@ -109,7 +110,10 @@ class History:
     be undone. Pushing after an undo drops the redo branch. Past ``limit`` steps or
     ``budget`` bytes (the distinct buffers the snapshots hold, each counted once: they
     share arrays), the oldest steps are dropped: the oldest kept becomes the base
-    state. The newest two are always kept (the last change can be undone).
+    state. The newest two are always kept (the last change can be undone). Once
+    half the budget has been let go, the C heap's free pages go back to the system
+    (:func:`~hybridedit.core.heap.trim_heap`: else the resident set stays, and
+    fragments, where the dropped steps left it; about 50 ms for 300 MB).
 
     Parameters
     ----------
@@ -134,6 +138,7 @@ class History:
         self._pos = -1
         self.dropped = 0
         self.nbytes = 0
+        self._let_go = 0  # bytes released since the heap was last trimmed
 
     def clear(self) -> None:
         self._items.clear()
@@ -151,6 +156,7 @@ class History:
             else:
                 del self._refs[k]
                 self.nbytes -= b
+                self._let_go += b
 
     def push(self, snap: Snapshot) -> int:
         """Add a snapshot after the current one (the redo branch goes); returns how many of the
@@ -175,6 +181,9 @@ class History:
             dropped += 1
         self._pos = len(self._items) - 1
         self.dropped += dropped
+        if self.budget is not None and self._let_go > self.budget // 2:
+            trim_heap()
+            self._let_go = 0
         return dropped
 
     @property
