@@ -185,6 +185,10 @@ class SPDSolver:
             simplicial = True
         #: the factor is simplicial (not supernodal); unused by SuperLU
         self.simplicial = bool(simplicial)
+        #: an estimate of the factor's memory, bytes (its backend does not say): 4 nonzeros for each of A's
+        #: (3.9 measured for a 50K-vertex region of the creature's Laplacian), a float64 and an int32 each;
+        #: SuperLU's L and U, twice that
+        self.nbytes = int(4 * A.nnz * 12 * (2 if backend == "superlu" else 1))
         if backend == "cholmod" and not _CHOLMOD:
             raise RuntimeError("the cholmod backend needs scikit-sparse, which is not installed "
                                f"(installed: {', '.join(available_backends())})")

@@ -482,7 +482,7 @@ class HybridEditor(RoleQueries, StateSnapshots, RecordedEdits, EditorFiles, Limb
             self.reset()
             return self.deformed_vertices
         self._put_pose(other.deformed_vertices, None)
-        self._record = PoseRecord(done=tuple(other._steps_made()), unknown=other._record.unknown)
+        self._record = PoseRecord.of(other._steps_made(), unknown=other._record.unknown)
         return self.deformed_vertices
 
     def continue_from_pose(self) -> None:

@@ -4,10 +4,11 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
+from ..core.held_bytes import held_buffers
 from .base_pose import BasePose
 from .frame_steps import FrameSteps
 from .pose_record import PoseRecord
@@ -36,7 +37,9 @@ class EditorState:
 class StateSnapshots:
     """:class:`~hybridedit.HybridEditor`'s snapshots, mixed into it: every field of its selection and
     pose (``_sel``, ``_steps``, ``_centers``, ``_transforms``, ``_base``, ``_moved``, ``_record``, the
-    cage solver's positions and rotations, the residual's rotations ``_rots``, the shape ``_out``)."""
+    cage solver's positions and rotations, the residual's rotations ``_rots``, the shape ``_out``), and
+    to measure a snapshot, what the editor holds for its whole life (``rig``, ``mesh``, ``M``, ``_blend``,
+    ``_maps``, ``_laplacian``, ``_rest_base``, ``_eye``)."""
 
     def save_state(self) -> EditorState:
         """A snapshot of the selection and pose, for :meth:`restore_state` (undo).
@@ -58,6 +61,26 @@ class StateSnapshots:
             return last
         kept[name] = a.copy()
         return kept[name]
+
+    def state_buffers(self, state: EditorState, *, out: dict[int, int] | None = None) -> dict[int, int]:
+        """The memory a snapshot holds beyond the editor's own arrays: {id of a buffer's owner: bytes}
+        (:func:`~hybridedit.core.held_bytes.held_buffers`, added to ``out`` when given): its pose, the
+        base pose its drags start from, its selection and the frame steps measured from that base
+        (their factorization estimated). Snapshots share buffers: their memory together is the union
+        of theirs (an undo history's budget). Not counted: what the editor holds for its whole life
+        (the shape, binding, Laplacian, rest pose, ...) and the record (the steps :attr:`edit`
+        replays, kept by the editor's own record too)."""
+        return held_buffers(*(getattr(state, f.name) for f in fields(state) if f.name != "record"),
+                            skip=self._own_buffers(), out=out)
+
+    def _own_buffers(self) -> frozenset[int]:
+        """ids of the buffers the editor holds for its whole life, which snapshots share (made once)."""
+        own = self.__dict__.get("_own_buffer_ids")
+        if own is None:
+            own = frozenset(held_buffers(self.rig, self.mesh, self.M, self._blend, self._maps, self._laplacian,
+                                         self._rest_base, self._eye))
+            self.__dict__["_own_buffer_ids"] = own
+        return own
 
     def restore_state(self, state: EditorState) -> np.ndarray:
         """Go back to a snapshot taken by :meth:`save_state` (the selection, the pose it

@@ -22,9 +22,11 @@ fixed point to within it, where the energy has only the one near there).
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, replace
 
 from ..fileio.editfile import Edit
+from .packed_step import PackedStep
 
 __all__ = ["PoseRecord"]
 
@@ -35,8 +37,9 @@ class PoseRecord:
 
     Attributes
     ----------
-    done : tuple of Edit
-        The steps closed before the current selection's start pose, oldest first.
+    packed : tuple of PackedStep
+        The steps closed before the current selection's start pose, oldest first, kept small
+        (:class:`~hybridedit.deform.packed_step.PackedStep`; :attr:`done` unpacks them).
     dragged : bool
         A drag ran since the current selection's start pose.
     iterations : int
@@ -54,13 +57,28 @@ class PoseRecord:
         steps since. None: it can.
     """
 
-    done: tuple[Edit, ...] = ()
+    packed: tuple[PackedStep, ...] = ()
     dragged: bool = False
     iterations: int = 0
     settled: bool = True
     continues: bool = False
     unknown: str | None = None
     converge: dict | None = None
+
+    @classmethod
+    def of(cls, steps: Iterable[Edit], *, unknown: str | None = None) -> "PoseRecord":
+        """A record of these closed steps (oldest first), nothing dragged since."""
+        return cls(packed=tuple(PackedStep.of(s) for s in steps), unknown=unknown)
+
+    @property
+    def done(self) -> tuple[Edit, ...]:
+        """The closed steps, oldest first (unpacked: new :class:`~hybridedit.fileio.editfile.Edit` objects)."""
+        return tuple(p.unpack() for p in self.packed)
+
+    @property
+    def last_polish(self) -> int | None:
+        """The polish iterations that closed the last step (None: no step, or not polished)."""
+        return self.packed[-1].polish if self.packed else None
 
     def restarted(self, *, continues: bool = False) -> "PoseRecord":
         """A new step starts from the pose as it is (nothing dragged since)."""
@@ -83,7 +101,7 @@ class PoseRecord:
 
     def closed(self, step: Edit) -> "PoseRecord":
         """The current step is done (``step`` describes it); a new one starts where it left off."""
-        return replace(self, done=self.done + (step,)).restarted()
+        return replace(self, packed=self.packed + (PackedStep.of(step),)).restarted()
 
     @classmethod
     def from_outside(cls, reason: str) -> "PoseRecord":
@@ -94,4 +112,4 @@ class PoseRecord:
     def replayable(self) -> bool:
         """Replaying :meth:`~hybridedit.HybridEditor.edit` from the rest pose gives the pose
         (every step settled or polished; none set from outside)."""
-        return self.unknown is None and self.settled and all(s.iterations is not None for s in self.done)
+        return self.unknown is None and self.settled and all(s.iterations is not None for s in self.packed)

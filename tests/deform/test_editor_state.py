@@ -58,3 +58,25 @@ def test_snapshots_of_one_pose_share_its_arrays_and_each_restores_exactly(blob):
     assert np.array_equal(ed.deformed_vertices.view(np.uint8), first.shape.view(np.uint8))
     ed.restore_state(posed)
     assert np.array_equal(ed.deformed_vertices, posed_shape)
+
+
+def test_a_snapshot_measures_what_it_holds_beyond_the_editor(blob):
+    """state_buffers counts a snapshot's pose, base, selection and frame steps, each buffer once, and none
+    of what the editor holds for its whole life (the shape, binding, Laplacian)."""
+    from hybridedit.core.held_bytes import held_buffers, owner
+
+    ed = HybridEditor(blob, cage_size=300)
+    a, b = ends(ed.mesh)
+    ed.set_selection(b, fixed=a)
+    ed.drag(translate=(0, 0.5, 0))
+    s1 = ed.save_state()
+    ed.set_selection(a, fixed=b)  # a new selection from that pose: a new base, no new pose
+    s2 = ed.save_state()
+    one, two = ed.state_buffers(s1), ed.state_buffers(s2)
+    n3 = ed.mesh.n_vertices * 3 * 8
+    assert id(owner(s1.shape)) in one and s2.shape is s1.shape  # the pose, shared by the two snapshots
+    both = ed.state_buffers(s2, out=dict(one))
+    assert sum(both.values()) < sum(one.values()) + sum(two.values()) - n3 + 1
+    own = held_buffers(ed.mesh, ed.M, ed.rig)
+    assert not set(own) & (set(one) | set(two))
+    assert sum(two.values()) - sum(one.values()) > 1.5 * n3  # s2's base pose: its shape and residual

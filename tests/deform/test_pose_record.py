@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 import hybridedit as he
-from hybridedit.fileio.editfile import Edit
+from hybridedit.core.held_bytes import held_buffers
+from hybridedit.fileio.editfile import Edit, HandleEdit
 from hybridedit.deform.pose_record import PoseRecord
 
 from shapes import bumpy_blob
@@ -26,9 +27,27 @@ def test_a_step_is_settled_while_every_drag_runs_at_one_transform():
 def test_closing_a_step_keeps_it_and_starts_another():
     step = Edit(handle=[1], iterations=4)
     r = PoseRecord().after_drag(same_transforms=True, iterations=4).closed(step)
-    assert r.done == (step,) and not r.dragged and r.iterations == 0 and r.replayable
+    assert [e.to_json() for e in r.done] == [step.to_json()] and not r.dragged and r.iterations == 0 and r.replayable
     assert not r.closed(Edit(handle=[2])).replayable  # a step with no iteration count: its pose is unknown
     assert not PoseRecord.from_outside("set by hand").replayable
+
+
+@pytest.mark.parametrize("indices", [[], [0], [3, 7, 8, 9, 4000], [5, 2, 2, 9], list(range(10, 60000, 3))])
+def test_a_closed_step_keeps_its_index_lists_exactly(indices):
+    fixed = np.arange(0, 2000, 7)
+    step = Edit(handles=[HandleEdit(np.asarray(indices, dtype=np.int64), translate=np.array([0.0, 1.0, 2.0]))],
+                fixed=fixed, iterations=60, polish=3)
+    back = PoseRecord().closed(step).done[0]
+    assert back.handle.dtype == np.int64 and np.array_equal(back.handle, indices)
+    assert np.array_equal(back.fixed, fixed) and back.roi is None
+    assert back.to_json() == step.to_json()
+
+
+def test_a_closed_step_is_kept_small():
+    roi = np.flatnonzero(np.sin(np.arange(100_000) / 900.0) > 0.3)  # a few runs, as a region of a mesh is
+    step = Edit(handle=roi[:500], roi=roi, iterations=60)
+    kept = sum(held_buffers(PoseRecord().closed(step)).values())
+    assert kept * 50 < roi.nbytes  # (int64 lists: 8 bytes an index)
 
 
 @pytest.fixture(scope="module")

@@ -47,6 +47,19 @@ def opened_window(qtbot, *, cage_size, path=None, mesh=None, size=(1000, 760)):
         w.deleteLater()
 
 
+def drop_events(pos: QtCore.QPointF, mime: QtCore.QMimeData):
+    """The drag-enter and drop events of ``mime`` dropped at widget point ``pos`` with the left button (the
+    enter event takes a QPointF from PySide6 6.12, a QPoint before it)."""
+    from qtpy import QtGui
+
+    args = (Qt.DropAction.CopyAction, mime, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier)
+    try:
+        enter = QtGui.QDragEnterEvent(pos, *args)
+    except TypeError:
+        enter = QtGui.QDragEnterEvent(pos.toPoint(), *args)
+    return enter, QtGui.QDropEvent(pos, *args)
+
+
 def to_widget(w, display_xy) -> QtCore.QPoint:
     """The view's widget point of a display point (VTK's pixels, y up)."""
     return w.view.to_widget(float(display_xy[0]), float(display_xy[1]))

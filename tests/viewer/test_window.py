@@ -10,13 +10,15 @@ import time
 
 import numpy as np
 import pytest
-from qtpy import QtCore, QtGui, QtWidgets
+from qtpy import QtCore, QtWidgets
 
 from hybridedit import cli
 from hybridedit.fileio.meshfiles import read_mesh, write_mesh
 from hybridedit.viewer.model import gizmo as gz
 from hybridedit.viewer.window.main_window import MainWindow
-from support.window_driving import CAGE, key, mouse_drag, projected, rubber_band, settled, to_widget, wait_loaded
+from support.window_driving import (
+    CAGE, drop_events, key, mouse_drag, projected, rubber_band, settled, to_widget, wait_loaded,
+)
 
 Qt = QtCore.Qt
 
@@ -311,13 +313,9 @@ def test_drop_shortcuts_cage_toggle_and_rebuild(qtbot, win, blob_file, tmp_path,
     write_mesh(other, m)
     mime = QtCore.QMimeData()
     mime.setUrls([QtCore.QUrl.fromLocalFile(str(other))])
-    pos = QtCore.QPointF(w.view.rect().center())
-    enter = QtGui.QDragEnterEvent(pos, Qt.DropAction.CopyAction, mime, Qt.MouseButton.LeftButton,
-                                  Qt.KeyboardModifier.NoModifier)
+    enter, drop = drop_events(QtCore.QPointF(w.view.rect().center()), mime)
     QtWidgets.QApplication.sendEvent(w, enter)
     assert enter.isAccepted()
-    drop = QtGui.QDropEvent(pos, Qt.DropAction.CopyAction, mime, Qt.MouseButton.LeftButton,
-                            Qt.KeyboardModifier.NoModifier)
     QtWidgets.QApplication.sendEvent(w, drop)
     wait_loaded(qtbot, w)
     qtbot.waitUntil(lambda: w.session is not None and w.session.mesh.n_vertices == m.n_vertices, timeout=30000)

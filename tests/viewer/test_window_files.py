@@ -7,10 +7,12 @@ import re
 
 import numpy as np
 import pytest
-from qtpy import QtCore, QtGui, QtWidgets
+from qtpy import QtCore, QtWidgets
 
 from hybridedit.fileio.meshfiles import read_mesh, write_mesh
-from support.window_driving import drag_tip, key, mouse_drag, projected, select_tip, settled, to_widget, wait_loaded
+from support.window_driving import (
+    drag_tip, drop_events, key, mouse_drag, projected, select_tip, settled, to_widget, wait_loaded,
+)
 
 Qt = QtCore.Qt
 Btn = QtWidgets.QMessageBox.StandardButton
@@ -46,10 +48,8 @@ def answer(qtbot, w, button) -> list:
 def drop(w, path) -> None:
     mime = QtCore.QMimeData()
     mime.setUrls([QtCore.QUrl.fromLocalFile(str(path))])
-    pos = QtCore.QPointF(w.view.rect().center())
-    args = (pos, Qt.DropAction.CopyAction, mime, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier)
-    QtWidgets.QApplication.sendEvent(w, QtGui.QDragEnterEvent(*args))
-    QtWidgets.QApplication.sendEvent(w, QtGui.QDropEvent(*args))
+    for ev in drop_events(QtCore.QPointF(w.view.rect().center()), mime):
+        QtWidgets.QApplication.sendEvent(w, ev)
 
 
 @pytest.fixture

@@ -43,7 +43,7 @@ from ...fileio.editfile import Edit
 from ...deform.editor import HybridEditor
 from ...deform.selection import SelectionError
 from ...core.mesh import Mesh, rrms_edge_error
-from .history import History, Snapshot
+from .history import History, Snapshot, default_budget
 from ...core.region_metrics import ShapeMetrics
 from .selection_masks import Selection
 
@@ -60,6 +60,8 @@ class Session:
     symmetry : mirror the selection across this axis's mid-plane ("x", "y", "z"), or None.
     metrics : the shape's :class:`~hybridedit.core.region_metrics.ShapeMetrics` when made already
         (the window's build makes it off the UI thread); default: made here.
+    history_budget : the undo history's memory budget in bytes (past it, the oldest steps are dropped);
+        None: :func:`~.history.default_budget`, sized to the shape.
 
     Raises
     ------
@@ -75,7 +77,8 @@ class Session:
 
     def __init__(self, editor: HybridEditor, path: Path | None = None, cage_size: int | float = CAGE_SIZE,
                  roi: np.ndarray | None = None, handle: np.ndarray | None = None,
-                 symmetry: str | None = None, *, metrics: ShapeMetrics | None = None) -> None:
+                 symmetry: str | None = None, *, metrics: ShapeMetrics | None = None,
+                 history_budget: int | None = None) -> None:
         self.editor = editor
         self.mesh: Mesh = editor.mesh
         self.path = Path(path) if path is not None else None
@@ -106,7 +109,8 @@ class Session:
         self.polished: np.ndarray | None = None
         #: bumps when the engine (cage and binding) changes: a rebuild, or undo across one
         self.generation = 0
-        self.history = History()
+        self.history = History(budget=default_budget(self.mesh.n_vertices) if history_budget is None
+                               else history_budget)
         self._push("open")
 
     # ------------------------------------------------------------------ state
@@ -249,7 +253,7 @@ class Session:
     def _pose_is_a_polish(self) -> bool:
         """The engine's pose is the end of a polish: its last step was polished and nothing dragged since."""
         r = self.editor.record
-        return not r.dragged and bool(r.done) and r.done[-1].polish is not None
+        return not r.dragged and r.last_polish is not None
 
     def _padded(self, stack: np.ndarray | None) -> list[np.ndarray]:
         """One transform per handle group from a snapshot's stack (identities where it has none)."""

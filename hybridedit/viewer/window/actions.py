@@ -77,11 +77,12 @@ class DialogCommands(Protocol):
 
 @runtime_checkable
 class UndoCommandsLike(Protocol):
-    """Edit ▸ Undo, Redo, Reset Pose (:class:`~.undo_commands.UndoCommands`)."""
+    """Edit ▸ Undo, Redo, Reset Pose, and the note that the history is full (:class:`~.undo_commands.UndoCommands`)."""
 
     def undo(self) -> None: ...
     def redo(self) -> None: ...
     def reset_pose(self) -> None: ...
+    def note_dropped(self) -> None: ...
 
 
 @runtime_checkable
@@ -450,6 +451,7 @@ class ActionSet(Mapping):
         a["redo"].setEnabled(bool(h and h.can_redo()))
         a["undo"].setText(f"&Undo {h.undo_label()}" if h and h.can_undo() else "&Undo")
         a["redo"].setText(f"&Redo {h.redo_label()}" if h and h.can_redo() else "&Redo")
+        self.w.undo_commands.note_dropped()  # (once a session: its history is full, the oldest steps go)
         busy = self.w.jobs.busy
         for n in ("open", "rebuild", "load_edit"):
             a[n].setEnabled(not busy)

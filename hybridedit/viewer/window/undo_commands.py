@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import weakref
 from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 from .interfaces import Busy, RedrawsAll
@@ -64,6 +65,19 @@ class UndoCommands:
 
     def __init__(self, window: UndoHost) -> None:
         self.w = window
+        self._told = None  # (a weak reference to) the history whose dropped steps were told of
+
+    def note_dropped(self) -> None:
+        """Say once for each session, when its undo history first drops its oldest steps for room, that
+        it is full (:class:`~..model.history.History`: at most its limit of steps and its memory budget)."""
+        s = self.w.session
+        h = None if s is None else s.history
+        if h is None or not h.dropped or (self._told is not None and self._told() is h):
+            return
+        self._told = weakref.ref(h)
+        budget = "" if h.budget is None else f", {h.budget / 2**20:.0f} MB"
+        self.w.status.message(f"Undo history full (at most {h.limit} steps{budget}): the oldest {h.dropped} "
+                              f"{'was' if h.dropped == 1 else 'were'} dropped, and older steps go as new ones come")
 
     def _ready(self) -> bool:
         """A shape and no gesture under way; the guard is passed."""
