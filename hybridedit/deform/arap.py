@@ -298,14 +298,7 @@ class ARAPSolver:
         -------
         (n, 3) float64 array, the current positions (also kept in ``positions``).
         """
-        if self._solver is None:
-            raise RuntimeError("call set_constrained first")
-        cp = np.asarray(constrained_positions, dtype=np.float64).reshape(-1, 3)
-        moved = self._moved_by(slots)
-        if len(cp) != len(moved):
-            raise ValueError(f"expected {len(moved)} constrained positions, got {len(cp)}")
-        if not np.all(np.isfinite(cp)):
-            raise FloatingPointError("non-finite constrained positions; nothing changed")
+        cp, moved = self._checked_constrained(constrained_positions, slots)
         t0 = time.perf_counter()
         free = self.free
         before = (take_rows(self.positions, moved), take_rows(self.positions, free))
@@ -343,14 +336,7 @@ class ARAPSolver:
         ValueError, FloatingPointError
             As :meth:`solve` (nothing changed).
         """
-        if self._solver is None:
-            raise RuntimeError("call set_constrained first")
-        cp = np.asarray(constrained_positions, dtype=np.float64).reshape(-1, 3)
-        moved = self._moved_by(slots)
-        if len(cp) != len(moved):
-            raise ValueError(f"expected {len(moved)} constrained positions, got {len(cp)}")
-        if not np.all(np.isfinite(cp)):
-            raise FloatingPointError("non-finite constrained positions; nothing changed")
+        cp, moved = self._checked_constrained(constrained_positions, slots)
         put_rows(cp, moved, self.positions)
         rhs_c = np.ascontiguousarray(self._L_fc @ take_rows(self.positions, self._touching))
         if self._L_ff is None:  # (the metric of a converge's error estimate)
@@ -364,6 +350,19 @@ class ARAPSolver:
         rotations of the :attr:`active` ones its global step used (as :meth:`solve` leaves them)."""
         put_rows(np.asarray(free_positions, dtype=np.float64), self.free, self.positions)
         self.rotations[self.active] = active_rotations
+
+    def _checked_constrained(self, constrained_positions: np.ndarray, slots: np.ndarray | None
+                             ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`solve`'s constrained positions as (k, 3) float64, checked, and the vertices they move."""
+        if self._solver is None:
+            raise RuntimeError("call set_constrained first")
+        cp = np.asarray(constrained_positions, dtype=np.float64).reshape(-1, 3)
+        moved = self._moved_by(slots)
+        if len(cp) != len(moved):
+            raise ValueError(f"expected {len(moved)} constrained positions, got {len(cp)}")
+        if not np.all(np.isfinite(cp)):
+            raise FloatingPointError("non-finite constrained positions; nothing changed")
+        return cp, moved
 
     def _moved_by(self, slots: np.ndarray | None) -> np.ndarray:
         """The constrained vertices a :meth:`solve` given ``slots`` writes."""
