@@ -136,7 +136,8 @@ class Compile:
         """(level, line) once it ended."""
         if self.ok:
             return "INFO", f"the engine is compiled ({self.seconds:.0f} s in the background): Bind is quick now"
-        how = f"was killed (signal {-self.returncode})" if self.returncode < 0 else f"failed (exit code {self.returncode})"
+        code = self.returncode
+        how = f"was killed (signal {-code})" if code < 0 else f"failed (exit code {code})"
         return "WARNING", (f"compiling the engine in the background {how}, see {self.log_path}: the first Bind "
                            "compiles it instead (a minute or two)")
 
