@@ -18,6 +18,10 @@ Format (version 3)::
       {"continues": true,                   # the selection of the step before, from its polished pose
        "handles": [{"translate": [...], "rotate": {...}}, ...], "iterations": 60},
       ...
+     ],
+     "poses": [                             # optional: poses kept beside it (the window's Poses panel)
+      {"name": "arm up", "steps": [...]},   # each: a name (unique) and steps as above, from the rest pose
+      ...
      ]
     }
 
@@ -31,6 +35,10 @@ a rule, at most ``max_iterations``); ``polish`` how many full-resolution iterati
 that a replay gives the same pose on any machine). A step that ``continues`` keeps
 the selection of the step before (the window's next drag after a polish) and gives
 only its groups' transforms.
+
+``poses`` are other poses of the same mesh, each replayed from the rest pose as the file's own
+``steps`` are (:func:`load_edit_with_poses`); :func:`load_edit` (and ``hybridedit deform``) reads the
+``steps`` only, so a file with poses replays to the pose it was saved at.
 
 Versions 1 (top-level ``handle``, ``translate`` and ``rotate``) and 2 (one step's
 keys at the top level, with ``handles``) still load, as one step.
@@ -46,6 +54,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -287,7 +296,8 @@ def check_mesh(edit: Edit, mesh, path: str) -> None:
 
 _KEYS_V1 = {"handle", "fixed", "roi", "space", "translate", "rotate"}
 _KEYS_V2 = {"format", "version", "mesh", "space", "fixed", "roi", "symmetry", "handles"}
-_KEYS_V3 = {"format", "version", "mesh", "steps"}
+_KEYS_V3 = {"format", "version", "mesh", "steps", "poses"}
+_POSE_KEYS = {"name", "steps"}
 _STEP_KEYS = {"cage", "space", "fixed", "roi", "symmetry", "handles", "iterations", "polish", "continues",
               "converge"}
 
@@ -430,12 +440,13 @@ def _selection(path: str, data: dict, prefix: str = "") -> dict:
             "space": space, "symmetry": _symmetry(path, data.get("symmetry"))}
 
 
-def _step(path: str, k: int, d, previous: Edit | None) -> Edit:
-    """Step ``k`` of a version 3 file (``previous``: the step before it, or None)."""
-    where = f"steps[{k}]."
+def _step(path: str, k: int, d, previous: Edit | None, prefix: str = "") -> Edit:
+    """Step ``k`` of a version 3 file (``previous``: the step before it, or None; ``prefix``: where the
+    steps are, for messages: "" for the file's own, ``poses[i].`` for a kept pose's)."""
+    where = f"{prefix}steps[{k}]."
     if not isinstance(d, dict):
-        raise EditFileError(f"{path}: \"steps[{k}]\" must be an object (a selection and its handles)")
-    _known_keys(path, d, _STEP_KEYS, f"steps[{k}]")
+        raise EditFileError(f"{path}: \"{prefix}steps[{k}]\" must be an object (a selection and its handles)")
+    _known_keys(path, d, _STEP_KEYS, f"{prefix}steps[{k}]")
     continues = d.get("continues", False)
     if not isinstance(continues, bool):
         raise EditFileError(f"{path}: \"{where}continues\" must be true or false")
@@ -448,10 +459,10 @@ def _step(path: str, k: int, d, previous: Edit | None) -> Edit:
              "converge": _converge_spec(path, where + "converge", d["converge"]) if "converge" in d else None}
     if continues:
         if previous is None:
-            raise EditFileError(f"{path}: \"steps[0]\" cannot continue a step before it: there is none")
+            raise EditFileError(f"{path}: \"{prefix}steps[0]\" cannot continue a step before it: there is none")
         given = sorted({"space", "fixed", "roi", "symmetry"} & set(d))
         if given:
-            raise EditFileError(f"{path}: \"steps[{k}]\" continues the step before (its selection) and gives "
+            raise EditFileError(f"{path}: \"{prefix}steps[{k}]\" continues the step before (its selection) and gives "
                                 f"{given}: give either")
         if len(hs) != len(previous.handles):
             raise EditFileError(f"{path}: \"{where}handles\" has {len(hs)} groups; the step it continues has "
@@ -507,22 +518,74 @@ def _parse_v3(data: dict, path: str) -> Edit:
     _check_header(data, path)
     if data.get("version", VERSION) != 3:
         raise EditFileError(f"{path}: \"steps\" is a version 3 key; this file says version {data.get('version')}")
-    raw = data.get("steps")
+    return _steps(path, data.get("steps"), _mesh(path, data["mesh"]) if "mesh" in data else None)
+
+
+def _steps(path: str, raw, mesh: dict | None, prefix: str = "") -> Edit:
+    """The :class:`Edit` of a version 3 list of steps (at ``prefix``, for messages), made on ``mesh``."""
     if not isinstance(raw, list) or not raw:
-        raise EditFileError(f"{path}: \"steps\" must be a non-empty list of steps")
+        raise EditFileError(f"{path}: \"{prefix}steps\" must be a non-empty list of steps")
     if len(raw) > MAX_STEPS:
-        raise EditFileError(f"{path}: {len(raw):,} steps; more than {MAX_STEPS:,} is refused")
+        raise EditFileError(f"{path}: {len(raw):,} steps{' in ' + prefix[:-1] if prefix else ''}; "
+                            f"more than {MAX_STEPS:,} is refused")
     steps: list[Edit] = []
     for k, d in enumerate(raw):
-        steps.append(_step(path, k, d, steps[-1] if steps else None))
+        steps.append(_step(path, k, d, steps[-1] if steps else None, prefix))
     last = steps[-1]
     last.before = tuple(steps[:-1])
-    last.mesh = _mesh(path, data["mesh"]) if "mesh" in data else None
+    last.mesh = mesh
     return last
 
 
+def parse_poses(data: object, path: str = "<edit>") -> list[tuple[str, Edit]]:
+    """The poses kept in decoded edit-file JSON: ``[(name, edit), ...]`` in the file's order (none
+    for a file without ``poses``, or of version 1 or 2). Each edit replays from the rest pose and
+    carries the file's ``mesh`` fingerprint.
+
+    Raises
+    ------
+    EditFileError
+        The file itself is not an edit (:func:`parse_edit`), or ``poses`` is malformed: not a list of
+        ``{"name": text, "steps": [...]}``, a name empty or given twice, a step that is not one.
+    """
+    main = parse_edit(data, path)
+    raw = data.get("poses") if isinstance(data, dict) else None
+    if raw is None:
+        return []
+    if not isinstance(raw, list):
+        raise EditFileError(f"{path}: \"poses\" must be a list of {{\"name\": ..., \"steps\": [...]}}")
+    out: list[tuple[str, Edit]] = []
+    seen: set[str] = set()
+    for i, d in enumerate(raw):
+        where = f"poses[{i}]"
+        if not isinstance(d, dict):
+            raise EditFileError(f"{path}: \"{where}\" must be an object with \"name\" and \"steps\"")
+        _known_keys(path, d, _POSE_KEYS, where)
+        name = d.get("name")
+        if not isinstance(name, str) or not name.strip():
+            raise EditFileError(f"{path}: \"{where}.name\" must be a non-empty text")
+        if name in seen:
+            raise EditFileError(f"{path}: \"{where}.name\": the name {name!r} is given twice")
+        seen.add(name)
+        out.append((name, _steps(path, d.get("steps"), main.mesh, f"{where}.")))
+    return out
+
+
 def load_edit(path: str | Path) -> Edit:
-    """Read an edit file; raises :class:`EditFileError` naming the file on any problem."""
+    """Read an edit file (the pose it was saved at: its ``steps``); raises :class:`EditFileError` naming
+    the file on any problem."""
+    return parse_edit(_read_json(path), str(Path(path)))
+
+
+def load_edit_with_poses(path: str | Path) -> tuple[Edit, list[tuple[str, Edit]]]:
+    """Read an edit file and the poses kept in it: ``(edit, [(name, pose's edit), ...])`` (no poses
+    for a file without them); raises :class:`EditFileError` naming the file on any problem."""
+    data = _read_json(path)
+    return parse_edit(data, str(Path(path))), parse_poses(data, str(Path(path)))
+
+
+def _read_json(path: str | Path) -> object:
+    """The decoded JSON of an edit file; :class:`EditFileError` naming it when it cannot be read."""
     p = Path(path)
     try:
         if p.is_file() and p.stat().st_size > MAX_BYTES:
@@ -545,11 +608,25 @@ def load_edit(path: str | Path) -> Edit:
         raise EditFileError(f"{p}: JSON nested too deeply to be an edit file") from None
     except ValueError as e:  # e.g. an integer with more digits than Python reads
         raise EditFileError(f"{p}: not a usable JSON file ({' '.join(str(e).split())})") from None
-    return parse_edit(data, str(p))
+    return data
 
 
-def save_edit(path: str | Path, edit: Edit) -> None:
-    """Write an edit file atomically."""
+def edit_json(edit: Edit, poses: Sequence[tuple[str, Edit]] = ()) -> dict:
+    """The JSON of an edit file: ``edit``'s, and ``poses`` (``[(name, edit), ...]``, names unique)
+    kept beside it as ``"poses"`` (none given: no such key, the file as before)."""
+    d = edit.to_json()
+    if poses:
+        names = [n for n, _ in poses]
+        if len(set(names)) != len(names) or not all(isinstance(n, str) and n.strip() for n in names):
+            raise ValueError(f"pose names must be non-empty and unique, got {names}")
+        d["poses"] = [{"name": n, "steps": [st._step_json() for st in e.steps]} for n, e in poses]
+    return d
+
+
+def save_edit(path: str | Path, edit: Edit, *, poses: Sequence[tuple[str, Edit]] = ()) -> None:
+    """Write an edit file atomically: ``edit``, and the ``poses`` (``[(name, edit), ...]``) kept beside
+    it (:func:`load_edit_with_poses` reads them back; :func:`load_edit` and ``hybridedit deform`` the edit)."""
+    data = edit_json(edit, poses)
     with atomic_write(Path(path), "w") as fh:
-        json.dump(edit.to_json(), fh, indent=1)
+        json.dump(data, fh, indent=1)
         fh.write("\n")

@@ -187,3 +187,64 @@ def test_not_utf8_and_folders(tmp_path):
         load_edit(p)
     with pytest.raises(EditFileError, match="is a folder"):
         load_edit(tmp_path)
+
+
+def test_kept_poses_round_trip_beside_the_edit_and_load_edit_reads_the_edit_alone(tmp_path, blob):
+    """Poses kept beside the edit (the window's Poses panel): each a name and steps from the rest pose,
+    read back with the file's fingerprint; load_edit (hybridedit deform) reads the file's own steps."""
+    from hybridedit.fileio.editfile import HandleEdit, edit_json, load_edit_with_poses, mesh_fingerprint
+
+    fp = mesh_fingerprint(blob)
+    now = Edit(handles=[HandleEdit(np.array([8]), translate=np.array([0, 0.1, 0]))], roi=np.arange(20),
+               iterations=60, mesh=fp)
+    up = Edit(handles=[HandleEdit(np.array([3, 4]), translate=np.array([0, 0.3, 0]))], roi=np.arange(9),
+              iterations=60, polish=12)
+    on = Edit(handles=[HandleEdit(up.handles[0].indices, translate=np.array([0.2, 0, 0]))], roi=up.roi,
+              continues=True, iterations=60, before=[up])
+    p = tmp_path / "kept.json"
+    save_edit(p, now, poses=[("arm up", up), ("arm up, then out", on)])
+    data = json.loads(p.read_text())
+    assert [k["name"] for k in data["poses"]] == ["arm up", "arm up, then out"]
+    assert len(data["poses"][1]["steps"]) == 2 and "mesh" not in data["poses"][0]
+    plain = load_edit(p)
+    assert len(plain.steps) == 1 and plain.handles[0].indices.tolist() == [8]
+    edit, poses = load_edit_with_poses(p)
+    assert np.allclose(edit.translate, [0, 0.1, 0]) and [n for n, _ in poses] == ["arm up", "arm up, then out"]
+    (_, a), (_, b) = poses
+    assert a.mesh == fp and b.mesh == fp and a.polish == 12 and len(b.steps) == 2 and b.continues
+    assert b.handles[0].indices.tolist() == [3, 4] and np.allclose(b.translate, [0.2, 0, 0])
+    # a file without poses: none, and the same JSON as before there were poses
+    save_edit(p, now)
+    assert "poses" not in json.loads(p.read_text()) and load_edit_with_poses(p)[1] == []
+    assert edit_json(now) == now.to_json()
+    with pytest.raises(ValueError, match="unique"):
+        save_edit(p, now, poses=[("a", up), ("a", on)])
+
+
+STEP = {"handles": [{"indices": [1]}]}
+
+
+@pytest.mark.parametrize(
+    "poses, words",
+    [
+        ({"name": "a"}, '"poses" must be a list'),
+        ([3], '"poses[0]" must be an object'),
+        ([{"name": "", "steps": [STEP]}], '"poses[0].name" must be a non-empty text'),
+        ([{"name": 5, "steps": [STEP]}], '"poses[0].name"'),
+        ([{"name": "a", "steps": [STEP]}, {"name": "a", "steps": [STEP]}], "given twice"),
+        ([{"name": "a", "steps": []}], '"poses[0].steps" must be a non-empty list'),
+        ([{"name": "a", "steps": [STEP], "look": 1}], 'unknown keys in "poses[0]"'),
+        ([{"name": "a", "steps": [{"continues": True, "handles": [{}]}]}], '"poses[0].steps[0]" cannot continue'),
+        ([{"name": "a", "steps": [{"handles": [{"indices": [1], "spin": 3}]}]}], '"poses[0].steps[0].handles[0]"'),
+    ],
+)
+def test_bad_kept_poses_name_the_file_and_where(tmp_path, poses, words):
+    from hybridedit.fileio.editfile import load_edit_with_poses
+
+    p = tmp_path / "bad.json"
+    p.write_text(json.dumps({"format": "hybridedit-edit", "version": 3, "steps": [STEP], "poses": poses}))
+    assert load_edit(p).handles[0].indices.tolist() == [1]  # (the file's own pose still replays)
+    with pytest.raises(EditFileError) as err:
+        load_edit_with_poses(p)
+    msg = str(err.value)
+    assert msg.startswith(str(p)) and words in msg and "\n" not in msg
