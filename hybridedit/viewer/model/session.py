@@ -44,6 +44,7 @@ from ...deform.editor import HybridEditor
 from ...deform.selection import SelectionError
 from ...core.mesh import Mesh, rrms_edge_error
 from .history import History, Snapshot, default_budget
+from .pose_library import PoseLibrary
 from ...core.region_metrics import ShapeMetrics
 from .selection_masks import Selection
 
@@ -73,6 +74,7 @@ class Session:
     ----------
     selection : the ROI and handle groups, and the gestures and commands that change them
         (:class:`~.selection_masks.Selection`; each handle group has a transform here).
+    poses : the poses kept of the shape (:class:`~.pose_library.PoseLibrary`; not in the undo history).
     """
 
     def __init__(self, editor: HybridEditor, path: Path | None = None, cage_size: int | float = CAGE_SIZE,
@@ -109,6 +111,7 @@ class Session:
         self.polished: np.ndarray | None = None
         #: bumps when the engine (cage and binding) changes: a rebuild, or undo across one
         self.generation = 0
+        self.poses = PoseLibrary()
         self.history = History(budget=default_budget(self.mesh.n_vertices) if history_budget is None
                                else history_budget)
         self._push("open")
@@ -504,8 +507,9 @@ class Session:
             self.editor.polish(iterations=edit.polish)
             self._polished_here()
 
-    def load_edit(self, edit: Edit, path: str | None = None) -> None:
-        """Replay an edit as ``hybridedit deform`` does: from the rest pose, step by step.
+    def load_edit(self, edit: Edit, path: str | None = None, *, label: str = "load edit") -> None:
+        """Replay an edit as ``hybridedit deform`` does: from the rest pose, step by step; one undo
+        step named ``label``.
 
         On any error (an edit for another mesh: EditFileError; a selection that does
         not fit: SelectionError) the session is left as it was.
@@ -519,4 +523,15 @@ class Session:
             raise
         if edit.polish is None:
             self.polished = None
-        self._push("load edit")
+        self._push(label)
+
+    def replayed(self, edit: Edit, path: str | None = None) -> np.ndarray:
+        """The pose ``edit`` replays to, (n, 3), exactly as :meth:`load_edit` shows it, the session left
+        as it was (no undo step): a kept pose read back from a file. Raises as :meth:`load_edit`."""
+        self.finish_settle()
+        before = self._snapshot("")
+        try:
+            self._replay(edit, path)
+            return self.shown_positions.copy()
+        finally:
+            self.restore(before)
