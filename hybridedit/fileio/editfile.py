@@ -550,8 +550,12 @@ def parse_poses(data: object, path: str = "<edit>") -> list[tuple[str, Edit]]:
     """
     main = parse_edit(data, path)
     raw = data.get("poses") if isinstance(data, dict) else None
-    if raw is None:
-        return []
+    return [] if raw is None else parse_pose_list(raw, path, main.mesh)
+
+
+def parse_pose_list(raw: object, path: str = "<edit>", mesh: dict | None = None) -> list[tuple[str, Edit]]:
+    """A ``poses`` list (:func:`pose_list_json`) as ``[(name, edit), ...]``, each edit made on ``mesh``
+    (a fingerprint, or None); raises :class:`EditFileError` as :func:`parse_poses`."""
     if not isinstance(raw, list):
         raise EditFileError(f"{path}: \"poses\" must be a list of {{\"name\": ..., \"steps\": [...]}}")
     out: list[tuple[str, Edit]] = []
@@ -567,7 +571,7 @@ def parse_poses(data: object, path: str = "<edit>") -> list[tuple[str, Edit]]:
         if name in seen:
             raise EditFileError(f"{path}: \"{where}.name\": the name {name!r} is given twice")
         seen.add(name)
-        out.append((name, _steps(path, d.get("steps"), main.mesh, f"{where}.")))
+        out.append((name, _steps(path, d.get("steps"), mesh, f"{where}.")))
     return out
 
 
@@ -616,11 +620,17 @@ def edit_json(edit: Edit, poses: Sequence[tuple[str, Edit]] = ()) -> dict:
     kept beside it as ``"poses"`` (none given: no such key, the file as before)."""
     d = edit.to_json()
     if poses:
-        names = [n for n, _ in poses]
-        if len(set(names)) != len(names) or not all(isinstance(n, str) and n.strip() for n in names):
-            raise ValueError(f"pose names must be non-empty and unique, got {names}")
-        d["poses"] = [{"name": n, "steps": [st._step_json() for st in e.steps]} for n, e in poses]
+        d["poses"] = pose_list_json(poses)
     return d
+
+
+def pose_list_json(poses: Sequence[tuple[str, Edit]]) -> list[dict]:
+    """``[{"name": name, "steps": [...]}, ...]`` of ``poses`` (``[(name, edit), ...]``, names unique and
+    not empty: else ValueError), as an edit file keeps them."""
+    names = [n for n, _ in poses]
+    if len(set(names)) != len(names) or not all(isinstance(n, str) and n.strip() for n in names):
+        raise ValueError(f"pose names must be non-empty and unique, got {names}")
+    return [{"name": n, "steps": [st._step_json() for st in e.steps]} for n, e in poses]
 
 
 def save_edit(path: str | Path, edit: Edit, *, poses: Sequence[tuple[str, Edit]] = ()) -> None:

@@ -89,6 +89,34 @@ def test_a_recovery_replays_the_pose_and_selection_exactly(shape, tmp_path):
     assert not path.exists() and keeper.path is None
 
 
+def test_the_kept_poses_are_recovered_exactly_and_an_old_file_without_them_still_reads(shape, tmp_path):
+    lost = posed(shape)
+    first = lost.poses.keep(lost, "arm up")  # (the third selection not dragged yet: the pose as it is)
+    T = np.eye(4)
+    T[:3, 3] = [0.0, 0.15, 0.0]
+    lost.begin_drag()
+    lost.drag_to(T)
+    lost.end_drag()
+    lost.finish_settle()
+    second = lost.poses.keep(lost)
+    path = RecoveryFile(folder=tmp_path).write(lost)
+    rec = read_recovery(path)
+    assert [n for n, _ in rec.poses] == ["arm up", "Pose 2"] and ", 2 kept poses, " in rec.summary()
+    s = session(shape)
+    recover(s, rec)
+    assert s.poses.names == ["arm up", "Pose 2"] and s.poses.unsaved  # (saved nowhere yet)
+    np.testing.assert_array_equal(s.poses[0].positions, first.positions)
+    np.testing.assert_array_equal(s.poses[1].positions, second.positions)
+    np.testing.assert_array_equal(s.shown_positions, lost.shown_positions)
+    s.poses.continue_from(s, 0)
+    np.testing.assert_array_equal(s.shown_positions, first.positions)
+    # a file written before there were kept poses reads as one without them
+    data = json.loads(path.read_text())
+    del data["poses"]
+    path.write_text(json.dumps(data))
+    assert read_recovery(path).poses == ()
+
+
 def test_orphans_are_the_files_of_dead_processes_newest_first_and_damaged_ones_said(shape, tmp_path):
     keeper = RecoveryFile(folder=tmp_path)
     path = keeper.write(posed(shape))
@@ -110,6 +138,7 @@ def test_orphans_are_the_files_of_dead_processes_newest_first_and_damaged_ones_s
     (lambda d: d.update(version=99), "version 99"),
     (lambda d: d.pop("selection"), "a field is missing or malformed"),
     (lambda d: d["edit"].update(steps="x"), "damaged edit"),
+    (lambda d: d.update(poses=[{"name": "", "steps": []}]), "damaged edit"),
     (lambda d: d.update(cage_size="big"), "malformed"),
 ])
 def test_a_damaged_file_is_refused_in_one_line_naming_it(shape, tmp_path, damage, says):

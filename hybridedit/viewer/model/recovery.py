@@ -2,7 +2,8 @@
 
 While the pose on display is not saved, the window keeps a *recovery file* in the user cache folder
 (:func:`recovery_folder`): the session's edit (every step since the rest pose, as an edit file holds
-it), the selection on the cage, and what the shape is (its file, its fingerprint, the cage). A clean
+it), the selection on the cage, the kept poses (:mod:`.pose_library`, as an edit file's ``poses``),
+and what the shape is (its file, its fingerprint, the cage). A clean
 save or quit removes it. A recovery file whose process is gone is *orphaned*: the process died (a
 crash, a kill, a power cut), and :func:`orphans` finds it on the next start so that the pose can be
 replayed exactly (:func:`recover`), as ``hybridedit deform`` replays a saved edit.
@@ -27,7 +28,9 @@ import numpy as np
 from ...core.cache_dir import default_cache_dir
 from ...deform.selection import SelectionError
 from ...fileio.atomic import atomic_write
-from ...fileio.editfile import Edit, EditFileError, check_mesh, mesh_fingerprint, parse_edit
+from ...fileio.editfile import (Edit, EditFileError, check_mesh, mesh_fingerprint, parse_edit, parse_pose_list,
+                                pose_list_json)
+from .pose_library import replay_poses
 
 if TYPE_CHECKING:
     from .session import Session
@@ -99,6 +102,7 @@ class Recovery:
     edit : the steps since the rest pose (:class:`~hybridedit.fileio.editfile.Edit`), or None.
     selection : the selection on the cage: ``roi`` (indices), ``handle_group`` (int8 per cage vertex,
         as ``[[index, role], ...]``), ``n_groups``, ``active``, ``symmetry``.
+    poses : the kept poses, ``((name, edit), ...)`` (none in a file written before there were any).
     """
 
     file: Path
@@ -112,6 +116,7 @@ class Recovery:
     host: str
     edit: Edit | None
     selection: dict
+    poses: tuple = ()
 
     @property
     def steps(self) -> int:
@@ -119,11 +124,13 @@ class Recovery:
         return 0 if self.edit is None else len(self.edit.steps)
 
     def summary(self) -> str:
-        """'creature.ply (7 steps, 12:41)': the shape, its steps and when it was saved, in words."""
+        """'creature.ply (7 steps, 12:41)': the shape, its steps (and kept poses) and when it was saved,
+        in words."""
         t = time.localtime(self.saved_at)
         when = time.strftime("%H:%M", t) if time.localtime()[:3] == t[:3] else time.strftime("%Y-%m-%d %H:%M", t)
-        n = self.steps
-        return f"{self.mesh_name} ({n} step{'s' if n != 1 else ''}, {when})"
+        n, k = self.steps, len(self.poses)
+        kept = f", {k} kept pose{'s' if k != 1 else ''}" if k else ""
+        return f"{self.mesh_name} ({n} step{'s' if n != 1 else ''}{kept}, {when})"
 
     @property
     def orphaned(self) -> bool:
@@ -213,6 +220,7 @@ class RecoveryFile:
             "cage_vertices": int(session.editor.cage.n_vertices),
             "edit": None if edit is None else edit.to_json(),
             "selection": _selection_json(session),
+            "poses": pose_list_json(session.poses.entries()),
         }
         text = json.dumps(data, separators=(",", ":"))  # (C encoder: json.dump's streaming one is 4x slower)
         self.folder.mkdir(parents=True, exist_ok=True)
@@ -247,6 +255,7 @@ def read_recovery(path: str | os.PathLike) -> Recovery:
         raise RecoveryError(f"{p}: recovery file version {data.get('version')!r} is not one this hybridedit reads")
     try:
         edit = None if data["edit"] is None else parse_edit(data["edit"], str(p))
+        poses = tuple(parse_pose_list(data.get("poses", []), str(p), data["mesh"]))
         sel = data["selection"]
         fp = data["mesh"]
         rec = Recovery(
@@ -257,7 +266,8 @@ def read_recovery(path: str | os.PathLike) -> Recovery:
             selection={"roi": np.asarray(sel["roi"], dtype=np.int64).reshape(-1),
                        "handle_group": np.asarray(sel["handle_group"], dtype=np.int64).reshape(-1, 2),
                        "n_groups": int(sel["n_groups"]), "active": int(sel["active"]),
-                       "symmetry": sel["symmetry"]})
+                       "symmetry": sel["symmetry"]},
+            poses=poses)
     except EditFileError as e:
         raise RecoveryError(f"{p}: damaged edit ({str(e).removeprefix(str(p) + ': ')})") from None
     except (KeyError, TypeError, ValueError) as e:
@@ -298,7 +308,9 @@ def orphans(*, folder: str | os.PathLike | None = None, topology: str | None = N
 
 def recover(session: Session, rec: Recovery) -> None:
     """Replay a recovery on ``session`` (the same shape and cage): its pose exactly, as
-    :meth:`~.session.Session.load_edit` replays an edit, then its selection; one undo step.
+    :meth:`~.session.Session.load_edit` replays an edit, then its selection; one undo step. Its kept
+    poses are replayed for their positions and go to the session's library
+    (:meth:`~.pose_library.PoseLibrary.take`: added after the poses kept there unsaved).
 
     Raises
     ------
@@ -316,11 +328,14 @@ def recover(session: Session, rec: Recovery) -> None:
     if (sel["roi"].size and (sel["roi"].min() < 0 or sel["roi"].max() >= c)) or \
             (hg.size and (hg[:, 0].min() < 0 or hg[:, 0].max() >= c)):
         raise RecoveryError(f"{rec.file}: damaged, its selection is not on this cage")
-    if rec.edit is not None:
-        try:
+    try:
+        kept = replay_poses(session, rec.poses, path=str(rec.file))
+        if rec.edit is not None:
             session.load_edit(rec.edit, path=str(rec.file))
-        except (EditFileError, SelectionError, ValueError) as e:
-            raise RecoveryError(str(e)) from None
+    except (EditFileError, SelectionError, ValueError) as e:
+        raise RecoveryError(str(e)) from None
+    if kept:
+        session.poses.take(kept, saved=False)
     roi = np.zeros(c, dtype=bool)
     roi[sel["roi"]] = True
     handle_group = np.zeros(c, dtype=np.int8)
