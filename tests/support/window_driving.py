@@ -9,7 +9,7 @@ from __future__ import annotations
 from contextlib import contextmanager
 
 import numpy as np
-from qtpy import QtCore
+from qtpy import QtCore, QtWidgets
 
 from hybridedit.viewer.model.picking import project_points, rectangle_hits
 
@@ -27,7 +27,7 @@ def wait_loaded(qtbot, w, timeout: int = 180000) -> None:
 def opened_window(qtbot, *, cage_size, path=None, mesh=None, size=(1000, 760)):
     """A window shown, active (window shortcuts need it) and with the keyboard on its view, the shape of
     ``path`` (a file) or ``mesh`` (a Mesh) loaded; closed afterwards, here and not by qtbot (an unsaved
-    pose would ask first), also when loading fails: no window is left open to confuse the next test."""
+    pose or kept poses would ask first), also when loading fails: no window is left open to confuse the next test."""
     from hybridedit.viewer.window.main_window import MainWindow
 
     w = MainWindow(cage_size=cage_size)
@@ -42,6 +42,8 @@ def opened_window(qtbot, *, cage_size, path=None, mesh=None, size=(1000, 760)):
         wait_loaded(qtbot, w)
         yield w
     finally:
+        if w.session is not None:
+            w.session.poses.mark_saved()  # (kept poses are unsaved work too)
         w.unsaved.set_modified(False)
         w.close()
         w.deleteLater()
@@ -164,3 +166,25 @@ def look_down_minus_z(scene) -> None:
     cam.SetPosition(*(np.array(cam.GetFocalPoint()) + [0.0, 0.0, cam.GetDistance()]))
     cam.SetViewUp(0.0, 1.0, 0.0)
     scene.renderer.ResetCamera(scene.shape.bounds)
+
+
+def answer_file_dialog(qtbot, path) -> list:
+    """Answer the next real file dialog as soon as it shows: ``path`` in its name box and Enter (None: Escape).
+    Returns [(its title, the folder it opened in)] once answered."""
+    seen = []
+
+    def answer():
+        d = QtWidgets.QApplication.activeModalWidget()
+        if not isinstance(d, QtWidgets.QFileDialog) or not d.isVisible():
+            QtCore.QTimer.singleShot(20, answer)
+            return
+        seen.append((d.windowTitle(), d.directory().absolutePath()))
+        edit = d.findChild(QtWidgets.QLineEdit, "fileNameEdit")
+        if path is None:
+            qtbot.keyClick(edit, Qt.Key.Key_Escape)
+        else:
+            edit.setText(str(path))  # (typed, its completer's popup would take the Enter)
+            qtbot.keyClick(edit, Qt.Key.Key_Return)
+
+    QtCore.QTimer.singleShot(20, answer)
+    return seen

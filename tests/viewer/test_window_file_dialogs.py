@@ -7,31 +7,9 @@ import numpy as np
 import pytest
 from qtpy import QtCore, QtWidgets
 
-from support.window_driving import drag_tip, key
+from support.window_driving import answer_file_dialog, drag_tip, key
 
 Qt = QtCore.Qt
-
-
-def answer_file_dialog(qtbot, path) -> list:
-    """Answer the next real file dialog as soon as it shows: ``path`` in its name box and Enter (None: Escape).
-    Returns [(its title, the folder it opened in)] once answered."""
-    seen = []
-
-    def answer():
-        d = QtWidgets.QApplication.activeModalWidget()
-        if not isinstance(d, QtWidgets.QFileDialog) or not d.isVisible():
-            QtCore.QTimer.singleShot(20, answer)
-            return
-        seen.append((d.windowTitle(), d.directory().absolutePath()))
-        edit = d.findChild(QtWidgets.QLineEdit, "fileNameEdit")
-        if path is None:
-            qtbot.keyClick(edit, Qt.Key.Key_Escape)
-        else:
-            edit.setText(str(path))  # (typed, its completer's popup would take the Enter)
-            qtbot.keyClick(edit, Qt.Key.Key_Return)
-
-    QtCore.QTimer.singleShot(20, answer)
-    return seen
 
 
 def capture_start(monkeypatch, name: str, answer: str = "") -> list:

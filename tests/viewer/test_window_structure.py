@@ -22,8 +22,8 @@ from hybridedit.viewer.input import drags
 from hybridedit.viewer.input.mouse_gestures import DragHandler, PoseHandler, SelectionHandler
 from hybridedit.viewer.jobs import build_jobs
 from hybridedit.viewer.window import (
-    actions, dialogs, file_actions, file_drops, first_steps, limb_posing, posing, scene_sync, selecting, shape_loading,
-    status_bar, undo_commands, unsaved_mark, view_options,
+    actions, dialogs, file_actions, file_drops, first_steps, limb_posing, pose_panel, posing, scene_sync, selecting,
+    shape_loading, status_bar, undo_commands, unsaved_mark, view_options,
 )
 from hybridedit.viewer.window.main_window import MainWindow
 from support.window_driving import handle_point, key, mouse_drag, select_tip_to_drag, settled
@@ -37,6 +37,7 @@ HOSTS = {
     drags: (drags.DragHost, "dragging"), build_jobs: (build_jobs.BuildHost, "jobs"),
     file_actions: (file_actions.FileHost, "files"), file_drops: (file_drops.DropsHost, "drops"),
     first_steps: (first_steps.HintHost, "first_steps"), limb_posing: (limb_posing.PoseHost, "limb_posing"),
+    pose_panel: (pose_panel.PanelHost, "pose_panel"),
     posing: (posing.PosingHost, "posing"), scene_sync: (scene_sync.SyncHost, "sync"),
     selecting: (selecting.SelectHost, "selecting"), shape_loading: (shape_loading.LoadingHost, "loading"),
     status_bar: (status_bar.StatusHost, "status"), undo_commands: (undo_commands.UndoHost, "undo_commands"),

@@ -24,6 +24,7 @@ selecting     : the selection target, selection gestures, the Select menu, mirro
 posing        : the guard before any change, what follows a drag, polish on release and its result
 limb_posing   : the Pose tool: the limb under the mouse, its joint, bent by a drag
 undo_commands : undo, redo, reset pose
+pose_panel    : Pose ▸ Keep Pose and the Poses panel: kept poses to continue from, rename, remove, export
 view_options  : mode, tool, brush, what is drawn (cage, stretch map, look, anti-aliasing), camera, up axis
 scene_sync    : the scene kept in step with the session; edge error and stretch map
 """

@@ -34,6 +34,7 @@ MENUS: dict[str, list] = {
               "reset_camera",
               ("&Viewpoint", ["view_front", "view_back", "view_right", "view_left", "view_top", "view_bottom"]),
               ("&Up Axis", [f"up_{axis}" for axis in AXES]), "antialias", None, "messages"],
+    "&Pose": ["keep_pose", None, "show_poses", "export_poses"],
     "&Cage": ["rebuild", "cancel_job"],
     "&Help": ["howto", "shortcuts", "about"],
 }
@@ -128,6 +129,17 @@ class ViewCommands(Protocol):
 
 
 @runtime_checkable
+class PoseCommands(Protocol):
+    """The Pose menu (:class:`~.pose_panel.PosePanel`): keep, the panel, export; and the panel listing
+    the session's kept poses again."""
+
+    def keep(self) -> bool: ...
+    def toggle_panel(self) -> None: ...
+    def export_dialog(self) -> bool: ...
+    def refresh(self) -> None: ...
+
+
+@runtime_checkable
 class LoadCommands(Protocol):
     """Cage ▸ Rebuild and Cancel (:class:`~.shape_loading.ShapeLoading`)."""
 
@@ -182,6 +194,8 @@ class ActionsHost(Protocol):
     def options(self) -> ViewCommands: ...
     @property
     def loading(self) -> LoadCommands: ...
+    @property
+    def pose_panel(self) -> PoseCommands: ...
     @property
     def status(self) -> LogCommands: ...
     @property
@@ -249,6 +263,7 @@ class ActionSet(Mapping):
         self._select_actions()
         self._mode_actions()
         self._view_actions()
+        self._pose_actions()
         self._cage_and_help_actions()
         for names in EXCLUSIVE:
             g = QtGui.QActionGroup(self.parent)
@@ -380,6 +395,16 @@ class ActionSet(Mapping):
                             QtGui.QKeySequence(QtCore.QKeyCombination(mods, key))])
             a.setToolTip(f"{text.replace('&', '')} View ({a.shortcut().toString()})")
 
+    def _pose_actions(self) -> None:
+        A, panel = self._action, self.w.pose_panel
+        A("keep_pose", "&Keep Pose", panel.keep, "K",
+          tip="Keep the pose on display in the pose library (the Poses panel), to go on from it later or "
+              "export it: as Blender's shape keys", short="Keep")
+        A("show_poses", "&Poses Panel", panel.toggle_panel, checkable=True,
+          tip="Show the kept poses: double-click one to go on from it; rename, delete, reorder, export")
+        A("export_poses", "&Export Poses…", panel.export_dialog,
+          tip="Write the kept poses to one file: glTF morph targets (.glb) or USD blend shapes (.usda, .usdc)")
+
     def _cage_and_help_actions(self) -> None:
         A, dialogs = self._action, self.w.dialogs
         A("rebuild", "Re&build Cage", self.w.loading.rebuild, "Ctrl+B",
@@ -459,6 +484,9 @@ class ActionSet(Mapping):
                   "free_around_handle", "screenshot", "mesh_info"):
             a[n].setEnabled(s is not None)
         a["cancel_job"].setEnabled(busy)
+        a["keep_pose"].setEnabled(s is not None)
+        a["export_poses"].setEnabled(s is not None and len(s.poses) > 0)
+        self.w.pose_panel.refresh()  # (another shape, an edit file or a recovery: its kept poses listed)
         scene = self.w.scene
         modes = scene.look_modes() if s is not None else ("plain",)
         for mode in ("texture", "colors", "plain"):  # what the shape's file has, and how it is drawn

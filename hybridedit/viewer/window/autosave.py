@@ -2,9 +2,9 @@
 an unclean exit (a crash, a kill, a power cut), as Blender's File ▸ Recover and ZBrush's QuickSave do.
 
 The file (:mod:`..model.recovery`) is written after every change of the undo history (a release, a
-polish, a selection, undo and redo) while the pose is not saved, once the drag or settle under way is
-done; it is removed when the pose is saved (or undone back to the saved one) and when the window quits
-cleanly. A recovery whose window died is offered when its shape is opened again, or, for the last
+polish, a selection, undo and redo) or of the kept poses, while the pose or the kept poses are not
+saved, once the drag or settle under way is done; it is removed when both are saved (or the pose undone
+back to the saved one) and when the window quits cleanly. A recovery whose window died is offered when its shape is opened again, or, for the last
 session, on the first shape opened after a start; the offer is a question that does not block the
 window (a damaged recovery file is said in one line and ignored).
 """
@@ -144,7 +144,7 @@ class Autosave:
     # ------------------------------------------------------------------ keeping the file
     def _state(self, s: Session) -> tuple:
         h = s.history
-        return id(s), s.generation, id(h.current), len(h)
+        return id(s), s.generation, id(h.current), len(h), s.poses.revision
 
     def tick(self) -> bool:
         """Write the recovery file if the history changed since (nothing under way), remove it when the pose

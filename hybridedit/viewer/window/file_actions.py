@@ -1,5 +1,5 @@
-"""The window's file actions: open, save, save as, edit files, screenshots, dropped files, and the
-Save / Discard / Cancel question before anything would lose an unsaved pose."""
+"""The window's file actions: open, save, save as, edit files (with the kept poses), screenshots, dropped
+files, and the Save / Discard / Cancel question before anything would lose an unsaved pose or kept poses."""
 
 from __future__ import annotations
 
@@ -10,10 +10,11 @@ from typing import TYPE_CHECKING, Callable, Protocol, runtime_checkable
 from qtpy import QtCore, QtWidgets
 
 from ...fileio.atomic import WriteError
-from ...fileio.editfile import EditFileError, load_edit, save_edit
+from ...fileio.editfile import EditFileError, load_edit_with_poses, save_edit
 from ...deform.selection import SelectionError
 from ...fileio.meshfiles import SUPPORTED_EXTENSIONS, MeshFileError, write_mesh
 from ...core.mesh import MeshError
+from ..model.pose_library import replay_poses
 from .interfaces import Busy, RedrawsAll
 
 if TYPE_CHECKING:
@@ -99,11 +100,15 @@ class Says(Protocol):
 
 @runtime_checkable
 class Unsaved(Protocol):
-    """The unsaved-pose mark as the file actions see it."""
+    """The unsaved-work mark as the file actions see it: the pose on display, and the kept poses."""
 
     @property
     def modified(self) -> bool: ...
+    @property
+    def pose_modified(self) -> bool: ...
+    def poses_unsaved(self) -> bool: ...
     def set_modified(self, modified: bool) -> None: ...
+    def poses_changed(self) -> None: ...
     def update_title(self) -> None: ...
 
 
@@ -230,16 +235,29 @@ class FileActions:
 
     # ------------------------------------------------------------------ unsaved work
     def keep_work(self, doing: str) -> bool:
-        """Before ``doing`` something that would drop an unsaved pose: ask Save / Discard / Cancel.
+        """Before ``doing`` something that would drop an unsaved pose or kept poses: ask Save / Discard /
+        Cancel. Save writes the mesh (the pose) and the edit file (the kept poses), whichever is unsaved.
 
         Returns True when it may go ahead (saved, discarded, or nothing unsaved).
         """
-        if not self.w.unsaved.modified or self.session is None:
+        w = self.w
+        if not w.unsaved.modified or self.session is None:
             return True
         Btn = QtWidgets.QMessageBox.StandardButton
         name = self.document_name if self.save_path is not None or self.session.path is not None else "the shape"
-        box = QtWidgets.QMessageBox(QtWidgets.QMessageBox.Icon.Question, "Unsaved pose",
-                                    f"The pose of {name} is not saved.\n\nSave it before {doing}?",
+        pose, kept = w.unsaved.pose_modified, w.unsaved.poses_unsaved()
+        n = len(self.session.poses)
+        poses = f"{n} kept pose{'s' if n != 1 else ''}" if n else "kept poses (some were removed)"
+        if pose and kept:
+            title, text = "Unsaved work", (f"The pose of {name} and its {poses} are not saved (Save Edit keeps "
+                                           f"the kept poses).\n\nSave them before {doing}?")
+        elif kept:
+            them, are = ("it", "is") if n == 1 else ("them", "are")
+            title, text = "Unsaved poses", (f"The {'kept pose' if n == 1 else poses} of {name} {are} not saved "
+                                            f"(Save Edit keeps {them}).\n\nSave {them} before {doing}?")
+        else:
+            title, text = "Unsaved pose", f"The pose of {name} is not saved.\n\nSave it before {doing}?"
+        box = QtWidgets.QMessageBox(QtWidgets.QMessageBox.Icon.Question, title, text,
                                     Btn.Save | Btn.Discard | Btn.Cancel, self.parent)
         box.setDefaultButton(Btn.Save)
         box.setEscapeButton(Btn.Cancel)
@@ -249,7 +267,7 @@ class FileActions:
         finally:
             self.unsaved_box = None
         if choice == Btn.Save:
-            return bool(self.save())
+            return (not pose or bool(self.save())) and (not kept or bool(self.save_edit_dialog()))
         return choice == Btn.Discard
 
     # ------------------------------------------------------------------ meshes
@@ -344,7 +362,8 @@ class FileActions:
         return self.save_edit_to(p)
 
     def save_edit_to(self, path: str | os.PathLike) -> bool:
-        """Write how the pose on screen was made (every step since the rest pose) as a JSON edit file."""
+        """Write how the pose on screen was made (every step since the rest pose) as a JSON edit file, and
+        the kept poses beside it (each its name and steps)."""
         w = self.w
         w.posing.finish_settle()  # the settle only, not the polish: as save_to, this reads and changes nothing
         s = self.session
@@ -352,12 +371,16 @@ class FileActions:
             return False
         try:
             edit = s.to_edit()
-            save_edit(path, edit)
+            save_edit(path, edit, poses=s.poses.entries())
         except (SelectionError, ValueError, WriteError, OSError) as e:
             w.status.show_error("Could not save the edit", str(e))
             return False
         self.edit_path = self.saved_edit_path = Path(path).absolute()
-        w.status.message(f"Saved the edit to {path}: {edit_summary(edit)} from the rest pose, in shape vertices. "
+        s.poses.mark_saved()
+        w.unsaved.poses_changed()
+        n = len(s.poses)
+        kept = f" and {n} kept pose{'s' if n != 1 else ''}" if n else ""
+        w.status.message(f"Saved the edit{kept} to {path}: {edit_summary(edit)} from the rest pose, in shape vertices. "
                   + ("'hybridedit deform --edit' replays them to the pose on screen."
                      if s.replayable else
                      "Note: the last drag was not settled (Edit ▸ Settle on Release is off), so its pose depends on "
@@ -375,7 +398,9 @@ class FileActions:
         return self.load_edit_from(path)
 
     def load_edit_from(self, path: str | os.PathLike) -> bool:
-        """Apply a JSON edit file as 'hybridedit deform' does (from the rest pose)."""
+        """Apply a JSON edit file as 'hybridedit deform' does (from the rest pose); the poses kept in it
+        are replayed and go to the pose library (in place of its own when those are saved, else after
+        them: :meth:`~..model.pose_library.PoseLibrary.take`)."""
         w = self.w
         s = self.session
         if s is None:
@@ -385,15 +410,22 @@ class FileActions:
             return False
         w.posing.settle_and_stop_polish()
         try:
-            edit = load_edit(path)
+            edit, entries = load_edit_with_poses(path)
+            kept = replay_poses(s, entries, path=str(path))  # (first: a pose that does not fit changes nothing)
             s.load_edit(edit, path=str(path))
         except (EditFileError, SelectionError, ValueError) as e:
             w.status.show_error("Could not load the edit", str(e))
             return False
         self.edit_path = Path(path)
+        said = ""
+        if kept:
+            replaced = s.poses.take(kept, saved=True)
+            said = (f" Its {len(kept)} kept pose{'s are' if len(kept) != 1 else ' is'} in the Poses panel"
+                    + ("." if replaced else ", after the unsaved ones kept here."))
         w.unsaved.set_modified(True)
         w.sync.refresh_all()
-        w.status.message(f"Applied {Path(path).name}: {edit_summary(edit)}.{cage_note(edit, s.editor.cage.n_vertices)}")
+        w.status.message(f"Applied {Path(path).name}: {edit_summary(edit)}.{cage_note(edit, s.editor.cage.n_vertices)}"
+                         + said)
         return True
 
     # ------------------------------------------------------------------ screenshots

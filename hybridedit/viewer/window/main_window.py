@@ -27,6 +27,7 @@ from .file_actions import FileActions
 from .file_drops import FileDrops
 from .first_steps import FirstSteps
 from .limb_posing import LimbPosing
+from .pose_panel import PosePanel
 from .posing import Posing
 from .scene_sync import SceneSync
 from .selecting import Selecting
@@ -69,6 +70,7 @@ class MainWindow(QtWidgets.QMainWindow):
     first_steps : the hint on the view until the first selection (:class:`~.first_steps.FirstSteps`).
     limb_posing : the Pose tool (:class:`~.limb_posing.LimbPosing`).
     autosave : the unsaved pose kept for recovery, and recovered (:class:`~.autosave.Autosave`).
+    pose_panel : Pose ▸ Keep Pose and the Poses panel of kept poses (:class:`~.pose_panel.PosePanel`).
     """
 
     def __init__(self, cage_size: int | float = CAGE_SIZE) -> None:
@@ -93,6 +95,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.limb_posing = LimbPosing(self)
         self.controller = ViewController(self.view, self.scene, self.selecting, self.dragging, self.limb_posing)
         self.cage_control = CageSizeControl(lambda: self.session.mesh.n_vertices if self.session else None)
+        self.pose_panel = PosePanel(self, self)
         self.actions_ = ActionSet(self, self)
         # (after the toolbar: its widgets come after the toolbar's in the keyboard focus order)
         self.status = StatusBar(self, self)

@@ -1,5 +1,6 @@
-"""The unsaved-pose mark: the title's ``*`` while the pose on display is not the one last saved (or
-opened), and the title itself, which names the shape's file."""
+"""The unsaved-work mark: the title's ``*`` while the pose on display is not the one last saved (or
+opened), or the kept poses (:mod:`..model.pose_library`) changed since they were last saved in an edit
+file; and the title itself, which names the shape's file."""
 
 from __future__ import annotations
 
@@ -25,10 +26,11 @@ class MarkHost(Protocol):
 
 
 class UnsavedMark:
-    """Whether the pose on display is saved, and the window's title that shows it.
+    """Whether the pose on display and the kept poses are saved, and the window's title that shows it.
 
     The saved pose is remembered (the undo history's own copy when it has one), so that undo and
-    redo back to it clear the ``*`` again.
+    redo back to it clear the ``*`` again; the kept poses say themselves whether they are saved
+    (:attr:`~..model.pose_library.PoseLibrary.unsaved`).
 
     Parameters
     ----------
@@ -37,24 +39,40 @@ class UnsavedMark:
 
     Attributes
     ----------
-    modified : the pose on display is not saved (shown as ``*`` in the title).
+    pose_modified : the pose on display is not saved.
     """
 
     def __init__(self, window: MarkHost, parent: QtWidgets.QWidget) -> None:
         self.w = window
         self.parent = parent
-        self.modified = False
+        self.pose_modified = False
+        self._shown = False  # what the title shows
         self._saved_pose: np.ndarray | None = None  # the pose last saved or opened (see pose_saved)
+
+    @property
+    def modified(self) -> bool:
+        """Work would be lost: the pose on display or the kept poses are not saved (the title's ``*``)."""
+        return self.pose_modified or self.poses_unsaved()
+
+    def poses_unsaved(self) -> bool:
+        """The kept poses changed since they were last saved (or read from an edit file)."""
+        s = self.w.session
+        return s is not None and s.poses.unsaved
 
     def set_modified(self, modified: bool) -> None:
         """The pose on display is (not) saved; ``False`` also remembers it as the saved pose, so that undo and
         redo back to it clear the title's ``*`` again."""
         if not modified:
             self._saved_pose = self._pose_reference()
-        if bool(modified) == self.modified:
+        self.pose_modified = bool(modified)
+        self.poses_changed()
+
+    def poses_changed(self) -> None:
+        """The kept poses changed, or were saved: the title's ``*`` shows it."""
+        if self.modified == self._shown:
             return  # (every drag frame says so: no window-title event each time)
-        self.modified = bool(modified)
-        self.parent.setWindowModified(self.modified)
+        self._shown = self.modified
+        self.parent.setWindowModified(self._shown)
 
     def _pose_reference(self) -> np.ndarray | None:
         """The pose on display, as an array to compare with later: the undo history's own copy of it when it
@@ -77,4 +95,5 @@ class UnsavedMark:
         ``*`` while the pose on display is not saved."""
         name = self.w.files.document_name
         self.parent.setWindowTitle("hybridedit" if name is None else f"hybridedit — {name}[*]")
-        self.parent.setWindowModified(self.modified)
+        self._shown = self.modified
+        self.parent.setWindowModified(self._shown)
