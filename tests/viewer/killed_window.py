@@ -1,10 +1,11 @@
 """Run by tests/viewer/test_window_recovery.py in a process of its own (not collected with the suite):
-three edits in the window through real events, then the process killed with SIGKILL, as a crash or
+three edits in the window through real events, the first kept in the pose library (K), then the
+process killed with SIGKILL, as a crash or
 the out-of-memory killer ends it: nothing is closed, saved or cleaned up.
 
 $HE_KILL_DIR names the folder of the test shape (``blob.obj``, written here) and of what the killed
-window leaves for the test: ``lost.npy`` (the pose on display when it died) and ``cache.txt`` (its
-user cache folder, where its recovery file is).
+window leaves for the test: ``lost.npy`` (the pose on display when it died), ``kept.npy`` (the pose it
+kept) and ``cache.txt`` (its user cache folder, where its recovery file is).
 """
 
 from __future__ import annotations
@@ -55,6 +56,8 @@ def test_three_edits_then_killed(qtbot):
         qtbot.wait(30)
         P = w.session.cage_positions
         edit(qtbot, w, P[:, 0] > 0.3, P[:, 0] > 1.3, QtCore.QPoint(0, -70))
+        key(qtbot, w, Qt.Key.Key_K)  # kept in the pose library
+        np.save(out / "kept.npy", w.session.poses[0].positions)
         edit(qtbot, w, P[:, 0] < -0.3, P[:, 0] < -1.3, QtCore.QPoint(0, 60))
         drag(qtbot, w, QtCore.QPoint(40, 0))  # the same handle again: a third edit
         s = w.session

@@ -191,6 +191,9 @@ def test_kept_poses_alone_ask_before_quitting(qtbot, win, monkeypatch, tmp_path)
     """The pose saved, a pose kept: quitting asks about the kept poses; Cancel keeps the window; the
     recovery file holds them meanwhile."""
     w = win
+    # (K is Keep Pose's alone: no two actions share a key)
+    keys = [k.toString() for a in w.actions_.values() for k in a.shortcuts()]
+    assert w.actions_["keep_pose"].shortcut().toString() == "K" and len(keys) == len(set(keys))
     select_end(qtbot, w, left=False)
     drag_handle(qtbot, w, 60)
     assert w.files.save_to(tmp_path / "posed.obj")

@@ -76,8 +76,9 @@ def test_the_unsaved_pose_is_kept_until_saved_and_a_clean_quit_leaves_nothing(qt
 
 
 def test_a_window_killed_after_three_edits_is_recovered_exactly(qtbot, tmp_path, monkeypatch):
-    """The window of another process, killed with SIGKILL after three edits made with real events; the
-    next window on the shape offers the pose back, and Recover replays it exactly (0 of the diagonal)."""
+    """The window of another process, killed with SIGKILL after three edits made with real events (the
+    first kept in the pose library); the next window on the shape offers the pose back, and Recover
+    replays it and the kept pose exactly (0 of the diagonal)."""
     out = tmp_path / "killed"
     out.mkdir()
     env = dict(os.environ, HE_KILL_DIR=str(out))
@@ -86,6 +87,7 @@ def test_a_window_killed_after_three_edits_is_recovered_exactly(qtbot, tmp_path,
                          env=env, cwd=HERE.parent.parent, capture_output=True, text=True, timeout=900)
     assert run.returncode == -9, run.stdout[-3000:] + run.stderr[-3000:]
     lost = np.load(out / "lost.npy")
+    kept = np.load(out / "kept.npy")
     cache = Path((out / "cache.txt").read_text())
     monkeypatch.setenv("HYBRIDEDIT_CACHE_DIR", str(cache))
     (orphan,) = recovery_files(cache)
@@ -93,11 +95,13 @@ def test_a_window_killed_after_three_edits_is_recovered_exactly(qtbot, tmp_path,
     with opened_window(qtbot, cage_size=CAGE, path=out / "blob.obj") as w:
         qtbot.waitUntil(lambda: w.autosave.box is not None and w.autosave.box.isVisible(), timeout=10000)
         text = w.autosave.box.text()
-        assert text.startswith("Recover the unsaved pose of blob.obj (") and " steps, " in text, text
+        assert text.startswith("Recover the unsaved pose of blob.obj (") and " steps, 1 kept pose, " in text, text
         assert not np.array_equal(w.session.shown_positions, lost)  # opened at rest
         click(qtbot, w.autosave.recover_button)
         qtbot.waitUntil(lambda: w.autosave.box is None and w.unsaved.modified, timeout=10000)
         np.testing.assert_array_equal(w.session.shown_positions, lost)  # exactly the pose it died with
+        assert w.session.poses.names == ["Pose 1"] and w.pose_panel.list.count() == 1
+        np.testing.assert_array_equal(w.session.poses[0].positions, kept)  # and the pose it kept
         shown = np.asarray(w.scene.shape.points)
         np.testing.assert_allclose(shown, lost, rtol=0, atol=1e-6 * np.ptp(lost, axis=0).max())
         assert "Recovered the unsaved pose of blob.obj" in w.status.current_message()

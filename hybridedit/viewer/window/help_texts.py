@@ -20,6 +20,8 @@ MOUSE_HELP = [
     ("Middle drag", "pan"),
     ("Right drag / wheel", "zoom"),
     ("Drop a file", "open a mesh (.obj .ply .stl .off) or load an edit (.json)"),
+    ("Double-click a kept pose", "Poses panel (Pose ▸ Keep Pose, K): go on editing from it; F2 or a click on the "
+                                 "chosen name renames it, Delete removes it"),
 ]
 
 
