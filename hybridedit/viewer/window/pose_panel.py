@@ -127,6 +127,7 @@ class PosePanel:
         self.w = window
         self.parent = parent
         self._shown: tuple | None = None  # (the library on display, its revision)
+        self._last: tuple[int, int] = (0, 0)  # (the last library listed, how many it had): see refresh
         self._filling = False  # the list is being filled: its item changes are not renames
         self.list = QtWidgets.QListWidget()
         self.list.setObjectName("pose_list")
@@ -190,7 +191,9 @@ class PosePanel:
         if key == self._shown:
             self._enable()
             return
-        was_empty = self._shown is None or self._shown[0] != id(lib) or self.list.count() == 0
+        # poses arriving where none were listed (a file read, a recovery) show the panel; the same poses
+        # back after a shape put aside (an open cancelled) do not, should the panel have been closed
+        arrived = lib is not None and (self._last[0] != id(lib) or self._last[1] == 0)
         row = self.list.currentRow()
         self._filling = True
         try:
@@ -204,9 +207,11 @@ class PosePanel:
         finally:
             self._filling = False
         self._shown = key
+        if lib is not None:
+            self._last = (id(lib), len(lib))
         if self.list.count():
             self.list.setCurrentRow(min(max(row, 0), self.list.count() - 1))
-            if was_empty:
+            if arrived:
                 self.dock.show()
         self._enable()
 
