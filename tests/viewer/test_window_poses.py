@@ -10,7 +10,6 @@ import json
 
 import numpy as np
 import pygltflib
-import pytest
 from qtpy import QtCore, QtWidgets
 
 from hybridedit import cli
