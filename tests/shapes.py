@@ -7,6 +7,7 @@ Kept out of conftest.py: tests/viewer has a conftest.py of its own, and which on
 from __future__ import annotations
 
 import itertools
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +17,7 @@ from hybridedit.core.mesh import Mesh
 
 REPO = Path(__file__).resolve().parent.parent
 SHARED_MESHES = REPO.parent / "shared" / "meshes"
+SPOT = SHARED_MESHES / "spot"
 
 
 def icosphere(subdivisions: int = 3, radius: float = 1.0) -> Mesh:
@@ -180,3 +182,16 @@ def textured_glb(path: Path) -> Path:
     scene.add_geometry(sphere, transform=trimesh.transformations.translation_matrix([0, 0, 2]))
     path.write_bytes(scene.export(file_type="glb", include_normals=True))
     return path
+
+
+def textured_spot(folder: Path) -> Path:
+    """spot's quad mesh (SPOT, where present) with a material library and its texture, in ``folder``."""
+    folder.mkdir(parents=True)
+    lines = (SPOT / "spot_quadrangulated.obj").read_bytes().splitlines(keepends=True)
+    first_f = next(i for i, line in enumerate(lines) if line.startswith(b"f "))
+    lines[first_f:first_f] = [b"o spot\n", b"g body\n", b"usemtl spot_material\n", b"s 1\n"]
+    (folder / "spot.obj").write_bytes(b"# spot, with a material\nmtllib spot.mtl\n" + b"".join(lines))
+    (folder / "spot.mtl").write_text("newmtl spot_material\nKd 1 1 1\nmap_Kd textures/spot_texture.png\n")
+    (folder / "textures").mkdir()
+    shutil.copy(SPOT / "spot_texture.png", folder / "textures" / "spot_texture.png")
+    return folder / "spot.obj"

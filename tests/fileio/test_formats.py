@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import shutil
 from pathlib import Path
 
 import numpy as np
@@ -15,9 +14,7 @@ from hybridedit import HybridEditor
 from hybridedit.core.normals import vertex_normals
 from hybridedit.fileio.meshfiles import read_document, read_mesh, write_document
 
-from shapes import SHARED_MESHES, bumpy_blob, icosphere, textured_glb
-
-SPOT = SHARED_MESHES / "spot"
+from shapes import SPOT, bumpy_blob, icosphere, textured_glb, textured_spot
 
 
 def bend(V: np.ndarray) -> np.ndarray:
@@ -46,16 +43,7 @@ def spot(tmp_path: Path) -> Path:
     """spot's quad mesh with a material library and its texture, in a folder of their own."""
     if not (SPOT / "spot_quadrangulated.obj").exists():
         pytest.skip(f"{SPOT} not available")
-    src = tmp_path / "in"
-    src.mkdir()
-    lines = (SPOT / "spot_quadrangulated.obj").read_bytes().splitlines(keepends=True)
-    first_f = next(i for i, line in enumerate(lines) if line.startswith(b"f "))
-    lines[first_f:first_f] = [b"o spot\n", b"g body\n", b"usemtl spot_material\n", b"s 1\n"]
-    (src / "spot.obj").write_bytes(b"# spot, with a material\nmtllib spot.mtl\n" + b"".join(lines))
-    (src / "spot.mtl").write_text("newmtl spot_material\nKd 1 1 1\nmap_Kd textures/spot_texture.png\n")
-    (src / "textures").mkdir()
-    shutil.copy(SPOT / "spot_texture.png", src / "textures" / "spot_texture.png")
-    return src / "spot.obj"
+    return textured_spot(tmp_path / "in")
 
 
 def test_obj_without_edit_is_the_same_file(spot: Path, tmp_path: Path) -> None:

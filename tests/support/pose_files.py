@@ -1,12 +1,13 @@
-"""Reading pose files back as their clients do, and the validators that check them: pygltflib for glTF
-morph targets, ``pxr`` (UsdSkel) for USD blend shapes, the Khronos glTF Validator (an npm package,
-scripts/gltf-validator) and USD's validators (what ``usdchecker`` runs). Where node, the validator or
-usd-core is missing, a test using them is skipped, unless HYBRIDEDIT_REQUIRE_VALIDATORS is set
-(.ci/run sets it), where that fails instead.
+"""The pose tests' inputs, and reading pose files back as their clients do, and the validators that
+check them: pygltflib for glTF morph targets, ``pxr`` (UsdSkel) for USD blend shapes, the Khronos glTF
+Validator (an npm package, scripts/gltf-validator) and USD's validators (what ``usdchecker`` runs).
+Where node, the validator or usd-core is missing, a test using them is skipped, unless
+HYBRIDEDIT_REQUIRE_VALIDATORS is set (.ci/run sets it), where that fails instead.
 """
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import shutil
@@ -14,10 +15,11 @@ import subprocess
 from pathlib import Path
 
 import numpy as np
+import plyfile
 import pygltflib
 import pytest
 
-from shapes import REPO
+from shapes import REPO, icosphere
 
 VALIDATOR = REPO / "scripts" / "gltf-validator"
 REQUIRED = bool(os.environ.get("HYBRIDEDIT_REQUIRE_VALIDATORS"))
@@ -37,6 +39,75 @@ def _pxr():
     from pxr import Usd, UsdGeom, UsdSkel, Vt
 
     return Usd, UsdGeom, UsdSkel, Vt
+
+
+# --------------------------------------------------------------------------- inputs
+
+
+def textured_tube(folder: Path, rows: int = 6, cols: int = 12) -> Path:
+    """An open tube of quads along x, its texture coordinates cut along one seam (the seam's
+    vertices have two coordinates each), a material and its PNG texture."""
+    from PIL import Image
+
+    folder.mkdir(parents=True, exist_ok=True)
+    angle = 2 * np.pi * np.arange(cols) / cols
+    x = np.linspace(-2.0, 2.0, rows + 1)
+    V = np.array([(xi, np.cos(a), np.sin(a)) for xi in x for a in angle])
+    vt = np.array([(j / cols, i / rows) for i in range(rows + 1) for j in range(cols + 1)])
+    lines = ["mtllib tube.mtl", "usemtl skin"]
+    lines += [f"v {a!r} {b!r} {c!r}" for a, b, c in V.tolist()]
+    lines += [f"vt {u!r} {v!r}" for u, v in vt.tolist()]
+    for i in range(rows):
+        for j in range(cols):
+            c = [(i, j), (i, j + 1), (i + 1, j + 1), (i + 1, j)]
+            lines.append("f " + " ".join(f"{a * cols + b % cols + 1}/{a * (cols + 1) + b + 1}" for a, b in c))
+    (folder / "tube.obj").write_text("\n".join(lines) + "\n")
+    (folder / "tube.mtl").write_text("newmtl skin\nKd 1 1 1\nmap_Kd skin.png\n")
+    pixels = (np.random.default_rng(3).random((8, 8, 3)) * 255).astype(np.uint8)
+    buffer = io.BytesIO()
+    Image.fromarray(pixels).save(buffer, format="PNG")
+    (folder / "skin.png").write_bytes(buffer.getvalue())
+    return folder / "tube.obj"
+
+
+def coloured_ply(path: Path) -> Path:
+    """An icosphere with a colour (RGBA bytes, some translucent) at each vertex."""
+    m = icosphere(2)
+    rgba = (np.random.default_rng(5).random((m.n_vertices, 4)) * 255).astype(np.uint8)
+    rgba[::2, 3] = 255
+    vertex = np.empty(m.n_vertices, dtype=[("x", "f4"), ("y", "f4"), ("z", "f4"), ("red", "u1"),
+                                            ("green", "u1"), ("blue", "u1"), ("alpha", "u1")])
+    for k, axis in enumerate("xyz"):
+        vertex[axis] = m.vertices[:, k]
+    for k, channel in enumerate(["red", "green", "blue", "alpha"]):
+        vertex[channel] = rgba[:, k]
+    face = np.empty(m.n_faces, dtype=[("vertex_indices", "i4", (3,))])
+    face["vertex_indices"] = m.faces
+    plyfile.PlyData([plyfile.PlyElement.describe(vertex, "vertex"),
+                     plyfile.PlyElement.describe(face, "face")]).write(str(path))
+    return path
+
+
+def region_poses(V: np.ndarray) -> list[np.ndarray]:
+    """Four poses: the +x end bent up (a region moves), the whole shape swollen, nothing moved, and
+    the -x end twisted."""
+    lo, hi = V.min(axis=0), V.max(axis=0)
+    t = (V[:, 0] - lo[0]) / (hi[0] - lo[0])  # 0 at -x, 1 at +x
+    bent = V.copy()
+    end = np.maximum(t - 0.6, 0.0)
+    bent[:, 1] += 2.0 * end ** 2
+    swollen = V * 1.15 + [0.0, 0.1, 0.0]
+    twisted = V.copy()
+    a = 1.5 * np.maximum(0.35 - t, 0.0)
+    twisted[:, 1] = V[:, 1] * np.cos(a) - V[:, 2] * np.sin(a)
+    twisted[:, 2] = V[:, 1] * np.sin(a) + V[:, 2] * np.cos(a)
+    return [bent, swollen, V.copy(), twisted]
+
+
+NAMES = ["bend up", "swell", "rest again", "twist (left)"]
+
+
+# --------------------------------------------------------------------------- reading glTF back
 
 
 def accessor(gltf: pygltflib.GLTF2, index: int) -> np.ndarray:
