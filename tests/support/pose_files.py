@@ -1,7 +1,8 @@
 """The pose tests' inputs, and reading pose files back as their clients do, and the validators that
-check them: pygltflib for glTF morph targets, ``pxr`` (UsdSkel) for USD blend shapes, the Khronos glTF
+check them: pygltflib for glTF morph targets, Blender's own glTF importer (blender_gltf_import.py here,
+run by the Python of blender/.venv-bpy), ``pxr`` (UsdSkel) for USD blend shapes, the Khronos glTF
 Validator (an npm package, scripts/gltf-validator) and USD's validators (what ``usdchecker`` runs).
-Where node, the validator or usd-core is missing, a test using them is skipped, unless
+Where node, the validator, Blender or usd-core is missing, a test using them is skipped, unless
 HYBRIDEDIT_REQUIRE_VALIDATORS is set (.ci/run sets it), where that fails instead.
 """
 
@@ -22,6 +23,9 @@ import pytest
 from shapes import REPO, icosphere
 
 VALIDATOR = REPO / "scripts" / "gltf-validator"
+#: Blender as a Python module: the venv blender/run_tests.sh makes (.ci/run runs it before the suite)
+BPY_PYTHON = REPO / "blender" / ".venv-bpy" / "bin" / "python"
+BLENDER_IMPORT = Path(__file__).with_name("blender_gltf_import.py")
 REQUIRED = bool(os.environ.get("HYBRIDEDIT_REQUIRE_VALIDATORS"))
 
 
@@ -151,6 +155,24 @@ def validate_gltf(path: Path) -> dict:
                          timeout=300)
     assert run.returncode in (0, 1), run.stderr
     return json.loads(run.stdout)
+
+
+def blender_import(path: Path) -> dict[str, np.ndarray]:
+    """What Blender's own glTF importer makes of ``path``: tests/support/blender_gltf_import.py's dump
+    (its docstring lists the arrays), run by the Python of blender/.venv-bpy, or of
+    HYBRIDEDIT_BPY_PYTHON where that is set (skips where there is none)."""
+    python = Path(os.environ.get("HYBRIDEDIT_BPY_PYTHON") or BPY_PYTHON)
+    if not python.is_file():
+        _missing(f"no Python with Blender as a module at {python} (bash blender/run_tests.sh makes it; "
+                 f"or set HYBRIDEDIT_BPY_PYTHON)")
+    out = path.with_name(path.stem + "_blender.npz")
+    # -I: none of this process's PYTHONPATH or user site in Blender's Python
+    run = subprocess.run([str(python), "-I", str(BLENDER_IMPORT), str(path), str(out)], capture_output=True,
+                         text=True, timeout=300)
+    assert run.returncode == 0, (run.stdout[-3000:], run.stderr[-3000:])
+    print(run.stdout.splitlines()[-1])
+    with np.load(out) as dump:
+        return {name: dump[name] for name in dump.files}
 
 
 def usd_check(path: Path) -> list[str]:
