@@ -135,3 +135,24 @@ def test_load_edit_replays_and_failures_keep_the_state(session):
     for _ in range(30):
         W = ed.drag(translate=(0, 0, 0.25))
     assert np.array_equal(s.shape_positions, W)
+
+
+def test_load_edit_converges_a_last_step_that_converged(session, editor_parts):
+    """An edit whose last step converged (HybridEditor.converge, e.g. from the API or Blender's
+    settle) loads to the pose ``hybridedit deform`` replays, exactly, not to a settle's frames."""
+    s = session
+    mesh, cage, M = editor_parts
+    V = mesh.vertices
+    ed = HybridEditor(mesh, 150, cage=cage, binding=M)
+    ed.set_selection(np.flatnonzero(V[:, 0] > 1.7), roi=np.flatnonzero(V[:, 0] > 0.0), space="shape")
+    T = rigid_transform(translate=(0, 0.1, 0.35))
+    ed.drag(transform=T)
+    r = ed.converge(transform=T, tolerance=1e-8)
+    assert r.converged
+    edit = ed.edit
+    assert edit.converge is not None and edit.converge["tolerance"] == 1e-8
+    s.load_edit(edit)
+    fresh = HybridEditor(mesh, 150, cage=cage, binding=M)
+    fresh.apply_edit(edit)  # (what `hybridedit deform` runs)
+    assert np.array_equal(s.shape_positions, fresh.deformed_vertices)
+    assert np.abs(s.shape_positions - r.vertices).max() <= 1e-7 * mesh.bbox_diagonal()

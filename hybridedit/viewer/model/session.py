@@ -499,10 +499,14 @@ class Session:
         self._anchor = self.editor.cage_positions
         self._bases = [np.eye(4) for _ in range(self.selection.n_groups)]
         self._mark_anchor()
-        if edit.iterations is None:
+        if edit.iterations is None and edit.converge is None:
             self.settle()
-        elif edit.iterations > 0:
+        elif edit.iterations:
             self.editor.drag(transforms=self._engine_transforms(), iterations=edit.iterations)
+        if edit.converge is not None:  # as hybridedit.deform.replay runs it: to the fixed point
+            self.editor.converge(transforms=self._engine_transforms(), tolerance=edit.converge["tolerance"],
+                                 max_iterations=edit.converge["max_iterations"],
+                                 start="current" if edit.iterations is not None else "base")
         if edit.polish is not None:
             self.editor.polish(iterations=edit.polish)
             self._polished_here()
