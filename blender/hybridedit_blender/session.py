@@ -30,6 +30,7 @@ import numpy as np
 
 #: the shape key holding the live pose
 KEY = "Hybrid ARAP"
+_EYE = np.eye(4)
 #: one lock for every call into the engine, from any thread (the bind worker, the settle worker,
 #: Blender's main thread, a render thread): the engine's compiled kernels are not to be entered
 #: from two threads at once
@@ -473,6 +474,10 @@ class Session:
         the same bit for bit whatever frames came before), or the cached one; False when
         cancelled."""
         if self.from_cache(transforms):
+            return True
+        if all(np.array_equal(M, _EYE) for M in transforms.values()):
+            self.zero()  # every Empty at its rest: the base pose itself (Bind's rest, or the pose applied)
+            self.last_transforms = {g: T.copy() for g, T in transforms.items()}
             return True
         self.start_from_base()
         return self._converge(transforms, "base", cancel)
