@@ -1,12 +1,14 @@
 """Following the Empties.
 
 - A ``depsgraph_update_post`` handler runs one engine frame when an Empty moved (a live frame)
-  and writes the pose key; a worker thread then settles the pose to convergence
-  (HybridEditor.pose's rule) while Blender's main thread stays free, and a timer writes what it
-  has every 0.1 s with the progress in the status bar.
+  and writes the pose key; once the Empty is still, a worker thread converges the pose on the
+  cage alone (HybridEditor.converge: the mesh is propagated and written once, not every
+  iteration) while Blender's main thread stays free, and a timer writes it with the progress
+  in the status bar.
 - A ``frame_change_post`` handler (the viewport's frame changes and every frame a render
-  evaluates) solves each frame from the base pose to that frame's Empty matrices, converged,
-  so a frame gives the same pose whatever frames came before; poses are cached by transforms.
+  evaluates) solves each frame from the base pose to that frame's Empty matrices, converged
+  (``converge(start="base")``), so a frame gives the same pose bit for bit whatever frames came
+  before; poses are cached by transforms.
 - After an undo or redo the pose key is solved again for the Empties undo restored (from the
   cache when it was settled before): an unconverged pose is never kept.
 - After opening a .blend, bound objects are bound again in the background (their rest is the
@@ -160,14 +162,14 @@ def start_worker(s: S.Session, busy: str, work) -> None:
 
 
 def settle_async(s: S.Session) -> None:
-    """Go on with the pose loop at the last transforms until it converges."""
+    """Converge the pose at the last transforms from where the live frames left it: the cage's
+    iterations alone (HybridEditor.converge), the shape propagated and written once."""
     T = {g: M.copy() for g, M in s.last_transforms.items()}
 
     def work(cancel):
-        while not cancel.is_set():
-            with S.ENGINE:
-                if cancel.is_set() or s.settle_step(T):
-                    return
+        with S.ENGINE:
+            if not cancel.is_set():
+                s.settle(T, cancel)
 
     start_worker(s, "settling", work)
 
@@ -177,16 +179,17 @@ def solve_async(s: S.Session, T: dict) -> None:
 
     def work(cancel):
         with S.ENGINE:
-            if s.from_cache(T):
-                return
-            s.start_from_base()
-            s.live_frame(T)
-        while not cancel.is_set():
-            with S.ENGINE:
-                if cancel.is_set() or s.settle_step(T):
-                    return
+            if not cancel.is_set():
+                s.solve(T, cancel)
 
     start_worker(s, "settling", work)
+
+
+def _say_note(s: S.Session) -> None:
+    """The session's warning (a converge that reached its cap), once."""
+    if s.note:
+        say(s.note, "WARNING")
+        s.note = ""
 
 
 def _write_if_dirty(s: S.Session, obj) -> None:
@@ -216,6 +219,8 @@ def tick():
             s.thread, s.busy = None, ""
             if s.problem:
                 stop(s, s.problem)
+            else:
+                _say_note(s)
     _poll_binds()
     if BACKGROUND_BINDS:
         working += [job.status() for job, _ in BACKGROUND_BINDS]
@@ -240,6 +245,7 @@ def finish(s: S.Session | None = None) -> None:
         if x.problem and x.uid in SESSIONS:
             stop(x, x.problem)
             continue
+        _say_note(x)
         _write_if_dirty(x, obj)
     status(None)
 
@@ -368,6 +374,7 @@ def pose_frame(s: S.Session, obj, depsgraph) -> bool:
     with S.ENGINE:
         s.solve(T)
         s.write(obj)
+    _say_note(s)
     return True
 
 

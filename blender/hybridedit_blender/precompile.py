@@ -146,8 +146,7 @@ def _session_pass(label: str, rest32, tris, groups: dict[str, np.ndarray], roi, 
     T = {g: _turn(g, 20.0, 0.2) for g in range(len(groups))}
     with S.ENGINE:
         s.live_frame(T)
-        while not s.settle_step(T):  # (live.settle_async)
-            pass
+        s.settle(T)  # (live.settle_async)
         assert s.from_cache(T)
         say(f"{label}: an animation frame", 0.0)
         s.solve({g: _turn(g, 35.0, 0.3) for g in range(len(groups))})  # (live.pose_frame)

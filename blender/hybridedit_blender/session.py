@@ -30,6 +30,7 @@ import numpy as np
 
 #: the shape key holding the live pose
 KEY = "Hybrid ARAP"
+_EYE = np.eye(4)
 #: one lock for every call into the engine, from any thread (the bind worker, the settle worker,
 #: Blender's main thread, a render thread): the engine's compiled kernels are not to be entered
 #: from two threads at once
@@ -313,9 +314,15 @@ class Session:
     settle_due: float = 0.0  # time.monotonic() after which the worker settles (0: nothing to settle)
     said: set = field(default_factory=set)  # one-time messages already said (Edit Mode...)
 
-    tolerance: float = 1e-6  # HybridEditor.pose's: a frame moving no vertex by more than this x diagonal
-    #: at most this many frames per settle (HybridEditor.pose's max_frames)
-    max_frames: int = 1000
+    #: a settled pose is within this fraction of the diagonal of converged (HybridEditor.converge's
+    #: bound on the cage's distance to its fixed point; None: the engine's default)
+    tolerance: float | None = None
+    #: at most this many of the cage's iterations per settle or solve, then said in ``note`` (None:
+    #: the engine's default)
+    max_iterations: int | None = None
+    iterations: int = 0  # the last settle's or solve's
+    last_distance: float = 0.0  # its bound on the distance to converged, a fraction of the diagonal
+    note: str = ""  # a warning for the status bar (a cap reached), taken by the timer
 
     def __post_init__(self) -> None:
         if self.buf is None:
@@ -323,9 +330,6 @@ class Session:
         if self.written is None:
             self.written = self.buf.copy()
         self.bases[self.base.digest] = self.base
-        self._previous = None
-        self._settle_frames = 0
-        self._first_moved = None
         if self.stretch is not None:
             self._Pinv_T = np.linalg.inv(self.stretch).T
             self._P4, self._P4inv = np.eye(4), np.eye(4)
@@ -354,14 +358,12 @@ class Session:
         # a frame's scratch, made once per selection (in place: at 1M vertices with 300K moving,
         # 5 ms against 9-14 ms with temporaries)
         k = len(self.moving)
-        self._now, self._before, self._diff = np.empty((k, 3)), np.empty((k, 3)), np.empty((k, 3))
-        self._local = np.empty((k, 3))
+        self._now, self._local = np.empty((k, 3)), np.empty((k, 3))
         self._flat = (self.moving[:, None] * 3 + np.arange(3)).ravel()
         self._set_offset()
         self.base.state = self.editor.save_state()
         self.last_transforms = {}
         self.settled = True
-        self._previous = None
 
     def _set_offset(self) -> None:
         """The key holds basis + (pose - rest): the moving rows' basis - rest (None where they are equal)."""
@@ -392,62 +394,57 @@ class Session:
         return self.base.digest.encode() + transforms_key(transforms)
 
     # -------------------------------------------------------------- frames (callers hold ENGINE)
-    def _to_key_rows(self, now: np.ndarray) -> None:
-        """The engine's moving rows -> the key's float32 buffer (local space, plus the basis offset)."""
+    def _to_key_rows(self, V: np.ndarray) -> None:
+        """The engine's shape (n, 3) -> the key's float32 buffer: only the moving rows, in local
+        space, plus the basis offset."""
+        now = np.take(V, self.moving, axis=0, out=self._now)
         if self.stretch is not None:
             now = np.matmul(now, self._Pinv_T, out=self._local)
         if self._offset is not None:
             now = np.add(now, self._offset, out=self._local)
         np.put(self.buf, self._flat, now)  # (float64 -> float32, as an assignment rounds)
+        self.dirty = True
 
-    def frame(self, transforms: dict[int, np.ndarray]) -> float:
-        """One interactive frame (``HybridEditor.drag``) into the float32 buffer, only the rows the
-        selection can move converted; returns the largest coordinate change of the frame."""
+    def live_frame(self, transforms: dict[int, np.ndarray]) -> None:
+        """One interactive frame (``HybridEditor.drag``) from the current pose into the buffer; the
+        pose is not settled until :meth:`settle` converges it."""
         t0 = time.perf_counter()
-        V = self.editor.drag(transforms=transforms)
-        now = np.take(V, self.moving, axis=0, out=self._now)
-        if self._previous is not None:
-            np.subtract(now, self._previous, out=self._diff)
-            moved = float(np.abs(self._diff, out=self._diff).max(initial=0.0))
-        else:
-            moved = np.inf
-        self._now, self._before = self._before, now  # this frame's rows are the next one's "before"
-        self._previous = now
-        self._to_key_rows(now)
+        self._to_key_rows(self.editor.drag(transforms=transforms))
         self.last_engine_ms = (time.perf_counter() - t0) * 1e3
         self.last_transforms = {g: T.copy() for g, T in transforms.items()}
         self.frames += 1
-        self._settle_frames += 1
-        self.dirty = True
-        if np.isfinite(moved):
-            if self._first_moved is None:
-                self._first_moved = max(moved, np.finfo(float).tiny)
-            tol = self.tolerance * self.diagonal
-            if moved > tol and self._first_moved > tol:
-                self.progress = float(np.clip(np.log(self._first_moved / moved) / np.log(self._first_moved / tol), 0, 1))
-        return moved
-
-    def converged(self, moved: float) -> bool:
-        return moved <= self.tolerance * self.diagonal or self._settle_frames >= self.max_frames
-
-    def live_frame(self, transforms: dict[int, np.ndarray]) -> None:
-        """The first frame of HybridEditor.pose's loop for new transforms (from the current pose)."""
-        self._previous = np.take(self.editor.deformed_vertices, self.moving, axis=0, out=self._before)
-        self._settle_frames = 0
-        self._first_moved = None
+        self.settled = False
         self.progress = 0.0
-        self.settled = self.converged(self.frame(transforms))
-        if self.settled:
-            self.remember(transforms)
 
-    def settle_step(self, transforms: dict[int, np.ndarray]) -> bool:
-        """One more frame of the loop; True when it converged (then the pose is cached)."""
-        if self.settled:
-            return True
-        if self.converged(self.frame(transforms)):
-            self.settled = True
+    def _progress(self, stage: str, fraction: float) -> None:
+        self.progress = fraction
+
+    def _converge(self, transforms: dict[int, np.ndarray], start: str, cancel) -> bool:
+        """``HybridEditor.converge`` at these transforms (the cage alone, propagated once) into the
+        buffer; False when cancelled (nothing changed)."""
+        from hybridedit.defaults import CONVERGE_MAX_ITERATIONS, CONVERGE_TOLERANCE
+
+        tol = CONVERGE_TOLERANCE if self.tolerance is None else self.tolerance
+        cap = CONVERGE_MAX_ITERATIONS if self.max_iterations is None else self.max_iterations
+        r = self.editor.converge(transforms=transforms, start=start, tolerance=tol, max_iterations=cap,
+                                 cancel=cancel, progress=self._progress)
+        if r.stopped == "cancelled":
+            return False
+        self._to_key_rows(r.vertices)
+        self.last_transforms = {g: T.copy() for g, T in transforms.items()}
+        self.iterations, self.last_distance = r.iterations, r.distance
+        self.settled, self.progress = True, 1.0
+        if r.converged:
             self.remember(transforms)
-        return self.settled
+        else:  # kept (the best there is), said, and not cached: a solve may try again
+            self.note = (f"'{self.object_name}': the pose stopped {r.distance:.1e} of the diagonal from converged "
+                         f"after {r.iterations:,} iterations (at most {cap:,}, tolerance {tol:g})")
+        return True
+
+    def settle(self, transforms: dict[int, np.ndarray], cancel=None) -> bool:
+        """The pose at these transforms converged from where it is (after live frames: where the
+        user dragged it); False when cancelled."""
+        return self._converge(transforms, "current", cancel)
 
     def remember(self, transforms: dict[int, np.ndarray]) -> None:
         self.cache.put(self.cache_key(transforms), self.buf[self._flat].copy(), self.editor.save_state())
@@ -456,9 +453,6 @@ class Session:
         """The engine back at the base pose (before a solve that must not depend on earlier frames)."""
         self.editor.restore_state(self.base.state)
         self.last_transforms = {}
-        self._previous = None
-        self._settle_frames = 0
-        self._first_moved = None
         self.settled = False
 
     def from_cache(self, transforms: dict[int, np.ndarray]) -> bool:
@@ -471,24 +465,22 @@ class Session:
         # the engine goes on from that pose when its state was kept, else from the base pose
         self.editor.restore_state(state if state is not None else self.base.state)
         self.last_transforms = {g: T.copy() for g, T in transforms.items()}
-        self._previous = None
         self.settled = True
         self.dirty = True
         return True
 
-    def solve(self, transforms: dict[int, np.ndarray], cancel: threading.Event | None = None) -> bool:
-        """The converged pose for these transforms from the base pose (the same whatever frames came
-        before), or the cached one; False when cancelled."""
+    def solve(self, transforms: dict[int, np.ndarray], cancel=None) -> bool:
+        """The converged pose for these transforms from the base pose (``converge(start="base")``:
+        the same bit for bit whatever frames came before), or the cached one; False when
+        cancelled."""
         if self.from_cache(transforms):
-            self.settled = True
+            return True
+        if all(np.array_equal(M, _EYE) for M in transforms.values()):
+            self.zero()  # every Empty at its rest: the base pose itself (Bind's rest, or the pose applied)
+            self.last_transforms = {g: T.copy() for g, T in transforms.items()}
             return True
         self.start_from_base()
-        self.live_frame(transforms)
-        while not self.settled:
-            if cancel is not None and cancel.is_set():
-                return False
-            self.settle_step(transforms)
-        return True
+        return self._converge(transforms, "base", cancel)
 
     # -------------------------------------------------------------- Blender side (main thread)
     def write(self, obj) -> None:
@@ -530,6 +522,5 @@ class Session:
             self.editor.restore_state(self.base.state)
         self.buf[:] = self.base.basis32
         self.last_transforms = {}
-        self._previous = None
         self.settled = True
         self.dirty = True
