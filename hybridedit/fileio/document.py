@@ -131,7 +131,10 @@ class Document:
         The file's faces before triangulation: corner counts and engine vertex
         indices, one polygon after another; None when the faces are ``mesh.faces``.
     colors : (n, 4) float64 array or None
-        Per-vertex RGBA in [0, 1].
+        Per-vertex RGBA in [0, 1], display (sRGB-encoded) values as PLY, OBJ and
+        OFF store them; formats that store linear ones (glTF's ``COLOR_0``, USD's
+        ``displayColor``) convert as they read and write
+        (:mod:`hybridedit.fileio.formats.srgb`); alpha is never converted.
     normals : bool
         The file carries normals (writers recompute them).
     extras : dict of str to int

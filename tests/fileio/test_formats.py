@@ -12,6 +12,7 @@ import trimesh
 
 from hybridedit import HybridEditor
 from hybridedit.core.normals import vertex_normals
+from hybridedit.fileio.formats.srgb import linear_to_srgb, srgb_to_linear
 from hybridedit.fileio.meshfiles import read_document, read_mesh, write_document
 
 from shapes import SPOT, bumpy_blob, icosphere, textured_glb, textured_spot
@@ -610,6 +611,84 @@ def test_any_document_converts_to_glb_with_normals_and_colours(tmp_path: Path) -
     gltf = pygltflib.GLTF2.load(str(tmp_path / "ball.glb"))
     n = _accessor(gltf, gltf.meshes[0].primitives[0].attributes.NORMAL).astype(np.float64)
     assert np.percentile(angle_degrees(n, vertex_normals(V, doc.mesh.faces)), 99) < 1e-3
+
+
+def every_byte_ply(path: Path) -> tuple[Path, np.ndarray]:
+    """A sphere (642 vertices) whose RGBA bytes take every value 0..255 in each channel; and them, (n, 4)."""
+    m = icosphere(3)
+    k = np.arange(m.n_vertices)
+    rgba = np.column_stack([k % 256, (7 * k + 3) % 256, 255 - k % 256, (11 * k) % 256]).astype(np.uint8)
+    vertex = np.empty(m.n_vertices, dtype=[("x", "f4"), ("y", "f4"), ("z", "f4"), ("red", "u1"), ("green", "u1"),
+                                            ("blue", "u1"), ("alpha", "u1")])
+    for j, axis in enumerate("xyz"):
+        vertex[axis] = m.vertices[:, j]
+    for j, channel in enumerate(["red", "green", "blue", "alpha"]):
+        vertex[channel] = rgba[:, j]
+    face = np.empty(m.n_faces, dtype=[("vertex_indices", "i4", (3,))])
+    face["vertex_indices"] = m.faces
+    plyfile.PlyData([plyfile.PlyElement.describe(vertex, "vertex"),
+                     plyfile.PlyElement.describe(face, "face")]).write(str(path))
+    return path, rgba
+
+
+def color_0(path: Path) -> tuple[np.ndarray, bytes]:
+    """The first primitive's COLOR_0 of a .glb: its values as stored (normalized integers over their
+    maximum) and its bytes."""
+    gltf = pygltflib.GLTF2.load(str(path))
+    acc = gltf.accessors[gltf.meshes[0].primitives[0].attributes.COLOR_0]
+    view = gltf.bufferViews[acc.bufferView]
+    dtype = {pygltflib.FLOAT: "<f4", pygltflib.UNSIGNED_BYTE: "u1"}[acc.componentType]
+    comps = {"VEC3": 3, "VEC4": 4}[acc.type]
+    start = (view.byteOffset or 0) + (acc.byteOffset or 0)
+    size = np.dtype(dtype).itemsize * comps * acc.count
+    assert view.byteStride in (None, np.dtype(dtype).itemsize * comps)
+    raw = gltf.binary_blob()[start: start + size]
+    values = np.frombuffer(raw, dtype).reshape(-1, comps).astype(np.float64)
+    return (values / 255 if dtype == "u1" else values), raw
+
+
+def test_ply_byte_colours_are_linear_in_the_glb_and_come_back_as_the_same_bytes(tmp_path: Path) -> None:
+    """glTF's COLOR_0 is linear, a PLY's bytes display (sRGB) values: the .glb holds them decoded
+    (alpha as it is), and PLY -> GLB -> PLY gives every byte back."""
+    source, rgba = every_byte_ply(tmp_path / "ball.ply")
+    doc = read_document(source)
+    write_document(tmp_path / "ball.glb", doc)
+    stored, _ = color_0(tmp_path / "ball.glb")
+    assert np.array_equal(stored, srgb_to_linear(rgba / 255).astype(np.float32))
+    assert np.array_equal(stored[:, 3], (rgba[:, 3] / 255).astype(np.float32))
+    mid = np.flatnonzero(rgba[:, 0] == 128)[0]  # 128/255 shown is 21.6% of the light
+    assert abs(stored[mid, 0] - 0.2158605) < 1e-6
+    glb = read_document(tmp_path / "ball.glb")
+    assert np.array_equal(np.rint(glb.colors * 255), rgba)
+    write_document(tmp_path / "back.ply", glb)
+    vertex = plyfile.PlyData.read(str(tmp_path / "back.ply"))["vertex"].data
+    back = np.column_stack([vertex[c] for c in ("red", "green", "blue", "alpha")])
+    assert back.dtype == np.uint8 and np.array_equal(back, rgba)
+
+
+@pytest.mark.parametrize("maker", ["hybridedit", "trimesh"])
+def test_a_glb_written_back_keeps_its_colour_bytes(tmp_path: Path, maker: str) -> None:
+    """A .glb's own COLOR_0 (float from a PLY conversion, or normalized bytes from trimesh) is decoded for
+    the document once and never encoded again: an edited file written back has the same bytes there."""
+    if maker == "hybridedit":
+        write_document(tmp_path / "ball.glb", read_document(every_byte_ply(tmp_path / "ball.ply")[0]))
+    else:
+        s = trimesh.creation.icosphere(subdivisions=2)
+        s.visual.vertex_colors = (np.random.default_rng(2).random((len(s.vertices), 4)) * 255).astype(np.uint8)
+        (tmp_path / "ball.glb").write_bytes(s.export(file_type="glb"))
+    linear, raw = color_0(tmp_path / "ball.glb")
+    doc = read_document(tmp_path / "ball.glb")
+    file_first = doc.native.file_vertex  # (each engine vertex's colour is its first file vertex's)
+    first = np.full(doc.mesh.n_vertices, len(file_first))
+    np.minimum.at(first, file_first, np.arange(len(file_first)))
+    np.testing.assert_allclose(doc.colors, linear_to_srgb(linear[first]), rtol=0, atol=1e-12)
+    V = bend(doc.mesh.vertices)
+    assert np.any(V != doc.mesh.vertices)
+    write_document(tmp_path / "edited.glb", doc.with_vertices(V))
+    assert color_0(tmp_path / "edited.glb")[1] == raw
+    again = read_document(tmp_path / "edited.glb")
+    assert np.array_equal(again.colors, doc.colors)
+    assert np.abs(again.mesh.vertices - V).max() < 1e-6  # (the edit is there)
 
 
 # --------------------------------------------------------------------------- progress

@@ -20,11 +20,12 @@ import pytest
 
 import hybridedit as he
 from hybridedit.core.normals import vertex_normals
+from hybridedit.fileio.formats.srgb import srgb_to_linear
 from hybridedit.fileio.meshfiles import MeshFileError, read_document, write_document
 
 from shapes import textured_glb
-from support.pose_files import (NAMES, _pxr, coloured_ply, morphed, region_poses, textured_tube, usd_check,
-                                usd_poses, validate_gltf)
+from support.pose_files import (NAMES, _pxr, accessor, coloured_ply, morphed, region_poses, textured_tube,
+                                usd_check, usd_poses, validate_gltf)
 
 
 # --------------------------------------------------------------------------- glTF morph targets
@@ -91,9 +92,25 @@ def test_coloured_ply_poses_come_back_from_the_glb_with_their_colours(tmp_path):
     prim = gltf.meshes[0].primitives[0]
     for k, pose in enumerate(poses):  # (no UVs: the glTF vertices are the PLY's, in order)
         assert np.abs(morphed(gltf, prim, k) - pose).max() <= 1e-6 * doc.mesh.bbox_diagonal()
+    # COLOR_0 is linear: the PLY's display bytes decoded, the alpha as it is
+    stored = accessor(gltf, prim.attributes.COLOR_0)
+    assert np.array_equal(stored, srgb_to_linear(doc.colors).astype(np.float32))
+    assert np.array_equal(stored[:, 3], doc.colors[:, 3].astype(np.float32))
     back = read_document(out)
     np.testing.assert_allclose(back.colors, doc.colors, atol=1e-6)
     assert np.any(back.colors[:, 3] < 1)
+
+
+def test_a_coloured_glbs_poses_keep_its_colour_bytes(tmp_path):
+    """A .glb's own COLOR_0 goes through save_poses as the file has it (not decoded and encoded again)."""
+    write_document(tmp_path / "ball.glb", read_document(coloured_ply(tmp_path / "ball.ply")))
+    doc = read_document(tmp_path / "ball.glb")
+    out = tmp_path / "ball_poses.glb"
+    assert he.save_poses(out, doc, region_poses(doc.mesh.vertices)) == []
+    a, b = pygltflib.GLTF2.load(str(tmp_path / "ball.glb")), pygltflib.GLTF2.load(str(out))
+    assert b.binary_blob()[: len(a.binary_blob())] == a.binary_blob()  # (COLOR_0's bytes among them)
+    assert b.meshes[0].primitives[0].attributes.COLOR_0 == a.meshes[0].primitives[0].attributes.COLOR_0
+    assert np.array_equal(read_document(out).colors, doc.colors)
 
 
 def test_a_glb_keeps_its_own_file_and_gains_the_targets(tmp_path):
@@ -202,7 +219,10 @@ def test_coloured_ply_poses_come_back_from_usd_with_their_colours(tmp_path):
     assert np.abs(posed - np.array(poses)).max() <= 1e-6 * doc.mesh.bbox_diagonal()
     stage = Usd.Stage.Open(str(out))  # (held: a prim of a stage let go is invalid)
     mesh = UsdGeom.Mesh(stage.GetPrimAtPath("/ball/Mesh"))
-    np.testing.assert_allclose(np.array(mesh.GetDisplayColorPrimvar().Get()), doc.colors[:, :3], atol=1e-6)
+    # displayColor linear (USD's fallback colour space, none being authored, is linear Rec.709), opacity as is
+    np.testing.assert_allclose(np.array(mesh.GetDisplayColorPrimvar().Get()), srgb_to_linear(doc.colors[:, :3]),
+                               atol=1e-6)
+    assert not np.allclose(np.array(mesh.GetDisplayColorPrimvar().Get()), doc.colors[:, :3], atol=1e-3)
     np.testing.assert_allclose(np.array(mesh.GetDisplayOpacityPrimvar().Get()), doc.colors[:, 3], atol=1e-6)
     assert mesh.GetDisplayColorPrimvar().GetInterpolation() == "vertex"
 

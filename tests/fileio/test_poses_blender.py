@@ -20,6 +20,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import plyfile
 import pytest
 from PIL import Image
 
@@ -115,13 +116,9 @@ def test_blender_imports_a_textured_objs_poses_as_shape_keys_with_its_uvs(tmp_pa
           f"largest pose error {error:.2g} of the diagonal")
 
 
-def srgb(linear: np.ndarray) -> np.ndarray:
-    """The sRGB encoding of linear values in [0, 1]."""
-    return np.where(linear <= 0.0031308, 12.92 * linear, 1.055 * linear ** (1 / 2.4) - 0.055)
-
-
 def test_blender_imports_a_coloured_plys_poses_with_its_vertex_colours(tmp_path):
-    doc = read_document(coloured_ply(tmp_path / "ball.ply"))
+    source = coloured_ply(tmp_path / "ball.ply")
+    doc = read_document(source)
     poses = region_poses(doc.mesh.vertices)  # (the third moves nothing: a target without data)
     out = tmp_path / "ball.glb"
     he.save_poses(out, doc, poses)
@@ -130,13 +127,14 @@ def test_blender_imports_a_coloured_plys_poses_with_its_vertex_colours(tmp_path)
     assert np.array_equal(dump["keys"][3], dump["keys"][0])
     assert dump["uv_names"].tolist() == []
     assert dump["color_names"].tolist() == ["Color"] and dump["color_types"].tolist() == ["BYTE_COLOR"]
-    # Blender holds a byte colour as sRGB bytes (the importer encodes glTF's linear values): compared as
-    # those bytes, the alpha as it is
+    # Blender holds a byte colour as sRGB bytes (the importer encodes glTF's linear values): they are the
+    # PLY's own bytes, within one, the alpha too
     colors = dump["color_srgb_0"]
     if dump["color_domains"][0] == "POINT":  # (the importer's are per corner; a vertex's would do too)
         colors = colors[loop_vertices(dump)]
-    rgba = doc.colors[doc.mesh.faces.ravel()]
-    expected = np.column_stack([srgb(rgba[:, :3]), rgba[:, 3]])
+    vertex = plyfile.PlyData.read(str(source))["vertex"].data
+    ply_bytes = np.column_stack([vertex[c] for c in ("red", "green", "blue", "alpha")]).astype(np.float64)
+    expected = ply_bytes[doc.mesh.faces.ravel()] / 255
     assert np.abs(colors - expected).max() <= 1 / 255 + 1e-6
     assert np.any(colors[:, 3] < 1)
     print(f"ball: largest pose error {error:.2g} of the diagonal, largest colour error "

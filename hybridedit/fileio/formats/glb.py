@@ -15,6 +15,10 @@ triangle mesh with its normals, vertex colours, texture coordinates and
 materials (base colour and its texture image, embedded), one primitive per
 material. Reading one back, texture coordinates (v flipped back) and materials
 are there for a conversion to OBJ or PLY.
+
+``COLOR_0`` holds linear values, a document display (sRGB) ones: reading decodes
+and a new .glb encodes them (:mod:`.srgb`); a file written back to itself keeps
+its own ``COLOR_0`` bytes, as it keeps everything but positions and normals.
 """
 
 from __future__ import annotations
@@ -29,6 +33,7 @@ from ..document import Document, Material, Texturing, moved_vertices
 from ...core.normals import grouped_normals, vertex_normals
 from .common import _Bad, fan_triangles, _mesh
 from .glb_buffer import GltfBuffer
+from .srgb import linear_to_srgb, srgb_to_linear
 
 __all__ = ["GlbNative", "PlainGlb", "plain_glb", "read", "write"]
 
@@ -304,13 +309,14 @@ def _texturing(gltf: pygltflib.GLTF2, blob: bytes, uvs: list[int | None], sizes:
 
 
 def _rgba(values: np.ndarray, count: int) -> np.ndarray:
-    """COLOR_0 values (float, or normalized unsigned byte / short; RGB or RGBA) as (count, 4) floats in [0, 1]."""
+    """COLOR_0 values (linear; float, or normalized unsigned byte / short; RGB or RGBA) as (count, 4)
+    display (sRGB) floats in [0, 1], alpha as stored (1 where there is none)."""
     if len(values) != count or values.shape[1] not in (3, 4):
         raise _Bad("COLOR_0 must be 3 or 4 values for each vertex")
     scale = {np.dtype("u1"): 255.0, np.dtype("<u2"): 65535.0}.get(values.dtype, 1.0)
     rgba = np.ones((count, 4))
     rgba[:, :values.shape[1]] = values.astype(np.float64) / scale
-    return np.clip(rgba, 0.0, 1.0)
+    return linear_to_srgb(np.clip(rgba, 0.0, 1.0))
 
 
 def _weld_map(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -386,9 +392,10 @@ class PlainGlb:
 
 def plain_glb(doc: Document) -> PlainGlb:
     """A .glb of ``doc`` (from another format) written with pygltflib: its triangles, vertex
-    normals, colours, texture coordinates (vertices split where a vertex's corners have
-    different ones, the document's vertices first and in order) and materials (base colour
-    and its texture image, embedded), one primitive per material."""
+    normals, colours (made linear, as ``COLOR_0`` holds them), texture coordinates (vertices
+    split where a vertex's corners have different ones, the document's vertices first and in
+    order) and materials (base colour and its texture image, embedded), one primitive per
+    material."""
     mesh = doc.mesh
     counts, flat = doc.polygon_lists()
     tex = doc.textures()
@@ -412,7 +419,7 @@ def plain_glb(doc: Document) -> PlainGlb:
     if has_uv:
         attributes.TEXCOORD_0 = out.accessor(np.column_stack([uv[:, 0], 1.0 - uv[:, 1]]).astype("<f4"))
     if doc.colors is not None:
-        attributes.COLOR_0 = out.accessor(doc.colors[source].astype("<f4"))
+        attributes.COLOR_0 = out.accessor(srgb_to_linear(doc.colors[source]).astype("<f4"))  # (glTF's are linear)
     for m in materials:
         pbr = pygltflib.PbrMetallicRoughness(baseColorFactor=[float(c) for c in m.color], metallicFactor=0.0,
                                              roughnessFactor=1.0)

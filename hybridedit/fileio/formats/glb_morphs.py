@@ -2,13 +2,13 @@
 
 The rest mesh is written as :mod:`.glb` writes the document (a .glb read from a file: that file with
 the rest positions, everything else kept; a document of another format: a new .glb with its UVs,
-normals, colours, materials and texture images), then every triangle primitive gets one morph target
-per pose: POSITION deltas (float32, with the min and max the spec requires) and, with ``normals``,
-NORMAL deltas (the pose's normals, recomputed as :mod:`.glb` does, minus the rest's), only where a
-moved vertex touches them. A target whose deltas are mostly zero (a pose moves a region) is a sparse
-accessor, its non-zero rows only; one moving nothing is an accessor without data (all zeros). The
-targets' names go in ``mesh.extras.targetNames`` (what three.js, Babylon.js and Blender read), their
-weights are 0: the file opens at rest.
+normals, colours (made linear, as ``COLOR_0`` holds them), materials and texture images), then
+every triangle primitive gets one morph target per pose: POSITION deltas (float32, with the min and
+max the spec requires) and, with ``normals``, NORMAL deltas (the pose's normals, recomputed as
+:mod:`.glb` does, minus the rest's), only where a moved vertex touches them. A target whose deltas
+are mostly zero (a pose moves a region) is a sparse accessor, its non-zero rows only; one moving
+nothing is an accessor without data (all zeros). The targets' names go in ``mesh.extras.targetNames``
+(what three.js, Babylon.js and Blender read), their weights are 0: the file opens at rest.
 """
 
 from __future__ import annotations

@@ -5,9 +5,10 @@ after the file; in it:
 
 - ``Mesh``: the rest mesh with the document's polygons (``faceVertexCounts``, ``faceVertexIndices``),
   vertex normals (recomputed from the rest surface), texture coordinates (``primvars:st``,
-  face-varying and indexed, as OBJ's ``vt``) and vertex colours (``primvars:displayColor``, and
-  ``primvars:displayOpacity`` where one is not opaque), with ``subdivisionScheme = "none"`` so that
-  clients draw the polygons as they are;
+  face-varying and indexed, as OBJ's ``vt``) and vertex colours (``primvars:displayColor``, made
+  linear: with no ``colorSpace`` authored, USD reads colours as linear Rec.709 (:mod:`.srgb`); and
+  ``primvars:displayOpacity``, the alpha as it is, where one is not opaque), with
+  ``subdivisionScheme = "none"`` so that clients draw the polygons as they are;
 - a ``BlendShape`` under the mesh per pose: ``offsets`` (float32 point deltas) and ``normalOffsets``,
   with ``pointIndices`` when the pose moves a part of the mesh (only that part's rows are stored);
 - ``Skel``: a ``Skeleton`` of one joint at the origin (blend shapes are driven through a skeleton; the
@@ -30,6 +31,7 @@ import numpy as np
 from ..document import Document
 from ...core.normals import vertex_normals
 from .common import _Bad
+from .srgb import srgb_to_linear
 
 __all__ = ["MISSING", "identifiers", "write"]
 
@@ -144,7 +146,7 @@ def _rest_mesh(stage, path, doc: Document):
         st.Set(Vt.Vec2fArray.FromNumpy(uv.astype(np.float32)))
         st.SetIndices(Vt.IntArray.FromNumpy(corner.astype(np.int32)))
     if doc.colors is not None:
-        rgba = doc.colors.astype(np.float32)
+        rgba = srgb_to_linear(doc.colors).astype(np.float32)  # (no colorSpace authored: linear Rec.709)
         mesh.CreateDisplayColorPrimvar(UsdGeom.Tokens.vertex).Set(Vt.Vec3fArray.FromNumpy(rgba[:, :3]))
         if np.any(rgba[:, 3] < 1):
             mesh.CreateDisplayOpacityPrimvar(UsdGeom.Tokens.vertex).Set(Vt.FloatArray.FromNumpy(rgba[:, 3]))
