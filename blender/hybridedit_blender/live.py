@@ -161,28 +161,27 @@ def start_worker(s: S.Session, busy: str, work) -> None:
         bpy.app.timers.register(tick, first_interval=0.1, persistent=True)
 
 
+def _converge_async(s: S.Session, converge) -> None:
+    """``converge(cancel)`` (a Session method's converge) on the worker, holding the engine."""
+
+    def work(cancel):
+        with S.ENGINE:
+            if not cancel.is_set():
+                converge(cancel)
+
+    start_worker(s, "settling", work)
+
+
 def settle_async(s: S.Session) -> None:
     """Converge the pose at the last transforms from where the live frames left it: the cage's
     iterations alone (HybridEditor.converge), the shape propagated and written once."""
     T = {g: M.copy() for g, M in s.last_transforms.items()}
-
-    def work(cancel):
-        with S.ENGINE:
-            if not cancel.is_set():
-                s.settle(T, cancel)
-
-    start_worker(s, "settling", work)
+    _converge_async(s, lambda cancel: s.settle(T, cancel))
 
 
 def solve_async(s: S.Session, T: dict) -> None:
     """The converged pose for T from the base pose (or the cache), on the worker."""
-
-    def work(cancel):
-        with S.ENGINE:
-            if not cancel.is_set():
-                s.solve(T, cancel)
-
-    start_worker(s, "settling", work)
+    _converge_async(s, lambda cancel: s.solve(T, cancel))
 
 
 def _say_note(s: S.Session) -> None:
