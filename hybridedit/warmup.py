@@ -235,9 +235,10 @@ def _rare_paths(shape) -> None:
 
     from .binding.truncation import cap_rows
 
-    wide = sp.csr_matrix(np.full((2, 6), 1.0 / 6.0))  # rows wider than the cap: cut to their largest
+    wide = sp.csr_matrix(np.full((2, 6), 1.0 / 6.0))  # rows wider than the cap: cut to their largest, refitted
     wide.has_sorted_indices = True
-    cap_rows(wide, 3)
+    octahedron = np.vstack([np.eye(3), -np.eye(3)])
+    cap_rows(wide, np.zeros((2, 3)), octahedron, 4)
 
     closest_rotations(np.tile(np.eye(3), (4, 1, 1)), np.empty((4, 3, 3)))
     closest_rotation(np.eye(3), np.empty((3, 3)))  # (the frames turn theirs in lanes)

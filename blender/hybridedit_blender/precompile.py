@@ -180,7 +180,7 @@ def _rare_paths(rest32, tris) -> None:
     bind(shape.vertices[shape.faces[:4]].mean(axis=1), shape)  # points on the cage's faces
     wide = sp.csr_matrix(np.full((2, 6), 1.0 / 6.0))
     wide.has_sorted_indices = True
-    cap_rows(wide, 3)
+    cap_rows(wide, np.zeros((2, 3)), np.vstack([np.eye(3), -np.eye(3)]), 4)
     closest_rotations(np.tile(np.eye(3), (4, 1, 1)), np.empty((4, 3, 3)))
     closest_rotation(np.eye(3), np.empty((3, 3)))
     rows_near(np.eye(3), np.arange(3), np.array([0]), 0.5)

@@ -15,7 +15,9 @@ stores only the kept entries.
 
 Every row is truncated by the rule of :mod:`hybridedit.binding.truncation` (the
 paper's: the smallest coordinates are dropped up to 3% of the row's
-magnitude, the rest rescaled to sum to 1). Entries of exactly equal magnitude
+magnitude, the rest rescaled to sum to 1); a row the rule keeps wider than
+:data:`hybridedit.binding.truncation.MAX_ROW` keeps its largest, refitted to sum to 1 and reproduce
+its point (:func:`hybridedit.binding.truncation.cap_rows`). Entries of exactly equal magnitude
 at the threshold are decided by their order in the row: the caller's column
 order for the exact method, the cage's internal vertex order for the fast
 one.
@@ -330,8 +332,8 @@ def bind(
         ``inf`` makes every near face exact.
     max_row : int or None
         When truncating, the most coordinates a row keeps
-        (:func:`hybridedit.binding.truncation.cap_rows`: a wider row keeps its largest); None: no
-        bound (the plain rule).
+        (:func:`hybridedit.binding.truncation.cap_rows`: a wider row keeps its largest, refitted
+        to sum to 1 and reproduce its point); None: no bound (the plain rule).
 
     Returns
     -------
@@ -370,26 +372,28 @@ def bind(
         stop = min(n, start + chunk)
         parts.extend(rows.chunk(start, stop))
         if stop == n:
-            parts.extend(_capped(part, c, max_row if t > 0.0 else None) for part in rows.leftovers())
+            parts.extend(rows.leftovers())
         if progress is not None:
             progress(stop / n)
-    M = _assemble(parts, n, c, rows.row_of)
     if t > 0.0 and max_row is not None:
-        M = cap_rows(M, int(max_row))
-    return M
+        parts = [_capped(part, p, cage.vertices, rows.row_of, int(max_row)) for part in parts]
+    return _assemble(parts, n, c, rows.row_of)
 
 
-def _capped(part, c: int, max_row: int | None):
-    """A part of :func:`_assemble` with its rows cut to ``max_row`` entries (:func:`cap_rows`; None:
-    as it is). Only rows made after the chunks can be wider than the first pass's
-    :data:`FIRST_PASS_ROW_CAP`; cut here, the whole binding then needs no pass of its own (11M rows:
-    about a second on one core)."""
+def _capped(part, points: np.ndarray, cage_vertices: np.ndarray, row_of: np.ndarray | None, max_row: int):
+    """A part of :func:`_assemble` with its rows cut to ``max_row`` entries and refitted
+    (:func:`cap_rows`, with the points of its rows: ``points[row_of[positions]]``, or
+    ``points[positions]`` when ``row_of`` is None). Cut part by part, while the part is small, the
+    whole binding needs no pass of its own (11M rows: about a second on one core)."""
     pos, counts, data, indices = part
-    if max_row is None or not counts.size or int(counts.max()) <= max_row:
+    if not counts.size or int(counts.max()) <= max_row:
         return part
     indptr = np.zeros(counts.size + 1, dtype=np.int64)
     np.cumsum(counts, out=indptr[1:])
-    M = cap_rows(sp.csr_matrix((data, indices, indptr), shape=(counts.size, c)), int(max_row))
+    M = sp.csr_matrix((data, indices, indptr), shape=(counts.size, cage_vertices.shape[0]))
+    M.has_sorted_indices = True
+    at = pos if row_of is None else row_of[pos]
+    M = cap_rows(M, points[at], cage_vertices, max_row)
     return pos, np.diff(M.indptr), M.data, M.indices
 
 

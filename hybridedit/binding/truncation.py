@@ -42,7 +42,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["MIN_KEPT_SUM", "MAX_ROW", "check_truncation", "keep_row", "truncate_row", "truncate_row_sparse",
+__all__ = ["MIN_KEPT_SUM", "MAX_ROW", "REFIT_GROWTH", "REFIT_FLAT", "check_truncation", "keep_row", "truncate_row", "truncate_row_sparse",
            "cap_rows", "UNDECIDED", "NOT_FINITE", "TOO_WIDE"]
 
 #: Below this signed sum of the kept coordinates a row is left untruncated.
@@ -328,16 +328,100 @@ def truncate_row_sparse(row, truncation, min_kept_sum, col_of_slot, surv, vals, 
 
 
 #: Most coordinates a truncated row keeps (:func:`cap_rows`): a row the rule above would keep wider
-#: (a point in a fold of the cage, or outside it, where the coordinates are large and signed) keeps
-#: its largest ones, so that no row costs a frame more than this.
-MAX_ROW = 64
+#: (a point in a fold of the cage, or outside it, where the coordinates are large and signed; a point
+#: near a thin part of the cage, whose both sides count) keeps its largest ones, refitted (see
+#: :func:`cap_rows`), so that no row costs a frame more than this.
+MAX_ROW = 12
+
+#: A refitted row may weigh (sum of magnitudes) at most this many times the row it was cut from;
+#: beyond, the least spread directions of its kept cage vertices are given up (see :func:`cap_rows`).
+REFIT_GROWTH = 2.0
+#: Directions along which the kept cage vertices spread less than this fraction of their widest
+#: spread (eigenvalues of their scatter) are not fitted: the kept vertices are flat there.
+REFIT_FLAT = 1e-10
 
 
 @njit(cache=True, fastmath=False, error_model="numpy")
-def _cap_rows(indptr, indices, data, cap, min_kept_sum, counts, out_indices, out_data):  # pragma: no cover
+def _refit_row(x, cage, cols, w0, limit, out):  # pragma: no cover
+    """The weights nearest ``w0`` (least squares) on the cage vertices ``cols`` that sum to 1 and
+    reproduce ``x``; see :func:`cap_rows`. Writes ``out`` (k,) and returns True, or False when no
+    refit stays within ``limit`` (sum of magnitudes).
+
+    With ``e_j = (cage[cols[j]] - x) / h`` (``h`` their RMS length: the solve is scale free),
+    ``m`` their mean and ``E`` the centred ``e_j - m`` as rows, the nearest weights are
+    ``w0 + a 1 + E y``: ``a = (1 - sum w0) / k`` restores the sum (``1`` is orthogonal to the
+    columns of ``E``), and ``E^T E y = -sum_j w0_j e_j - a k m`` the position, the 4 x 4 system
+    ``A A^T`` of ``A = [1; e_j^T]`` split into its scalar and 3 x 3 blocks. ``E^T E`` is solved on
+    its eigenvectors: one of eigenvalue below :data:`REFIT_FLAT` of the largest (kept vertices
+    flat or collinear that way) is left out, and while the weights would exceed ``limit`` the
+    least spread remaining one is left out too (the position is then reproduced in the others
+    only; with none left, only the sum is restored).
+    """
+    k = cols.shape[0]
+    e = np.empty((k, 3))
+    h2 = 0.0
+    for j in range(k):
+        for d in range(3):
+            e[j, d] = cage[cols[j], d] - x[d]
+            h2 += e[j, d] * e[j, d]
+    h = np.sqrt(h2 / k)
+    if not (h > 0.0 and h < np.inf):
+        return False
+    s0 = 0.0
+    r = np.zeros(3)
+    m = np.zeros(3)
+    for j in range(k):
+        s0 += w0[j]
+        for d in range(3):
+            e[j, d] /= h
+            r[d] -= w0[j] * e[j, d]
+            m[d] += e[j, d]
+    a = (1.0 - s0) / k
+    for d in range(3):
+        m[d] /= k
+        r[d] -= a * k * m[d]
+    S = np.zeros((3, 3))
+    for j in range(k):
+        for d in range(3):
+            e[j, d] -= m[d]
+        for d in range(3):
+            for q in range(3):
+                S[d, q] += e[j, d] * e[j, q]
+    lam, V = np.linalg.eigh(S)  # ascending
+    if not (lam[2] > 0.0):
+        first = 3
+    else:
+        first = 0
+        while first < 3 and lam[first] <= REFIT_FLAT * lam[2]:
+            first += 1
+    coef = np.zeros(3)
+    while True:
+        y = np.zeros(3)
+        for q in range(first, 3):
+            coef[q] = (V[0, q] * r[0] + V[1, q] * r[1] + V[2, q] * r[2]) / lam[q]
+            for d in range(3):
+                y[d] += coef[q] * V[d, q]
+        mag = 0.0
+        for j in range(k):
+            v = w0[j] + a + e[j, 0] * y[0] + e[j, 1] * y[1] + e[j, 2] * y[2]
+            out[j] = v
+            mag += abs(v)
+        if mag <= limit:
+            return True
+        if first == 3:
+            return False
+        first += 1
+
+
+@njit(cache=True, fastmath=False, error_model="numpy")
+def _cap_rows(indptr, indices, data, cap, min_kept_sum, points, cage, counts, out_indices,
+              out_data):  # pragma: no cover
     """Rows of (indptr, indices, data) with at most ``cap`` entries; see :func:`cap_rows`."""
     n = indptr.shape[0] - 1
     k = 0
+    refit = np.empty(cap)
+    cols = np.empty(cap, dtype=np.int64)
+    w0 = np.empty(cap)
     for i in range(n):
         a, b = indptr[i], indptr[i + 1]
         if b - a <= cap:
@@ -350,12 +434,23 @@ def _cap_rows(indptr, indices, data, cap, min_kept_sum, counts, out_indices, out
         order = np.argsort(-np.abs(data[a:b]))[:cap]
         keep = np.sort(order)
         total = 0.0
-        for j in keep:
-            total += data[a + j]
-        if total >= min_kept_sum:
-            for j in keep:
-                out_indices[k] = indices[a + j]
-                out_data[k] = data[a + j] / total
+        mag = 0.0
+        for j in range(a, b):
+            mag += abs(data[j])
+        for q in range(cap):
+            cols[q] = indices[a + keep[q]]
+            w0[q] = data[a + keep[q]]
+            total += w0[q]
+        if _refit_row(points[i], cage, cols, w0, REFIT_GROWTH * mag, refit):
+            for q in range(cap):
+                out_indices[k] = cols[q]
+                out_data[k] = refit[q]
+                k += 1
+            counts[i] = cap
+        elif total >= min_kept_sum:  # rescaled to sum to 1 (the position is not reproduced)
+            for q in range(cap):
+                out_indices[k] = cols[q]
+                out_data[k] = w0[q] / total
                 k += 1
             counts[i] = cap
         else:  # no usable subset: the row follows its largest positive coordinate alone
@@ -370,15 +465,31 @@ def _cap_rows(indptr, indices, data, cap, min_kept_sum, counts, out_indices, out
     return k
 
 
-def cap_rows(M, cap: int = MAX_ROW):
+def cap_rows(M, points, cage_vertices, cap: int = MAX_ROW):
     """``M`` (a CSR binding) with every row of more than ``cap`` entries cut to its ``cap`` largest (by
-    magnitude), rescaled to sum to 1; a row whose largest entries sum to less than
-    :data:`MIN_KEPT_SUM` follows its largest positive entry alone. Rows of at most ``cap`` entries
-    are kept as they are. The result is a partition of unity with at most ``cap`` entries a row.
+    magnitude), refitted to keep the binding's two promises: the row sums to 1 (partition of unity)
+    and reproduces its point from the kept cage vertices (linear precision,
+    ``sum_j M_ij cage_j = points_i``). Rows of at most ``cap`` entries are kept as they are.
+
+    The refit is the least change to the kept coordinates ``w0`` that meets both:
+    ``w = w0 + A^T (A A^T)^-1 (b - A w0)`` with ``A = [1; c_j^T]`` (4 x ``cap``, ``c_j`` the kept
+    cage vertices) and ``b = [1; x_i]``, solved in the kernel as a scalar and a 3 x 3 block. When
+    the kept vertices are flat or collinear the position is reproduced along the directions they
+    span; when reproducing it would make the row weigh more than :data:`REFIT_GROWTH` times the
+    row it was cut from (kept vertices nearly flat around a point off their plane), the directions
+    they spread least along are given up one by one, down to the sum alone. Should even that weigh
+    too much, the row falls back to the kept coordinates rescaled to sum to 1, or, when those sum
+    to less than :data:`MIN_KEPT_SUM`, to its largest positive coordinate alone. Every row of the
+    result sums to 1; a refitted row (all but those fallbacks) reproduces the position in every
+    direction its kept vertices span.
 
     Parameters
     ----------
     M : (n, c) scipy.sparse.csr_matrix with sorted indices
+    points : (n, 3) float array
+        The position each row binds (the shape's vertices).
+    cage_vertices : (c, 3) float array
+        The cage's vertices, in the order of ``M``'s columns.
     cap : int >= 1
 
     Returns
@@ -387,7 +498,13 @@ def cap_rows(M, cap: int = MAX_ROW):
 
     Examples
     --------
-    >>> cap_rows(M, 64).indptr  # doctest: +SKIP
+    >>> import scipy.sparse as sp
+    >>> cage = np.array([[1., 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]])
+    >>> M = sp.csr_matrix(np.array([[0.3, 0.1, 0.2, 0.2, 0.1, 0.1]]))
+    >>> x = M @ cage  # the point these coordinates bind
+    >>> C = cap_rows(M, x, cage, 4)
+    >>> np.diff(C.indptr), bool(np.isclose(C.sum(), 1.0)), bool(np.allclose(C @ cage, x))
+    (array([4], dtype=int32), True, True)
     """
     import scipy.sparse as sp
 
@@ -396,13 +513,19 @@ def cap_rows(M, cap: int = MAX_ROW):
     counts = np.diff(M.indptr)
     if counts.size == 0 or int(counts.max()) <= cap:
         return M
+    x = np.ascontiguousarray(points, dtype=np.float64)
+    cv = np.ascontiguousarray(cage_vertices, dtype=np.float64)
+    if x.shape != (M.shape[0], 3) or cv.shape != (M.shape[1], 3):
+        raise ValueError(f"points must be {(M.shape[0], 3)} and cage_vertices {(M.shape[1], 3)}, "
+                         f"got {x.shape} and {cv.shape}")
     new = np.empty(M.shape[0], dtype=np.int64)
     nnz = int(np.minimum(counts, cap).sum())
     out_i = np.empty(nnz, dtype=M.indices.dtype)
     out_d = np.empty(nnz)
-    k = _cap_rows(M.indptr.astype(np.int64), M.indices, M.data, int(cap), MIN_KEPT_SUM, new, out_i, out_d)
+    k = _cap_rows(M.indptr.astype(np.int64), M.indices, M.data, int(cap), MIN_KEPT_SUM, x, cv, new, out_i,
+                  out_d)
     indptr = np.zeros(M.shape[0] + 1, dtype=M.indptr.dtype)
     np.cumsum(new, out=indptr[1:])
-    out = sp.csr_matrix((out_d[:k], out_i[:k], indptr), shape=M.shape)
+    out = sp.csr_matrix((out_d[:k], out_i[:k], indptr), shape=(M.shape[0], M.shape[1]))
     out.has_sorted_indices = True
     return out

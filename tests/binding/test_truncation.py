@@ -73,25 +73,31 @@ def test_check_truncation():
             check_truncation(bad)
 
 
-def test_cap_rows_keeps_the_largest_entries_of_a_wide_row_as_a_partition_of_unity():
+def test_cap_rows_keeps_the_largest_entries_of_a_wide_row_refitted():
     import scipy.sparse as sp
 
     from hybridedit.binding.truncation import cap_rows
 
-    rows = [np.array([0.5, 0.2, -0.05, 0.15, 0.1, 0.1]),   # wide: its 3 largest (0.5, 0.2, 0.15) kept
+    cage = np.array([[1.0, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]])
+    rows = [np.array([0.5, 0.2, -0.05, 0.15, 0.12, 0.08]),  # wide: its 4 largest (0.5, 0.2, 0.15, 0.12) kept
             np.array([0.7, 0.3, 0, 0, 0, 0]),               # narrow: as it is
-            np.array([-3.0, 2.5, 0.4, 0.4, 0.4, 0.3])]      # its 3 largest sum to -0.1: its largest positive
+            np.array([-3.0, 2.5, 0.4, 0.4, 0.3, 0.4])]      # its 4 largest sum to 0.3, all at z = 0
     M = sp.csr_matrix(np.array(rows))
     M.sort_indices()
-    C = cap_rows(M, 3)
+    x = M @ cage
+    C = cap_rows(M, x, cage, 4)
     dense = C.toarray()
-    assert np.allclose(dense.sum(axis=1), 1.0) and np.all(np.diff(C.indptr) <= 3)
-    assert np.allclose(dense[0], np.array([0.5, 0.2, 0, 0.15, 0, 0]) / 0.85)
+    assert np.allclose(dense.sum(axis=1), 1.0, rtol=0, atol=1e-14) and np.all(np.diff(C.indptr) <= 4)
+    assert np.array_equal(np.flatnonzero(dense[0]), [0, 1, 3, 4])
     assert np.array_equal(dense[1], rows[1])
-    assert np.array_equal(dense[2], [0, 1.0, 0, 0, 0, 0])
-    assert cap_rows(M, 6) is M  # nothing wider than the cap: the matrix itself
+    assert np.allclose(C[:2] @ cage, x[:2], rtol=0, atol=1e-14)  # the points reproduced (kept vertices span 3D)
+    assert np.array_equal(np.flatnonzero(dense[2]), [0, 1, 2, 3])  # (the first of the equal ones)
+    assert np.allclose((C @ cage)[2, :2], x[2, :2], rtol=0, atol=1e-14)  # in their plane
+    assert cap_rows(M, x, cage, 6) is M  # nothing wider than the cap: the matrix itself
     with pytest.raises(ValueError):
-        cap_rows(M, 0)
+        cap_rows(M, x, cage, 0)
+    with pytest.raises(ValueError):
+        cap_rows(M, x[:2], cage, 4)
 
 
 def test_bind_bounds_every_row_and_keeps_a_partition_of_unity():
@@ -109,3 +115,5 @@ def test_bind_bounds_every_row_and_keeps_a_partition_of_unity():
     assert np.allclose(np.asarray(M.sum(axis=1)).ravel(), 1.0)
     narrow = np.diff(whole.indptr) <= MAX_ROW  # the rows within the bound are the rule's own
     assert (abs(M[narrow] - whole[narrow]) > 0).nnz == 0
+    # (the cut rows cannot reproduce these points: 12 cage vertices near a point far outside the cage
+    # reach it only with coordinates in the hundreds; tests/binding/test_row_bound.py checks points in it)
