@@ -11,6 +11,7 @@ import numpy as np
 
 from ..defaults import SETTLE_FRAMES
 from ..fileio.editfile import Edit, HandleEdit, mesh_fingerprint
+from .packed_step import PackedStep
 from .pose_record import PoseRecord
 from .roles import FIXED
 from .selection import SelectionError
@@ -48,6 +49,24 @@ class RecordedEdits:
         return Edit(handles=last.handles, fixed=last.fixed, roi=last.roi, space=last.space, symmetry=last.symmetry,
                     iterations=last.iterations, polish=last.polish, cage=last.cage, continues=last.continues,
                     before=steps[:-1], mesh=mesh_fingerprint(self.mesh), converge=last.converge)
+
+    def packed_steps(self) -> tuple[PackedStep, ...]:
+        """The steps of :attr:`edit`, oldest first, as the record keeps them (:class:`PackedStep`, the
+        current one packed here): the edit without every step's index lists unpacked (what a long
+        session's autosave writes, :meth:`PackedStep.to_json`). Its mesh fingerprint is not in it.
+
+        Raises
+        ------
+        SelectionError
+            No selection has been set (as :attr:`edit`).
+        """
+        r = self._record
+        steps = r.packed
+        if self._sel is not None and (r.dragged or not r.continues):  # (as _steps_made(current_if_empty=True))
+            steps = steps + (PackedStep.of(self._current_step()),)
+        if not steps:
+            raise SelectionError("no selection to describe: set one first")
+        return steps
 
     @property
     def record(self) -> PoseRecord:

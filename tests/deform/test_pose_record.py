@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
 import hybridedit as he
 from hybridedit.core.held_bytes import held_buffers
 from hybridedit.fileio.editfile import Edit, HandleEdit
+from hybridedit.deform.packed_step import PackedStep, unpack_step_json
 from hybridedit.deform.pose_record import PoseRecord
 
 from shapes import bumpy_blob
@@ -41,6 +44,22 @@ def test_a_closed_step_keeps_its_index_lists_exactly(indices):
     assert back.handle.dtype == np.int64 and np.array_equal(back.handle, indices)
     assert np.array_equal(back.fixed, fixed) and back.roi is None
     assert back.to_json() == step.to_json()
+
+
+@pytest.mark.parametrize("indices", [[], [0], [3, 7, 8, 9, 4000], [5, 2, 2, 9], list(range(10, 60000, 3))])
+@pytest.mark.parametrize("continues", [False, True])
+def test_a_packed_steps_json_unpacks_to_the_edit_files_own(indices, continues):
+    step = Edit(handles=[HandleEdit(np.asarray(indices, dtype=np.int64), translate=np.array([0.0, 1.0, 2.0])),
+                         HandleEdit(np.array([40_000, 40_001]), translate=np.zeros(3))],
+                roi=np.arange(0, 50_000, 2), iterations=60, polish=3, continues=continues,
+                cage={"size": 0.05, "vertices": 900})
+    packed = PackedStep.of(step)
+    d = json.loads(json.dumps(packed.to_json()))  # (through the text, as a recovery file holds it)
+    want = step.to_json()["steps"][0]
+    if not continues:
+        assert isinstance(d["roi"], dict) and all(isinstance(h["indices"], dict) for h in d["handles"])
+        assert len(json.dumps(d)) * 20 < len(json.dumps(want))  # (the region's list: runs, packed)
+    assert unpack_step_json(d) == want
 
 
 def test_a_closed_step_is_kept_small():

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import hybridedit as he
-from hybridedit.viewer.model.recovery import (RecoveryError, RecoveryFile, orphans, process_alive, read_recovery,
-                                              recover)
+from hybridedit.viewer.model.recovery import (RecoveryError, RecoveryFile, _edit_of_json, orphans, process_alive,
+                                              read_recovery, recover)
 from hybridedit.viewer.model.session import Session
 from shapes import capsule_blob
 
@@ -117,6 +117,26 @@ def test_the_kept_poses_are_recovered_exactly_and_an_old_file_without_them_still
     assert read_recovery(path).poses == ()
 
 
+def test_the_edit_is_written_packed_reads_back_as_the_engines_and_a_version_1_file_still_reads(shape, tmp_path):
+    lost = posed(shape)
+    path = RecoveryFile(folder=tmp_path).write(lost)
+    data = json.loads(path.read_text())
+    assert data["version"] == 2
+    step = data["edit"]["steps"][0]
+    assert isinstance(step["roi"] if "roi" in step else step["fixed"], dict)  # (packed: no list of ints)
+    assert isinstance(step["handles"][0]["indices"], dict)
+    # unpacked, the edit JSON is the engine's edit file JSON, step for step
+    want = lost.editor.edit.to_json()
+    assert _edit_of_json(data["edit"], 2) == want
+    # a version 1 file (the lists as lists) reads as it did
+    data.update(version=1, edit=want)
+    path.write_text(json.dumps(data))
+    rec = read_recovery(path)
+    s = session(shape)
+    recover(s, rec)
+    np.testing.assert_array_equal(s.shown_positions, lost.shown_positions)
+
+
 def test_orphans_are_the_files_of_dead_processes_newest_first_and_damaged_ones_said(shape, tmp_path):
     keeper = RecoveryFile(folder=tmp_path)
     path = keeper.write(posed(shape))
@@ -138,6 +158,9 @@ def test_orphans_are_the_files_of_dead_processes_newest_first_and_damaged_ones_s
     (lambda d: d.update(version=99), "version 99"),
     (lambda d: d.pop("selection"), "a field is missing or malformed"),
     (lambda d: d["edit"].update(steps="x"), "damaged edit"),
+    (lambda d: d["edit"]["steps"][0]["handles"][0]["indices"].update(packed="not base64!"), "malformed"),
+    (lambda d: d["edit"]["steps"][0]["handles"][0]["indices"].update(packed="AAAA"), "malformed"),
+    (lambda d: d["edit"]["steps"][0]["handles"][0]["indices"].update(size="x"), "malformed"),
     (lambda d: d.update(poses=[{"name": "", "steps": []}]), "damaged edit"),
     (lambda d: d.update(cage_size="big"), "malformed"),
 ])

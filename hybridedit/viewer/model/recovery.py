@@ -26,7 +26,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ...core.cache_dir import default_cache_dir
+from ...deform.packed_step import unpack_step_json
 from ...deform.selection import SelectionError
+from ...fileio import editfile
 from ...fileio.atomic import atomic_write
 from ...fileio.editfile import (Edit, EditFileError, check_mesh, mesh_fingerprint, parse_edit, parse_pose_list,
                                 pose_list_json)
@@ -39,7 +41,9 @@ __all__ = ["FORMAT", "Recovery", "RecoveryError", "RecoveryFile", "recovery_fold
            "process_alive"]
 
 FORMAT = "hybridedit-recovery"
-VERSION = 1
+#: 2: the edit's index lists packed (:meth:`~hybridedit.deform.packed_step.PackedStep.to_json`); 1: as lists
+VERSION = 2
+READS = (1, 2)
 #: a recovery file larger than this is refused as damaged (an edit of 10,000 steps is a few MB)
 MAX_BYTES = 256 * 2**20
 
@@ -158,12 +162,27 @@ def _selection_json(session: Session) -> dict:
             "n_groups": int(sel.n_groups), "active": int(sel.active), "symmetry": sel.symmetry}
 
 
-def _session_edit(session: Session) -> Edit | None:
-    """The steps that made the session's pose (the engine's edit), or None before any selection."""
+def _edit_json(session: Session, fingerprint: dict) -> dict | None:
+    """The steps that made the session's pose (the engine's edit) as an edit file's JSON, each index list
+    packed (:meth:`~hybridedit.deform.packed_step.PackedStep.to_json`), or None before any selection.
+
+    Written from the engine's packed record as it is: the edit file's own form (each list unpacked, then
+    a Python int per index) held about a megabyte a step on the creature while it was written, every
+    write, so that a long session's resident memory grew with its steps."""
     try:
-        return session.editor.edit
+        steps = session.editor.packed_steps()
     except SelectionError:
         return None
+    return {"format": editfile.FORMAT, "version": editfile.VERSION, "mesh": fingerprint,
+            "steps": [p.to_json() for p in steps]}
+
+
+def _edit_of_json(d, version: int):
+    """The edit JSON of a recovery file of ``version`` in the edit file's own form (version 2's packed
+    lists unpacked; ValueError for one that does not unpack)."""
+    if version >= 2 and isinstance(d, dict) and isinstance(d.get("steps"), list):
+        d = dict(d, steps=[unpack_step_json(s) for s in d["steps"]])
+    return d
 
 
 class RecoveryFile:
@@ -208,7 +227,6 @@ class RecoveryFile:
             The folder cannot be written (the caller says so; the session is untouched).
         """
         fp = self.fingerprint(session.mesh)
-        edit = _session_edit(session)
         path = self.folder / f"{fp['topology']}-{os.getpid()}.json"
         data = {
             "format": FORMAT, "version": VERSION, "pid": os.getpid(), "host": socket.gethostname(),
@@ -218,7 +236,7 @@ class RecoveryFile:
             "mesh": fp,
             "cage_size": session.cage_size if isinstance(session.cage_size, float) else int(session.cage_size),
             "cage_vertices": int(session.editor.cage.n_vertices),
-            "edit": None if edit is None else edit.to_json(),
+            "edit": _edit_json(session, fp),
             "selection": _selection_json(session),
             "poses": pose_list_json(session.poses.entries()),
         }
@@ -251,10 +269,10 @@ def read_recovery(path: str | os.PathLike) -> Recovery:
         raise RecoveryError(f"{p}: damaged, not a recovery file ({e.__class__.__name__})") from None
     if not isinstance(data, dict) or data.get("format") != FORMAT:
         raise RecoveryError(f"{p}: not a hybridedit recovery file")
-    if data.get("version") != VERSION:
+    if data.get("version") not in READS:
         raise RecoveryError(f"{p}: recovery file version {data.get('version')!r} is not one this hybridedit reads")
     try:
-        edit = None if data["edit"] is None else parse_edit(data["edit"], str(p))
+        edit = None if data["edit"] is None else parse_edit(_edit_of_json(data["edit"], data["version"]), str(p))
         poses = tuple(parse_pose_list(data.get("poses", []), str(p), data["mesh"]))
         sel = data["selection"]
         fp = data["mesh"]
