@@ -130,7 +130,7 @@ class PackedStep:
         """The step as an edit file's step (``Edit.to_json()["steps"]``'s), each index list (``fixed``,
         ``roi``, a handle's ``indices``) in its packed form (:meth:`PackedIndices.to_json`), read back by
         :func:`unpack_step_json`."""
-        d = self.bare._step_json()  # (the step without its lists: they are in their packed form here)
+        d = self.bare.step_json()  # (the step without its lists: they are in their packed form here)
         if not self.bare.continues:  # (a continued step's region is the step's before it: not written)
             if self.fixed is not None:
                 d["fixed"] = self.fixed.to_json()

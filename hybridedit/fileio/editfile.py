@@ -214,7 +214,8 @@ class Edit:
         """The (4, 4) transform of handle group 0."""
         return self.handles[0].transform(default_center)
 
-    def _step_json(self) -> dict:
+    def step_json(self) -> dict:
+        """This step alone as an edit file's step (an entry of ``to_json()["steps"]``)."""
         d: dict = {}
         if self.cage is not None:
             d["cage"] = dict(self.cage)
@@ -240,11 +241,17 @@ class Edit:
         return d
 
     def to_json(self) -> dict:
-        d: dict = {"format": FORMAT, "version": VERSION}
-        if self.mesh is not None:
-            d["mesh"] = self.mesh
-        d["steps"] = [step._step_json() for step in self.steps]
-        return d
+        return steps_document([step.step_json() for step in self.steps], self.mesh)
+
+
+def steps_document(steps: list[dict], mesh: dict | None = None) -> dict:
+    """An edit file's JSON made of its steps' (:meth:`Edit.step_json`'s) and the mesh's fingerprint
+    (:func:`mesh_fingerprint`; None: none)."""
+    d: dict = {"format": FORMAT, "version": VERSION}
+    if mesh is not None:
+        d["mesh"] = mesh
+    d["steps"] = steps
+    return d
 
 
 def _symmetry_json(s):
@@ -630,7 +637,7 @@ def pose_list_json(poses: Sequence[tuple[str, Edit]]) -> list[dict]:
     names = [n for n, _ in poses]
     if len(set(names)) != len(names) or not all(isinstance(n, str) and n.strip() for n in names):
         raise ValueError(f"pose names must be non-empty and unique, got {names}")
-    return [{"name": n, "steps": [st._step_json() for st in e.steps]} for n, e in poses]
+    return [{"name": n, "steps": [st.step_json() for st in e.steps]} for n, e in poses]
 
 
 def save_edit(path: str | Path, edit: Edit, *, poses: Sequence[tuple[str, Edit]] = ()) -> None:

@@ -28,10 +28,9 @@ import numpy as np
 from ...core.cache_dir import default_cache_dir
 from ...deform.packed_step import unpack_step_json
 from ...deform.selection import SelectionError
-from ...fileio import editfile
 from ...fileio.atomic import atomic_write
 from ...fileio.editfile import (Edit, EditFileError, check_mesh, mesh_fingerprint, parse_edit, parse_pose_list,
-                                pose_list_json)
+                                pose_list_json, steps_document)
 from .pose_library import replay_poses
 
 if TYPE_CHECKING:
@@ -173,8 +172,7 @@ def _edit_json(session: Session, fingerprint: dict) -> dict | None:
         steps = session.editor.packed_steps()
     except SelectionError:
         return None
-    return {"format": editfile.FORMAT, "version": editfile.VERSION, "mesh": fingerprint,
-            "steps": [p.to_json() for p in steps]}
+    return steps_document([p.to_json() for p in steps], fingerprint)
 
 
 def _edit_of_json(d, version: int):
