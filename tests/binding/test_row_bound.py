@@ -143,16 +143,21 @@ def test_the_kernel_cuts_a_row_of_20_to_12_and_keeps_its_precision():
     assert np.allclose(data, w0 + D @ A.T @ np.linalg.solve(A @ D @ A.T, b - A @ w0), rtol=0, atol=1e-13)
 
 
+def row_above_a_plane(*, seed: int, thickness: float):
+    """(cage (16, 3) about the plane z = 0, ``thickness`` its vertices' spread across it; a row's 16
+    positive coordinates w (16,) summing to 1; x (1, 3) the point they bind lifted 0.3 off the plane)."""
+    rng = np.random.default_rng(seed)
+    cage = np.column_stack([rng.normal(size=(16, 2)), thickness * rng.normal(size=16)])
+    w = rng.random(16) + 0.1
+    w /= w.sum()
+    return cage, w, (w @ cage)[None, :] + [0.0, 0.0, 0.3]
+
+
 def test_the_kernel_fits_flat_kept_vertices_in_their_plane():
     """Kept cage vertices all in the plane z = 0 and a point above it: no weights reproduce its height;
     the row sums to 1 and reproduces x and y."""
-    rng = np.random.default_rng(4)
-    cage = np.column_stack([rng.normal(size=(16, 2)), np.zeros(16)])
-    w = rng.random(16) + 0.1
-    w /= w.sum()
-    M = sp.csr_matrix(w[None, :])
-    x = (M @ cage) + [0.0, 0.0, 0.3]
-    counts, idx, data = kernel(M, x, cage, 12)
+    cage, w, x = row_above_a_plane(seed=4, thickness=0.0)
+    counts, idx, data = kernel(sp.csr_matrix(w[None, :]), x, cage, 12)
     assert counts.tolist() == [12] and abs(data.sum() - 1.0) <= 1e-14
     assert np.abs(data @ cage[idx] - x[0])[:2].max() <= 1e-14
 
@@ -161,13 +166,8 @@ def test_the_kernel_gives_up_a_direction_rather_than_blow_a_row_up():
     """Kept cage vertices nearly flat (1e-3 thick) and a point well off their plane: reproducing its
     height would take coordinates in the hundreds; the row stays within REFIT_GROWTH of its weight and
     reproduces the point in the plane but for that direction's tilt."""
-    rng = np.random.default_rng(5)
-    cage = np.column_stack([rng.normal(size=(16, 2)), 1e-3 * rng.normal(size=16)])
-    w = rng.random(16) + 0.1
-    w /= w.sum()
-    M = sp.csr_matrix(w[None, :])
-    x = (M @ cage) + [0.0, 0.0, 0.3]
-    counts, idx, data = kernel(M, x, cage, 12)
+    cage, w, x = row_above_a_plane(seed=5, thickness=1e-3)
+    counts, idx, data = kernel(sp.csr_matrix(w[None, :]), x, cage, 12)
     assert counts.tolist() == [12] and abs(data.sum() - 1.0) <= 1e-14
     assert np.abs(data).sum() <= REFIT_GROWTH * np.abs(w).sum()
     err = np.abs(data @ cage[idx] - x[0])[:2].max()  # (the flat direction is tilted by about 1e-3)
