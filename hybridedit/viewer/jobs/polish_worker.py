@@ -10,6 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 from qtpy import QtCore
 
+from ...core.heap import trim_heap
 from ...core.mesh import Mesh
 
 
@@ -92,6 +93,13 @@ class PolishWorker(QtCore.QThread):
         return self._cancel.is_set()
 
     def run(self) -> None:  # runs in the worker thread
+        self._polish()
+        # the polish's working arrays are freed now: handed back here (off the UI thread), else glibc
+        # keeps them and its heap fragments release after release (a long session's resident set grew
+        # 8% from cycle 150 to 300 of the soak, with what Python held flat)
+        trim_heap()
+
+    def _polish(self) -> None:
         from ...core.mesh import rrms_edge_error
 
         t0 = time.perf_counter()
