@@ -13,12 +13,21 @@ extension uses hybridedit's engine only: hybridedit's wheel goes in with ``--no-
 
 Each zip's blender_manifest.toml lists its wheels; the build checks it with Blender's own
 extension validator when a bpy install provides one (``--validate-with PATH/blender_ext.py``).
+
+The zip of the platform the build runs on (linux-x64, with a CPython of a bundled version and numpy
+1.x as Blender ships it: the bpy venv of run_tests.sh) also holds the engine's kernels compiled for
+any CPU of the platform (``kernels/``, :mod:`hybridedit_blender.portable_kernels`): the background
+compile's rehearsal run on the zip's own wheels with numba's CPU set to ``generic``, a few minutes
+once per build. ``--no-kernels`` leaves them out.
 """
 
 from __future__ import annotations
 
 import argparse
 import hashlib
+import json
+import os
+import platform as host
 import shutil
 import subprocess
 import sys
@@ -102,11 +111,97 @@ def manifest_with(wheels: list[str], platform: str) -> str:
     return "\n".join(out) + "\n"
 
 
-def build(platform: str, out: Path, work: Path, he_wheel: Path) -> Path:
+#: the platform the build can compile portable kernels for (the one it runs on), or None
+HOST_PLATFORM = {("linux", "x86_64"): "linux-x64"}.get((sys.platform, host.machine().lower()))
+
+
+def kernels_unavailable() -> str | None:
+    """Why this Python cannot compile the zip's portable kernels (None: it can)."""
+    py = f"cp{sys.version_info[0]}{sys.version_info[1]}"
+    if HOST_PLATFORM is None:
+        return f"no portable kernels are built on {sys.platform} {host.machine()}"
+    if py not in BUNDLED or sys.implementation.name != "cpython":
+        return f"the build runs on {sys.implementation.name} {py}, the zip bundles {', '.join(BUNDLED)}"
+    try:
+        import numpy
+    except ImportError:
+        return "no numpy in the build's Python"
+    if not numpy.__version__.startswith("1."):
+        return f"the build's numpy is {numpy.__version__}; Blender 4.2-5.0 ship 1.x (run it with the bpy venv)"
+    return None
+
+
+def numba_folder_name(source_dir: Path) -> str:
+    """numba's folder for a source folder's kernels (as :mod:`hybridedit_blender.portable_kernels`)."""
+    path = os.path.abspath(source_dir)
+    return f"{os.path.basename(path)}_{hashlib.sha1(path.encode()).hexdigest()}"
+
+
+def kernels_by_source(cache: Path, package_dir: Path) -> dict[str, list[Path]]:
+    """The kernel files numba wrote into ``cache`` for the package at ``package_dir``, by source
+    folder relative to the package's parent (``hybridedit/binding``); a folder of numba's that is no
+    folder of the package is an error (a kernel of another package would be shipped nameless)."""
+    names = {numba_folder_name(d): d.relative_to(package_dir.parent).as_posix()
+             for d in [package_dir, *sorted(p for p in package_dir.rglob("*") if p.is_dir())]
+             if d.name != "__pycache__"}
+    found: dict[str, list[Path]] = {}
+    for folder in sorted(p for p in cache.iterdir() if p.is_dir()):
+        files = sorted(f for f in folder.iterdir() if f.suffix in (".nbi", ".nbc"))
+        if not files:
+            continue
+        if folder.name not in names:
+            raise SystemExit(f"portable kernels: {folder.name} in {cache} is no folder of {package_dir}")
+        found[names[folder.name]] = files
+    return found
+
+
+def portable_kernels(wheels: list[Path], work: Path) -> tuple[dict[str, list[Path]], dict]:
+    """The background compile's rehearsal (hybridedit_blender/precompile.py) run on these wheels,
+    unpacked, with numba's CPU ``generic``: the kernel files by source folder and their description."""
+    site, cache = work / "site", work / "cache"
+    shutil.rmtree(work, ignore_errors=True)
+    for w in wheels:
+        with zipfile.ZipFile(w) as z:
+            z.extractall(site)
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("NUMBA_", "PYTHON", "_HYBRIDEDIT"))}
+    env.update(NUMBA_CACHE_DIR=str(cache), NUMBA_CPU_NAME="generic", PYTHONPATH=str(site))
+    log = work / "precompile.log"
+    with open(log, "w") as err:
+        # (precompile.py ends when its stdin closes: it is held open until the rehearsal is done)
+        p = subprocess.Popen([sys.executable, "-s", str(ADDON / "precompile.py")], stdin=subprocess.PIPE,
+                             stdout=subprocess.DEVNULL, stderr=err, env=env)
+        code = p.wait()
+        p.stdin.close()
+    if code:
+        sys.exit(f"portable kernels: the rehearsal failed (exit code {code}):\n{log.read_text()[-3000:]}")
+    found = kernels_by_source(cache, site / "hybridedit")
+    h = hashlib.sha256()
+    for rel, files in sorted(found.items()):
+        for f in files:
+            h.update(f"{rel}/{f.name}\0".encode() + f.read_bytes())
+    import numpy
+
+    numba = next(d.name[len("numba-"):-len(".dist-info")] for d in site.glob("numba-*.dist-info"))
+    meta = {"id": h.hexdigest()[:16], "cpu": "generic", "platform": sys.platform, "machine": host.machine().lower(),
+            "python": f"{sys.version_info[0]}.{sys.version_info[1]}", "numba": numba, "numpy": numpy.__version__,
+            "kernel_files": sum(len(f) for f in found.values())}
+    return found, meta
+
+
+def build(platform: str, out: Path, work: Path, he_wheel: Path, *, kernels: bool = True) -> Path:
     wheels: dict[str, Path] = {he_wheel.name: he_wheel}
-    for py in BUNDLED:
-        for w in download(platform, py, work / platform / py):
+    per_python = {py: download(platform, py, work / platform / py) for py in BUNDLED}
+    for ws in per_python.values():
+        for w in ws:
             wheels.setdefault(w.name, w)  # pure-Python wheels are shared by both Pythons
+    compiled: tuple[dict[str, list[Path]], dict] | None = None
+    if kernels and platform == HOST_PLATFORM:
+        why = kernels_unavailable()
+        if why is None:
+            py = f"cp{sys.version_info[0]}{sys.version_info[1]}"
+            compiled = portable_kernels([he_wheel, *per_python[py]], work / platform / "kernels")
+        else:
+            print(f"{platform}: no portable kernels in the zip: {why}")
     version = next(ln.split('"')[1] for ln in (ADDON / "blender_manifest.toml").read_text().splitlines()
                    if ln.startswith("version"))
     path = out / f"hybridedit_blender-{version}-{platform}.zip"
@@ -116,6 +211,12 @@ def build(platform: str, out: Path, work: Path, he_wheel: Path) -> Path:
         z.writestr("blender_manifest.toml", manifest_with(sorted(wheels), platform))
         for name, w in sorted(wheels.items()):
             z.write(w, f"wheels/{name}", compress_type=zipfile.ZIP_STORED)  # wheels are zips already
+        if compiled is not None:
+            found, meta = compiled
+            for rel, files in sorted(found.items()):
+                for f in files:
+                    z.write(f, f"kernels/{rel}/{f.name}")
+            z.writestr("kernels/info.json", json.dumps(meta, indent=1) + "\n")
     return path
 
 
@@ -126,6 +227,7 @@ def main(argv=None) -> int:
     ap.add_argument("--requirements", choices=sorted(PINS), help="print the pins for this Python and exit")
     ap.add_argument("--hybridedit-wheel", type=Path, metavar="DIR", help="only build hybridedit's wheel into DIR")
     ap.add_argument("--validate-with", type=Path, help="Blender's blender_ext.py (from a bpy install)")
+    ap.add_argument("--no-kernels", action="store_true", help="no portable kernels in the zip")
     args = ap.parse_args(argv)
     if args.requirements:
         print(" ".join(PINS[args.requirements]))
@@ -138,11 +240,13 @@ def main(argv=None) -> int:
         work = Path(tmp)
         he_wheel = hybridedit_wheel(work / "own")
         for platform in args.platform or list(PLATFORMS):
-            path = build(platform, args.out, work, he_wheel)
+            path = build(platform, args.out, work, he_wheel, kernels=not args.no_kernels)
             with zipfile.ZipFile(path) as z:
                 names = [i for i in z.infolist() if i.filename.startswith("wheels/")]
+                kernel_bytes = sum(i.file_size for i in z.infolist() if i.filename.startswith("kernels/"))
             digest = hashlib.sha256(path.read_bytes()).hexdigest()[:12]
-            print(f"{path.name}: {path.stat().st_size / 2**20:.1f} MiB, sha256 {digest}..., {len(names)} wheels")
+            print(f"{path.name}: {path.stat().st_size / 2**20:.1f} MiB, sha256 {digest}..., {len(names)} wheels"
+                  + (f", portable kernels {kernel_bytes / 2**20:.1f} MiB" if kernel_bytes else ""))
             for i in names:
                 print(f"    {i.filename[7:]}  ({i.file_size / 2**20:.1f} MiB)")
             if args.validate_with:

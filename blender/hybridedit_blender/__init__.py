@@ -22,16 +22,21 @@ def _numba_cache() -> None:
     """Compiled kernels go to a user-writable folder (an extension's own folder may be read-only),
     so that they compile once, not at every start, and the background compile writes them where
     Blender's process looks. Numba reads the setting when a kernel is defined; if numba was
-    imported already (another add-on), its setting is changed too."""
-    if os.environ.get("NUMBA_CACHE_DIR"):
-        return
+    imported already (another add-on), its setting is changed too. Until the background compile
+    has finished, the zip's portable kernels serve where it has them (:mod:`.portable_kernels`)."""
     import sys
 
+    from . import kernels, portable_kernels
     from .bind import user_folder
 
-    os.environ["NUMBA_CACHE_DIR"] = folder = user_folder("numba")
-    if "numba" in sys.modules:
-        sys.modules["numba"].config.CACHE_DIR = folder
+    if portable_kernels.IN_USE is not None:  # (enabled again in this Blender: as chosen the first time)
+        return
+    if not os.environ.get("NUMBA_CACHE_DIR"):
+        os.environ["NUMBA_CACHE_DIR"] = folder = user_folder("numba")
+        if "numba" in sys.modules:
+            sys.modules["numba"].config.CACHE_DIR = folder
+    kernels.NATIVE_DIR = os.environ["NUMBA_CACHE_DIR"]
+    portable_kernels.choose(user_folder("numba-portable"), native_ready=kernels.native_ready())
 
 
 def register():

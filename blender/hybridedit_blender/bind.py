@@ -137,7 +137,7 @@ class BindJob:
     def run(self) -> None:
         t0 = time.perf_counter()
         try:
-            if kernels.running() is not None:  # load what it compiles rather than compile it beside it
+            if kernels.must_wait():  # load what it compiles rather than compile it beside it
                 kernels.wait(self._progress)
                 self.first_compile = not kernels.ready()  # (it failed or was killed: compiled here)
             self._progress("loading the engine", 0.0)

@@ -8,6 +8,10 @@ started meanwhile waits for it (:func:`wait`) with its progress, and does not co
 kernels beside it. A compile that fails or is killed leaves everything as without it: the first
 Bind compiles what it needs itself, and one line says so.
 
+Where the zip ships kernels compiled for any CPU of the platform (:mod:`.portable_kernels`), the
+sessions before the compile has finished use those: a Bind does not wait, and the compile goes on
+for this machine's CPU, into :data:`NATIVE_DIR`.
+
 Disabling the extension does not stop it (a factory-settings reload disables and enables again):
 it ends with Blender (its stdin closes).
 """
@@ -21,10 +25,12 @@ import sys
 import threading
 import time
 
-from . import precompile
+from . import portable_kernels, precompile
 
 #: the compile running or last run in this Blender (None: none was needed)
 CURRENT: "Compile | None" = None
+#: numba's cache folder for the kernels compiled for this CPU (set at enabling; None: the environment's)
+NATIVE_DIR: str | None = None
 
 #: a compile that printed nothing for this long is taken as hung: killed, and Bind compiles itself
 #: (one kernel takes seconds to a minute on a busy machine; the progress moves with each)
@@ -43,11 +49,22 @@ def python() -> str | None:
     return exe if ok else None
 
 
-def ready(cache_dir: str | None = None) -> bool:
-    """The cache folder holds every kernel for these sources (the stamp of a finished compile)."""
-    cache_dir = cache_dir or os.environ.get("NUMBA_CACHE_DIR")
+def native_dir() -> str | None:
+    """numba's cache folder for the kernels compiled for this CPU."""
+    return NATIVE_DIR or os.environ.get("NUMBA_CACHE_DIR")
+
+
+def native_ready(cache_dir: str | None = None) -> bool:
+    """The cache folder (default :func:`native_dir`) holds every kernel compiled for this CPU for
+    these sources (the stamp of a finished compile)."""
+    cache_dir = cache_dir or native_dir()
     path = precompile.stamp_path(cache_dir) if cache_dir else None
     return path is not None and os.path.isfile(path)
+
+
+def ready() -> bool:
+    """A Bind has every kernel to load: the portable ones are in use, or the compile finished."""
+    return portable_kernels.IN_USE is not None or native_ready()
 
 
 class Compile:
@@ -63,7 +80,7 @@ class Compile:
         self.done = threading.Event()
         self.waiting = 0  # Binds waiting for it (they show its progress themselves)
         self.said = False
-        env = dict(os.environ)
+        env = portable_kernels.child_environment(dict(os.environ))  # (compiled for this CPU)
         env["NUMBA_CACHE_DIR"] = cache_dir
         paths = [p for p in sys.path if p and os.path.exists(p)]
         old = env.get("PYTHONPATH")
@@ -129,15 +146,24 @@ class Compile:
         self.done.wait()
 
     def status(self) -> str:
+        if portable_kernels.IN_USE is not None:
+            return (f"Hybrid ARAP: compiling the engine for this CPU in the background (once after installing): "
+                    f"{int(100 * self.fraction)}%; used from the next start")
         return (f"Hybrid ARAP: compiling the engine in the background (once after installing): "
                 f"{int(100 * self.fraction)}%; Bind waits for it")
 
     def outcome(self) -> tuple[str, str]:
         """(level, line) once it ended."""
+        if self.ok and portable_kernels.IN_USE is not None:
+            return "INFO", (f"the engine is compiled for this CPU ({self.seconds:.0f} s in the background): "
+                            "used from the next start of Blender")
         if self.ok:
             return "INFO", f"the engine is compiled ({self.seconds:.0f} s in the background): Bind is quick now"
         code = self.returncode
         how = f"was killed (signal {-code})" if code < 0 else f"failed (exit code {code})"
+        if portable_kernels.IN_USE is not None:
+            return "WARNING", (f"compiling the engine for this CPU in the background {how}, see {self.log_path}: "
+                               "the portable kernels go on serving")
         return "WARNING", (f"compiling the engine in the background {how}, see {self.log_path}: the first Bind "
                            "compiles it instead (a minute or two)")
 
@@ -147,13 +173,13 @@ def start(*, command: list[str] | None = None) -> Compile | None:
     (None when there is nothing to do or no Python to run it with). ``command`` replaces the
     process (tests)."""
     global CURRENT
-    cache_dir = os.environ.get("NUMBA_CACHE_DIR")
+    cache_dir = native_dir()
     if not cache_dir:
         return None
     if CURRENT is not None and CURRENT.running:
         return CURRENT
     if command is None:
-        if ready(cache_dir):
+        if native_ready(cache_dir):
             return None
         exe = python()
         if exe is None:
@@ -171,11 +197,17 @@ def start(*, command: list[str] | None = None) -> Compile | None:
 
 
 def wait(progress=None) -> None:
-    """Until the background compile ends (at once when none runs): a Bind calls it before it
-    touches the engine, so that it loads the kernels the compile writes instead of compiling them."""
+    """Until the background compile ends (at once when none runs, or the portable kernels serve): a
+    Bind calls it before it touches the engine, so that it loads the kernels the compile writes
+    instead of compiling them."""
     c = CURRENT
-    if c is not None and c.running:
+    if c is not None and c.running and portable_kernels.IN_USE is None:
         c.wait(progress)
+
+
+def must_wait() -> bool:
+    """A Bind now would wait for the background compile (:func:`wait`)."""
+    return running() is not None and portable_kernels.IN_USE is None
 
 
 def running() -> Compile | None:

@@ -1,7 +1,8 @@
 """A fresh install in a process of its own (run by test_kernels.py): the extension enabled with an
 empty kernel cache and user folder, a mesh bound at once (the Bind waits for the background
-compile, its progress read on the way), then a live frame, the settle, Apply and an animation
-frame, every numba compile in this process counted. Prints one JSON line.
+compile, its progress read on the way, unless the zip's portable kernels serve), then a live
+frame, the settle, Apply and an animation frame, every numba compile in this process counted,
+then the end of the background compile. Writes one JSON file.
 
     python fresh_install.py OUT.json [ZIP]   # ZIP: installed by Blender's extension installer
 """
@@ -55,7 +56,9 @@ def main() -> None:
 
     kernels = importlib.import_module(pkg.__name__ + ".kernels")
     bind = importlib.import_module(pkg.__name__ + ".bind")
-    res = {"compiling_at_enable": kernels.running() is not None, "ready_at_enable": kernels.ready()}
+    portable = importlib.import_module(pkg.__name__ + ".portable_kernels")
+    res = {"compiling_at_enable": kernels.running() is not None, "ready_at_enable": kernels.native_ready(),
+           "portable": portable.IN_USE is not None}
     bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=5)
     obj = bpy.context.object
     me = obj.data
@@ -98,6 +101,10 @@ def main() -> None:
     E = np.empty(len(ev.vertices) * 3, np.float32)
     ev.attributes["position"].data.foreach_get("vector", E)
     res.update(compiled_in_all=Count.n, moved=float(np.abs(E - P).max()))
+    if kernels.CURRENT is not None:  # (with the portable kernels, nothing waited for the compile)
+        kernels.CURRENT.done.wait(1800)
+    res.update(compile_ok=bool(kernels.CURRENT and kernels.CURRENT.ok), ready_after=kernels.native_ready(),
+               compile_seconds=kernels.CURRENT.seconds if kernels.CURRENT else None)
     Path(out_path).write_text(json.dumps(res))
     sys.stdout.flush()
     os._exit(0)  # (bpy 4.2 may crash in the interpreter's teardown)
