@@ -11,7 +11,7 @@ kernel against its source's content: a kernel whose source differs is compiled a
 
 They serve the sessions until the background compile (:mod:`.kernels`) has compiled the kernels
 for this machine's CPU: from the next start on, Blender uses those (the portable ones run the
-cage's rotation step at about 0.6x the speed, the rest of a frame at about the same).
+cage's rotation step at about half the speed, the rest of a frame at about the same).
 """
 
 from __future__ import annotations
