@@ -38,6 +38,8 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
 ADDON = HERE / "hybridedit_blender"
+sys.path.insert(0, str(HERE))
+from hybridedit_blender.portable_kernels import CPU, INFO, numba_folder_name  # noqa: E402 -- (no bpy)
 
 #: what hybridedit's engine imports (hybridedit/editor.py, rig.py, cage.py, binding.py, linsolve.py,
 #: bindcache.py), pinned per Python: scipy for 3.11 accepts numpy >= 1.23.5 (Blender 4.2-5.0 ship
@@ -131,17 +133,11 @@ def kernels_unavailable() -> str | None:
     return None
 
 
-def numba_folder_name(source_dir: Path) -> str:
-    """numba's folder for a source folder's kernels (as :mod:`hybridedit_blender.portable_kernels`)."""
-    path = os.path.abspath(source_dir)
-    return f"{os.path.basename(path)}_{hashlib.sha1(path.encode()).hexdigest()}"
-
-
 def kernels_by_source(cache: Path, package_dir: Path) -> dict[str, list[Path]]:
     """The kernel files numba wrote into ``cache`` for the package at ``package_dir``, by source
     folder relative to the package's parent (``hybridedit/binding``); a folder of numba's that is no
     folder of the package is an error (a kernel of another package would be shipped nameless)."""
-    names = {numba_folder_name(d): d.relative_to(package_dir.parent).as_posix()
+    names = {numba_folder_name(str(d)): d.relative_to(package_dir.parent).as_posix()
              for d in [package_dir, *sorted(p for p in package_dir.rglob("*") if p.is_dir())]
              if d.name != "__pycache__"}
     found: dict[str, list[Path]] = {}
@@ -164,7 +160,7 @@ def portable_kernels(wheels: list[Path], work: Path) -> tuple[dict[str, list[Pat
         with zipfile.ZipFile(w) as z:
             z.extractall(site)
     env = {k: v for k, v in os.environ.items() if not k.startswith(("NUMBA_", "PYTHON", "_HYBRIDEDIT"))}
-    env.update(NUMBA_CACHE_DIR=str(cache), NUMBA_CPU_NAME="generic", PYTHONPATH=str(site))
+    env.update(NUMBA_CACHE_DIR=str(cache), NUMBA_CPU_NAME=CPU, PYTHONPATH=str(site))
     log = work / "precompile.log"
     with open(log, "w") as err:
         # (precompile.py ends when its stdin closes: it is held open until the rehearsal is done)
@@ -182,7 +178,7 @@ def portable_kernels(wheels: list[Path], work: Path) -> tuple[dict[str, list[Pat
     import numpy
 
     numba = next(d.name[len("numba-"):-len(".dist-info")] for d in site.glob("numba-*.dist-info"))
-    meta = {"id": h.hexdigest()[:16], "cpu": "generic", "platform": sys.platform, "machine": host.machine().lower(),
+    meta = {"id": h.hexdigest()[:16], "cpu": CPU, "platform": sys.platform, "machine": host.machine().lower(),
             "python": f"{sys.version_info[0]}.{sys.version_info[1]}", "numba": numba, "numpy": numpy.__version__,
             "kernel_files": sum(len(f) for f in found.values())}
     return found, meta
@@ -216,7 +212,7 @@ def build(platform: str, out: Path, work: Path, he_wheel: Path, *, kernels: bool
             for rel, files in sorted(found.items()):
                 for f in files:
                     z.write(f, f"kernels/{rel}/{f.name}")
-            z.writestr("kernels/info.json", json.dumps(meta, indent=1) + "\n")
+            z.writestr(f"kernels/{INFO}", json.dumps(meta, indent=1) + "\n")
     return path
 
 

@@ -72,8 +72,6 @@ def test_the_folder_names_are_numbas():
                 str(HERE / "x.py")):
         assert portable_kernels.numba_folder_name(os.path.dirname(src)) == \
             UserProvidedCacheLocator.get_suitable_cache_subpath(src)
-        assert build_extension.numba_folder_name(Path(os.path.dirname(src))) == \
-            portable_kernels.numba_folder_name(os.path.dirname(src))
 
 
 def test_kernels_compiled_in_one_place_load_in_another_without_a_compile(tmp_path):
