@@ -223,12 +223,28 @@ def _edit_session(mesh, say: Progress, label: str) -> None:
     bind(mesh.vertices[:50], ed.cage, method="exact")
 
 
-def _rare_paths(shape) -> None:
-    """Binding rows wider than the fast kernel's row buffer, and public kernels the pipeline does not call."""
+def engine_rare_paths(shape) -> None:
+    """Compile the engine's paths that a small shape's edit does not take and a big shape's may:
+    binding rows wider than the fast kernel's row buffer, points on the cage's faces, rows cut to
+    their largest, a big surface simplified in halves, a big region's band, rotations in lanes.
+
+    What :func:`run` compiles beyond its edit sessions, file formats apart; the Blender
+    extension's background compile calls it too (its engine has no file formats).
+
+    Parameters
+    ----------
+    shape : a small closed :class:`~hybridedit.core.mesh.Mesh` (e.g. :func:`blob`), of at least 32 faces.
+
+    Examples
+    --------
+    >>> engine_rare_paths(blob(2))  # doctest: +SKIP
+    """
     from .binding.bind import bind
     from .binding.mvc import atan2_pos_array
+    from .cage.qem import presimplify
     from .core.rotations import closest_rotation, closest_rotations
 
+    presimplify(shape.vertices, shape.faces, shape.n_faces // 8, min_faces=8)  # (a big surface cut in halves)
     bind(0.5 * shape.vertices[:8], shape, truncation=0.0)  # the shape as its own cage, untruncated
     bind(shape.vertices[shape.faces[:4]].mean(axis=1), shape)  # points on the cage's faces: their face's rows
     import scipy.sparse as sp
@@ -249,6 +265,9 @@ def _rare_paths(shape) -> None:
         rows_near(np.eye(3), np.arange(3), np.array([0]), 0.5)
     atan2_pos_array(np.ones(4), np.ones(4))
 
+
+def _file_format_paths() -> None:
+    """The file readers' and writers' kernels the pipeline's in-memory shapes do not reach."""
     from .fileio.formats import obj
 
     # an OBJ's line scan, token counts, joined vertex text and face parser: an indented file with a
@@ -294,7 +313,8 @@ def run(progress: Progress | None = None) -> dict:
         _edit_session(needs_repair(shape), say, "serial kernels")
         with parallel_everywhere():
             _edit_session(shape, say, "parallel kernels")
-        _rare_paths(shape)
+        engine_rare_paths(shape)
+        _file_format_paths()
     hits, _ = cache_counts()
     result = {"seconds": time.perf_counter() - t0, "compiled": len(compiled), "loaded": hits,
               "uncovered": uncovered()}

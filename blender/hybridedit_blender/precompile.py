@@ -161,32 +161,11 @@ def _session_pass(label: str, rest32, tris, groups: dict[str, np.ndarray], roi, 
 
 def _rare_paths(rest32, tris) -> None:
     """The engine's binding paths that a small shape does not take and a big one may (as
-    hybridedit.warmup reaches them): rows wider than the fast kernel's row buffer, points on the
-    cage's faces, rows cut to their largest, a big region's band, rotations in lanes."""
-    import scipy.sparse as sp
-
+    hybridedit.warmup compiles them: :func:`hybridedit.warmup.engine_rare_paths`)."""
     import hybridedit as he
-    from hybridedit.binding.bind import bind
-    from hybridedit.binding.mvc import atan2_pos_array
-    from hybridedit.binding.truncation import cap_rows
-    from hybridedit.cage.qem import presimplify
-    from hybridedit.core.parallel import all_parallel
-    from hybridedit.core.proximity import rows_near
-    from hybridedit.core.rotations import closest_rotation, closest_rotations
+    from hybridedit.warmup import engine_rare_paths
 
-    shape = he.Mesh(rest32.reshape(-1, 3).astype(np.float64), tris, name="rare paths")
-    presimplify(shape.vertices, shape.faces, shape.n_faces // 8, min_faces=8)  # (a big surface cut in halves)
-    bind(0.5 * shape.vertices[:8], shape, truncation=0.0)  # the shape as its own cage, untruncated
-    bind(shape.vertices[shape.faces[:4]].mean(axis=1), shape)  # points on the cage's faces
-    wide = sp.csr_matrix(np.full((2, 6), 1.0 / 6.0))
-    wide.has_sorted_indices = True
-    cap_rows(wide, np.zeros((2, 3)), np.vstack([np.eye(3), -np.eye(3)]), 4)
-    closest_rotations(np.tile(np.eye(3), (4, 1, 1)), np.empty((4, 3, 3)))
-    closest_rotation(np.eye(3), np.empty((3, 3)))
-    rows_near(np.eye(3), np.arange(3), np.array([0]), 0.5)
-    with all_parallel():
-        rows_near(np.eye(3), np.arange(3), np.array([0]), 0.5)
-    atan2_pos_array(np.ones(4), np.ones(4))
+    engine_rare_paths(he.Mesh(rest32.reshape(-1, 3).astype(np.float64), tris, name="rare paths"))
 
 
 #: each part and where it starts in the progress (its share of the time, measured)
