@@ -316,10 +316,19 @@ def run_web(args: argparse.Namespace) -> int:
         raise CLIError(f"{path}: no such file")
     if not 0 < args.port < 65536:
         raise CLIError(f"--port {args.port}: not a port number (1 to 65535)")
-    try:
-        from .web.editor_app import run
-    except ImportError as e:
-        raise CLIError(f"the web editor needs trame ({e.name} is missing): pip install 'hybridedit[web]'") from e
+    import importlib.util
+    import socket
+
+    missing = [m for m in ("trame", "trame_vtk", "trame_vuetify") if importlib.util.find_spec(m) is None]
+    if missing:
+        raise CLIError(f"the web editor needs {', '.join(missing)}: pip install 'hybridedit[web]'")
+    try:  # said before the shape is bound (which takes a while), not after
+        with socket.socket() as probe:
+            probe.bind((args.host, args.port))
+    except OSError as e:
+        raise CLIError(f"cannot listen on {args.host}:{args.port} ({e.strerror or e}); try another --port") from e
+    from .web.editor_app import run
+
     return run(path, host=args.host, port=args.port, cage_size=args.cage)
 
 
