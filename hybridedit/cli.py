@@ -309,6 +309,29 @@ def run_open(args: argparse.Namespace) -> int:
     return _demo(path, args)
 
 
+def run_web(args: argparse.Namespace) -> int:
+    """``hybridedit web``: the editor in a browser (:mod:`hybridedit.web`)."""
+    path = Path(args.mesh) if args.mesh else DEFAULT_MESH
+    if not path.is_file():
+        raise CLIError(f"{path}: no such file")
+    if not 0 < args.port < 65536:
+        raise CLIError(f"--port {args.port}: not a port number (1 to 65535)")
+    import importlib.util
+    import socket
+
+    missing = [m for m in ("trame", "trame_vtk", "trame_vuetify") if importlib.util.find_spec(m) is None]
+    if missing:
+        raise CLIError(f"the web editor needs {', '.join(missing)}: pip install 'hybridedit[web]'")
+    try:  # said before the shape is bound (which takes a while), not after
+        with socket.socket() as probe:
+            probe.bind((args.host, args.port))
+    except OSError as e:
+        raise CLIError(f"cannot listen on {args.host}:{args.port} ({e.strerror or e}); try another --port") from e
+    from .web.editor_app import run
+
+    return run(path, host=args.host, port=args.port, cage_size=args.cage)
+
+
 def _demo(path: Path, args: argparse.Namespace) -> int:
     """Batch demo edit: raise the part of the shape furthest along +X."""
     say = _progress(False)
@@ -372,6 +395,14 @@ def build_parser() -> argparse.ArgumentParser:
     i.add_argument("input")
     i.add_argument("--json", action="store_true", help="print JSON")
     i.set_defaults(func=run_info)
+    w = sub.add_parser("web", help="serve the editor to a browser (needs the web extra: pip install hybridedit[web])")
+    w.add_argument("mesh", nargs="?", help=f"mesh to edit (default: {DEFAULT_MESH.name})")
+    w.add_argument("--port", type=int, default=8080, help="port to serve on (default 8080)")
+    w.add_argument("--host", default="127.0.0.1",
+                   help="address to listen on (default 127.0.0.1: this machine only; use an ssh tunnel from another)")
+    w.add_argument("--cage-size", dest="cage", type=parse_cage_size, default=CAGE_SIZE,
+                   help="cage vertices (2000) or fraction (0.05 or 5%%); default 5%%")
+    w.set_defaults(func=run_web)
     return p
 
 
@@ -426,7 +457,7 @@ def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     # a discarded cache entry is one of the engine's notes, printed as the others are (not twice)
     warnings.filterwarnings("ignore", message="hybridedit: cache entry")
-    if argv and argv[0] in ("deform", "batch", "info"):
+    if argv and argv[0] in ("deform", "batch", "info", "web"):
         args = build_parser().parse_args(argv)
     else:
         args = build_open_parser().parse_args(argv)

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs everything hybridedit needs into ./.venv on a Debian or Ubuntu machine.
 #   bash scripts/setup.sh          the editor
-#   bash scripts/setup.sh test     the editor and what the tests need (Xvfb, pytest-qt, ...)
+#   bash scripts/setup.sh test     the editor and what the tests need (Xvfb, pytest-qt, Chromium, ...)
+#   bash scripts/setup.sh web      the editor and hybridedit web (the editor in a browser)
 # Safe to run again: it only installs what is missing.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -13,11 +14,12 @@ extras="${1:-}"
 # scikit-sparse built here is used instead where present, its supernodal factor being faster.)
 # The libraries Qt 6 (PySide6) and VTK load for a window.
 # xvfb: a virtual screen for the GUI tests; nodejs and npm (where there is no npm yet): the Khronos
-# glTF Validator, which the tests run on the .glb files he.save_poses writes.
+# glTF Validator, which the tests run on the .glb files he.save_poses writes; chromium and its
+# driver: the browser tests of hybridedit web (tests/web, through selenium).
 apt_pkgs=(libsuitesparse-dev libgl1 libegl1 libopengl0 libglib2.0-0 libdbus-1-3 libfontconfig1
           libxkbcommon0 libxkbcommon-x11-0 libxrender1 libxcb-cursor0 libxcb-icccm4 libxcb-image0
           libxcb-keysyms1 libxcb-randr0 libxcb-render-util0 libxcb-shape0 libxcb-xinerama0 libxcb-xkb1)
-[[ ",$extras," == *",test,"* ]] && apt_pkgs+=(xvfb xauth)
+[[ ",$extras," == *",test,"* ]] && apt_pkgs+=(xvfb xauth chromium chromium-driver)
 [[ ",$extras," == *",test,"* ]] && ! command -v npm >/dev/null 2>&1 && apt_pkgs+=(nodejs npm)
 missing=()
 if command -v dpkg-query >/dev/null 2>&1; then
@@ -50,6 +52,8 @@ if ! .venv/bin/python -c "import sksparse.cholmod" 2>/dev/null; then
   "${pip[@]}" install --no-build-isolation "$sks"
 fi
 
+# the browser tests need the web editor: the test extra brings the web extra with it
+[[ ",$extras," == *",test,"* && ",$extras," != *",web,"* ]] && extras="$extras,web"
 spec="."
 [[ -n "$extras" ]] && spec=".[$extras]"
 "${pip[@]}" install -e "$spec"

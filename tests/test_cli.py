@@ -290,3 +290,18 @@ def test_info_into_a_closed_pipe_exits_quietly(mesh_file):
     p.stdout.close()  # the reader has gone before the child writes anything
     err = p.stderr.read().decode()
     assert p.wait(timeout=120) == 0 and err == ""
+
+
+def test_web_errors_exit_2_with_one_line(tmp_path, mesh_file, capsys):
+    """``hybridedit web`` says a missing file, a bad port or a port in use in one line, before any build."""
+    import socket
+
+    assert main(["web", str(tmp_path / "missing.ply")]) == 2
+    assert main(["web", str(mesh_file), "--port", "0"]) == 2
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        assert main(["web", str(mesh_file), "--port", str(busy.getsockname()[1])]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 3 and all(line.startswith("hybridedit: error: ") for line in err), err
+    assert "no such file" in err[0] and "not a port number" in err[1] and "cannot listen" in err[2]

@@ -29,7 +29,7 @@ import hybridedit
 
 PACKAGE = Path(hybridedit.__file__).resolve().parent
 FLOORS = {"defaults": 0, "core": 1, "kernel_cache": 1, "fileio": 2, "cage": 3, "binding": 4, "deform": 5, "batching": 6,
-          "cli": 7, "viewer": 7, "warmup": 7, "__main__": 7, "__init__": 7}
+          "cli": 7, "viewer": 7, "web": 7, "warmup": 7, "__main__": 7, "__init__": 7}
 ENGINE = ["core", "cage", "binding", "deform", "fileio", "batching"]
 GUI = ("PySide6", "qtpy", "pyvista", "pyvistaqt", "vtk", "vtkmodules")
 SOURCES = sorted(PACKAGE.rglob("*.py"))
@@ -212,6 +212,37 @@ def test_the_engine_imports_no_viewer_and_no_gui_toolkit(layer):
             for name in names:
                 assert name.split(".")[0] not in GUI, f"{f.relative_to(PACKAGE)}:{node.lineno} imports {name}"
         assert not [p for _, p, _ in _imports(f) if p[:1] == ["viewer"]], f"{f.relative_to(PACKAGE)} imports the viewer"
+        assert not [p for _, p, _ in _imports(f) if p[:1] == ["web"]], f"{f.relative_to(PACKAGE)} imports the web editor"
+
+
+QT = ("PySide6", "qtpy", "pyvistaqt")
+
+
+@pytest.mark.parametrize("f", sorted((PACKAGE / "web").rglob("*.py")), ids=lambda f: f.name)
+def test_the_web_editor_imports_no_qt(f):
+    """``hybridedit web`` runs on a machine with no Qt: it uses the viewer's Qt-free model and scene only."""
+    for node in ast.walk(ast.parse(f.read_text(encoding="utf-8"))):
+        names = [a.name for a in node.names] if isinstance(node, ast.Import) else \
+            [node.module or ""] if isinstance(node, ast.ImportFrom) and node.level == 0 else []
+        for name in names:
+            assert name.split(".")[0] not in QT, f"{f.relative_to(PACKAGE)}:{node.lineno} imports {name}"
+    for _, parts, written in _imports(f):
+        if parts[:1] == ["viewer"]:
+            assert parts[1:2] in (["model"], ["render"], ["app"]), \
+                f"{f.relative_to(PACKAGE)}: {written} -- the web editor uses the viewer's model and render only"
+
+
+def test_the_web_editor_loads_no_qt():
+    """Importing the web editor (and what it imports, the scene included) loads no Qt module."""
+    import subprocess
+    import sys
+
+    pytest.importorskip("trame")
+    code = ("import sys, hybridedit.web.editor_app, hybridedit.viewer.render.scene; "
+            "print(sorted(m for m in sys.modules if m.split('.')[0] in ('PySide6', 'qtpy', 'pyvistaqt')))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         env={**__import__("os").environ, "PYTHONPATH": str(PACKAGE.parent)})
+    assert out.stdout.strip() == "[]", out.stdout
 
 
 SORTED_KEYWORDS = {"return_index", "return_inverse", "return_counts", "axis"}

@@ -1,0 +1,299 @@
+"""The trame application of ``hybridedit web``: a session and its scene, shown in the browser.
+
+The scene is drawn on the server (an off-screen pyvista plotter, EGL when there is no
+display) and sent to the page as images (trame-vtk's ``VtkRemoteView``); the page's
+mouse events arrive at the plotter's VTK interactor, where :class:`~.gestures.Gestures`
+turns them into session calls, and its keys at the ``hotkey`` trigger (:mod:`.keys`).
+While Select or Drag is on the interactor's style is a do-nothing one (the camera
+stays); in Camera mode it is the usual trackball.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+from ..core.mesh import Mesh
+from ..defaults import CAGE_SIZE
+from ..fileio.editfile import save_edit
+from ..fileio.meshfiles import write_mesh
+from .gestures import CAMERA, DRAG, HANDLE, ROI, SELECT, Gestures
+from .keys import KEY_SCRIPT, action_of
+from .token_guard import token_middleware
+
+VIEW_EVENTS = ("LeftButtonPressEvent", "MouseMoveEvent", "LeftButtonReleaseEvent")
+
+
+def edit_path_of(mesh_path: Path) -> Path:
+    """Where Save Edit writes: beside the mesh, ``<stem>-edit.json`` (the window's suggested name)."""
+    return mesh_path.with_name(mesh_path.stem + "-edit.json")
+
+
+def open_session(path: Path, cage_size: int | float = CAGE_SIZE):
+    """Read a mesh as the window does and build its engine and session.
+
+    Returns
+    -------
+    session : :class:`~hybridedit.viewer.model.session.Session`
+    up_axis : the shape's up axis (remembered, else guessed).
+
+    Raises
+    ------
+    MeshError, MeshFileError, ValueError, OSError
+        The file cannot be read or bound.
+    """
+    from ..deform.editor import HybridEditor
+    from ..fileio.meshfiles import read_document
+    from ..fileio.up_axes import up_axis_of
+    from ..viewer.model.session import Session
+    from ..viewer.render.look import shown_look
+
+    document = read_document(path)
+    editor = HybridEditor(document.mesh, cage_size, cache=True)
+    session = Session(editor, path=path, cage_size=cage_size)
+    session.look = shown_look(document)
+    return session, up_axis_of(document.mesh, path=path)[0]
+
+
+class WebEditor:
+    """One session served to the browser.
+
+    Parameters
+    ----------
+    session : the session edited (:func:`open_session`).
+    token : the token a browser must show (:mod:`.token_guard`).
+    up_axis : the shape's up axis (the camera's up).
+    server : a trame server (default: a new one).
+    """
+
+    def __init__(self, session, token: str, up_axis: str = "+Y", server=None) -> None:
+        import pyvista as pv
+        from trame.app import get_server
+        from vtkmodules.vtkInteractionStyle import vtkInteractorStyleUser
+
+        from ..viewer.app import _headless_render_window
+        from ..viewer.render.scene import Scene
+
+        self.session = session
+        self.token = token
+        self.server = server or get_server(name=f"hybridedit-{id(self)}", client_type="vue3")
+        self.server.client_type = "vue3"
+        self.server.cli.set_defaults(authKey=token)
+        self.state, self.ctrl = self.server.state, self.server.controller
+        _headless_render_window()
+        self.plotter = pv.Plotter(off_screen=True, window_size=[1000, 800])
+        self.scene = Scene(self.plotter)
+        self.scene.up_axis = up_axis
+        s = session
+        self.scene.load(s.metrics, s.shown_positions, s.cage_positions, s.editor.cage.faces,
+                        s.selection.cage_roles(), s.selection.shape_roles(), look=s.look)
+        s.look_mode = self.scene.look_mode
+        self.scene.reset_camera()
+        self.gestures = Gestures(session, self.scene)
+        self.iren = self.plotter.iren.interactor
+        self._turn_style = self.iren.GetInteractorStyle()
+        self._still_style = vtkInteractorStyleUser()  # does nothing: the camera stays while selecting or dragging
+        for event in VIEW_EVENTS:
+            self.iren.AddObserver(event, self._on_mouse, 1.0)
+        self.saved_edit: Path | None = None
+        self._build_ui()
+        self.server.trigger("hotkey")(self.on_hotkey)
+        self.server.trigger("download_mesh")(self.download_mesh)
+        self.ctrl.on_server_bind.add(self._on_bind)
+        self.ctrl.on_client_connected.add(self._on_connect)
+        self.state.change("mode")(lambda mode, **_: self.set_mode(mode))
+        self.state.change("target")(lambda target, **_: self.set_target(target))
+        self.set_mode(CAMERA)
+        self.set_target(ROI)
+        self.show_status()
+
+    # ------------------------------------------------------------------ the page
+    def _build_ui(self) -> None:
+        from trame.ui.vuetify3 import SinglePageLayout
+        from trame.widgets import client, html
+        from trame.widgets import vtk as vtk_widgets
+        from trame.widgets import vuetify3 as v3
+
+        name = self.session.path.name if self.session.path else "shape"
+        with SinglePageLayout(self.server) as layout:
+            self.layout = layout
+            layout.title.set_text(f"hybridedit: {name}")
+            with layout.toolbar:
+                v3.VSpacer()
+                with v3.VBtnToggle(v_model=("mode", CAMERA), mandatory=True, density="compact", id="mode"):
+                    v3.VBtn("Camera", value=CAMERA, id="mode_camera")
+                    v3.VBtn("Select (S)", value=SELECT, id="mode_select")
+                    v3.VBtn("Drag (D)", value=DRAG, id="mode_drag")
+                with v3.VBtnToggle(v_model=("target", ROI), mandatory=True, density="compact", id="target"):
+                    v3.VBtn("ROI (R)", value=ROI, id="target_roi")
+                    v3.VBtn("Handle (H)", value=HANDLE, id="target_handle")
+                v3.VBtn("Undo", id="undo", click=(self.undo,), density="compact")
+                v3.VBtn("Redo", id="redo", click=(self.redo,), density="compact")
+                v3.VBtn("Save Edit", id="save_edit", click=(self.save_edit,), density="compact")
+                v3.VBtn("Download", id="download", density="compact",
+                        click=f"utils.download('{Path(name).stem}-posed.ply', trigger('download_mesh'),"
+                              " 'application/octet-stream')")
+            with layout.content:
+                with v3.VContainer(fluid=True, classes="pa-0 fill-height", style="position: relative"):
+                    self.view = vtk_widgets.VtkRemoteView(self.plotter.render_window, ref="view",
+                                                          interactive_ratio=1, still_quality=90,
+                                                          interactive_quality=70)
+                    html.Div("{{ status }}", id="status",
+                             style="position: absolute; left: 8px; bottom: 4px; font: 13px sans-serif;"
+                                   " background: rgba(255,255,255,0.7); padding: 2px 6px")
+            client.Script(KEY_SCRIPT)
+
+    def show_status(self) -> None:
+        """The status line: vertices, cage size, edge error, and the latest message."""
+        s = self.session
+        sel = s.selection
+        text = (f"{s.mesh.n_vertices:,} vertices, cage {s.n_cage:,}; edge error {s.rrms_error():.2f}%;"
+                f" ROI {int(sel.roi.sum())}, handle {int(sel.handle.sum())} cage points;"
+                f" {self.gestures.mode}, target {self.gestures.target}")
+        if self.gestures.message:
+            text += f" -- {self.gestures.message}"
+        with self.state:
+            self.state.status = text
+
+    def push(self) -> None:
+        """Draw the session's state again and send the image."""
+        s = self.session
+        self.scene.update_shape(s.shown_positions, everything=True)
+        self.scene.update_cage(s.cage_positions)
+        self.scene.update_roles(s.selection.cage_roles(), s.selection.shape_roles())
+        self.scene.gizmo.place(s.handle_centroid() if self.gestures.mode == DRAG else None)
+        self.view.update()
+
+    # ------------------------------------------------------------------ modes and keys
+    def set_mode(self, mode: str) -> None:
+        """CAMERA (the mouse turns the camera), SELECT or DRAG."""
+        if mode not in (CAMERA, SELECT, DRAG) or self.gestures.busy:
+            return
+        self.gestures.mode = mode
+        self.iren.SetInteractorStyle(self._turn_style if mode == CAMERA else self._still_style)
+        if self.state.mode != mode:
+            self.state.mode = mode
+        self.show_status()
+        self.push()
+
+    def set_target(self, target: str) -> None:
+        """What a selection takes into: ROI or HANDLE."""
+        if target not in (ROI, HANDLE):
+            return
+        self.gestures.target = target
+        if self.state.target != target:
+            self.state.target = target
+        self.show_status()
+
+    def on_hotkey(self, key: str, ctrl: bool = False, shift: bool = False) -> None:
+        """A key press on the page (:data:`.keys.KEY_SCRIPT`)."""
+        action = action_of(key, bool(ctrl), bool(shift))
+        if action == "undo":
+            self.undo()
+        elif action == "redo":
+            self.redo()
+        elif action in ("select", "drag", "camera"):
+            self.set_mode(action)
+        elif action in ("target_roi", "target_handle"):
+            self.set_target(ROI if action == "target_roi" else HANDLE)
+
+    # ------------------------------------------------------------------ actions
+    def undo(self) -> None:
+        if not self.gestures.busy and self.session.undo():
+            self._changed()
+
+    def redo(self) -> None:
+        if not self.gestures.busy and self.session.redo():
+            self._changed()
+
+    def _changed(self) -> None:
+        self.show_status()
+        self.push()
+
+    def save_edit(self) -> None:
+        """Save Edit: how the pose was made, beside the mesh (:func:`edit_path_of`), written atomically."""
+        from ..deform.selection import SelectionError
+        from ..fileio.atomic import WriteError
+
+        s = self.session
+        if s.path is None:
+            return
+        path = edit_path_of(s.path)
+        try:
+            save_edit(path, s.to_edit(), poses=s.poses.entries())
+        except (SelectionError, ValueError, WriteError, OSError) as e:
+            self.gestures.message = f"Could not save the edit: {e}"
+        else:
+            self.saved_edit = path
+            self.gestures.message = f"Saved the edit to {path}"
+            print(f"hybridedit: saved the edit to {path}", flush=True)
+        self.show_status()
+
+    def posed_ply(self) -> bytes:
+        """The posed shape as a binary PLY file (the project's mesh writer, through a temporary file)."""
+        s = self.session
+        mesh = Mesh(s.shown_positions.copy(), s.mesh.faces, name=s.mesh.name)
+        with tempfile.TemporaryDirectory(prefix="hybridedit-web-") as folder:
+            out = Path(folder) / "posed.ply"
+            write_mesh(out, mesh)
+            return out.read_bytes()
+
+    def download_mesh(self):
+        """The Download button's attachment (the page saves it with ``utils.download``)."""
+        return self.server.protocol.addAttachment(self.posed_ply())
+
+    # ------------------------------------------------------------------ mouse
+    def _on_mouse(self, iren, event: str) -> None:
+        x, y = iren.GetEventPosition()
+        g = self.gestures
+        try:
+            if event == "LeftButtonPressEvent":
+                g.press(x, y, bool(iren.GetShiftKey()), bool(iren.GetControlKey()))
+                changed = g.mode == DRAG
+            elif event == "MouseMoveEvent":
+                changed = g.move(x, y)
+            else:
+                changed = g.release(x, y)
+        except Exception as e:  # noqa: BLE001 -- said in the status line, the gesture abandoned
+            g.message = f"{type(e).__name__}: {e}"
+            self.session.cancel_drag()
+            changed = True
+        if changed:
+            if event != "MouseMoveEvent":
+                self.show_status()
+            self.push()
+        elif event == "LeftButtonPressEvent" and g.message:
+            self.show_status()
+
+    # ------------------------------------------------------------------ server
+    def _on_bind(self, wslink_server) -> None:
+        wslink_server.app.middlewares.append(token_middleware(self.token))
+
+    def _on_connect(self, **_) -> None:
+        print("hybridedit: a browser connected", flush=True)
+
+    def url(self, host: str, port: int) -> str:
+        shown = "127.0.0.1" if host in ("127.0.0.1", "localhost", "0.0.0.0", "") else host
+        return f"http://{shown}:{port}/?secret={self.token}"
+
+    def serve(self, host: str, port: int) -> None:
+        """Serve until interrupted (prints the URL first)."""
+        print(f"hybridedit web: open {self.url(host, port)}", flush=True)
+        argv, sys.argv = sys.argv, sys.argv[:1]  # trame reads its own options from sys.argv: none of ours
+        try:
+            self.server.start(host=host, port=port, open_browser=False, show_connection_info=False,
+                              disable_logging=True, timeout=0)
+        finally:
+            sys.argv = argv
+
+
+def run(path: Path, *, host: str = "127.0.0.1", port: int = 8080, cage_size: int | float = CAGE_SIZE) -> int:
+    """``hybridedit web``: open ``path`` and serve it; returns the exit status."""
+    from .token_guard import new_token
+
+    session, up = open_session(Path(path), cage_size)
+    os.environ.setdefault("TRAME_DISABLE_V3_WARNING", "1")
+    WebEditor(session, new_token(), up).serve(host, port)
+    return 0

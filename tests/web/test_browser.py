@@ -1,0 +1,282 @@
+"""``hybridedit web`` in a real browser: the token, the image, and an edit made with real mouse events.
+
+The server runs as ``python -m hybridedit web`` in a subprocess; headless Chromium drives the
+page through selenium. Where the arm is on screen is computed here with the scene's own
+camera (the same framing of the same shape at the same canvas size). Without Chromium the tests
+are skipped, unless HYBRIDEDIT_REQUIRE_VALIDATORS is set (.ci/run), where that fails.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import socket
+import subprocess
+import sys
+import threading
+import time
+import urllib.error
+import urllib.request
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from shapes import REPO
+
+CHROMIUM = next((p for p in ("/usr/bin/chromium", "/usr/bin/chromium-browser") if os.path.exists(p)), None)
+CHROMEDRIVER = shutil.which("chromedriver") or "/usr/bin/chromedriver"
+REQUIRED = bool(os.environ.get("HYBRIDEDIT_REQUIRE_VALIDATORS"))
+CAGE = "300"  # a small cage: the binding is built in seconds
+CANVAS = (1000, 800)  # the browser window; the canvas is what the toolbar leaves
+
+
+def _need(ok: bool, reason: str) -> None:
+    if not ok:
+        if REQUIRED:
+            pytest.fail(f"{reason} (HYBRIDEDIT_REQUIRE_VALIDATORS is set)")
+        pytest.skip(reason)
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _wait(pred, timeout: float = 20.0, step: float = 0.2):
+    end = time.time() + timeout
+    while time.time() < end:
+        got = pred()
+        if isinstance(got, np.ndarray) or got:
+            return got
+        time.sleep(step)
+    return pred()
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory):
+    _need(CHROMIUM is not None and os.path.exists(CHROMEDRIVER), "Chromium or chromedriver is not installed")
+    for module in ("trame", "trame_vtk", "trame_vuetify", "selenium"):
+        try:
+            __import__(module)
+        except ImportError:
+            _need(False, f"{module} is not installed (the web and test extras)")
+    tmp = tmp_path_factory.mktemp("web")
+    mesh = tmp / "creature.ply"
+    shutil.copy(REPO / "data" / "creature.ply", mesh)  # Save Edit writes beside the mesh
+    port = _free_port()
+    env = dict(os.environ, PYTHONUNBUFFERED="1", PYTHONPATH=str(REPO))
+    env.pop("DISPLAY", None)
+    proc = subprocess.Popen([sys.executable, "-m", "hybridedit", "web", str(mesh), "--port", str(port),
+                             "--cage-size", CAGE], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            env=env, cwd=tmp)
+    lines: list[str] = []
+    threading.Thread(target=lambda: lines.extend(iter(proc.stdout.readline, "")), daemon=True).start()
+    found = _wait(lambda: next((m.group(1) for line in list(lines) if (m := re.search(r"(http://\S+)", line))),
+                               None) or proc.poll() is not None, 90)
+    url = found if isinstance(found, str) else None
+    if url is None:
+        proc.kill()
+        pytest.fail("hybridedit web printed no URL:\n" + "".join(lines))
+    assert _wait(lambda: _status(f"http://127.0.0.1:{port}/") == 403, 30)
+    yield {"url": url, "port": port, "tmp": tmp, "mesh": mesh, "proc": proc, "lines": lines}
+    proc.terminate()
+    try:
+        proc.wait(10)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+
+
+def _status(url: str, headers: dict | None = None) -> int | None:
+    try:
+        return urllib.request.urlopen(urllib.request.Request(url, headers=headers or {}), timeout=5).status
+    except urllib.error.HTTPError as e:
+        return e.code
+    except OSError:
+        return None
+
+
+@pytest.fixture(scope="module")
+def driver(server):
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+
+    opts = webdriver.ChromeOptions()
+    opts.binary_location = CHROMIUM
+    for a in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", f"--window-size={CANVAS[0]},{CANVAS[1]}",
+              "--force-device-scale-factor=1"):
+        opts.add_argument(a)
+    d = webdriver.Chrome(service=Service(CHROMEDRIVER), options=opts)
+    d.execute_cdp_cmd("Browser.setDownloadBehavior", {"behavior": "allow", "downloadPath": str(server["tmp"])})
+    yield d
+    d.quit()
+
+
+def test_refused_without_the_token(server):
+    port = server["port"]
+    for path in ("/", "/index.html", "/ws", "/?secret=wrong"):
+        assert _status(f"http://127.0.0.1:{port}{path}") == 403, path
+    upgrade = {"Connection": "Upgrade", "Upgrade": "websocket", "Sec-WebSocket-Version": "13",
+               "Sec-WebSocket-Key": "dGhlIHNhbXBsZSBub25jZQ=="}
+    assert _status(f"http://127.0.0.1:{port}/ws", upgrade) == 403
+    assert _status(server["url"]) == 200
+
+
+def _status_text(d) -> str:
+    from selenium.webdriver.common.by import By
+
+    els = d.find_elements(By.ID, "status")
+    return els[0].text if els else ""
+
+
+def test_the_mesh_is_on_the_canvas(server, driver):
+    from PIL import Image
+    from selenium.webdriver.common.by import By
+
+    d = driver
+    d.get(server["url"])
+    canvas = _wait(lambda: d.find_elements(By.CSS_SELECTOR, "canvas"), 30)[0]
+    assert _wait(lambda: "vertices" in _status_text(d), 30)
+    assert _wait(lambda: any("connected" in line for line in list(server["lines"])), 10), server["lines"]
+    shot = server["tmp"] / "shot.png"
+    r = d.execute_script("return arguments[0].getBoundingClientRect()", canvas)
+
+    def drawn() -> float:
+        """The fraction of the canvas that is not background."""
+        d.save_screenshot(str(shot))
+        img = np.asarray(Image.open(shot).convert("RGB")).astype(int)
+        view = img[int(r["top"]):int(r["bottom"]), int(r["left"]):int(r["right"])]
+        background = np.median(view.reshape(-1, 3), axis=0)
+        return float((np.abs(view - background).sum(axis=2) > 40).mean())
+
+    frac = _wait(lambda: drawn() > 0.05, 30, 0.5) and drawn()  # (the first image takes a moment)
+    assert 0.05 < frac < 0.8, frac
+
+
+def _camera(server, size):
+    """The scene's composite matrix for the shape as the server frames it on a canvas of ``size``."""
+    import pyvista as pv
+
+    from hybridedit.fileio.meshfiles import read_mesh
+    from hybridedit.fileio.up_axes import up_axis_of
+    from hybridedit.viewer.app import _headless_render_window
+    from hybridedit.viewer.render.scene import Scene
+
+    mesh = read_mesh(server["mesh"])
+    _headless_render_window()
+    pl = pv.Plotter(off_screen=True, window_size=list(size))
+    try:
+        scene = Scene(pl)
+        scene.up_axis = up_axis_of(mesh, path=server["mesh"])[0]
+        scene.show_preview(mesh.vertices, mesh.faces)
+        return mesh, scene.composite_matrix(), scene.display_size()
+    finally:
+        pl.close()
+
+
+def _read_ply(path: Path) -> np.ndarray:
+    from hybridedit.fileio.meshfiles import read_mesh
+
+    return read_mesh(path).vertices
+
+
+def _download(d, server, name: str) -> np.ndarray:
+    from selenium.webdriver.common.by import By
+
+    out = server["tmp"] / "creature-posed.ply"
+    if out.exists():
+        out.unlink()
+    d.find_element(By.ID, "download").click()
+    assert _wait(lambda: out.exists() and out.stat().st_size > 1000 and
+                 not list(server["tmp"].glob("*.crdownload")), 20)
+    time.sleep(0.3)
+    return _read_ply(out.rename(server["tmp"] / name))
+
+
+def test_select_drag_save_and_undo(server, driver):
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.common.keys import Keys
+
+    from hybridedit.viewer.model.picking import project_points
+
+    d = driver
+    canvas = d.find_element(By.CSS_SELECTOR, "canvas")
+    r = d.execute_script("return arguments[0].getBoundingClientRect()", canvas)
+    w, h = round(r["width"]), round(r["height"])
+    mesh, C, size = _camera(server, (w, h))
+    assert size == (w, h)
+    V = mesh.vertices
+    display, front = project_points(V, C, size)
+    x = V[:, 0]
+
+    def css(px: float, py: float) -> tuple[int, int]:  # display (origin bottom-left) -> offset from the centre
+        return int(round(px - w / 2)), int(round((h - py) - h / 2))
+
+    def rectangle(part: np.ndarray, pad: float) -> None:
+        lo, hi = display[part].min(axis=0) - pad, display[part].max(axis=0) + pad
+        a, b = css(lo[0], hi[1]), css(hi[0], lo[1])
+        ac = ActionChains(d).move_to_element_with_offset(canvas, *a).click_and_hold()
+        for k in (1, 2, 3):
+            ac.move_to_element_with_offset(canvas, a[0] + (b[0] - a[0]) * k // 3, a[1] + (b[1] - a[1]) * k // 3)
+            ac.pause(0.05)
+        ac.release().perform()
+
+    def counts():
+        m = re.search(r"ROI (\d+), handle (\d+)", _status_text(d))
+        return (int(m.group(1)), int(m.group(2))) if m else None
+
+    arm, hand = x > 0.55 * x.max(), x > 0.85 * x.max()  # the arm along +X, its end
+    ActionChains(d).send_keys("s").send_keys("r").perform()
+    assert _wait(lambda: "select, target roi" in _status_text(d), 10), _status_text(d)
+    rectangle(arm & front, 8)
+    assert _wait(lambda: counts() and counts()[0] > 0, 10), _status_text(d)
+    ActionChains(d).send_keys("h").perform()
+    assert _wait(lambda: "target handle" in _status_text(d), 10)
+    rectangle(hand & front, 4)
+    assert _wait(lambda: counts() and counts()[1] > 0, 10), _status_text(d)
+    roi, handle = counts()
+    assert handle < roi
+
+    rest = _download(d, server, "rest.ply")
+    np.testing.assert_array_equal(rest, V)
+
+    ActionChains(d).send_keys("d").perform()
+    assert _wait(lambda: "; drag, target" in _status_text(d), 10), _status_text(d)
+    c = display[hand & front, :2].mean(axis=0)
+    start = css(*c)
+    ac = ActionChains(d).move_to_element_with_offset(canvas, *start).click_and_hold()
+    for k in range(1, 6):
+        ac.move_to_element_with_offset(canvas, start[0], start[1] - 12 * k).pause(0.1)
+    ac.release().perform()
+
+    diag = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
+
+    def moved():
+        got = _download(d, server, "posed.ply")
+        return got if np.abs(got - V).max() > 0.02 * diag else None
+
+    posed = _wait(moved, 20, 0.5)
+    assert posed is not None, _status_text(d)
+    assert posed[hand, 1].mean() > V[hand, 1].mean() + 0.02 * diag  # up on screen: +Y up
+    assert np.abs(posed[~arm] - V[~arm]).max() < 0.02 * diag  # the body stays
+
+    d.find_element(By.ID, "save_edit").click()
+    edit = server["mesh"].with_name("creature-edit.json")
+    assert _wait(lambda: edit.exists() and "Saved the edit" in _status_text(d), 10), _status_text(d)
+    out = server["tmp"] / "replayed.ply"
+    from hybridedit.cli import main
+
+    assert main(["deform", str(server["mesh"]), "-o", str(out), "--edit", str(edit), "-q"]) == 0
+    replayed = _read_ply(out)
+    shown = _download(d, server, "saved.ply")  # the pose the edit was saved from (the drag's frames all done)
+    # deform writes its .ply in the input's structure: float32 coordinates, as creature.ply has them
+    shown32 = shown.astype(np.float32).astype(np.float64)
+    assert np.abs(replayed - shown32).max() <= 1e-9 * diag, np.abs(replayed - shown32).max() / diag
+
+    ActionChains(d).key_down(Keys.CONTROL).send_keys("z").key_up(Keys.CONTROL).perform()
+    back = _wait(lambda: (lambda got: got if np.array_equal(got, V) else None)(_download(d, server, "undone.ply")),
+                 20, 0.5)
+    assert back is not None
