@@ -15,14 +15,12 @@ import numpy as np
 
 from ..deform.selection import SelectionError
 from ..viewer.model.gizmo import screen_plane_translation
-from ..viewer.model.picking import nearest_hit, op_from_modifiers, project_points, rectangle_hits
+from ..viewer.model.picking import (CLICK_PIXELS, PICK_PIXELS, nearest_hit, op_from_modifiers, project_points,
+                                    rectangle_hits)
 from ..viewer.model.selection_masks import HANDLE, ROI
 
 CAMERA, SELECT, DRAG = "camera", "select", "drag"
 """The modes: the mouse turns the camera, selects cage points, or drags the handle."""
-CLICK_PIXELS = 3
-"""A press and release this close (pixels) are a click: the nearest cage point within PICK_PIXELS."""
-PICK_PIXELS = 12
 
 
 class Gestures:

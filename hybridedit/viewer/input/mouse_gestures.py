@@ -44,8 +44,8 @@ from qtpy import QtCore, QtGui
 from ...deform.skeleton import edge_graph
 from ..model import gizmo as gz
 from ..model.picking import (
-    ADD, REPLACE, brush_hits, nearest_hit, op_from_modifiers, project_points, rectangle_hits, stroke_hits,
-    unproject, visible_points,
+    ADD, CLICK_PIXELS, PICK_PIXELS, REPLACE, brush_hits, nearest_hit, op_from_modifiers, project_points,
+    rectangle_hits, stroke_hits, unproject, visible_points,
 )
 from ..model.surface_pick import surface_under
 from ..render.scene import Scene
@@ -57,10 +57,6 @@ RECTANGLE, BRUSH = "rectangle", "brush"
 NEAR_PIXELS = 60.0
 """In Select mode the cage points within this many pixels of the cursor are drawn."""
 TOOLS = (RECTANGLE, BRUSH)
-CLICK_PIXELS = 4.0
-"""A rectangle gesture that moves at most this many pixels is a click."""
-PICK_PIXELS = 12.0
-"""A click takes the nearest cage point within this many pixels of it."""
 DEPTH_TOLERANCE = 0.5
 """A cage point still counts as in sight when the surface lies at most this many (median) cage edge
 lengths in front of it along the line of sight: cage points lie near the surface, some slightly

@@ -16,6 +16,10 @@ from ...deform.roles import FIXED, FREE, is_handle
 
 REPLACE, ADD, REMOVE = "replace", "add", "remove"
 OPS = (REPLACE, ADD, REMOVE)
+CLICK_PIXELS = 4.0
+"""A rectangle gesture that moves at most this many pixels is a click (the window's and the browser's)."""
+PICK_PIXELS = 12.0
+"""A click takes the nearest cage point within this many pixels of it."""
 
 
 def project_points(points: np.ndarray, composite: np.ndarray, size: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
