@@ -74,6 +74,7 @@ class WebEditor:
         from vtkmodules.vtkInteractionStyle import vtkInteractorStyleUser
 
         from ..viewer.app import _headless_render_window
+        from ..viewer.render.depth_grab import DepthGrab
         from ..viewer.render.scene import Scene
 
         self.session = session
@@ -91,7 +92,12 @@ class WebEditor:
                         s.selection.cage_roles(), s.selection.shape_roles(), look=s.look)
         s.look_mode = self.scene.look_mode
         self.scene.reset_camera()
-        self.gestures = Gestures(session, self.scene)
+        self.depth = DepthGrab(self.plotter.ren_win, self.scene.renderer)  # (read at each render's shape layer)
+        self.depth.wanted = True
+        self._pushed = 0  # counts the poses and selections pushed: with the camera, the depth's key
+        camera = self.scene.renderer.GetActiveCamera()
+        self.depth.key_fn = lambda: (camera.GetMTime(), tuple(self.plotter.ren_win.GetSize()), self._pushed)
+        self.gestures = Gestures(session, self.scene, self.depth)
         self.iren = self.plotter.iren.interactor
         self._turn_style = self.iren.GetInteractorStyle()
         self._still_style = vtkInteractorStyleUser()  # does nothing: the camera stays while selecting or dragging
@@ -164,6 +170,7 @@ class WebEditor:
         self.scene.update_cage(s.cage_positions)
         self.scene.update_roles(s.selection.cage_roles(), s.selection.shape_roles())
         self.scene.gizmo.place(s.handle_centroid() if self.gestures.mode == DRAG else None)
+        self._pushed += 1
         self.view.update()
 
     # ------------------------------------------------------------------ modes and keys

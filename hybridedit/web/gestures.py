@@ -4,7 +4,8 @@ The browser's mouse reaches the server as VTK interactor events (display pixels,
 bottom-left, as :func:`~hybridedit.viewer.model.picking.project_points` gives them);
 :class:`Gestures` turns them into calls on the session: a rectangle in Select mode takes
 the cage points in it into the target (the ROI or the handle, Shift adds, Ctrl removes),
-a drag in Drag mode moves the handle in the view plane through the handle's centroid
+only the points in sight, as the window's does (its depth buffer); a drag in Drag mode moves the
+handle in the view plane through the handle's centroid
 (:func:`~hybridedit.viewer.model.gizmo.screen_plane_translation`), settled at release.
 No Qt, no editing logic of its own.
 """
@@ -15,8 +16,8 @@ import numpy as np
 
 from ..deform.selection import SelectionError
 from ..viewer.model.gizmo import screen_plane_translation
-from ..viewer.model.picking import (CLICK_PIXELS, PICK_PIXELS, nearest_hit, op_from_modifiers, project_points,
-                                    rectangle_hits)
+from ..viewer.model.picking import (CLICK_PIXELS, DEPTH_TOLERANCE, PICK_PIXELS, in_sight, nearest_hit,
+                                    op_from_modifiers, project_points, rectangle_hits)
 from ..viewer.model.selection_masks import HANDLE, ROI
 
 CAMERA, SELECT, DRAG = "camera", "select", "drag"
@@ -30,6 +31,8 @@ class Gestures:
     ----------
     session : the :class:`~hybridedit.viewer.model.session.Session` edited.
     scene : the :class:`~hybridedit.viewer.render.scene.Scene` it is drawn in (its camera's matrices).
+    depth : the :class:`~hybridedit.viewer.render.depth_grab.DepthGrab` of the scene's shape layer: a
+        selection takes only the cage points in sight, as the window's does (None: every point in front).
 
     Attributes
     ----------
@@ -38,9 +41,10 @@ class Gestures:
     message : the latest thing to say in the status line (an error, a refused drag), or "".
     """
 
-    def __init__(self, session, scene) -> None:
+    def __init__(self, session, scene, depth=None) -> None:
         self.session = session
         self.scene = scene
+        self.depth = depth
         self.mode = CAMERA
         self.target = ROI
         self.message = ""
@@ -68,7 +72,9 @@ class Gestures:
         self.message = ""
         if self.mode == SELECT:
             self._op = op_from_modifiers(shift, ctrl)
-            self._display, self._front = project_points(self.session.cage_positions, C, size)
+            P = self.session.cage_positions
+            self._display, self._front = project_points(P, C, size)
+            self._front = self._in_sight(P, C, size)
             return
         s = self.session
         try:
@@ -107,6 +113,17 @@ class Gestures:
         s.end_drag()
         s.finish_settle()  # the settle at release (what hybridedit deform replays), and its undo step
         return True
+
+    def _in_sight(self, P: np.ndarray, C: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+        """(c,) the cage points a selection may take: those in front and in sight."""
+        d = self.depth
+        if d is None:
+            return self._front
+        if not d.current():
+            d.ren_win.Render()  # (once: the depth of the view as it is now)
+        if not d.current():
+            return self._front
+        return in_sight(P, self._display, self._front, d, C, size, DEPTH_TOLERANCE * self.scene.cage_spacing)
 
     def _select(self, start: tuple[float, float], end: tuple[float, float]) -> bool:
         display, front = self._display, self._front

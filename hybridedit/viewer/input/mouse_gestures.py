@@ -23,7 +23,7 @@ behind another or only overlapping it on screen (a hind leg behind a front leg)
 is not taken, unless
 :attr:`ViewController.select_through` is on (Blender's X-ray); a click takes the
 nearest point in sight. Whether a point is in sight is decided once per
-gesture from the depth buffer of the shape's layer (:class:`~..render.view.DepthGrab`,
+gesture from the depth buffer of the shape's layer (:class:`~..render.depth_grab.DepthGrab`,
 read with the frame the view shows anyway) by
 :func:`~..model.picking.visible_points`. A click (the rectangle tool, moved at most
 :data:`CLICK_PIXELS`) takes the nearest cage point within :data:`PICK_PIXELS`;
@@ -44,8 +44,8 @@ from qtpy import QtCore, QtGui
 from ...deform.skeleton import edge_graph
 from ..model import gizmo as gz
 from ..model.picking import (
-    ADD, CLICK_PIXELS, PICK_PIXELS, REPLACE, brush_hits, nearest_hit, op_from_modifiers, project_points,
-    rectangle_hits, stroke_hits, unproject, visible_points,
+    ADD, CLICK_PIXELS, DEPTH_TOLERANCE, PICK_PIXELS, REPLACE, brush_hits, in_sight, nearest_hit,
+    op_from_modifiers, project_points, rectangle_hits, stroke_hits, unproject,
 )
 from ..model.surface_pick import surface_under
 from ..render.scene import Scene
@@ -57,16 +57,6 @@ RECTANGLE, BRUSH = "rectangle", "brush"
 NEAR_PIXELS = 60.0
 """In Select mode the cage points within this many pixels of the cursor are drawn."""
 TOOLS = (RECTANGLE, BRUSH)
-DEPTH_TOLERANCE = 0.5
-"""A cage point still counts as in sight when the surface lies at most this many (median) cage edge
-lengths in front of it along the line of sight: cage points lie near the surface, some slightly
-inside (QEM places them within about 0.15 edge lengths of it along its normal on the creature and
-the armadillo; seen at a slant the gap along the line of sight is longer)."""
-DEPTH_RADIUS = 1
-"""A point on the surface seen within this many pixels of it is in sight (see visible_points). Checked
-against a ray cast to the creature from five directions: 0 pixels misses points in sight on the rims of
-the silhouettes, and 2 pixels, taking the farthest depth around, takes points well behind the surface;
-1 pixel is between (it misses under 1 % of the points the ray reaches)."""
 
 
 @runtime_checkable
@@ -274,10 +264,7 @@ class ViewController(QtCore.QObject):
         cached = self._visible
         if cached is not None and cached[0] == depth.serial and np.array_equal(cached[1], P):
             return in_front & cached[2]
-        if depth.size != tuple(size) or not np.allclose(depth.composite, C, rtol=1e-9, atol=1e-12):
-            display, in_front = project_points(P, depth.composite, depth.size)  # (the far plane may differ)
-        vis = visible_points(display, in_front, depth.depth, depth.origin, depth.composite, depth.size,
-                             DEPTH_TOLERANCE * self.scene.cage_spacing, DEPTH_RADIUS)
+        vis = in_sight(P, display, in_front, depth, C, size, DEPTH_TOLERANCE * self.scene.cage_spacing)
         self._visible = (depth.serial, np.array(P, copy=True), vis)
         self.visibility_seconds = time.perf_counter() - t0
         return in_front & vis
