@@ -140,8 +140,8 @@ def test_the_rectangle_takes_the_part_in_front_through_its_thickness(qtbot, rig,
     front_ball = P[:, 2] > 0
     local_z = P[:, 2] - np.where(front_ball, FRONT_Z, BACK_Z)  # towards the camera, from the ball's centre
     tests = []
-    real = interaction.visible_points
-    monkeypatch.setattr(interaction, "visible_points", lambda *a, **k: tests.append(1) or real(*a, **k))
+    real = interaction.in_sight
+    monkeypatch.setattr(interaction, "in_sight", lambda *a, **k: tests.append(1) or real(*a, **k))
     a, b = _everything(view, scene, P)
     _drag(qtbot, view, a, b, steps=12)
     taken = win.mask
