@@ -55,6 +55,7 @@ _WHERE = {
     "rrms_edge_error": "core.mesh",
     "save_edit": "fileio.editfile",
     "save_poses": "fileio.poses",
+    "widget": "web.notebook",
     "write_document": "fileio.meshfiles",
     "write_mesh": "fileio.meshfiles",
 }

@@ -14,8 +14,6 @@ import traceback
 from pathlib import Path
 
 from ..defaults import CAGE_SIZE
-from ..deform.editor import HybridEditor
-from ..fileio.meshfiles import read_document
 from ..core.mesh import MeshError
 
 SCREENSHOT_SIZE = (1280, 960)
@@ -52,10 +50,8 @@ def render_screenshot(path: str | os.PathLike, out: str | os.PathLike, cage: int
     """
     import pyvista as pv
 
-    from ..fileio.up_axes import up_axis_of
-    from .render.look import shown_look
+    from .model.opening import open_session
     from .render.scene import Scene
-    from .model.session import Session
 
     out = Path(out)
     if out.suffix.lower() != ".png":
@@ -63,20 +59,18 @@ def render_screenshot(path: str | os.PathLike, out: str | os.PathLike, cage: int
     if not out.parent.is_dir():
         return _error(f"{out}: the folder {out.parent} does not exist")
     try:
-        document = read_document(path)
-        mesh = document.mesh
-        editor = HybridEditor(mesh, cage, cache=True)
+        opened = open_session(path, cage_size=cage)
     except (MeshError, ValueError, OSError) as e:
         return _error(str(e))
-    session = Session(editor, path=Path(path), cage_size=cage)
-    session.look = shown_look(document)
-    for note in session.look.notes if session.look is not None else []:
+    session = opened.session
+    mesh, editor = session.mesh, session.editor
+    for note in opened.notes:
         print(f"hybridedit: note: {Path(path).name}: {note}", file=sys.stderr)
     _headless_render_window()
     pl = pv.Plotter(off_screen=True, window_size=list(size))
     try:
         scene = Scene(pl)
-        scene.up_axis = up_axis_of(mesh, path=path)[0]  # as the window opens it: remembered, else guessed
+        scene.up_axis = opened.up_axis  # as the window opens it: remembered, else guessed
         scene.load(session.metrics, session.shape_positions, session.cage_positions, editor.cage.faces,
                    session.selection.cage_roles(), session.selection.shape_roles(), look=session.look)
         scene.set_cage_visible(show_cage)

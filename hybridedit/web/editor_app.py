@@ -31,44 +31,21 @@ def edit_path_of(mesh_path: Path) -> Path:
     return mesh_path.with_name(mesh_path.stem + "-edit.json")
 
 
-def open_session(path: Path, cage_size: int | float = CAGE_SIZE):
-    """Read a mesh as the window does and build its engine and session.
-
-    Returns
-    -------
-    session : :class:`~hybridedit.viewer.model.session.Session`
-    up_axis : the shape's up axis (remembered, else guessed).
-
-    Raises
-    ------
-    MeshError, MeshFileError, ValueError, OSError
-        The file cannot be read or bound.
-    """
-    from ..deform.editor import HybridEditor
-    from ..fileio.meshfiles import read_document
-    from ..fileio.up_axes import up_axis_of
-    from ..viewer.model.session import Session
-    from ..viewer.render.look import shown_look
-
-    document = read_document(path)
-    editor = HybridEditor(document.mesh, cage_size, cache=True)
-    session = Session(editor, path=path, cage_size=cage_size)
-    session.look = shown_look(document)
-    return session, up_axis_of(document.mesh, path=path)[0]
-
-
 class WebEditor:
     """One session served to the browser.
 
     Parameters
     ----------
-    session : the session edited (:func:`open_session`).
+    session : the session edited (:func:`~hybridedit.viewer.model.opening.open_session`).
     token : the token a browser must show (:mod:`.token_guard`).
     up_axis : the shape's up axis (the camera's up).
     server : a trame server (default: a new one).
+    guard_pages : answer HTTP requests without the token 403 (:mod:`.token_guard`); off where the
+        page is framed by another site's page (a notebook's), which sends it no cookie: the session
+        (the websocket) still opens only with the token.
     """
 
-    def __init__(self, session, token: str, up_axis: str = "+Y", server=None) -> None:
+    def __init__(self, session, token: str, up_axis: str = "+Y", server=None, *, guard_pages: bool = True) -> None:
         import pyvista as pv
         from trame.app import get_server
         from vtkmodules.vtkInteractionStyle import vtkInteractorStyleUser
@@ -79,6 +56,7 @@ class WebEditor:
 
         self.session = session
         self.token = token
+        self.guard_pages = guard_pages
         self.server = server or get_server(name=f"hybridedit-{id(self)}", client_type="vue3")
         self.server.client_type = "vue3"
         self.server.cli.set_defaults(authKey=token)
@@ -276,7 +254,8 @@ class WebEditor:
 
     # ------------------------------------------------------------------ server
     def _on_bind(self, wslink_server) -> None:
-        wslink_server.app.middlewares.append(token_middleware(self.token))
+        if self.guard_pages:
+            wslink_server.app.middlewares.append(token_middleware(self.token))
 
     def _on_connect(self, **_) -> None:
         print("hybridedit: a browser connected", flush=True)
@@ -298,9 +277,12 @@ class WebEditor:
 
 def run(path: Path, *, host: str = "127.0.0.1", port: int = 8080, cage_size: int | float = CAGE_SIZE) -> int:
     """``hybridedit web``: open ``path`` and serve it; returns the exit status."""
+    from ..viewer.model.opening import open_session
     from .token_guard import new_token
 
-    session, up = open_session(Path(path), cage_size)
+    opened = open_session(Path(path), cage_size=cage_size)
+    for note in opened.notes:
+        print(f"hybridedit: note: {Path(path).name}: {note}", file=sys.stderr)
     os.environ.setdefault("TRAME_DISABLE_V3_WARNING", "1")
-    WebEditor(session, new_token(), up).serve(host, port)
+    WebEditor(opened.session, new_token(), opened.up_axis).serve(host, port)
     return 0

@@ -292,3 +292,21 @@ def test_the_window_opens_a_textured_file_textured_and_keeps_it_through_a_drag(q
     assert w.scene.look_mode == "texture" and share_near(shot(), CHECKER_A) > 0.02
     w.unsaved.set_modified(False)
     w.close()
+
+
+def test_opening_a_file_or_a_mesh_gives_its_session_look_and_up_axis(tmp_path):
+    """open_session (what the screenshot, hybridedit web and he.widget open with) reads what the
+    window reads: the file's look, a note for a texture it cannot decode, and an up axis."""
+    from hybridedit.viewer.model.opening import open_session
+
+    path = uv_sphere_obj(tmp_path)
+    opened = open_session(path, cage_size=60)
+    s = opened.session
+    assert s.path == Path(path) and s.cage_size == 60 and s.look is not None
+    assert any(m.image is not None for m in s.look.materials)
+    assert opened.notes == () and opened.up_axis in ("+X", "-X", "+Y", "-Y", "+Z", "-Z")
+    (tmp_path / "checker.png").write_bytes(b"not a PNG")
+    assert any("checker.png" in n for n in open_session(path, cage_size=60).notes)
+    bare = open_session(Mesh(s.mesh.vertices, s.mesh.faces), cage_size=60)
+    assert bare.session.path is None and bare.session.look is None and bare.notes == ()
+    assert np.array_equal(bare.session.shown_positions, s.mesh.vertices)

@@ -11,7 +11,6 @@ from __future__ import annotations
 import os
 import re
 import shutil
-import socket
 import subprocess
 import sys
 import threading
@@ -24,49 +23,19 @@ import numpy as np
 import pytest
 
 from shapes import REPO
+from support.chromium import drawn_fraction, free_port, need_browser, new_driver, wait
 
-CHROMIUM = next((p for p in ("/usr/bin/chromium", "/usr/bin/chromium-browser") if os.path.exists(p)), None)
-CHROMEDRIVER = shutil.which("chromedriver") or "/usr/bin/chromedriver"
-REQUIRED = bool(os.environ.get("HYBRIDEDIT_REQUIRE_VALIDATORS"))
 CAGE = "300"  # a small cage: the binding is built in seconds
 CANVAS = (1000, 800)  # the browser window; the canvas is what the toolbar leaves
 
 
-def _need(ok: bool, reason: str) -> None:
-    if not ok:
-        if REQUIRED:
-            pytest.fail(f"{reason} (HYBRIDEDIT_REQUIRE_VALIDATORS is set)")
-        pytest.skip(reason)
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def _wait(pred, timeout: float = 20.0, step: float = 0.2):
-    end = time.time() + timeout
-    while time.time() < end:
-        got = pred()
-        if isinstance(got, np.ndarray) or got:
-            return got
-        time.sleep(step)
-    return pred()
-
-
 @pytest.fixture(scope="module")
 def server(tmp_path_factory):
-    _need(CHROMIUM is not None and os.path.exists(CHROMEDRIVER), "Chromium or chromedriver is not installed")
-    for module in ("trame", "trame_vtk", "trame_vuetify", "selenium"):
-        try:
-            __import__(module)
-        except ImportError:
-            _need(False, f"{module} is not installed (the web and test extras)")
+    need_browser()
     tmp = tmp_path_factory.mktemp("web")
     mesh = tmp / "creature.ply"
     shutil.copy(REPO / "data" / "creature.ply", mesh)  # Save Edit writes beside the mesh
-    port = _free_port()
+    port = free_port()
     env = dict(os.environ, PYTHONUNBUFFERED="1", PYTHONPATH=str(REPO))
     env.pop("DISPLAY", None)
     proc = subprocess.Popen([sys.executable, "-m", "hybridedit", "web", str(mesh), "--port", str(port),
@@ -74,13 +43,13 @@ def server(tmp_path_factory):
                             env=env, cwd=tmp)
     lines: list[str] = []
     threading.Thread(target=lambda: lines.extend(iter(proc.stdout.readline, "")), daemon=True).start()
-    found = _wait(lambda: next((m.group(1) for line in list(lines) if (m := re.search(r"(http://\S+)", line))),
+    found = wait(lambda: next((m.group(1) for line in list(lines) if (m := re.search(r"(http://\S+)", line))),
                                None) or proc.poll() is not None, 90)
     url = found if isinstance(found, str) else None
     if url is None:
         proc.kill()
         pytest.fail("hybridedit web printed no URL:\n" + "".join(lines))
-    assert _wait(lambda: _status(f"http://127.0.0.1:{port}/") == 403, 30)
+    assert wait(lambda: _status(f"http://127.0.0.1:{port}/") == 403, 30)
     yield {"url": url, "port": port, "tmp": tmp, "mesh": mesh, "proc": proc, "lines": lines}
     proc.terminate()
     try:
@@ -100,16 +69,7 @@ def _status(url: str, headers: dict | None = None) -> int | None:
 
 @pytest.fixture(scope="module")
 def driver(server):
-    from selenium import webdriver
-    from selenium.webdriver.chrome.service import Service
-
-    opts = webdriver.ChromeOptions()
-    opts.binary_location = CHROMIUM
-    for a in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", f"--window-size={CANVAS[0]},{CANVAS[1]}",
-              "--force-device-scale-factor=1"):
-        opts.add_argument(a)
-    d = webdriver.Chrome(service=Service(CHROMEDRIVER), options=opts)
-    d.execute_cdp_cmd("Browser.setDownloadBehavior", {"behavior": "allow", "downloadPath": str(server["tmp"])})
+    d = new_driver(CANVAS, downloads=server["tmp"])
     yield d
     d.quit()
 
@@ -132,26 +92,19 @@ def _status_text(d) -> str:
 
 
 def test_the_mesh_is_on_the_canvas(server, driver):
-    from PIL import Image
     from selenium.webdriver.common.by import By
 
     d = driver
     d.get(server["url"])
-    canvas = _wait(lambda: d.find_elements(By.CSS_SELECTOR, "canvas"), 30)[0]
-    assert _wait(lambda: "vertices" in _status_text(d), 30)
-    assert _wait(lambda: any("connected" in line for line in list(server["lines"])), 10), server["lines"]
+    canvas = wait(lambda: d.find_elements(By.CSS_SELECTOR, "canvas"), 30)[0]
+    assert wait(lambda: "vertices" in _status_text(d), 30)
+    assert wait(lambda: any("connected" in line for line in list(server["lines"])), 10), server["lines"]
     shot = server["tmp"] / "shot.png"
-    r = d.execute_script("return arguments[0].getBoundingClientRect()", canvas)
 
     def drawn() -> float:
-        """The fraction of the canvas that is not background."""
-        d.save_screenshot(str(shot))
-        img = np.asarray(Image.open(shot).convert("RGB")).astype(int)
-        view = img[int(r["top"]):int(r["bottom"]), int(r["left"]):int(r["right"])]
-        background = np.median(view.reshape(-1, 3), axis=0)
-        return float((np.abs(view - background).sum(axis=2) > 40).mean())
+        return drawn_fraction(d, canvas, shot)
 
-    frac = _wait(lambda: drawn() > 0.05, 30, 0.5) and drawn()  # (the first image takes a moment)
+    frac = wait(lambda: drawn() > 0.05, 30, 0.5) and drawn()  # (the first image takes a moment)
     assert 0.05 < frac < 0.8, frac
 
 
@@ -189,7 +142,7 @@ def _download(d, server, name: str) -> np.ndarray:
     if out.exists():
         out.unlink()
     d.find_element(By.ID, "download").click()
-    assert _wait(lambda: out.exists() and out.stat().st_size > 1000 and
+    assert wait(lambda: out.exists() and out.stat().st_size > 1000 and
                  not list(server["tmp"].glob("*.crdownload")), 20)
     time.sleep(0.3)
     return _read_ply(out.rename(server["tmp"] / name))
@@ -230,13 +183,13 @@ def test_select_drag_save_and_undo(server, driver):
 
     arm, hand = x > 0.55 * x.max(), x > 0.85 * x.max()  # the arm along +X, its end
     ActionChains(d).send_keys("s").send_keys("r").perform()
-    assert _wait(lambda: "select, target roi" in _status_text(d), 10), _status_text(d)
+    assert wait(lambda: "select, target roi" in _status_text(d), 10), _status_text(d)
     rectangle(arm & front, 8)
-    assert _wait(lambda: counts() and counts()[0] > 0, 10), _status_text(d)
+    assert wait(lambda: counts() and counts()[0] > 0, 10), _status_text(d)
     ActionChains(d).send_keys("h").perform()
-    assert _wait(lambda: "target handle" in _status_text(d), 10)
+    assert wait(lambda: "target handle" in _status_text(d), 10)
     rectangle(hand & front, 4)
-    assert _wait(lambda: counts() and counts()[1] > 0, 10), _status_text(d)
+    assert wait(lambda: counts() and counts()[1] > 0, 10), _status_text(d)
     roi, handle = counts()
     assert handle < roi
 
@@ -244,7 +197,7 @@ def test_select_drag_save_and_undo(server, driver):
     np.testing.assert_array_equal(rest, V)
 
     ActionChains(d).send_keys("d").perform()
-    assert _wait(lambda: "; drag, target" in _status_text(d), 10), _status_text(d)
+    assert wait(lambda: "; drag, target" in _status_text(d), 10), _status_text(d)
     c = display[hand & front, :2].mean(axis=0)
     start = css(*c)
     ac = ActionChains(d).move_to_element_with_offset(canvas, *start).click_and_hold()
@@ -258,14 +211,14 @@ def test_select_drag_save_and_undo(server, driver):
         got = _download(d, server, "posed.ply")
         return got if np.abs(got - V).max() > 0.02 * diag else None
 
-    posed = _wait(moved, 20, 0.5)
+    posed = wait(moved, 20, 0.5)
     assert posed is not None, _status_text(d)
     assert posed[hand, 1].mean() > V[hand, 1].mean() + 0.02 * diag  # up on screen: +Y up
     assert np.abs(posed[~arm] - V[~arm]).max() < 0.02 * diag  # the body stays
 
     d.find_element(By.ID, "save_edit").click()
     edit = server["mesh"].with_name("creature-edit.json")
-    assert _wait(lambda: edit.exists() and "Saved the edit" in _status_text(d), 10), _status_text(d)
+    assert wait(lambda: edit.exists() and "Saved the edit" in _status_text(d), 10), _status_text(d)
     out = server["tmp"] / "replayed.ply"
     from hybridedit.cli import main
 
@@ -277,6 +230,6 @@ def test_select_drag_save_and_undo(server, driver):
     assert np.abs(replayed - shown32).max() <= 1e-9 * diag, np.abs(replayed - shown32).max() / diag
 
     ActionChains(d).key_down(Keys.CONTROL).send_keys("z").key_up(Keys.CONTROL).perform()
-    back = _wait(lambda: (lambda got: got if np.array_equal(got, V) else None)(_download(d, server, "undone.ply")),
+    back = wait(lambda: (lambda got: got if np.array_equal(got, V) else None)(_download(d, server, "undone.ply")),
                  20, 0.5)
     assert back is not None
