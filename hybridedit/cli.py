@@ -316,6 +316,7 @@ def run_web(args: argparse.Namespace) -> int:
         raise CLIError(f"{path}: no such file")
     if not 0 < args.port < 65536:
         raise CLIError(f"--port {args.port}: not a port number (1 to 65535)")
+    edit = load_edit(args.edit) if args.edit else None  # (a bad edit file is said before the build)
     import importlib.util
     import socket
 
@@ -329,7 +330,8 @@ def run_web(args: argparse.Namespace) -> int:
         raise CLIError(f"cannot listen on {args.host}:{args.port} ({e.strerror or e}); try another --port") from e
     from .web.editor_app import run
 
-    return run(path, host=args.host, port=args.port, cage_size=args.cage)
+    return run(path, host=args.host, port=args.port, cage_size=args.cage, edit=edit,
+               edit_path=args.edit)
 
 
 def _demo(path: Path, args: argparse.Namespace) -> int:
@@ -400,8 +402,9 @@ def build_parser() -> argparse.ArgumentParser:
     w.add_argument("--port", type=int, default=8080, help="port to serve on (default 8080)")
     w.add_argument("--host", default="127.0.0.1",
                    help="address to listen on (default 127.0.0.1: this machine only; use an ssh tunnel from another)")
-    w.add_argument("--cage-size", dest="cage", type=parse_cage_size, default=CAGE_SIZE,
+    w.add_argument("--cage", "--cage-size", dest="cage", type=parse_cage_size, default=CAGE_SIZE,
                    help="cage vertices (2000) or fraction (0.05 or 5%%); default 5%%")
+    w.add_argument("--edit", help="open with this edit file replayed (as the window's File > Load Edit)")
     w.set_defaults(func=run_web)
     return p
 

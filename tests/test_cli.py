@@ -293,7 +293,8 @@ def test_info_into_a_closed_pipe_exits_quietly(mesh_file):
 
 
 def test_web_errors_exit_2_with_one_line(tmp_path, mesh_file, capsys):
-    """``hybridedit web`` says a missing file, a bad port or a port in use in one line, before any build."""
+    """``hybridedit web`` says a missing file, a bad port, a port in use or a bad edit file in one line,
+    before any build."""
     import importlib.util
     import socket
 
@@ -303,8 +304,12 @@ def test_web_errors_exit_2_with_one_line(tmp_path, mesh_file, capsys):
         busy.bind(("127.0.0.1", 0))
         busy.listen()
         assert main(["web", str(mesh_file), "--port", str(busy.getsockname()[1])]) == 2
+    bad_edit = tmp_path / "bad-edit.json"
+    bad_edit.write_text("{not json")
+    assert main(["web", str(mesh_file), "--edit", str(bad_edit)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 3 and all(line.startswith("hybridedit: error: ") for line in err), err
+    assert len(err) == 4 and all(line.startswith("hybridedit: error: ") for line in err), err
+    assert "bad-edit.json" in err[3]
     assert "no such file" in err[0] and "not a port number" in err[1]
     # without the web extra (the wheels-only venv's [test] install) the port is never reached
     web_installed = all(importlib.util.find_spec(m) for m in ("trame", "trame_vtk", "trame_vuetify"))

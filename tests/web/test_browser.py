@@ -39,7 +39,7 @@ def server(tmp_path_factory):
     env = dict(os.environ, PYTHONUNBUFFERED="1", PYTHONPATH=str(REPO))
     env.pop("DISPLAY", None)
     proc = subprocess.Popen([sys.executable, "-m", "hybridedit", "web", str(mesh), "--port", str(port),
-                             "--cage-size", CAGE], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                             "--cage", CAGE], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                             env=env, cwd=tmp)
     lines: list[str] = []
     threading.Thread(target=lambda: lines.extend(iter(proc.stdout.readline, "")), daemon=True).start()
