@@ -10,6 +10,7 @@ stays); in Camera mode it is the usual trackball.
 
 from __future__ import annotations
 
+import asyncio
 import os
 import sys
 import tempfile
@@ -52,6 +53,7 @@ class WebEditor:
 
         from ..viewer.app import _headless_render_window
         from ..viewer.render.depth_grab import DepthGrab
+        from ..viewer.render.gl_renderer import choose_antialiasing
         from ..viewer.render.scene import Scene
 
         self.session = session
@@ -70,9 +72,11 @@ class WebEditor:
                         s.selection.cage_roles(), s.selection.shape_roles(), look=s.look)
         s.look_mode = self.scene.look_mode
         self.scene.reset_camera()
-        self.depth = DepthGrab(self.plotter.ren_win, self.scene.renderer)  # (read at each render's shape layer)
-        self.depth.wanted = True
+        self.plotter.ren_win.Render()
+        choose_antialiasing(self.plotter.ren_win)  # (off for software OpenGL: half the frame)
+        self.depth = DepthGrab(self.plotter.ren_win, self.scene.renderer)
         self._pushed = 0  # counts the poses and selections pushed: with the camera, the depth's key
+        self._frame_waiting = False  # a drag frame is waiting to be drawn
         camera = self.scene.renderer.GetActiveCamera()
         self.depth.key_fn = lambda: (camera.GetMTime(), tuple(self.plotter.ren_win.GetSize()), self._pushed)
         self.gestures = Gestures(session, self.scene, self.depth)
@@ -142,12 +146,36 @@ class WebEditor:
             self.state.status = text
 
     def push(self) -> None:
-        """Draw the session's state again and send the image."""
+        """Draw the session's state again (the whole shape, the cage, the roles) and send the image."""
         s = self.session
         self.scene.update_shape(s.shown_positions, everything=True)
         self.scene.update_cage(s.cage_positions)
         self.scene.update_roles(s.selection.cage_roles(), s.selection.shape_roles())
         self.scene.gizmo.place(s.handle_centroid() if self.gestures.mode == DRAG else None)
+        self._pushed += 1
+        self.view.update()
+
+    def _frame_due(self) -> None:
+        """A drag moved the shape: draw it once the events waiting now have been handled (mouse moves
+        come faster than frames are drawn; each is solved, the latest is drawn)."""
+        if self._frame_waiting:
+            return
+        self._frame_waiting = True
+        try:
+            asyncio.get_running_loop().call_soon(self._push_frame)
+        except RuntimeError:  # (no event loop: at once)
+            self._push_frame()
+
+    def _push_frame(self) -> None:
+        """A drag frame: the moving region of the shape and the cage. While the mouse is down the
+        view streams images of its own (trame-vtk's interaction animation), so this one only asks."""
+        self._frame_waiting = False
+        if not self.gestures.busy:
+            return  # (released since: the release drew everything)
+        s = self.session
+        self.scene.update_shape(s.shape_positions)
+        self.scene.update_cage(s.cage_positions)
+        self.scene.gizmo.place(s.handle_centroid())
         self._pushed += 1
         self.view.update()
 
@@ -157,6 +185,7 @@ class WebEditor:
         if mode not in (CAMERA, SELECT, DRAG) or self.gestures.busy:
             return
         self.gestures.mode = mode
+        self.depth.wanted = mode == SELECT  # (read at each render that moved something: only for selections)
         self.iren.SetInteractorStyle(self._turn_style if mode == CAMERA else self._still_style)
         if self.state.mode != mode:
             self.state.mode = mode
@@ -245,9 +274,10 @@ class WebEditor:
             g.message = f"{type(e).__name__}: {e}"
             self.session.cancel_drag()
             changed = True
-        if changed:
-            if event != "MouseMoveEvent":
-                self.show_status()
+        if changed and event == "MouseMoveEvent":
+            self._frame_due()
+        elif changed:
+            self.show_status()
             self.push()
         elif event == "LeftButtonPressEvent" and g.message:
             self.show_status()
@@ -275,14 +305,18 @@ class WebEditor:
             sys.argv = argv
 
 
-def run(path: Path, *, host: str = "127.0.0.1", port: int = 8080, cage_size: int | float = CAGE_SIZE) -> int:
-    """``hybridedit web``: open ``path`` and serve it; returns the exit status."""
+def run(path: Path, *, host: str = "127.0.0.1", port: int = 8080, cage_size: int | float = CAGE_SIZE,
+        edit=None, edit_path: str | None = None) -> int:
+    """``hybridedit web``: open ``path`` (with ``edit`` replayed, an :class:`~hybridedit.Edit`) and serve
+    it; returns the exit status."""
     from ..viewer.model.opening import open_session
     from .token_guard import new_token
 
     opened = open_session(Path(path), cage_size=cage_size)
     for note in opened.notes:
         print(f"hybridedit: note: {Path(path).name}: {note}", file=sys.stderr)
+    if edit is not None:
+        opened.session.load_edit(edit, edit_path)
     os.environ.setdefault("TRAME_DISABLE_V3_WARNING", "1")
     WebEditor(opened.session, new_token(), opened.up_axis).serve(host, port)
     return 0

@@ -30,6 +30,7 @@ from vtkmodules.vtkRenderingCore import vtkRenderWindow
 
 from .depth_grab import DepthGrab
 from .stage_times import FrameSplit
+from .gl_renderer import SAMPLES, is_software, renderer_name
 
 vtkmodules.qt.PyQtImpl = "PySide6"  # the binding qtpy uses here (pyproject: PySide6-Essentials)
 vtkmodules.qt.QVTKRWIBase = "QWidget"  # a native window VTK renders into, not an OpenGL widget Qt composes
@@ -85,9 +86,6 @@ class BrushOverlay(OutlineOverlay):
         self.show()
         self.raise_()
         self.update()
-
-
-SOFTWARE_GL = ("llvmpipe", "softpipe", "swrast", "software", "lavapipe")
 
 
 class ScenePlotter(BasePlotter):
@@ -198,17 +196,13 @@ class View(QVTKRenderWindowInteractor):
         return super().close()
 
     def _choose_antialiasing(self) -> None:
-        for line in self.ren_win.ReportCapabilities().splitlines():
-            if "renderer string" in line:
-                self.gl_renderer = line.split(":", 1)[1].strip()
-                break
-        software = any(k in self.gl_renderer.lower() for k in SOFTWARE_GL)
-        self.set_antialiasing(not software)
+        self.gl_renderer = renderer_name(self.ren_win)
+        self.set_antialiasing(not is_software(self.gl_renderer))
 
     def set_antialiasing(self, on: bool) -> None:
         """Multisample anti-aliasing (4 samples) on or off."""
         self.antialiasing = bool(on)
-        self.ren_win.SetMultiSamples(4 if on else 0)
+        self.ren_win.SetMultiSamples(SAMPLES if on else 0)
         self.update()
 
     def display_fps(self, window: float = 1.0) -> float:
