@@ -22,6 +22,7 @@ from ..fileio.editfile import save_edit
 from ..fileio.meshfiles import write_mesh
 from .gestures import CAMERA, DRAG, HANDLE, ROI, SELECT, Gestures
 from .keys import KEY_SCRIPT, action_of
+from .polish_on_release import PolishOnRelease
 from .token_guard import token_middleware
 
 VIEW_EVENTS = ("LeftButtonPressEvent", "MouseMoveEvent", "LeftButtonReleaseEvent")
@@ -80,6 +81,7 @@ class WebEditor:
         camera = self.scene.renderer.GetActiveCamera()
         self.depth.key_fn = lambda: (camera.GetMTime(), tuple(self.plotter.ren_win.GetSize()), self._pushed)
         self.gestures = Gestures(session, self.scene, self.depth)
+        self.polisher = PolishOnRelease(session, self._polished)
         self.iren = self.plotter.iren.interactor
         self._turn_style = self.iren.GetInteractorStyle()
         self._still_style = vtkInteractorStyleUser()  # does nothing: the camera stays while selecting or dragging
@@ -140,7 +142,9 @@ class WebEditor:
         text = (f"{s.mesh.n_vertices:,} vertices, cage {s.n_cage:,}; edge error {s.rrms_error():.2f}%;"
                 f" ROI {int(sel.roi.sum())}, handle {int(sel.handle.sum())} cage points;"
                 f" {self.gestures.mode}, target {self.gestures.target}")
-        if self.gestures.message:
+        if self.polisher.running:
+            text += " -- polishing..."
+        elif self.gestures.message:
             text += f" -- {self.gestures.message}"
         with self.state:
             self.state.status = text
@@ -215,12 +219,23 @@ class WebEditor:
 
     # ------------------------------------------------------------------ actions
     def undo(self) -> None:
-        if not self.gestures.busy and self.session.undo():
+        if self.gestures.busy:
+            return
+        self.polisher.cancel()
+        if self.session.undo():
             self._changed()
 
     def redo(self) -> None:
-        if not self.gestures.busy and self.session.redo():
+        if self.gestures.busy:
+            return
+        self.polisher.cancel()
+        if self.session.redo():
             self._changed()
+
+    def _polished(self, message: str) -> None:
+        """A polish was given to the session (or failed): shown, and said."""
+        self.gestures.message = message
+        self._changed()
 
     def _changed(self) -> None:
         self.show_status()
@@ -264,6 +279,8 @@ class WebEditor:
         g = self.gestures
         try:
             if event == "LeftButtonPressEvent":
+                if g.mode != CAMERA:
+                    self.polisher.cancel()  # (a selection or a drag: the polish of the last pose is stale)
                 g.press(x, y, bool(iren.GetShiftKey()), bool(iren.GetControlKey()))
                 changed = g.mode == DRAG
             elif event == "MouseMoveEvent":
@@ -277,6 +294,8 @@ class WebEditor:
         if changed and event == "MouseMoveEvent":
             self._frame_due()
         elif changed:
+            if event == "LeftButtonReleaseEvent" and g.mode == DRAG:
+                self.polisher.start()  # (the window's polish on release, in the background)
             self.show_status()
             self.push()
         elif event == "LeftButtonPressEvent" and g.message:

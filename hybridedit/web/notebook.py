@@ -136,7 +136,8 @@ class EditorWidget:
 
     def move(self, translate=None, *, axis=None, degrees: float = 0.0) -> np.ndarray:
         """Drag the handle by code as a mouse drag does: to ``translate`` and turned ``degrees``
-        about ``axis`` through the handle's centre, settled as at a release; one undo step.
+        about ``axis`` through the handle's centre, settled as at a release; one undo step. (Not
+        polished: the pose returned is the one kept; a drag in the view is polished on release.)
 
         Returns the pose, (n, 3) (a copy).
 
@@ -178,6 +179,7 @@ class EditorWidget:
     def _idle(self) -> None:
         if self._web.gestures.busy:
             raise RuntimeError("a gesture in the cell's view is under way; release the mouse first")
+        self._web.polisher.cancel()  # (a polish of the view's last drag is stale once Python changes things)
 
     def refresh(self) -> None:
         """Show the session as it is now in the cell's view (after changing it through :attr:`session`)."""
@@ -204,6 +206,7 @@ class EditorWidget:
 
     def close(self):
         """Stop the server (the cell's view goes dark); returns an awaitable of the stop."""
+        self._web.polisher.close()
         self._web.plotter.close()
         return asyncio.ensure_future(self._web.server.stop())
 

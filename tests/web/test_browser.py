@@ -211,6 +211,10 @@ def test_select_drag_save_and_undo(server, driver):
         got = _download(d, server, "posed.ply")
         return got if np.abs(got - V).max() > 0.02 * diag else None
 
+    # polished on release, as in the window: the status line says so, and the polish is the pose on display
+    assert wait(lambda: "Polished: edge error" in _status_text(d), 60, 0.5), _status_text(d)
+    m = re.search(r"edge error ([\d.]+)% -> ([\d.]+)%", _status_text(d))
+    assert float(m.group(2)) < float(m.group(1)), _status_text(d)
     posed = wait(moved, 20, 0.5)
     assert posed is not None, _status_text(d)
     assert posed[hand, 1].mean() > V[hand, 1].mean() + 0.02 * diag  # up on screen: +Y up
@@ -229,7 +233,9 @@ def test_select_drag_save_and_undo(server, driver):
     shown32 = shown.astype(np.float32).astype(np.float64)
     assert np.abs(replayed - shown32).max() <= 1e-9 * diag, np.abs(replayed - shown32).max() / diag
 
-    ActionChains(d).key_down(Keys.CONTROL).send_keys("z").key_up(Keys.CONTROL).perform()
+    for _ in ("the polish", "the drag"):  # each its own undo step, as in the window
+        ActionChains(d).key_down(Keys.CONTROL).send_keys("z").key_up(Keys.CONTROL).perform()
+        time.sleep(0.3)
     back = wait(lambda: (lambda got: got if np.array_equal(got, V) else None)(_download(d, server, "undone.ply")),
                  20, 0.5)
     assert back is not None
