@@ -40,7 +40,7 @@ def render_screenshot(path: str | os.PathLike, out: str | os.PathLike, cage: int
     """Render a mesh as the window first shows it, off-screen, to a PNG; returns the exit status.
 
     The file is read as the window reads it (:func:`hybridedit.read_document`) and drawn with the
-    same look: its textures, material colours or vertex colours (:func:`.render.look.shown_look`).
+    same look: its textures, material colours or vertex colours (:func:`.model.look.shown_look`).
 
     Parameters
     ----------

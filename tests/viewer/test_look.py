@@ -11,7 +11,7 @@ import pyvista as pv
 import hybridedit as he
 from hybridedit.core.mesh import Mesh
 from hybridedit.deform.roles import FIXED, FREE
-from hybridedit.viewer.render.look import look_of
+from hybridedit.viewer.model.look import look_of
 from hybridedit.core.region_metrics import ShapeMetrics
 from hybridedit.viewer.render.scene import Scene
 from support.window_driving import key, mouse_drag, projected, settled, to_widget

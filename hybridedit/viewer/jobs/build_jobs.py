@@ -25,7 +25,7 @@ from qtpy import QtCore, QtWidgets
 from . import build_worker
 from ..model.cage_size import DEFAULT_SIZE, fit_cage_size, is_count
 from ..model.crash_reports import is_crash
-from ..render.look import shown_look
+from ..model.look import shown_look
 from .build_worker import BuildRequest, BuildResult, BuildWorker, Cancelled
 from .threads import release
 

@@ -20,7 +20,7 @@ from ...core.region_metrics import ShapeMetrics
 from ...fileio.up_axes import shape_key, up_axis_of
 from ...fileio.meshfiles import read_document
 from ..model.crash_reports import is_crash
-from ..render.look import Look, shown_look
+from ..model.look import Look, shown_look
 from ...core.mesh import Mesh
 
 

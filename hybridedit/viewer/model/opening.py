@@ -62,7 +62,7 @@ def open_session(source: str | os.PathLike | Mesh, *, cage_size: int | float = C
     from ...deform.editor import HybridEditor
     from ...fileio.meshfiles import read_document
     from ...fileio.up_axes import up_axis_of
-    from ..render.look import shown_look
+    from .look import shown_look
 
     if isinstance(source, Mesh):
         editor = HybridEditor(source, cage_size, cache=True)

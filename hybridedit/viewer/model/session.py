@@ -96,7 +96,7 @@ class Session:
         self._anchor: np.ndarray | None = None
         self._anchor_state = None  # the engine's state a settle starts from (the selection applied, or polished)
         self._anchor_bases: list[np.ndarray] = [np.eye(4)]
-        #: what the file says the shape looks like (:class:`~..render.look.Look`: textures, colours), or None
+        #: what the file says the shape looks like (:class:`~.look.Look`: textures, colours), or None
         self.look = None
         #: how the shape is drawn ("texture", "colors", "plain"); None: what the file has
         self.look_mode: str | None = None
