@@ -463,6 +463,18 @@ class Selection:
             self._preview_cache = (key, self._editor.preview_roles(self._engine_shape_roles(), symmetry=self.symmetry))
         return self._preview_cache[1]
 
+    def tearing_warning(self) -> str | None:
+        """What to tell the user when a handle group touches held cage points (:meth:`tearing`, the group
+        touching most), offering the fix (Free Around Handle, Shift+F); None when nothing would tear."""
+        tears = self.tearing() if self.all_handles.any() and self.roi.any() else {}
+        if not tears:
+            return None
+        g, n = max(tears.items(), key=lambda kv: kv[1])
+        who = f"Handle group {g + 1}" if self.n_groups > 1 else "The handle"
+        # (short enough for the window's status bar's two lines at its smallest width: never cut off)
+        return (f"{who} touches {n} held cage point{'s' if n != 1 else ''}: a drag would tear the shape there. "
+                "Shift+F frees the held points around it.")
+
     def tearing(self) -> dict[int, int]:
         """{handle group: cage points of the group that share a cage edge with a held (fixed) point}: with
         no free point between them, a drag stretches those edges and tears the shape there (the front of a

@@ -348,6 +348,27 @@ class Session:
         self.reset_transforms()
         self._mark_anchor()
 
+    def set_mirror(self, axis: str | None) -> None:
+        """Mirror the selection across ``axis``'s mid-plane ("x", "y", "z"), or stop (None): one undo step,
+        and a selection with a handle is given to the engine at once (drawn on both sides).
+
+        Raises
+        ------
+        SelectionError
+            The shape is not symmetric enough across ``axis`` (the measured asymmetry), or the mirrored
+            selection cannot be dragged; nothing changed.
+        """
+        sel = self.selection
+        before = sel.symmetry
+        try:
+            sel.set_symmetry(axis)  # a shape too asymmetric is refused here, nothing changed
+            if sel.handle.any():
+                self.apply_selection()
+        except SelectionError:
+            if sel.symmetry != before:
+                self.undo()  # back to the selection before the toggle
+            raise
+
     def _mark_anchor(self) -> None:
         """The engine's state now is where a settle starts from (with the groups' transforms there)."""
         self._anchor_state = self.editor.save_state()

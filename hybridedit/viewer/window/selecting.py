@@ -185,16 +185,10 @@ class Selecting:
         nothing free between them: a drag would tear the shape there
         (:meth:`~..model.selection_masks.Selection.tearing`)."""
         s = self.w.session
-        sel = s.selection if s is not None else None
-        tears = sel.tearing() if sel is not None and sel.all_handles.any() and sel.roi.any() else {}
-        if not tears:
+        warning = s.selection.tearing_warning() if s is not None else None
+        if warning is None:
             return False
-        g, n = max(tears.items(), key=lambda kv: kv[1])
-        who = f"Handle group {g + 1}" if sel.n_groups > 1 else "The handle"
-        # (short enough for the status bar's two lines at the window's smallest width: never cut off)
-        self.w.status.message(f"{who} touches {n} held cage point{'s' if n != 1 else ''}: a drag would tear the "
-                              "shape there. Shift+F frees the held points around it.",
-                              fix=self.w.actions_["free_around_handle"])
+        self.w.status.message(warning, fix=self.w.actions_["free_around_handle"])
         return True
 
     @guarded
@@ -264,15 +258,10 @@ class Selecting:
         if s is None:
             return
         w.posing.settle_and_stop_polish()
-        sel = s.selection
-        before = sel.symmetry
+        before = s.selection.symmetry
         try:
-            sel.set_symmetry(axis if on else None)  # a shape too asymmetric is refused here, nothing changed
-            if sel.handle.any():
-                s.apply_selection()  # the mirrored selection is drawn on both sides at once
+            s.set_mirror(axis if on else None)
         except SelectionError as e:
-            if sel.symmetry != before:
-                s.undo()  # back to the selection before the toggle
             w.actions_[f"mirror_{axis}"].setChecked(before == axis)
             w.status.show_error(f"Cannot mirror across {axis.upper()}", str(e))
             return
