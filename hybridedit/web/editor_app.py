@@ -20,7 +20,9 @@ from ..core.mesh import Mesh
 from ..defaults import CAGE_SIZE
 from ..fileio.editfile import save_edit
 from ..fileio.meshfiles import write_mesh
-from .gestures import CAMERA, DRAG, HANDLE, ROI, SELECT, Gestures
+from ..deform.selection import SelectionError
+from .gestures import BRUSH, CAMERA, DRAG, HANDLE, RECTANGLE, ROI, SELECT, Gestures
+from .brush_ring import RING_ID, RING_SCRIPT, RING_STYLE, VIEW_BOX_ID
 from .keys import KEY_SCRIPT, action_of
 from .polish_on_release import PolishOnRelease
 from .token_guard import token_middleware
@@ -95,6 +97,8 @@ class WebEditor:
         self.ctrl.on_client_connected.add(self._on_connect)
         self.state.change("mode")(lambda mode, **_: self.set_mode(mode))
         self.state.change("target")(lambda target, **_: self.set_target(target))
+        self.state.change("tool")(lambda tool, **_: self.set_tool(tool))
+        self.state.brush_px = self.gestures.brush_radius
         self.set_mode(CAMERA)
         self.set_target(ROI)
         self.show_status()
@@ -112,28 +116,47 @@ class WebEditor:
             layout.title.set_text(f"hybridedit: {name}")
             with layout.toolbar:
                 v3.VSpacer()
-                with v3.VBtnToggle(v_model=("mode", CAMERA), mandatory=True, density="compact", id="mode"):
-                    v3.VBtn("Camera", value=CAMERA, id="mode_camera")
-                    v3.VBtn("Select (S)", value=SELECT, id="mode_select")
-                    v3.VBtn("Drag (D)", value=DRAG, id="mode_drag")
-                with v3.VBtnToggle(v_model=("target", ROI), mandatory=True, density="compact", id="target"):
-                    v3.VBtn("ROI (R)", value=ROI, id="target_roi")
-                    v3.VBtn("Handle (H)", value=HANDLE, id="target_handle")
-                v3.VBtn("Undo", id="undo", click=(self.undo,), density="compact")
-                v3.VBtn("Redo", id="redo", click=(self.redo,), density="compact")
-                v3.VBtn("Save Edit", id="save_edit", click=(self.save_edit,), density="compact")
-                v3.VBtn("Download", id="download", density="compact",
+                v3.VBtn("Undo", id="undo", click=(self.undo,), density="compact", title="Undo (Ctrl+Z)")
+                v3.VBtn("Redo", id="redo", click=(self.redo,), density="compact", title="Redo (Ctrl+Shift+Z)")
+                v3.VBtn("Save Edit", id="save_edit", click=(self.save_edit,), density="compact",
+                        title="Save how the pose was made beside the mesh (hybridedit deform replays it)")
+                v3.VBtn("Download", id="download", density="compact", title="The posed mesh, as PLY",
                         click=f"utils.download('{Path(name).stem}-posed.ply', trigger('download_mesh'),"
                               " 'application/octet-stream')")
             with layout.content:
-                with v3.VContainer(fluid=True, classes="pa-0 fill-height", style="position: relative"):
-                    self.view = vtk_widgets.VtkRemoteView(self.plotter.render_window, ref="view",
-                                                          interactive_ratio=1, still_quality=90,
-                                                          interactive_quality=70)
-                    html.Div("{{ status }}", id="status",
-                             style="position: absolute; left: 8px; bottom: 4px; font: 13px sans-serif;"
-                                   " background: rgba(255,255,255,0.7); padding: 2px 6px")
+                with html.Div(style="display: flex; flex-direction: column; height: 100%; width: 100%"):
+                    # the tools wrap onto a second row in a narrow page (a notebook cell) rather than overflow
+                    with html.Div(id="tools", style="display: flex; flex-wrap: wrap; gap: 4px 8px;"
+                                                    " align-items: center; padding: 4px 8px; flex: 0 0 auto"):
+                        with v3.VBtnToggle(v_model=("mode", CAMERA), mandatory=True, density="compact", id="mode"):
+                            v3.VBtn("Camera (C)", value=CAMERA, id="mode_camera")
+                            v3.VBtn("Select (S)", value=SELECT, id="mode_select")
+                            v3.VBtn("Drag (D)", value=DRAG, id="mode_drag")
+                        with v3.VBtnToggle(v_model=("target", ROI), mandatory=True, density="compact", id="target"):
+                            v3.VBtn("ROI (R)", value=ROI, id="target_roi")
+                            v3.VBtn("Handle (H)", value=HANDLE, id="target_handle")
+                        with v3.VBtnToggle(v_model=("tool", RECTANGLE), mandatory=True, density="compact", id="tool"):
+                            v3.VBtn("Rectangle (X)", value=RECTANGLE, id="tool_rect")
+                            v3.VBtn("Brush (B)", value=BRUSH, id="tool_brush")
+                        v3.VBtn("Mirror X", id="mirror_x", click=(self.toggle_mirror,), density="compact",
+                                active=("mirror", False), variant="tonal",
+                                title="Mirror the selection and the drag across X (Shift+X)")
+                        v3.VBtn("Free", id="free_around_handle", click=(self.free_around_handles,),
+                                density="compact", variant="tonal",
+                                title="Free the held cage points around the handle (Shift+F)")
+                        v3.VBtn("Stretch (T)", id="stretch", click=(self.toggle_stretch,), density="compact",
+                                active=("stretch", False), variant="tonal",
+                                title="Colour the shape by its edge-length change")
+                    with html.Div(id=VIEW_BOX_ID, style="position: relative; flex: 1 1 auto; min-height: 0"):
+                        self.view = vtk_widgets.VtkRemoteView(self.plotter.render_window, ref="view",
+                                                              interactive_ratio=1, still_quality=90,
+                                                              interactive_quality=70)
+                        html.Div(id=RING_ID, style=RING_STYLE)
+                        html.Div("{{ status }}", id="status",
+                                 style="position: absolute; left: 8px; bottom: 4px; font: 13px sans-serif;"
+                                       " background: rgba(255,255,255,0.7); padding: 2px 6px")
             client.Script(KEY_SCRIPT)
+            client.Script(RING_SCRIPT)
 
     def show_status(self) -> None:
         """The status line: vertices, cage size, edge error, and the latest message."""
@@ -142,6 +165,12 @@ class WebEditor:
         text = (f"{s.mesh.n_vertices:,} vertices, cage {s.n_cage:,}; edge error {s.rrms_error():.2f}%;"
                 f" ROI {int(sel.roi.sum())}, handle {int(sel.handle.sum())} cage points;"
                 f" {self.gestures.mode}, target {self.gestures.target}")
+        if self.gestures.mode == SELECT:
+            text += f", {self.gestures.tool}"
+            if self.gestures.tool == BRUSH:
+                text += f" {self.gestures.brush_radius:.0f} px"
+        if sel.symmetry is not None:
+            text += f"; mirror {sel.symmetry.upper()}"
         if self.polisher.running:
             text += " -- polishing..."
         elif self.gestures.message:
@@ -153,11 +182,19 @@ class WebEditor:
         """Draw the session's state again (the whole shape, the cage, the roles) and send the image."""
         s = self.session
         self.scene.update_shape(s.shown_positions, everything=True)
+        self._stretch(s.shown_positions, everything=True)
         self.scene.update_cage(s.cage_positions)
         self.scene.update_roles(s.selection.cage_roles(), s.selection.shape_roles())
         self.scene.gizmo.place(s.handle_centroid() if self.gestures.mode == DRAG else None)
         self._pushed += 1
         self.view.update()
+
+    def _stretch(self, V, *, everything: bool) -> None:
+        """The stretch map of the pose V, when it is shown (the moving region only, unless ``everything``)."""
+        if self.scene.stretch_visible:
+            self.session.metrics.update_error(V, everything=everything)
+            self.session.metrics.write_stretch(self.scene.stretch32, everything=everything)
+            self.scene.stretch_modified()
 
     def _frame_due(self) -> None:
         """A drag moved the shape: draw it once the events waiting now have been handled (mouse moves
@@ -171,13 +208,20 @@ class WebEditor:
             self._push_frame()
 
     def _push_frame(self) -> None:
-        """A drag frame: the moving region of the shape and the cage. While the mouse is down the
-        view streams images of its own (trame-vtk's interaction animation), so this one only asks."""
+        """A drag frame (the moving region of the shape and the cage) or a brush stroke's selection so far.
+        While the mouse is down the view streams images of its own (trame-vtk's interaction animation),
+        so this one only asks."""
         self._frame_waiting = False
         if not self.gestures.busy:
             return  # (released since: the release drew everything)
         s = self.session
+        if self.gestures.mode == SELECT:
+            self.scene.update_roles(s.selection.cage_roles(), s.selection.shape_roles())
+            self._pushed += 1
+            self.view.update()
+            return
         self.scene.update_shape(s.shape_positions)
+        self._stretch(s.shape_positions, everything=False)
         self.scene.update_cage(s.cage_positions)
         self.scene.gizmo.place(s.handle_centroid())
         self._pushed += 1
@@ -205,17 +249,31 @@ class WebEditor:
             self.state.target = target
         self.show_status()
 
+    def set_tool(self, tool: str) -> None:
+        """How a selection is drawn: RECTANGLE or BRUSH."""
+        if tool not in (RECTANGLE, BRUSH) or self.gestures.busy:
+            return
+        self.gestures.tool = tool
+        if self.state.tool != tool:
+            self.state.tool = tool
+        self.show_status()
+
     def on_hotkey(self, key: str, ctrl: bool = False, shift: bool = False) -> None:
         """A key press on the page (:data:`.keys.KEY_SCRIPT`)."""
         action = action_of(key, bool(ctrl), bool(shift))
-        if action == "undo":
-            self.undo()
-        elif action == "redo":
-            self.redo()
-        elif action in ("select", "drag", "camera"):
-            self.set_mode(action)
+        simple = {"undo": self.undo, "redo": self.redo, "stretch": self.toggle_stretch,
+                  "mirror_x": self.toggle_mirror, "free_around_handle": self.free_around_handles,
+                  "reset_camera": self.reset_camera,
+                  "brush_bigger": lambda: self.scale_brush(1.25),
+                  "brush_smaller": lambda: self.scale_brush(0.8)}
+        if action in simple:
+            simple[action]()
+        elif action in ("mode_select", "mode_drag", "mode_camera"):
+            self.set_mode(action.removeprefix("mode_"))
         elif action in ("target_roi", "target_handle"):
             self.set_target(ROI if action == "target_roi" else HANDLE)
+        elif action in ("tool_rect", "tool_brush"):
+            self.set_tool(RECTANGLE if action == "tool_rect" else BRUSH)
 
     # ------------------------------------------------------------------ actions
     def undo(self) -> None:
@@ -232,12 +290,62 @@ class WebEditor:
         if self.session.redo():
             self._changed()
 
+    def toggle_mirror(self, axis: str = "x") -> None:
+        """Mirror X (Shift+X): the selection and the drag mirrored across the shape's middle plane, or not."""
+        s = self.session
+        if self.gestures.busy:
+            return
+        self.polisher.cancel()
+        on = s.selection.symmetry != axis
+        try:
+            s.set_mirror(axis if on else None)
+        except SelectionError as e:
+            self.gestures.message = f"Cannot mirror across {axis.upper()}: {e}"
+        else:
+            self.gestures.message = (f"Mirror {axis.upper()}: the selection and the drag are mirrored across the "
+                                     "shape's middle plane" if on else "Mirror off")
+        self._changed()
+
+    def free_around_handles(self) -> None:
+        """Free Around Handle (Shift+F): the held cage points a handle touches join the ROI (one undo step)."""
+        if self.gestures.busy:
+            return
+        self.polisher.cancel()
+        sel = self.session.selection
+        n = sel.free_around_handles()
+        if n == 0:
+            self.gestures.message = "No handle touches the held part: nothing to free"
+        else:
+            self.gestures.message = sel.tearing_warning() or (
+                f"Freed {n} held cage point{'s' if n != 1 else ''} around the handle: they join the ROI"
+                " (Ctrl+Z restores them)")
+        self._changed()
+
+    def scale_brush(self, factor: float) -> None:
+        """``]`` and ``[``: the brush's radius times ``factor`` (the ring the page draws follows)."""
+        self.gestures.scale_brush(factor)
+        self.state.brush_px = self.gestures.brush_radius
+        self.show_status()
+
+    def toggle_stretch(self) -> None:
+        """The stretch map (T): the shape coloured by its relative edge-length change, or not."""
+        self.scene.set_stretch_visible(not self.scene.stretch_visible)
+        self._changed()
+
+    def reset_camera(self) -> None:
+        """Frame Shape (F)."""
+        self.scene.reset_camera()
+        self.view.update()
+
     def _polished(self, message: str) -> None:
         """A polish was given to the session (or failed): shown, and said."""
         self.gestures.message = message
         self._changed()
 
     def _changed(self) -> None:
+        with self.state:
+            self.state.mirror = self.session.selection.symmetry == "x"
+            self.state.stretch = self.scene.stretch_visible
         self.show_status()
         self.push()
 
@@ -281,8 +389,7 @@ class WebEditor:
             if event == "LeftButtonPressEvent":
                 if g.mode != CAMERA:
                     self.polisher.cancel()  # (a selection or a drag: the polish of the last pose is stale)
-                g.press(x, y, bool(iren.GetShiftKey()), bool(iren.GetControlKey()))
-                changed = g.mode == DRAG
+                changed = g.press(x, y, bool(iren.GetShiftKey()), bool(iren.GetControlKey())) or g.mode == DRAG
             elif event == "MouseMoveEvent":
                 changed = g.move(x, y)
             else:

@@ -1,12 +1,16 @@
-"""Mouse gestures of the browser editor: a rectangle selection and a handle drag, as the window does them.
+"""Mouse gestures of the browser editor: rectangle and brush selections and a handle drag, as the
+window does them.
 
 The browser's mouse reaches the server as VTK interactor events (display pixels, origin
 bottom-left, as :func:`~hybridedit.viewer.model.picking.project_points` gives them);
-:class:`Gestures` turns them into calls on the session: a rectangle in Select mode takes
-the cage points in it into the target (the ROI or the handle, Shift adds, Ctrl removes),
-only the points in sight, as the window's does (its depth buffer); a drag in Drag mode moves the
-handle in the view plane through the handle's centroid
-(:func:`~hybridedit.viewer.model.gizmo.screen_plane_translation`), settled at release.
+:class:`Gestures` turns them into calls on the session. In Select mode a rectangle, or a brush
+stroke, takes the cage points under it into the target (the ROI or the handle; Shift adds, Ctrl
+removes): the surface in sight and the part it lies in through its thickness
+(:func:`~hybridedit.viewer.model.surface_pick.surface_under`, with the window's depth buffer), so a
+leg picked from the front is taken whole, as in the window; one undo step a gesture. A drag in
+Drag mode moves the handle: along an arrow of the gizmo or round one of its rings when the press is
+on one (:func:`~hybridedit.viewer.model.gizmo.part_transform`), else in the view plane through the
+handle's centroid (:func:`~hybridedit.viewer.model.gizmo.screen_plane_translation`); settled at release.
 No Qt, no editing logic of its own.
 """
 
@@ -15,13 +19,22 @@ from __future__ import annotations
 import numpy as np
 
 from ..deform.selection import SelectionError
-from ..viewer.model.gizmo import screen_plane_translation
-from ..viewer.model.picking import (CLICK_PIXELS, DEPTH_TOLERANCE, PICK_PIXELS, in_sight, nearest_hit,
-                                    op_from_modifiers, project_points, rectangle_hits)
+from ..viewer.model import gizmo as gz
+from ..deform.skeleton import edge_graph
+from ..viewer.model.picking import (ADD, CLICK_PIXELS, DEPTH_TOLERANCE, PICK_PIXELS, REPLACE, brush_hits,
+                                    in_sight, nearest_hit, op_from_modifiers, project_points, rectangle_hits,
+                                    stroke_hits)
 from ..viewer.model.selection_masks import HANDLE, ROI
+from ..viewer.model.surface_pick import surface_under
 
 CAMERA, SELECT, DRAG = "camera", "select", "drag"
 """The modes: the mouse turns the camera, selects cage points, or drags the handle."""
+
+RECTANGLE, BRUSH = "rectangle", "brush"
+"""The selection tools (the window's X and B)."""
+
+BRUSH_PIXELS = 30.0
+"""The brush's radius to begin with, in display pixels (the window's); ``[`` and ``]`` scale it."""
 
 
 class Gestures:
@@ -38,6 +51,8 @@ class Gestures:
     ----------
     mode : CAMERA, SELECT or DRAG.
     target : ROI or HANDLE, what a selection takes into.
+    tool : RECTANGLE or BRUSH, how a selection is drawn.
+    brush_radius : the brush's radius in display pixels.
     message : the latest thing to say in the status line (an error, a refused drag), or "".
     """
 
@@ -47,61 +62,100 @@ class Gestures:
         self.depth = depth
         self.mode = CAMERA
         self.target = ROI
+        self.tool = RECTANGLE
+        self.brush_radius = BRUSH_PIXELS
         self.message = ""
         self._start: tuple[float, float] | None = None
-        self._op = "replace"
+        self._last: tuple[float, float] | None = None
+        self._op = REPLACE
         self._display: np.ndarray | None = None
         self._front: np.ndarray | None = None
+        self._seen: np.ndarray | None = None
+        self._graph = None
+        self._graph_key: tuple[np.ndarray, np.ndarray] | None = None
+        self._view_depth: np.ndarray | None = None
         self._center: np.ndarray | None = None
         self._composite: np.ndarray | None = None
         self._size: tuple[int, int] | None = None
         self._T0 = np.eye(4)
         self._dragging = False
+        self._part: gz.Part | None = None
+        self._grab: np.ndarray | None = None
 
     @property
     def busy(self) -> bool:
         """A gesture is under way (between press and release)."""
         return self._start is not None
 
-    def press(self, x: float, y: float, shift: bool, ctrl: bool) -> None:
-        """Left button down at display point (x, y)."""
+    def scale_brush(self, factor: float) -> None:
+        """The brush's radius times ``factor``, kept within 3-400 pixels (the window's ``[`` and ``]``)."""
+        self.brush_radius = float(min(max(self.brush_radius * factor, 3.0), 400.0))
+
+    def press(self, x: float, y: float, shift: bool, ctrl: bool) -> bool:
+        """Left button down at display point (x, y); True when the shape or the selection changed (a drag
+        began, a brush's first dab took cage points)."""
         if self.mode == CAMERA:
-            return
+            return False
         C, size = self.scene.composite_matrix(), self.scene.display_size()
         self._start, self._composite, self._size = (float(x), float(y)), C, size
+        self._last = self._start
         self.message = ""
         if self.mode == SELECT:
             self._op = op_from_modifiers(shift, ctrl)
-            P = self.session.cage_positions
+            s = self.session
+            P = s.cage_positions
             self._display, self._front = project_points(P, C, size)
-            self._front = self._in_sight(P, C, size)
-            return
+            self._seen = self._in_sight(P, C, size)
+            self._view_depth = self._along_sight(P)
+            if self._graph_key is None or not (np.array_equal(self._graph_key[0], P)
+                                               and np.array_equal(self._graph_key[1], s.editor.cage_edges)):
+                self._graph_key = (P.copy(), s.editor.cage_edges.copy())
+                self._graph = edge_graph(P, s.editor.cage_edges)
+            s.selection.begin_stroke(self.target)
+            if self.tool == BRUSH:
+                return self._dab(brush_hits(self._display, self._front, self._start, self.brush_radius))
+            return False
         s = self.session
+        part = self.scene.gizmo.hit(self._start, C, size)  # (the gizmo is shown in Drag mode only)
         try:
             self._T0 = s.begin_drag()
         except SelectionError as e:
             self.message = str(e)
             self._start = None
-            return
+            return False
         self._center = s.handle_centroid()
+        self._part, self._grab = part, None
+        if part is not None and part.kind == "rotate":
+            self._grab = gz.grab_direction(self._start, self._center, part.axis,
+                                           gz.RING_RATIO * self.scene.gizmo.length, C, size)
         self._dragging = True
         self.scene.set_dragging(True)
         self.scene.set_moving(s.moving_vertices())
+        return True
 
     def move(self, x: float, y: float) -> bool:
-        """The mouse moved with the button down; True when the shape changed (a drag frame)."""
+        """The mouse moved with the button down; True when the shape (a drag frame) or the selection (a
+        brush stroke) changed."""
+        if self._start is not None and self.mode == SELECT and self.tool == BRUSH:
+            last, self._last = self._last, (float(x), float(y))
+            return self._dab(stroke_hits(self._display, self._front, last, self._last, self.brush_radius))
         if not self._dragging:
             return False
         self.session.drag_to(self._transform(x, y) @ self._T0)
         return True
 
     def release(self, x: float, y: float) -> bool:
-        """Left button up: the selection taken, or the drag settled and recorded; True when anything changed."""
+        """Left button up: the selection taken (one undo step), or the drag settled and recorded; True when
+        anything changed."""
         start, self._start = self._start, None
         if start is None:
             return False
-        if self.mode == SELECT or not self._dragging:
-            return self._select(start, (float(x), float(y)))
+        if self.mode == SELECT:
+            if self.tool == RECTANGLE:
+                self._select(start, (float(x), float(y)))
+            return self._end_select()
+        if not self._dragging:
+            return False
         s = self.session
         self._dragging = False
         self.scene.set_dragging(False)
@@ -125,24 +179,65 @@ class Gestures:
             return self._front
         return in_sight(P, self._display, self._front, d, C, size, DEPTH_TOLERANCE * self.scene.cage_spacing)
 
-    def _select(self, start: tuple[float, float], end: tuple[float, float]) -> bool:
-        display, front = self._display, self._front
+    def _along_sight(self, P: np.ndarray) -> np.ndarray:
+        """(c,) how far each cage point lies along the camera's line of sight (world units)."""
+        cam = self.scene.renderer.GetActiveCamera()
+        ahead = np.asarray(cam.GetDirectionOfProjection(), dtype=np.float64)
+        return (np.asarray(P, dtype=np.float64) - np.asarray(cam.GetPosition(), dtype=np.float64)) @ ahead
+
+    def _taken(self, hits: np.ndarray) -> np.ndarray:
+        """What a rectangle or brush takes of its ``hits`` (the points under it, in front of the camera): those
+        in sight and the parts they lie in, through their thickness (the window's rule)."""
+        if self.depth is None:
+            return hits & self._seen  # (no depth buffer: every point in front, as Select Through takes)
+        thick = self.session.selection.cage_thickness()
+        return surface_under(hits, hits & self._seen, self._graph, thick, depth=self._view_depth)
+
+    def _dab(self, hits: np.ndarray) -> bool:
+        """A brush dab; a replacing stroke replaces with its first dab that takes a cage point and adds the
+        rest to it (a stroke over empty space changes nothing). True when it took any."""
+        taken = self._taken(hits)
+        if not taken.any():
+            return False
+        self.session.selection.stroke(taken, self._op)
+        if self._op == REPLACE:
+            self._op = ADD
+        return True
+
+    def _select(self, start: tuple[float, float], end: tuple[float, float]) -> None:
+        """The rectangle (or click) of a gesture, taken into the stroke."""
+        display = self._display
         if max(abs(end[0] - start[0]), abs(end[1] - start[1])) <= CLICK_PIXELS:
-            hits = nearest_hit(display, front, start, PICK_PIXELS)
+            hits = nearest_hit(display, self._seen, start, PICK_PIXELS)
             if not hits.any():
                 self.message = "No cage point there: the selection is kept"
-                return False
+                return
+            self.session.selection.stroke(hits, self._op)
+            return
+        self.session.selection.stroke(self._taken(rectangle_hits(display, self._front, start, end)), self._op)
+
+    def _end_select(self) -> bool:
+        """The gesture's one undo step; what to say when it emptied its target or a drag would tear."""
+        sel = self.session.selection
+        target = self.target
+        if not sel.end_stroke():
+            return False
+        if not sel.mask(target).any():
+            self.message = f"{'ROI' if target == ROI else 'Handle'} cleared (Ctrl+Z restores it)"
         else:
-            hits = rectangle_hits(display, front, start, end)
-        return self.session.selection.select(self.target, hits, self._op)
+            self.message = sel.tearing_warning() or ""
+        return True
 
     def _transform(self, x: float, y: float, start: tuple[float, float] | None = None) -> np.ndarray:
-        """(4, 4) the handle's move since the press at ``start`` (default: this gesture's): the mouse's, in
-        the view plane through the handle."""
+        """(4, 4) the handle's move since the press at ``start`` (default: this gesture's): along or round
+        the gizmo's part pressed, else the mouse's in the view plane through the handle."""
+        start, now = start or self._start, (float(x), float(y))
+        if self._part is not None:
+            return gz.part_transform(self._part, start, now, self._center, self.scene.gizmo.length, self._grab,
+                                     self._composite, self._size)
         D = np.eye(4)
-        D[:3, 3] = screen_plane_translation(start or self._start, (float(x), float(y)), self._center,
-                                            self._composite, self._size)
+        D[:3, 3] = gz.screen_plane_translation(start, now, self._center, self._composite, self._size)
         return D
 
 
-__all__ = ["CAMERA", "DRAG", "Gestures", "HANDLE", "ROI", "SELECT"]
+__all__ = ["BRUSH", "CAMERA", "DRAG", "Gestures", "HANDLE", "RECTANGLE", "ROI", "SELECT"]

@@ -1,5 +1,8 @@
 """The keyboard shortcuts of the browser editor: the page's listener, and what each key does.
 
+The actions are named as the window's (:mod:`hybridedit.viewer.window.actions`), and each key is the
+window's shortcut for it (a test holds them together).
+
 The listener runs in the capture phase (before vtk.js or Vuetify can stop the event),
 skips typing in text fields, and sends ``[key, ctrl, shift]`` to the server's ``hotkey``
 trigger; :func:`action_of` names the editor action it stands for.
@@ -7,8 +10,14 @@ trigger; :func:`action_of` names the editor action it stands for.
 
 from __future__ import annotations
 
-PLAIN_KEYS = {"s": "select", "r": "target_roi", "h": "target_handle", "d": "drag", "c": "camera"}
-"""Keys without Ctrl: the modes (Select, Drag, Camera) and the selection's target (ROI, Handle)."""
+PLAIN_KEYS = {"s": "mode_select", "r": "target_roi", "h": "target_handle", "d": "mode_drag", "c": "mode_camera",
+              "x": "tool_rect", "b": "tool_brush", "[": "brush_smaller", "]": "brush_bigger",
+              "t": "stretch", "f": "reset_camera"}
+"""Keys without Ctrl, as the window has them: the modes (Select, Drag, Camera), the selection's target
+(ROI, Handle), its tool (Rectangle, Brush) and the brush's size, the stretch map, Frame Shape."""
+
+SHIFT_KEYS = {"x": "mirror_x", "f": "free_around_handle"}
+"""Keys with Shift: Mirror X, Free Around Handle (the window's Shift+X and Shift+F)."""
 
 KEY_SCRIPT = r"""
 (function () {
@@ -30,9 +39,11 @@ KEY_SCRIPT = r"""
 
 
 def action_of(key: str, ctrl: bool, shift: bool) -> str | None:
-    """The editor action of a key press: Ctrl+Z undo, Ctrl+Shift+Z and Ctrl+Y redo, the plain keys of
-    :data:`PLAIN_KEYS`; None for any other key."""
+    """The editor action of a key press: Ctrl+Z undo, Ctrl+Shift+Z and Ctrl+Y redo, the keys of
+    :data:`SHIFT_KEYS` with Shift, those of :data:`PLAIN_KEYS`; None for any other key."""
     key = key.lower()
     if ctrl:
         return {"z": "redo" if shift else "undo", "y": "redo"}.get(key)
+    if shift and key in SHIFT_KEYS:
+        return SHIFT_KEYS[key]
     return PLAIN_KEYS.get(key)

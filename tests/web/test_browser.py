@@ -218,7 +218,8 @@ def test_select_drag_save_and_undo(server, driver):
     posed = wait(moved, 20, 0.5)
     assert posed is not None, _status_text(d)
     assert posed[hand, 1].mean() > V[hand, 1].mean() + 0.02 * diag  # up on screen: +Y up
-    assert np.abs(posed[~arm] - V[~arm]).max() < 0.02 * diag  # the body stays
+    body = x < 0.4 * x.max()  # (the ROI reaches into the shoulder: the arm is taken through its thickness)
+    assert np.abs(posed[body] - V[body]).max() < 0.01 * diag  # the body stays
 
     d.find_element(By.ID, "save_edit").click()
     edit = server["mesh"].with_name("creature-edit.json")
@@ -239,3 +240,98 @@ def test_select_drag_save_and_undo(server, driver):
     back = wait(lambda: (lambda got: got if np.array_equal(got, V) else None)(_download(d, server, "undone.ply")),
                  20, 0.5)
     assert back is not None
+
+
+def test_brush_mirror_and_stretch_map(server, driver):
+    """After the edit above (ROI the +X arm, handle its hand, at rest): the brush adds the other arm to the
+    ROI in one undo step, Shift+X mirrors the handle so that a drag lifts both hands, and T colours the
+    shape by its stretch."""
+    from PIL import Image
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.common.keys import Keys
+
+    from hybridedit.viewer.model.picking import project_points
+
+    d = driver
+    canvas = d.find_element(By.CSS_SELECTOR, "canvas")
+    r = d.execute_script("return arguments[0].getBoundingClientRect()", canvas)
+    w, h = round(r["width"]), round(r["height"])
+    mesh, C, size = _camera(server, (w, h))
+    V = mesh.vertices
+    display, front = project_points(V, C, size)
+    x = V[:, 0]
+
+    def css(px: float, py: float) -> tuple[int, int]:
+        return int(round(px - w / 2)), int(round((h - py) - h / 2))
+
+    def counts():
+        m = re.search(r"ROI (\d+), handle (\d+)", _status_text(d))
+        return (int(m.group(1)), int(m.group(2))) if m else None
+
+    def ctrl_z():
+        ActionChains(d).key_down(Keys.CONTROL).send_keys("z").key_up(Keys.CONTROL).perform()
+
+    roi0, handle0 = counts()
+    ActionChains(d).send_keys("s").send_keys("b").send_keys("r").perform()
+    assert wait(lambda: "select, target roi, brush 30 px" in _status_text(d), 10), _status_text(d)
+    ring = d.find_element(By.ID, "brush_ring")  # the brush's outline follows the mouse over the view
+
+    def ring_width() -> float:
+        ActionChains(d).move_to_element_with_offset(canvas, 10, 10).move_to_element_with_offset(canvas, 0, 0)\
+            .perform()
+        return ring.is_displayed() and float(d.execute_script("return arguments[0].offsetWidth", ring))
+
+    assert wait(lambda: ring_width() == 60.0, 10), ring_width()
+    ActionChains(d).send_keys("]").perform()
+    assert wait(lambda: "brush 38 px" in _status_text(d), 10), _status_text(d)
+    assert wait(lambda: abs(ring_width() - 75.0) <= 1.0, 10), ring_width()
+    ActionChains(d).send_keys("[").perform()
+    assert wait(lambda: "brush 30 px" in _status_text(d), 10), _status_text(d)
+    other = (x < 0.55 * x.min()) & front  # the -X arm, seen
+    path = display[other][np.argsort(display[other][:, 0])][:, :2]
+    points = [css(*p) for p in path[:: max(1, len(path) // 8)]]
+    ac = ActionChains(d).key_down(Keys.SHIFT).move_to_element_with_offset(canvas, *points[0]).click_and_hold()
+    for p in points[1:]:
+        ac.move_to_element_with_offset(canvas, *p).pause(0.05)
+    ac.release().key_up(Keys.SHIFT).perform()
+    assert wait(lambda: counts()[0] > roi0, 10), _status_text(d)  # Shift adds
+    ctrl_z()
+    assert wait(lambda: counts() == (roi0, handle0), 10), _status_text(d)  # the stroke: one undo step
+    ActionChains(d).key_down(Keys.SHIFT).move_to_element_with_offset(canvas, *points[0]).click_and_hold()\
+        .move_to_element_with_offset(canvas, *points[-1]).release().key_up(Keys.SHIFT).perform()
+    assert wait(lambda: counts()[0] > roi0, 10), _status_text(d)
+
+    ActionChains(d).key_down(Keys.SHIFT).send_keys("x").key_up(Keys.SHIFT).perform()
+    assert wait(lambda: "mirror X" in _status_text(d), 10), _status_text(d)
+    ActionChains(d).send_keys("d").perform()
+    assert wait(lambda: "; drag, target" in _status_text(d), 10), _status_text(d)
+    hand = x > 0.85 * x.max()
+    start = css(*display[hand & front, :2].mean(axis=0))
+    ac = ActionChains(d).move_to_element_with_offset(canvas, *start).click_and_hold()
+    for k in range(1, 6):
+        ac.move_to_element_with_offset(canvas, start[0], start[1] - 12 * k).pause(0.1)
+    ac.release().perform()
+    diag = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
+    assert wait(lambda: "Polished: edge error" in _status_text(d), 60, 0.5), _status_text(d)
+    posed = _download(d, server, "mirrored.ply")
+    mirrored = x < 0.85 * x.min()
+    assert posed[hand, 1].mean() > V[hand, 1].mean() + 0.02 * diag
+    assert posed[mirrored, 1].mean() > V[mirrored, 1].mean() + 0.02 * diag  # the other hand follows
+    np.testing.assert_allclose(posed[mirrored, 1].mean() - V[mirrored, 1].mean(),
+                               posed[hand, 1].mean() - V[hand, 1].mean(), rtol=0.05)
+
+    shot = server["tmp"] / "stretch.png"
+
+    def view() -> np.ndarray:
+        drawn_fraction(d, canvas, shot)
+        return np.asarray(Image.open(shot).convert("RGB"), dtype=float)
+
+    def colourful(img: np.ndarray) -> float:
+        return float((img.max(axis=2) - img.min(axis=2)).mean())
+
+    plain = view()
+    ActionChains(d).send_keys("t").perform()
+    assert wait(lambda: abs(colourful(view()) - colourful(plain)) > 3.0, 20, 0.5), "T showed no stretch map"
+    ActionChains(d).send_keys("t").perform()
+    assert wait(lambda: np.abs(view() - plain).mean() < 1.0, 20, 0.5), "T again did not hide it"

@@ -1,6 +1,6 @@
 """The browser's gestures (hybridedit.web.gestures) on an off-screen scene, without a browser: a
-rectangle over the whole shape takes only the cage points in sight, as the window's does, and all
-of those in front with no depth buffer (Select Through)."""
+rectangle or a brush takes the part in sight through its thickness and not the part hidden behind
+it, as the window's does; with no depth buffer, every point in front; one undo step a gesture."""
 
 from __future__ import annotations
 
@@ -17,46 +17,138 @@ from hybridedit.viewer.app import _headless_render_window  # noqa: E402
 from hybridedit.viewer.model.session import Session  # noqa: E402
 from hybridedit.viewer.render.depth_grab import DepthGrab  # noqa: E402
 from hybridedit.viewer.render.scene import Scene  # noqa: E402
-from hybridedit.web.gestures import ROI, SELECT, Gestures  # noqa: E402
+from hybridedit.viewer.model.picking import project_points  # noqa: E402
+from hybridedit.viewer.model import gizmo as gz  # noqa: E402
+from hybridedit.web.gestures import BRUSH, DRAG, HANDLE, ROI, SELECT, Gestures  # noqa: E402
 
 
-@pytest.fixture
-def ball():
-    mesh = trimesh.creation.icosphere(4)
-    session = Session(he.HybridEditor(he.Mesh(mesh.vertices, mesh.faces), 200), cage_size=200)
+def _scene(session, size=(400, 400)):
     _headless_render_window()
-    pl = pv.Plotter(off_screen=True, window_size=[400, 400])
+    pl = pv.Plotter(off_screen=True, window_size=list(size))
     scene = Scene(pl)
     s = session
     scene.load(s.metrics, s.shown_positions, s.cage_positions, s.editor.cage.faces, s.selection.cage_roles(),
                s.selection.shape_roles())
-    scene.reset_camera()
+    cam = scene.renderer.GetActiveCamera()
+    cam.SetFocalPoint(0.0, 0.0, 0.0)
+    cam.SetPosition(0.0, 0.0, 12.0)  # looking down -Z
+    cam.SetViewUp(0.0, 1.0, 0.0)
+    scene.renderer.ResetCameraClippingRange()
     pl.ren_win.Render()
-    yield session, scene, pl
+    grab = DepthGrab(pl.ren_win, scene.renderer)
+    grab.wanted = True
+    grab.key_fn = lambda: (cam.GetMTime(), tuple(pl.ren_win.GetSize()))
+    return pl, scene, grab
+
+
+@pytest.fixture
+def two_balls():
+    """A ball in front of another (along the line of sight), as a quadruped's near leg hides its far one."""
+    a, b = trimesh.creation.icosphere(3), trimesh.creation.icosphere(3)
+    b.apply_translation([0.0, 0.0, -4.0])
+    both = trimesh.util.concatenate([a, b])
+    session = Session(he.HybridEditor(he.Mesh(both.vertices, both.faces), 160), cage_size=160)
+    pl, scene, grab = _scene(session)
+    yield session, scene, grab
     pl.close()
 
 
-def _whole_view(g: Gestures, size) -> np.ndarray:
+def test_a_rectangle_takes_the_part_in_sight_whole_and_not_the_one_behind(two_balls):
+    session, scene, grab = two_balls
+    g = Gestures(session, scene, grab)
     g.mode, g.target = SELECT, ROI
-    g.press(1, 1, False, False)
-    g.release(size[0] - 2, size[1] - 2)
-    return g.session.selection.roi.copy()
-
-
-def test_a_rectangle_takes_the_cage_points_in_sight_only(ball):
-    session, scene, pl = ball
-    grab = DepthGrab(pl.ren_win, scene.renderer)
-    grab.wanted = True
-    camera = scene.renderer.GetActiveCamera()
-    grab.key_fn = lambda: (camera.GetMTime(), tuple(pl.ren_win.GetSize()))
-    size = scene.display_size()
-    taken = _whole_view(Gestures(session, scene, grab), size)
+    w, h = scene.display_size()
+    g.press(2, 2, False, False)
+    assert g.release(w - 2, h - 2)
     P = session.cage_positions
-    toward = np.asarray(camera.GetPosition()) - P.mean(axis=0)
-    toward /= np.linalg.norm(toward)
-    height = (P - P.mean(axis=0)) @ toward  # (c,) toward the camera: the near half > 0
-    assert taken.any() and taken.sum() < 0.75 * len(P)
-    assert np.all(height[taken] > -0.2)  # none from the far side
-    assert taken[height > 0.5].all()  # and every point facing the camera
-    session.selection.select(ROI, np.zeros(len(P), bool), "replace")
-    assert _whole_view(Gestures(session, scene, None), size).all()  # no depth: every point in front
+    near = P[:, 2] > -2.0
+    taken = session.selection.roi
+    assert taken[near].all(), "the near ball is taken through its thickness, its far side too"
+    assert not taken[~near].any(), "the ball hidden behind it is not"
+    assert session.undo() and not session.selection.roi.any()  # one undo step
+
+
+def test_a_brush_stroke_is_one_undo_step_and_takes_what_it_passes(two_balls):
+    session, scene, grab = two_balls
+    g = Gestures(session, scene, grab)
+    g.mode, g.target, g.tool = SELECT, ROI, BRUSH
+    w, h = scene.display_size()
+    P = session.cage_positions
+    C = scene.composite_matrix()
+    display, _ = project_points(P, C, (w, h))
+    assert g.press(w / 2 - 60, h / 2, False, False)  # the first dab takes points
+    first = session.selection.roi.copy()
+    assert first.any()
+    for k in range(1, 7):
+        g.move(w / 2 - 60 + 20 * k, h / 2)  # a stroke to the right
+    assert g.release(w / 2 + 60, h / 2)
+    taken = session.selection.roi
+    assert (taken & ~first).any() and (taken >= first).all()  # the stroke added what it passed over
+    near = P[:, 2] > -2.0
+    assert not taken[~near].any()
+    dx = np.abs(display[taken & (P[:, 2] > 0.5), 0] - w / 2)  # the points facing the camera it took
+    assert dx.max() <= 60 + g.brush_radius + 1
+    assert session.undo() and not session.selection.roi.any()  # the whole stroke: one undo step
+    g.press(5, 5, False, False)  # a stroke over empty space changes nothing
+    assert not g.release(6, 6)
+
+
+def test_a_rectangle_without_depth_takes_every_point_in_front(two_balls):
+    session, scene, _ = two_balls
+    g = Gestures(session, scene, None)
+    g.mode, g.target = SELECT, ROI
+    w, h = scene.display_size()
+    g.press(2, 2, False, False)
+    g.release(w - 2, h - 2)
+    assert session.selection.roi.all()
+
+
+@pytest.fixture
+def ball():
+    mesh = trimesh.creation.icosphere(3)
+    session = Session(he.HybridEditor(he.Mesh(mesh.vertices, mesh.faces), 120), cage_size=120)
+    pl, scene, grab = _scene(session)
+    yield session, scene
+    pl.close()
+
+
+def _pixel_on(scene, part) -> tuple[float, float]:
+    """A display pixel where the gizmo's hit test finds ``part``."""
+    C, (w, h) = scene.composite_matrix(), scene.display_size()
+    for y in range(0, h, 3):
+        for x in range(0, w, 3):
+            if scene.gizmo.hit((x, y), C, (w, h)) == part:
+                return float(x), float(y)
+    raise AssertionError(f"{part} is nowhere on screen")
+
+
+@pytest.mark.parametrize("part", [gz.Part("move", 0), gz.Part("rotate", 2)])
+def test_a_drag_on_the_gizmo_moves_along_its_arrow_or_turns_round_its_ring(ball, part):
+    session, scene = ball
+    P = session.cage_positions
+    sel = session.selection
+    sel.select(ROI, P[:, 1] > -0.3, "replace")
+    sel.select(HANDLE, P[:, 1] > 0.6, "replace")
+    session.apply_selection()
+    scene.gizmo.place(session.handle_centroid())  # (as the editor shows it in Drag mode)
+    g = Gestures(session, scene, None)
+    g.mode = DRAG
+    x, y = _pixel_on(scene, part)
+    handle = sel.handle.copy()
+    before = session.cage_positions[handle]
+    center = before.mean(axis=0)
+    assert g.press(x, y, False, False)
+    for k in range(1, 6):
+        g.move(x + 6 * k, y + 6 * k)
+    assert g.release(x + 30, y + 30)
+    after = session.cage_positions[handle]
+    if part.kind == "move":  # along X only, the handle rigidly
+        d = after - before
+        assert abs(d[:, 0].mean()) > 0.05
+        np.testing.assert_allclose(d, np.tile(d.mean(axis=0), (len(d), 1)), atol=1e-6)
+        np.testing.assert_allclose(d.mean(axis=0)[1:], 0.0, atol=1e-6)
+    else:  # round Z through the handle's centre: z and the distance to the axis kept, the points turned
+        np.testing.assert_allclose(after[:, 2], before[:, 2], atol=1e-6)
+        r0 = np.linalg.norm((before - center)[:, :2], axis=1)
+        np.testing.assert_allclose(np.linalg.norm((after - center)[:, :2], axis=1), r0, atol=1e-6)
+        assert np.abs(after - before).max() > 0.01
