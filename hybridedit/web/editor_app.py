@@ -21,7 +21,7 @@ from ..defaults import CAGE_SIZE
 from ..fileio.editfile import save_edit
 from ..fileio.meshfiles import write_mesh
 from ..deform.selection import SelectionError
-from .gestures import BRUSH, CAMERA, DRAG, HANDLE, RECTANGLE, ROI, SELECT, Gestures
+from .gestures import BRUSH, CAMERA, DRAG, HANDLE, POSE, RECTANGLE, ROI, SELECT, Gestures
 from .brush_ring import RING_ID, RING_SCRIPT, RING_STYLE, VIEW_BOX_ID
 from .keys import KEY_SCRIPT, action_of
 from .polish_on_release import PolishOnRelease
@@ -132,6 +132,7 @@ class WebEditor:
                             v3.VBtn("Camera (C)", value=CAMERA, id="mode_camera")
                             v3.VBtn("Select (S)", value=SELECT, id="mode_select")
                             v3.VBtn("Drag (D)", value=DRAG, id="mode_drag")
+                            v3.VBtn("Pose (P)", value=POSE, id="mode_pose")
                         with v3.VBtnToggle(v_model=("target", ROI), mandatory=True, density="compact", id="target"):
                             v3.VBtn("ROI (R)", value=ROI, id="target_roi")
                             v3.VBtn("Handle (H)", value=HANDLE, id="target_handle")
@@ -229,16 +230,22 @@ class WebEditor:
 
     # ------------------------------------------------------------------ modes and keys
     def set_mode(self, mode: str) -> None:
-        """CAMERA (the mouse turns the camera), SELECT or DRAG."""
-        if mode not in (CAMERA, SELECT, DRAG) or self.gestures.busy:
+        """CAMERA (the mouse turns the camera), SELECT, DRAG or POSE."""
+        if mode not in (CAMERA, SELECT, DRAG, POSE) or self.gestures.busy:
             return
         self.gestures.mode = mode
-        self.depth.wanted = mode == SELECT  # (read at each render that moved something: only for selections)
+        self._want_depth()
         self.iren.SetInteractorStyle(self._turn_style if mode == CAMERA else self._still_style)
         if self.state.mode != mode:
             self.state.mode = mode
         self.show_status()
         self.push()
+
+    def _want_depth(self) -> None:
+        """The depth buffer is read at each render that moved something: only where a press needs it (a
+        selection, the limb under the mouse), and not during a drag's frames."""
+        g = self.gestures
+        self.depth.wanted = g.mode == SELECT or (g.mode == POSE and not g.busy)
 
     def set_target(self, target: str) -> None:
         """What a selection takes into: ROI or HANDLE."""
@@ -268,7 +275,7 @@ class WebEditor:
                   "brush_smaller": lambda: self.scale_brush(0.8)}
         if action in simple:
             simple[action]()
-        elif action in ("mode_select", "mode_drag", "mode_camera"):
+        elif action in ("mode_select", "mode_drag", "mode_camera", "mode_pose"):
             self.set_mode(action.removeprefix("mode_"))
         elif action in ("target_roi", "target_handle"):
             self.set_target(ROI if action == "target_roi" else HANDLE)
@@ -389,7 +396,7 @@ class WebEditor:
             if event == "LeftButtonPressEvent":
                 if g.mode != CAMERA:
                     self.polisher.cancel()  # (a selection or a drag: the polish of the last pose is stale)
-                changed = g.press(x, y, bool(iren.GetShiftKey()), bool(iren.GetControlKey())) or g.mode == DRAG
+                changed = g.press(x, y, bool(iren.GetShiftKey()), bool(iren.GetControlKey())) or g.mode in (DRAG, POSE)
             elif event == "MouseMoveEvent":
                 changed = g.move(x, y)
             else:
@@ -398,10 +405,12 @@ class WebEditor:
             g.message = f"{type(e).__name__}: {e}"
             self.session.cancel_drag()
             changed = True
+        if event != "MouseMoveEvent":
+            self._want_depth()
         if changed and event == "MouseMoveEvent":
             self._frame_due()
         elif changed:
-            if event == "LeftButtonReleaseEvent" and g.mode == DRAG:
+            if event == "LeftButtonReleaseEvent" and g.mode in (DRAG, POSE):
                 self.polisher.start()  # (the window's polish on release, in the background)
             self.show_status()
             self.push()

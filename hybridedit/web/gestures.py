@@ -11,6 +11,9 @@ leg picked from the front is taken whole, as in the window; one undo step a gest
 Drag mode moves the handle: along an arrow of the gizmo or round one of its rings when the press is
 on one (:func:`~hybridedit.viewer.model.gizmo.part_transform`), else in the view plane through the
 handle's centroid (:func:`~hybridedit.viewer.model.gizmo.screen_plane_translation`); settled at release.
+In Pose mode a press on a limb (the engine's :meth:`~hybridedit.HybridEditor.limb_at` of the cage point
+under the mouse) makes it the selection, and the drag turns it about its joint
+(:func:`~hybridedit.viewer.model.gizmo.swept_rotation`; with Shift it moves), as the window's Pose tool.
 No Qt, no editing logic of its own.
 """
 
@@ -23,12 +26,12 @@ from ..viewer.model import gizmo as gz
 from ..deform.skeleton import edge_graph
 from ..viewer.model.picking import (ADD, CLICK_PIXELS, DEPTH_TOLERANCE, PICK_PIXELS, REPLACE, brush_hits,
                                     in_sight, nearest_hit, op_from_modifiers, project_points, rectangle_hits,
-                                    stroke_hits)
+                                    stroke_hits, surface_point)
 from ..viewer.model.selection_masks import HANDLE, ROI
 from ..viewer.model.surface_pick import surface_under
 
-CAMERA, SELECT, DRAG = "camera", "select", "drag"
-"""The modes: the mouse turns the camera, selects cage points, or drags the handle."""
+CAMERA, SELECT, DRAG, POSE = "camera", "select", "drag", "pose"
+"""The modes: the mouse turns the camera, selects cage points, drags the handle, or turns a limb."""
 
 RECTANGLE, BRUSH = "rectangle", "brush"
 """The selection tools (the window's X and B)."""
@@ -49,7 +52,7 @@ class Gestures:
 
     Attributes
     ----------
-    mode : CAMERA, SELECT or DRAG.
+    mode : CAMERA, SELECT, DRAG or POSE.
     target : ROI or HANDLE, what a selection takes into.
     tool : RECTANGLE or BRUSH, how a selection is drawn.
     brush_radius : the brush's radius in display pixels.
@@ -81,6 +84,7 @@ class Gestures:
         self._dragging = False
         self._part: gz.Part | None = None
         self._grab: np.ndarray | None = None
+        self._turn = False  # a Pose drag turns the limb (without Shift) rather than moving it
 
     @property
     def busy(self) -> bool:
@@ -116,14 +120,24 @@ class Gestures:
                 return self._dab(brush_hits(self._display, self._front, self._start, self.brush_radius))
             return False
         s = self.session
-        part = self.scene.gizmo.hit(self._start, C, size)  # (the gizmo is shown in Drag mode only)
+        pivot = None
+        if self.mode == POSE:
+            pivot = self._grab_limb(self._start)
+            if pivot is None:
+                self._start = None
+                return False
+            part = None
+        else:
+            part = self.scene.gizmo.hit(self._start, C, size)  # (the gizmo is shown in Drag mode only)
         try:
             self._T0 = s.begin_drag()
         except SelectionError as e:
             self.message = str(e)
             self._start = None
+            self.scene.pivot.place(None)
             return False
-        self._center = s.handle_centroid()
+        self._center = s.handle_centroid() if pivot is None else pivot
+        self._turn = pivot is not None and not shift
         self._part, self._grab = part, None
         if part is not None and part.kind == "rotate":
             self._grab = gz.grab_direction(self._start, self._center, part.axis,
@@ -159,6 +173,9 @@ class Gestures:
         s = self.session
         self._dragging = False
         self.scene.set_dragging(False)
+        self.scene.pivot.place(None)
+        if self.mode == POSE:
+            self.message = ""
         s.drag_to(self._transform(x, y, start) @ self._T0)
         if not np.all(np.isfinite(s.shape_positions)):
             s.cancel_drag()
@@ -167,6 +184,39 @@ class Gestures:
         s.end_drag()
         s.finish_settle()  # the settle at release (what hybridedit deform replays), and its undo step
         return True
+
+    def _cage_point_at(self, at: tuple[float, float]) -> int | None:
+        """The cage point of the surface under display point ``at`` (nearest in space to the surface point
+        the depth buffer shows there, else the nearest in sight within a few pixels), or None."""
+        P = self.session.cage_positions
+        d = self.depth
+        if d is not None:
+            if not d.current():
+                d.ren_win.Render()
+            if d.current():
+                point = surface_point(at, d)
+                if point is not None:
+                    return int(np.argmin(np.sum((P - point) ** 2, axis=1)))
+        display, front = project_points(P, self._composite, self._size)
+        self._display = display
+        hit = nearest_hit(display, self._in_sight(P, self._composite, self._size), at, PICK_PIXELS)
+        return int(np.flatnonzero(hit)[0]) if hit.any() else None
+
+    def _grab_limb(self, at: tuple[float, float]) -> np.ndarray | None:
+        """A press in Pose mode: the limb under ``at`` becomes the selection (one undo step) and its joint
+        (3,) is returned; None, and said why, when no limb is there."""
+        s = self.session
+        v = self._cage_point_at(at)
+        limb = None if v is None else s.editor.limb_at(v, space="cage")
+        if limb is None:
+            self.message = ("No limb there: the Pose tool turns a limb (an arm, a leg, a tail, a head) about its "
+                            "joint")
+            return None
+        pose = limb.parts().placed(s.cage_positions)
+        s.selection.replace(pose.cage_roi, pose.cage_handle, "pose limb")
+        self.scene.pivot.place(pose.joint, s.cage_positions[pose.extremity])
+        self.message = "Turning the limb about its joint (Shift+drag moves it); release to settle"
+        return np.asarray(pose.joint, dtype=np.float64)
 
     def _in_sight(self, P: np.ndarray, C: np.ndarray, size: tuple[int, int]) -> np.ndarray:
         """(c,) the cage points a selection may take: those in front and in sight."""
@@ -232,6 +282,8 @@ class Gestures:
         """(4, 4) the handle's move since the press at ``start`` (default: this gesture's): along or round
         the gizmo's part pressed, else the mouse's in the view plane through the handle."""
         start, now = start or self._start, (float(x), float(y))
+        if self._turn:
+            return gz.swept_rotation(start, now, self._center, self._composite, self._size)
         if self._part is not None:
             return gz.part_transform(self._part, start, now, self._center, self.scene.gizmo.length, self._grab,
                                      self._composite, self._size)
@@ -240,4 +292,4 @@ class Gestures:
         return D
 
 
-__all__ = ["BRUSH", "CAMERA", "DRAG", "Gestures", "HANDLE", "RECTANGLE", "ROI", "SELECT"]
+__all__ = ["BRUSH", "CAMERA", "DRAG", "Gestures", "HANDLE", "POSE", "RECTANGLE", "ROI", "SELECT"]

@@ -11,9 +11,10 @@ trigger; :func:`action_of` names the editor action it stands for.
 from __future__ import annotations
 
 PLAIN_KEYS = {"s": "mode_select", "r": "target_roi", "h": "target_handle", "d": "mode_drag", "c": "mode_camera",
+              "p": "mode_pose",
               "x": "tool_rect", "b": "tool_brush", "[": "brush_smaller", "]": "brush_bigger",
               "t": "stretch", "f": "reset_camera"}
-"""Keys without Ctrl, as the window has them: the modes (Select, Drag, Camera), the selection's target
+"""Keys without Ctrl, as the window has them: the modes (Select, Drag, Pose, Camera), the selection's target
 (ROI, Handle), its tool (Rectangle, Brush) and the brush's size, the stretch map, Frame Shape."""
 
 SHIFT_KEYS = {"x": "mirror_x", "f": "free_around_handle"}

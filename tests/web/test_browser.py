@@ -335,3 +335,45 @@ def test_brush_mirror_and_stretch_map(server, driver):
     assert wait(lambda: abs(colourful(view()) - colourful(plain)) > 3.0, 20, 0.5), "T showed no stretch map"
     ActionChains(d).send_keys("t").perform()
     assert wait(lambda: np.abs(view() - plain).mean() < 1.0, 20, 0.5), "T again did not hide it"
+
+
+def test_pose_turns_a_limb_about_its_joint(server, driver):
+    """P, then a drag on the creature's -X hand: the limb becomes the selection and turns up about its
+    joint, the body stays; one Ctrl+Z after the polish undoes the polish, the next the turn."""
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.common.keys import Keys
+
+    from hybridedit.viewer.model.picking import project_points
+
+    d = driver
+    if "mirror X" in _status_text(d):
+        ActionChains(d).key_down(Keys.SHIFT).send_keys("x").key_up(Keys.SHIFT).perform()
+        assert wait(lambda: "mirror X" not in _status_text(d), 10), _status_text(d)
+    canvas = d.find_element(By.CSS_SELECTOR, "canvas")
+    r = d.execute_script("return arguments[0].getBoundingClientRect()", canvas)
+    w, h = round(r["width"]), round(r["height"])
+    mesh, C, size = _camera(server, (w, h))
+    V = mesh.vertices
+    x = V[:, 0]
+    before = _download(d, server, "before-pose.ply")  # (the pose the test above left: both hands up)
+    display, front = project_points(before, C, size)
+    ActionChains(d).send_keys("p").perform()
+    assert wait(lambda: "; pose, target" in _status_text(d), 10), _status_text(d)
+    hand = x < 0.8 * x.min()
+    c = display[hand & front, :2].mean(axis=0)
+    start = int(round(c[0] - w / 2)), int(round((h - c[1]) - h / 2))
+    ac = ActionChains(d).move_to_element_with_offset(canvas, *start).click_and_hold()
+    for k in range(1, 6):
+        ac.move_to_element_with_offset(canvas, start[0], start[1] - 12 * k).pause(0.1)
+    ac.release().perform()
+    assert wait(lambda: "Polished: edge error" in _status_text(d), 60, 0.5), _status_text(d)
+    posed = _download(d, server, "limb-posed.ply")
+    diag = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
+    assert posed[hand, 1].mean() > before[hand, 1].mean() + 0.02 * diag, _status_text(d)
+    body = np.abs(x) < 0.3 * x.max()
+    assert np.abs(posed[body] - before[body]).max() < 0.01 * diag
+    for _ in range(2):
+        ActionChains(d).key_down(Keys.CONTROL).send_keys("z").key_up(Keys.CONTROL).perform()
+        time.sleep(0.3)
+    assert wait(lambda: np.array_equal(_download(d, server, "unposed.ply"), before), 20, 0.5)

@@ -19,7 +19,7 @@ from hybridedit.viewer.render.depth_grab import DepthGrab  # noqa: E402
 from hybridedit.viewer.render.scene import Scene  # noqa: E402
 from hybridedit.viewer.model.picking import project_points  # noqa: E402
 from hybridedit.viewer.model import gizmo as gz  # noqa: E402
-from hybridedit.web.gestures import BRUSH, DRAG, HANDLE, ROI, SELECT, Gestures  # noqa: E402
+from hybridedit.web.gestures import BRUSH, DRAG, HANDLE, POSE, ROI, SELECT, Gestures  # noqa: E402
 
 
 def _scene(session, size=(400, 400)):
@@ -152,3 +152,47 @@ def test_a_drag_on_the_gizmo_moves_along_its_arrow_or_turns_round_its_ring(ball,
         r0 = np.linalg.norm((before - center)[:, :2], axis=1)
         np.testing.assert_allclose(np.linalg.norm((after - center)[:, :2], axis=1), r0, atol=1e-6)
         assert np.abs(after - before).max() > 0.01
+
+
+@pytest.fixture(scope="module")
+def figure_session():
+    from shapes import figure
+
+    mesh = figure()
+    return Session(he.HybridEditor(mesh, 0.1), cage_size=0.1)
+
+
+def test_pose_mode_turns_the_limb_under_the_mouse_about_its_joint(figure_session):
+    session = figure_session
+    pl, scene, grab = _scene(session, (500, 400))
+    try:
+        g = Gestures(session, scene, grab)
+        g.mode = POSE
+        arm = max(session.editor.limbs(), key=lambda limb: limb.tip[0])  # the arm out along +X
+        C, size = scene.composite_matrix(), scene.display_size()
+        tip = project_points(np.asarray(arm.tip, dtype=np.float64)[None], C, size)[0][0]
+        g.press(5, 5, False, False)  # empty space: no limb, said so, nothing changed
+        assert not g.busy and "No limb there" in g.message and not session.selection.roi.any()
+        at = (tip[0] - 15, tip[1])
+        assert g.press(*at, False, False)
+        pose = arm.parts().placed(session.cage_positions)
+        np.testing.assert_array_equal(session.selection.handle, pose.cage_handle)  # the limb is the selection
+        np.testing.assert_array_equal(session.selection.roi, pose.cage_roi)
+        assert scene.pivot.visible  # the joint is shown while the limb turns
+        rest = session.shape_positions.copy()
+        before = session.cage_positions[pose.cage_handle]
+        for k in range(1, 6):
+            g.move(at[0], at[1] + 12 * k)  # up on screen: the arm swings up about its shoulder
+        assert g.release(at[0], at[1] + 60)
+        assert not scene.pivot.visible
+        after = session.cage_positions[pose.cage_handle]
+        joint = np.asarray(pose.joint)
+        np.testing.assert_allclose(np.linalg.norm(after - joint, axis=1), np.linalg.norm(before - joint, axis=1),
+                                   atol=1e-6)  # turned about the joint, rigidly
+        assert after[:, 1].mean() > before[:, 1].mean() + 0.2
+        V = session.shape_positions
+        body = np.abs(rest[:, 0]) < 0.3
+        assert np.abs(V[body] - rest[body]).max() < 1e-9  # the body held
+        assert session.undo() and np.array_equal(session.shape_positions, rest)  # the drag: one undo step
+    finally:
+        pl.close()

@@ -45,7 +45,7 @@ from ...deform.skeleton import edge_graph
 from ..model import gizmo as gz
 from ..model.picking import (
     ADD, CLICK_PIXELS, DEPTH_TOLERANCE, PICK_PIXELS, REPLACE, brush_hits, in_sight, nearest_hit,
-    op_from_modifiers, project_points, rectangle_hits, stroke_hits, unproject,
+    op_from_modifiers, project_points, rectangle_hits, stroke_hits, surface_point,
 )
 from ..model.surface_pick import surface_under
 from ..render.scene import Scene
@@ -392,10 +392,8 @@ class ViewController(QtCore.QObject):
         depth = self.view.fresh_depth() if render else self.view.depth
         if depth is None or not depth.current():
             return None
-        x, y = int(np.floor(d[0])) - depth.origin[0], int(np.floor(d[1])) - depth.origin[1]
-        h, w = depth.depth.shape
-        if 0 <= x < w and 0 <= y < h and depth.depth[y, x] < 1.0:
-            at = unproject(d[0], d[1], 2.0 * float(depth.depth[y, x]) - 1.0, depth.composite, depth.size)
+        at = surface_point(d, depth)
+        if at is not None:
             return int(np.argmin(np.sum((P - at) ** 2, axis=1)))
         C, size = self._matrices()
         display, front = project_points(P, C, size)

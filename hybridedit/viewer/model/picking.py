@@ -149,6 +149,17 @@ def in_sight(points: np.ndarray, display: np.ndarray, in_front: np.ndarray, grab
     return np.asarray(in_front, dtype=bool) & vis
 
 
+def surface_point(at: tuple[float, float], grab) -> np.ndarray | None:
+    """(3,) the world point the depth buffer of ``grab`` (a
+    :class:`~hybridedit.viewer.render.depth_grab.DepthGrab`: its ``depth``, ``origin``, ``composite`` and
+    ``size``) shows at display point ``at``; None over empty space or outside the buffer."""
+    x, y = int(np.floor(at[0])) - grab.origin[0], int(np.floor(at[1])) - grab.origin[1]
+    h, w = grab.depth.shape
+    if 0 <= x < w and 0 <= y < h and grab.depth[y, x] < 1.0:
+        return unproject(at[0], at[1], 2.0 * float(grab.depth[y, x]) - 1.0, grab.composite, grab.size)
+    return None
+
+
 def nearest_hit(display: np.ndarray, in_front: np.ndarray, center: tuple[float, float], radius: float) -> np.ndarray:
     """A click: the one projected point nearest to ``center`` within ``radius`` pixels, as a (k,) bool
     mask (all False when there is none); among points at the same pixel the one nearest the camera."""
