@@ -112,9 +112,9 @@ def win(qtbot, blob_file):
 def gate(monkeypatch) -> threading.Event:
     """Builds report "building the cage" then "binding" and wait there (still reporting) until the
     gate is set, then build for real; a cancel stops them at their next report."""
-    from hybridedit.viewer.jobs import build_worker
+    from hybridedit.viewer.model import building
 
-    real = build_worker.build_rig
+    real = building.build_rig
     gate = threading.Event()
 
     def build_rig(mesh, *, cage_size, cache, progress):
@@ -125,7 +125,7 @@ def gate(monkeypatch) -> threading.Event:
             progress("binding", 0.25)  # raises Cancelled once cancelled
         return real(mesh, cage_size=cage_size, cache=cache, progress=progress)
 
-    monkeypatch.setattr(build_worker, "build_rig", build_rig)
+    monkeypatch.setattr(building, "build_rig", build_rig)
     yield gate
     gate.set()  # never leave a thread waiting
 

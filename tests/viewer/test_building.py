@@ -13,7 +13,7 @@ from types import SimpleNamespace
 import numpy as np
 from qtpy import QtCore, QtWidgets
 
-from hybridedit.viewer.jobs import build_worker as worker_module
+from hybridedit.viewer.model import building
 from hybridedit.viewer.jobs.build_jobs import build_size, built_message
 from hybridedit.viewer.model.cage_size import DEFAULT_SIZE, MAX_SHARE, fit_cage_size
 from hybridedit.viewer.window.main_window import MainWindow
@@ -154,7 +154,7 @@ def test_failures_show_one_error_and_keep_the_shape(qtbot, win, tmp_path, monkey
     def no_cage(mesh, **kwargs):
         raise ValueError("no cage for you")
 
-    monkeypatch.setattr(worker_module, "build_rig", no_cage)
+    monkeypatch.setattr(building, "build_rig", no_cage)
     assert w.loading.rebuild()
     wait_loaded(qtbot, w)
     qtbot.wait(50)

@@ -14,7 +14,7 @@ from qtpy import QtCore, QtWidgets
 
 from hybridedit.deform.polish import PolishJob
 from hybridedit.viewer.app import _install_excepthook
-from hybridedit.viewer.jobs import build_worker
+from hybridedit.viewer.model import building
 from hybridedit.viewer.model.crash_reports import reports_folder
 from hybridedit.viewer.window.main_window import MainWindow
 from support.window_driving import (
@@ -213,7 +213,7 @@ def test_a_failing_build_keeps_the_shape_and_pose_on_display(qtbot, win, blob_fi
     def broken(mesh, **kwargs):
         raise RuntimeError("injected failure in a build")
 
-    monkeypatch.setattr(build_worker, "build_rig", broken)
+    monkeypatch.setattr(building, "build_rig", broken)
     # opening a file: read and shown while built, then the build fails: the shape before is back
     assert w.loading.open_path(blob_file)
     wait_loaded(qtbot, w)
@@ -240,7 +240,7 @@ def test_a_failing_build_in_an_empty_window_leaves_it_usable(qtbot, blob_file, m
     w.show()
     qtbot.waitExposed(w)
     try:
-        monkeypatch.setattr(build_worker, "build_rig", lambda mesh, **kwargs: {}["no rig"])
+        monkeypatch.setattr(building, "build_rig", lambda mesh, **kwargs: {}["no rig"])
         assert w.loading.open_path(blob_file)
         qtbot.waitUntil(lambda: w.jobs.worker is None, timeout=60000)
         reported(w, "The build of blob.obj failed (KeyError: 'no rig'); no shape is open. Report: ")

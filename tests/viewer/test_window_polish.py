@@ -9,7 +9,7 @@ from qtpy import QtCore
 from hybridedit.deform.arap import ARAPSolver
 from hybridedit.fileio.meshfiles import read_mesh
 from hybridedit.core.mesh import edge_stretch, vertex_stretch
-from hybridedit.viewer.jobs import build_worker as worker_module
+from hybridedit.viewer.model import building as worker_module
 from hybridedit.viewer.window.dialogs import mesh_info_text
 from hybridedit.viewer.window.main_window import MainWindow
 from support.window_driving import handle_point, key, mouse_drag, polished, select_tip_to_drag, settled, wait_loaded

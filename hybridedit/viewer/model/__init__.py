@@ -11,6 +11,7 @@ picking         : projection, hit tests and add/remove/replace on cage points
 surface_pick    : the cage points a gesture takes: the surface in sight and the part behind it
 gizmo           : the handle gizmo's parts, hit test and drag transforms
 cage_size       : the rule that fits a cage size (fraction or vertex count) to a shape
+building        : a shape's engine built from its file (read, cage, binding, editor), with progress and cancel
 look            : what a file says the shape looks like (textures, colours), split at seams to draw
 opening         : a shape opened for editing without a window (engine, session, look, up axis)
 polishing       : the polish of a released drag's region on the full shape, stoppable
