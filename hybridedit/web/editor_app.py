@@ -11,6 +11,7 @@ stays); in Camera mode it is the usual trackball.
 from __future__ import annotations
 
 import asyncio
+import functools
 import os
 import sys
 import tempfile
@@ -21,13 +22,24 @@ from ..defaults import CAGE_SIZE
 from ..fileio.editfile import save_edit
 from ..fileio.meshfiles import write_mesh
 from ..deform.selection import SelectionError
-from .gestures import BRUSH, CAMERA, DRAG, HANDLE, POSE, RECTANGLE, ROI, SELECT, Gestures
+from .gestures import BRUSH, BRUSH_PIXELS, CAMERA, DRAG, HANDLE, POSE, RECTANGLE, ROI, SELECT, Gestures
 from .brush_ring import RING_ID, RING_SCRIPT, RING_STYLE, VIEW_BOX_ID
 from .keys import KEY_SCRIPT, action_of
+from .opening_job import OpeningJob
 from .polish_on_release import PolishOnRelease
 from .token_guard import token_middleware
 
 VIEW_EVENTS = ("LeftButtonPressEvent", "MouseMoveEvent", "LeftButtonReleaseEvent")
+
+
+def _editing(method):
+    """A page action that needs the shape built: nothing happens before (the build's progress is shown)."""
+    @functools.wraps(method)
+    def guarded(self, *args, **kwargs):
+        if self.session is None:
+            return None
+        return method(self, *args, **kwargs)
+    return guarded
 
 
 def edit_path_of(mesh_path: Path) -> Path:
@@ -49,17 +61,21 @@ class WebEditor:
         (the websocket) still opens only with the token.
     """
 
-    def __init__(self, session, token: str, up_axis: str = "+Y", server=None, *, guard_pages: bool = True) -> None:
+    def __init__(self, session, token: str, up_axis: str = "+Y", server=None, *, guard_pages: bool = True,
+                 name: str | None = None) -> None:
         import pyvista as pv
         from trame.app import get_server
         from vtkmodules.vtkInteractionStyle import vtkInteractorStyleUser
 
         from ..viewer.app import _headless_render_window
         from ..viewer.render.depth_grab import DepthGrab
-        from ..viewer.render.gl_renderer import choose_antialiasing
         from ..viewer.render.scene import Scene
 
-        self.session = session
+        self.session = None
+        self.name = name or (session.path.name if session is not None and session.path else "shape")
+        self.gestures: Gestures | None = None
+        self.polisher: PolishOnRelease | None = None
+        self.opening: OpeningJob | None = None
         self.token = token
         self.guard_pages = guard_pages
         self.server = server or get_server(name=f"hybridedit-{id(self)}", client_type="vue3")
@@ -70,26 +86,19 @@ class WebEditor:
         self.plotter = pv.Plotter(off_screen=True, window_size=[1000, 800])
         self.scene = Scene(self.plotter)
         self.scene.up_axis = up_axis
-        s = session
-        self.scene.load(s.metrics, s.shown_positions, s.cage_positions, s.editor.cage.faces,
-                        s.selection.cage_roles(), s.selection.shape_roles(), look=s.look)
-        s.look_mode = self.scene.look_mode
-        self.scene.reset_camera()
-        self.plotter.ren_win.Render()
-        choose_antialiasing(self.plotter.ren_win)  # (off for software OpenGL: half the frame)
         self.depth = DepthGrab(self.plotter.ren_win, self.scene.renderer)
         self._pushed = 0  # counts the poses and selections pushed: with the camera, the depth's key
         self._frame_waiting = False  # a drag frame is waiting to be drawn
         camera = self.scene.renderer.GetActiveCamera()
         self.depth.key_fn = lambda: (camera.GetMTime(), tuple(self.plotter.ren_win.GetSize()), self._pushed)
-        self.gestures = Gestures(session, self.scene, self.depth)
-        self.polisher = PolishOnRelease(session, self._polished)
         self.iren = self.plotter.iren.interactor
         self._turn_style = self.iren.GetInteractorStyle()
         self._still_style = vtkInteractorStyleUser()  # does nothing: the camera stays while selecting or dragging
         for event in VIEW_EVENTS:
             self.iren.AddObserver(event, self._on_mouse, 1.0)
         self.saved_edit: Path | None = None
+        self.state.update({"building": session is None, "build_stage": "", "build_percent": 0,
+                           "build_failed": "", "status": "", "brush_px": BRUSH_PIXELS})
         self._build_ui()
         self.server.trigger("hotkey")(self.on_hotkey)
         self.server.trigger("download_mesh")(self.download_mesh)
@@ -98,10 +107,102 @@ class WebEditor:
         self.state.change("mode")(lambda mode, **_: self.set_mode(mode))
         self.state.change("target")(lambda target, **_: self.set_target(target))
         self.state.change("tool")(lambda tool, **_: self.set_tool(tool))
-        self.state.brush_px = self.gestures.brush_radius
+        if session is not None:
+            self.attach(session)
+
+    def attach(self, session, up_axis: str | None = None) -> None:
+        """Edit ``session`` from now on (a built shape): drawn, and the page's tools working on it."""
+        from ..viewer.render.gl_renderer import choose_antialiasing
+
+        self.session = s = session
+        if up_axis is not None:
+            self.scene.up_axis = up_axis
+        self.scene.load(s.metrics, s.shown_positions, s.cage_positions, s.editor.cage.faces,
+                        s.selection.cage_roles(), s.selection.shape_roles(), look=s.look)
+        s.look_mode = self.scene.look_mode
+        self.scene.reset_camera()
+        self.plotter.ren_win.Render()
+        choose_antialiasing(self.plotter.ren_win)  # (off for software OpenGL: half the frame)
+        self.gestures = Gestures(s, self.scene, self.depth)
+        self.polisher = PolishOnRelease(s, self._polished)
+        with self.state:
+            self.state.building = False
+            self.state.build_failed = ""
         self.set_mode(CAMERA)
         self.set_target(ROI)
         self.show_status()
+
+    # ------------------------------------------------------------------ opening a file
+    def open_file(self, path: Path, *, mesh=None, look=None, cage_size: int | float = CAGE_SIZE, edit=None,
+                  edit_path: str | None = None) -> None:
+        """Build the shape of ``path`` (``mesh``: as read already, with its ``look``) in the background, the
+        page showing the shape as soon as it is read and the build's progress over it, with Cancel; then
+        edit it (``edit``, an :class:`~hybridedit.Edit`, replayed first). Called on the server's loop."""
+        from ..viewer.model.building import BuildRequest
+
+        self._opening_args = dict(mesh=mesh, look=look, cage_size=cage_size, edit=edit, edit_path=edit_path)
+        self._path = Path(path)
+        with self.state:
+            self.state.building = True
+            self.state.build_failed = ""
+            self.state.build_stage, self.state.build_percent = f"reading {self._path.name}", 0
+        request = BuildRequest(cage_size=cage_size, path=self._path, mesh=mesh)
+        self.opening = OpeningJob(request, look=look, progress=self._build_progress, shape_read=self._shape_read,
+                                  finished=self._built)
+        self.opening.start()
+
+    def open_again(self) -> None:
+        """The page's Open Again, after a cancelled or failed build."""
+        if self.session is None and (self.opening is None or not self.opening.running):
+            self.open_file(self._path, **self._opening_args)
+
+    def cancel_build(self) -> None:
+        """The page's Cancel: the build stops at its next step."""
+        if self.opening is not None:
+            self.opening.cancel()
+
+    def _build_progress(self, stage: str, fraction: float) -> None:
+        with self.state:
+            self.state.build_stage = stage
+            self.state.build_percent = round(100 * min(max(fraction, 0.0), 1.0))
+            self.state.status = f"{self._path.name}: {stage} {self.state.build_percent}%"
+
+    def _shape_read(self, mesh, _look, up) -> None:
+        """The shape is read: shown (plain) while its cage and binding are built."""
+        self.scene.up_axis = up[0]
+        self.scene.show_preview(mesh.vertices, mesh.faces)
+        self.scene.reset_camera()
+        self._pushed += 1
+        self.view.update()
+
+    def _built(self, result, message: str) -> None:
+        from ..viewer.model.session import Session
+
+        if result is None:
+            said = "The build was cancelled" if message == "cancelled" else f"Could not open {self._path.name}: {message}"
+            print(f"hybridedit: {said}", file=sys.stderr, flush=True)
+            with self.state:
+                self.state.build_failed = said
+                self.state.status = said
+            return
+        args = self._opening_args
+        session = Session(result.editor, path=self._path, cage_size=args["cage_size"], metrics=result.metrics)
+        session.look = result.look
+        for note in session.look.notes if session.look is not None else ():
+            print(f"hybridedit: note: {self._path.name}: {note}", file=sys.stderr, flush=True)
+        problem = ""
+        if args["edit"] is not None:
+            try:
+                session.load_edit(args["edit"], args["edit_path"])
+            except (SelectionError, ValueError) as e:
+                problem = f"the edit {args['edit_path']} was not replayed: {e}"
+                print(f"hybridedit: {problem}", file=sys.stderr, flush=True)
+        print(f"hybridedit: {self._path.name} ready ({result.seconds:.1f} s)", flush=True)
+        self.attach(session, result.up[0] if result.up else None)
+        if problem:
+            self.gestures.message = problem[0].upper() + problem[1:]
+            self.show_status()
+        self.push()
 
     # ------------------------------------------------------------------ the page
     def _build_ui(self) -> None:
@@ -110,7 +211,7 @@ class WebEditor:
         from trame.widgets import vtk as vtk_widgets
         from trame.widgets import vuetify3 as v3
 
-        name = self.session.path.name if self.session.path else "shape"
+        name = self.name
         with SinglePageLayout(self.server) as layout:
             self.layout = layout
             layout.title.set_text(f"hybridedit: {name}")
@@ -153,12 +254,28 @@ class WebEditor:
                                                               interactive_ratio=1, still_quality=90,
                                                               interactive_quality=70)
                         html.Div(id=RING_ID, style=RING_STYLE)
+                        # the build's progress over the shape read (or an empty view), with Cancel
+                        with html.Div(v_if=("building",), id="building",
+                                      style="position: absolute; left: 50%; top: 40%; transform: translate(-50%, -50%);"
+                                            " width: min(420px, 80%); background: rgba(255,255,255,0.9);"
+                                            " padding: 12px 16px; border-radius: 6px; font: 14px sans-serif"):
+                            with html.Div(v_if=("!build_failed",)):
+                                html.Div("{{ build_stage }} ({{ build_percent }}%)", id="build_stage")
+                                v3.VProgressLinear(model_value=("build_percent", 0), height=8, color="primary",
+                                                   classes="my-2")
+                                v3.VBtn("Cancel", id="cancel_build", click=(self.cancel_build,), density="compact",
+                                        variant="tonal")
+                            with html.Div(v_if=("build_failed",)):
+                                html.Div("{{ build_failed }}", id="build_failed")
+                                v3.VBtn("Open Again", id="open_again", click=(self.open_again,), density="compact",
+                                        variant="tonal", classes="mt-2")
                         html.Div("{{ status }}", id="status",
                                  style="position: absolute; left: 8px; bottom: 4px; font: 13px sans-serif;"
                                        " background: rgba(255,255,255,0.7); padding: 2px 6px")
             client.Script(KEY_SCRIPT)
             client.Script(RING_SCRIPT)
 
+    @_editing
     def show_status(self) -> None:
         """The status line: vertices, cage size, edge error, and the latest message."""
         s = self.session
@@ -179,6 +296,7 @@ class WebEditor:
         with self.state:
             self.state.status = text
 
+    @_editing
     def push(self) -> None:
         """Draw the session's state again (the whole shape, the cage, the roles) and send the image."""
         s = self.session
@@ -208,6 +326,7 @@ class WebEditor:
         except RuntimeError:  # (no event loop: at once)
             self._push_frame()
 
+    @_editing
     def _push_frame(self) -> None:
         """A drag frame (the moving region of the shape and the cage) or a brush stroke's selection so far.
         While the mouse is down the view streams images of its own (trame-vtk's interaction animation),
@@ -229,6 +348,7 @@ class WebEditor:
         self.view.update()
 
     # ------------------------------------------------------------------ modes and keys
+    @_editing
     def set_mode(self, mode: str) -> None:
         """CAMERA (the mouse turns the camera), SELECT, DRAG or POSE."""
         if mode not in (CAMERA, SELECT, DRAG, POSE) or self.gestures.busy:
@@ -247,6 +367,7 @@ class WebEditor:
         g = self.gestures
         self.depth.wanted = g.mode == SELECT or (g.mode == POSE and not g.busy)
 
+    @_editing
     def set_target(self, target: str) -> None:
         """What a selection takes into: ROI or HANDLE."""
         if target not in (ROI, HANDLE):
@@ -256,6 +377,7 @@ class WebEditor:
             self.state.target = target
         self.show_status()
 
+    @_editing
     def set_tool(self, tool: str) -> None:
         """How a selection is drawn: RECTANGLE or BRUSH."""
         if tool not in (RECTANGLE, BRUSH) or self.gestures.busy:
@@ -265,6 +387,7 @@ class WebEditor:
             self.state.tool = tool
         self.show_status()
 
+    @_editing
     def on_hotkey(self, key: str, ctrl: bool = False, shift: bool = False) -> None:
         """A key press on the page (:data:`.keys.KEY_SCRIPT`)."""
         action = action_of(key, bool(ctrl), bool(shift))
@@ -283,6 +406,7 @@ class WebEditor:
             self.set_tool(RECTANGLE if action == "tool_rect" else BRUSH)
 
     # ------------------------------------------------------------------ actions
+    @_editing
     def undo(self) -> None:
         if self.gestures.busy:
             return
@@ -290,6 +414,7 @@ class WebEditor:
         if self.session.undo():
             self._changed()
 
+    @_editing
     def redo(self) -> None:
         if self.gestures.busy:
             return
@@ -297,6 +422,7 @@ class WebEditor:
         if self.session.redo():
             self._changed()
 
+    @_editing
     def toggle_mirror(self, axis: str = "x") -> None:
         """Mirror X (Shift+X): the selection and the drag mirrored across the shape's middle plane, or not."""
         s = self.session
@@ -313,6 +439,7 @@ class WebEditor:
                                      "shape's middle plane" if on else "Mirror off")
         self._changed()
 
+    @_editing
     def free_around_handles(self) -> None:
         """Free Around Handle (Shift+F): the held cage points a handle touches join the ROI (one undo step)."""
         if self.gestures.busy:
@@ -328,12 +455,14 @@ class WebEditor:
                 " (Ctrl+Z restores them)")
         self._changed()
 
+    @_editing
     def scale_brush(self, factor: float) -> None:
         """``]`` and ``[``: the brush's radius times ``factor`` (the ring the page draws follows)."""
         self.gestures.scale_brush(factor)
         self.state.brush_px = self.gestures.brush_radius
         self.show_status()
 
+    @_editing
     def toggle_stretch(self) -> None:
         """The stretch map (T): the shape coloured by its relative edge-length change, or not."""
         self.scene.set_stretch_visible(not self.scene.stretch_visible)
@@ -356,6 +485,7 @@ class WebEditor:
         self.show_status()
         self.push()
 
+    @_editing
     def save_edit(self) -> None:
         """Save Edit: how the pose was made, beside the mesh (:func:`edit_path_of`), written atomically."""
         from ..deform.selection import SelectionError
@@ -384,11 +514,13 @@ class WebEditor:
             write_mesh(out, mesh)
             return out.read_bytes()
 
+    @_editing
     def download_mesh(self):
         """The Download button's attachment (the page saves it with ``utils.download``)."""
         return self.server.protocol.addAttachment(self.posed_ply())
 
     # ------------------------------------------------------------------ mouse
+    @_editing
     def _on_mouse(self, iren, event: str) -> None:
         x, y = iren.GetEventPosition()
         g = self.gestures
@@ -424,6 +556,8 @@ class WebEditor:
 
     def _on_connect(self, **_) -> None:
         print("hybridedit: a browser connected", flush=True)
+        if self.session is None:
+            self.view.update()  # (the shape read, shown while it is built)
 
     def url(self, host: str, port: int) -> str:
         shown = "127.0.0.1" if host in ("127.0.0.1", "localhost", "0.0.0.0", "") else host
@@ -442,16 +576,18 @@ class WebEditor:
 
 def run(path: Path, *, host: str = "127.0.0.1", port: int = 8080, cage_size: int | float = CAGE_SIZE,
         edit=None, edit_path: str | None = None) -> int:
-    """``hybridedit web``: open ``path`` (with ``edit`` replayed, an :class:`~hybridedit.Edit`) and serve
-    it; returns the exit status."""
-    from ..viewer.model.opening import open_session
+    """``hybridedit web``: read ``path`` (a file that cannot be read is said here, before serving), serve the
+    page at once and build the shape behind it with progress (``edit`` replayed once built, an
+    :class:`~hybridedit.Edit`); returns the exit status."""
+    from ..fileio.meshfiles import read_document
+    from ..viewer.model.look import shown_look
     from .token_guard import new_token
 
-    opened = open_session(Path(path), cage_size=cage_size)
-    for note in opened.notes:
-        print(f"hybridedit: note: {Path(path).name}: {note}", file=sys.stderr)
-    if edit is not None:
-        opened.session.load_edit(edit, edit_path)
+    path = Path(path)
+    document = read_document(path)
     os.environ.setdefault("TRAME_DISABLE_V3_WARNING", "1")
-    WebEditor(opened.session, new_token(), opened.up_axis).serve(host, port)
+    web = WebEditor(None, new_token(), name=path.name)
+    web.ctrl.on_server_ready.add(lambda **_: web.open_file(path, mesh=document.mesh, look=shown_look(document),
+                                                           cage_size=cage_size, edit=edit, edit_path=edit_path))
+    web.serve(host, port)
     return 0

@@ -12,6 +12,7 @@ import http.server
 import json
 import sys
 import threading
+import time
 from pathlib import Path
 
 import numpy as np
@@ -124,13 +125,25 @@ def test_a_notebook_poses_the_widget_by_hand_and_by_code(tmp_path, monkeypatch, 
                 drawn_fraction(d, iframe, shot)
                 return np.asarray(Image.open(shot).convert("L"), dtype=float)
 
-            rest_view = view()
+            def steady_view(timeout: float = 20.0) -> np.ndarray:
+                """The view once its image stopped changing (a cell's selection and its move each send one)."""
+                seen = [view()]
+
+                def still() -> bool:
+                    time.sleep(0.4)
+                    seen.append(view())
+                    return np.abs(seen[-1] - seen[-2]).mean() < 0.003
+
+                assert wait(still, timeout, 0.0), "the view kept changing"
+                return seen[-1]
+
+            rest_view = steady_view()
             client.execute_cell(nb.cells[2], 2)  # posed from Python while the view is open
             got = json.loads(_text(nb.cells[2]))
             assert got["hand"] > 0.15 and got["body"] < 1e-9, got
             # the view follows Python's pose (the image comes a moment after the cell)
             assert wait(lambda: np.abs(view() - rest_view).mean() > 0.05, 20, 0.5), "the view did not follow the move"
-            posed_view = view()
+            posed_view = steady_view()
             client.execute_cell(nb.cells[3], 3)
             assert json.loads(_text(nb.cells[3])) == {"undone": True, "at_rest": True}
             assert wait(lambda: np.abs(view() - posed_view).mean() > 0.05, 20, 0.5), "the view did not follow the undo"
@@ -138,8 +151,6 @@ def test_a_notebook_poses_the_widget_by_hand_and_by_code(tmp_path, monkeypatch, 
 
             d.get(url.replace("secret=", "secret=wrong"))  # the page is trame's; the session is not
             canvases = wait(lambda: d.find_elements(By.CSS_SELECTOR, "canvas"), 10)
-            import time
-
             time.sleep(4)
             assert not canvases or drawn_fraction(d, canvases[0], shot) < 0.01, "a view without the token"
         finally:
