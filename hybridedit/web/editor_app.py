@@ -125,7 +125,11 @@ class WebEditor:
         choose_antialiasing(self.plotter.ren_win)  # (off for software OpenGL: half the frame)
         self.gestures = Gestures(s, self.scene, self.depth)
         self.polisher = PolishOnRelease(s, self._polished)
+        from .server_files import posed_name
+
         with self.state:
+            if s.path is not None and not self.state.save_name:
+                self.state.save_name = posed_name(s.path)
             self.state.building = False
             self.state.build_failed = ""
         self.set_mode(CAMERA)
@@ -219,6 +223,11 @@ class WebEditor:
                 v3.VSpacer()
                 v3.VBtn("Undo", id="undo", click=(self.undo,), density="compact", title="Undo (Ctrl+Z)")
                 v3.VBtn("Redo", id="redo", click=(self.redo,), density="compact", title="Redo (Ctrl+Shift+Z)")
+                v3.VTextField(v_model=("save_name", ""), id="save_name", density="compact", hide_details=True,
+                              variant="outlined", single_line=True, style="max-width: 220px",
+                              title="The file Save writes, in the mesh's folder")
+                v3.VBtn("Save", id="save", click=(self.save,), density="compact",
+                        title="Write the posed mesh on the server, in the mesh's folder (atomically)")
                 v3.VBtn("Save Edit", id="save_edit", click=(self.save_edit,), density="compact",
                         title="Save how the pose was made beside the mesh (hybridedit deform replays it)")
                 v3.VBtn("Download", id="download", density="compact", title="The posed mesh, as PLY",
@@ -289,6 +298,8 @@ class WebEditor:
                 text += f" {self.gestures.brush_radius:.0f} px"
         if sel.symmetry is not None:
             text += f"; mirror {sel.symmetry.upper()}"
+        if self.gestures.frame_ms is not None:
+            text += f"; frame {self.gestures.frame_ms:.1f} ms"
         if self.polisher.running:
             text += " -- polishing..."
         elif self.gestures.message:
@@ -484,6 +495,24 @@ class WebEditor:
             self.state.stretch = self.scene.stretch_visible
         self.show_status()
         self.push()
+
+    @_editing
+    def save(self) -> None:
+        """Save: the posed mesh written on the server, to the name typed (in the mesh's folder only,
+        :func:`.server_files.save_target`), keeping what the file holds (texture coordinates, colours)."""
+        from ..fileio.atomic import WriteError
+        from .server_files import OutputPathError, save_target
+
+        s = self.session
+        try:
+            target = save_target(s.path, self.state.save_name)
+            notes = write_mesh(target, s.mesh.copy(vertices=s.shown_positions.copy()), like=s.path)
+        except (OutputPathError, WriteError, OSError, ValueError) as e:
+            self.gestures.message = f"Not saved: {e}"
+        else:
+            self.gestures.message = f"Saved the posed mesh to {target}" + (f" ({'; '.join(notes)})" if notes else "")
+            print(f"hybridedit: saved the posed mesh to {target}", flush=True)
+        self.show_status()
 
     @_editing
     def save_edit(self) -> None:

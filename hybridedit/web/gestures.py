@@ -19,6 +19,8 @@ No Qt, no editing logic of its own.
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from ..deform.selection import SelectionError
@@ -57,6 +59,7 @@ class Gestures:
     tool : RECTANGLE or BRUSH, how a selection is drawn.
     brush_radius : the brush's radius in display pixels.
     message : the latest thing to say in the status line (an error, a refused drag), or "".
+    frame_ms : the engine's time a frame of the last drag (the mean of its frames), or None before one.
     """
 
     def __init__(self, session, scene, depth=None) -> None:
@@ -68,6 +71,8 @@ class Gestures:
         self.tool = RECTANGLE
         self.brush_radius = BRUSH_PIXELS
         self.message = ""
+        self.frame_ms: float | None = None
+        self._frame_s = [0.0, 0]  # (seconds, frames) of the drag under way
         self._start: tuple[float, float] | None = None
         self._last: tuple[float, float] | None = None
         self._op = REPLACE
@@ -143,6 +148,7 @@ class Gestures:
             self._grab = gz.grab_direction(self._start, self._center, part.axis,
                                            gz.RING_RATIO * self.scene.gizmo.length, C, size)
         self._dragging = True
+        self._frame_s = [0.0, 0]
         self.scene.set_dragging(True)
         self.scene.set_moving(s.moving_vertices())
         return True
@@ -155,7 +161,10 @@ class Gestures:
             return self._dab(stroke_hits(self._display, self._front, last, self._last, self.brush_radius))
         if not self._dragging:
             return False
+        t0 = time.perf_counter()
         self.session.drag_to(self._transform(x, y) @ self._T0)
+        self._frame_s[0] += time.perf_counter() - t0
+        self._frame_s[1] += 1
         return True
 
     def release(self, x: float, y: float) -> bool:
@@ -172,6 +181,10 @@ class Gestures:
             return False
         s = self.session
         self._dragging = False
+        seconds, frames = self._frame_s
+        if frames:
+            self.frame_ms = 1e3 * seconds / frames
+        self._frame_s = [0.0, 0]
         self.scene.set_dragging(False)
         self.scene.pivot.place(None)
         if self.mode == POSE:

@@ -214,6 +214,7 @@ def test_select_drag_save_and_undo(server, driver):
     # polished on release, as in the window: the status line says so, and the polish is the pose on display
     assert wait(lambda: "Polished: edge error" in _status_text(d), 60, 0.5), _status_text(d)
     m = re.search(r"edge error ([\d.]+)% -> ([\d.]+)%", _status_text(d))
+    assert re.search(r"; frame [\d.]+ ms", _status_text(d)), _status_text(d)  # the engine's time a frame
     assert float(m.group(2)) < float(m.group(1)), _status_text(d)
     posed = wait(moved, 20, 0.5)
     assert posed is not None, _status_text(d)
@@ -377,3 +378,29 @@ def test_pose_turns_a_limb_about_its_joint(server, driver):
         ActionChains(d).key_down(Keys.CONTROL).send_keys("z").key_up(Keys.CONTROL).perform()
         time.sleep(0.3)
     assert wait(lambda: np.array_equal(_download(d, server, "unposed.ply"), before), 20, 0.5)
+
+
+def test_save_writes_on_the_server_in_the_meshs_folder_only(server, driver):
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.common.keys import Keys
+
+    d = driver
+    field = d.find_element(By.CSS_SELECTOR, "#save_name input, input#save_name")
+    assert field.get_attribute("value") == "creature-posed.ply"
+    shown = _download(d, server, "shown-for-save.ply")
+
+    def save_as(name: str) -> None:
+        field.send_keys(Keys.CONTROL, "a")
+        field.send_keys(Keys.BACKSPACE)
+        field.send_keys(name)
+        time.sleep(0.5)  # (the name reaches the server)
+        d.find_element(By.ID, "save").click()
+
+    save_as("../escaped.ply")
+    assert wait(lambda: "Not saved: ../escaped.ply: not in the mesh's folder" in _status_text(d), 10), _status_text(d)
+    assert not (server["tmp"].parent / "escaped.ply").exists()
+    save_as("kept.obj")
+    out = server["tmp"] / "kept.obj"
+    assert wait(lambda: out.exists() and "Saved the posed mesh" in _status_text(d), 10), _status_text(d)
+    got = _read_ply(out)  # (read_mesh reads any format)
+    assert np.abs(got - shown).max() <= 1e-6 * np.ptp(shown, axis=0).max()
