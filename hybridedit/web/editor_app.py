@@ -223,8 +223,12 @@ class WebEditor:
             text += f", {self.gestures.tool}"
             if self.gestures.tool == BRUSH:
                 text += f" {self.gestures.brush_radius:.0f} px"
+        if sel.n_groups > 1:
+            text += f"; {self._group_words()}"
         if sel.symmetry is not None:
             text += f"; mirror {sel.symmetry.upper()}"
+        if self.gestures.select_through:
+            text += "; select through"
         if self.gestures.frame_ms is not None:
             text += f"; frame {self.gestures.frame_ms:.1f} ms"
         if self.polisher.running:
@@ -326,12 +330,13 @@ class WebEditor:
         self.show_status()
 
     @_editing
-    def on_hotkey(self, key: str, ctrl: bool = False, shift: bool = False) -> None:
+    def on_hotkey(self, key: str, ctrl: bool = False, shift: bool = False, alt: bool = False) -> None:
         """A key press on the page (:data:`.keys.KEY_SCRIPT`)."""
-        action = action_of(key, bool(ctrl), bool(shift))
+        action = action_of(key, bool(ctrl), bool(shift), bool(alt))
         simple = {"undo": self.undo, "redo": self.redo, "stretch": self.toggle_stretch,
                   "mirror_x": self.toggle_mirror, "free_around_handle": self.free_around_handles,
-                  "reset_camera": self.reset_camera,
+                  "reset_camera": self.reset_camera, "new_group": self.new_group, "next_group": self.next_group,
+                  "select_through": self.toggle_select_through,
                   "brush_bigger": lambda: self.scale_brush(1.25),
                   "brush_smaller": lambda: self.scale_brush(0.8)}
         if action in simple:
@@ -398,6 +403,48 @@ class WebEditor:
         """``]`` and ``[``: the brush's radius times ``factor`` (the ring the page draws follows)."""
         self.gestures.scale_brush(factor)
         self.state.brush_px = self.gestures.brush_radius
+        self.show_status()
+
+    def _group_words(self) -> str:
+        """The active handle group in words: "handle group 2 of 3 (magenta)" (the window's colours)."""
+        from ..deform.roles import handle as handle_role
+        from ..viewer.render.palette import ROLE_COLOR_NAMES, role_rows
+
+        sel = self.session.selection
+        return (f"handle group {sel.active + 1} of {sel.n_groups} "
+                f"({ROLE_COLOR_NAMES[role_rows(handle_role(sel.active))]})")
+
+    @_editing
+    def new_group(self) -> None:
+        """New Handle Group (Ctrl+G): another handle, with its own colour and drag; its points selected next."""
+        if self.gestures.busy:
+            return
+        self.polisher.cancel()
+        if not self.session.selection.new_group():
+            self.gestures.message = "The current handle group is still empty: select its cage points first"
+        else:
+            self.set_target(HANDLE)
+            self.gestures.message = f"New {self._group_words()}: select its cage points (Select mode, Handle target)"
+        self._changed()
+
+    @_editing
+    def next_group(self) -> None:
+        """Next Handle Group (G): the next one (cycling) is the one selections and drags act on."""
+        if self.gestures.busy:
+            return
+        self.session.selection.next_group()
+        self.gestures.message = f"Now {self._group_words()}: selections and drags act on it"
+        self._changed()
+
+    @_editing
+    def toggle_select_through(self) -> None:
+        """Select Through (Alt+Z): selections also take the cage points hidden behind the shape (X-ray)."""
+        g = self.gestures
+        g.select_through = not g.select_through
+        g.message = ("Select Through: selections also take the cage points hidden behind another part"
+                     if g.select_through else "Select Through off: selections take the surface in sight")
+        with self.state:
+            self.state.through = g.select_through
         self.show_status()
 
     @_editing

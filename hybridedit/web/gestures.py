@@ -58,6 +58,8 @@ class Gestures:
     target : ROI or HANDLE, what a selection takes into.
     tool : RECTANGLE or BRUSH, how a selection is drawn.
     brush_radius : the brush's radius in display pixels.
+    select_through : a selection takes every cage point under it in front of the camera, hidden or not
+        (the window's Select Through, Blender's X-ray).
     message : the latest thing to say in the status line (an error, a refused drag), or "".
     frame_ms : the engine's time a frame of the last drag (the mean of its frames), or None before one.
     """
@@ -70,6 +72,7 @@ class Gestures:
         self.target = ROI
         self.tool = RECTANGLE
         self.brush_radius = BRUSH_PIXELS
+        self.select_through = False
         self.message = ""
         self.frame_ms: float | None = None
         self._frame_s = [0.0, 0]  # (seconds, frames) of the drag under way
@@ -251,8 +254,8 @@ class Gestures:
     def _taken(self, hits: np.ndarray) -> np.ndarray:
         """What a rectangle or brush takes of its ``hits`` (the points under it, in front of the camera): those
         in sight and the parts they lie in, through their thickness (the window's rule)."""
-        if self.depth is None:
-            return hits & self._seen  # (no depth buffer: every point in front, as Select Through takes)
+        if self.select_through or self.depth is None:
+            return hits & self._front  # (no depth buffer: every point in front, as Select Through takes)
         thick = self.session.selection.cage_thickness()
         return surface_under(hits, hits & self._seen, self._graph, thick, depth=self._view_depth)
 
@@ -271,7 +274,7 @@ class Gestures:
         """The rectangle (or click) of a gesture, taken into the stroke."""
         display = self._display
         if max(abs(end[0] - start[0]), abs(end[1] - start[1])) <= CLICK_PIXELS:
-            hits = nearest_hit(display, self._seen, start, PICK_PIXELS)
+            hits = nearest_hit(display, self._front if self.select_through else self._seen, start, PICK_PIXELS)
             if not hits.any():
                 self.message = "No cage point there: the selection is kept"
                 return

@@ -196,3 +196,13 @@ def test_pose_mode_turns_the_limb_under_the_mouse_about_its_joint(figure_session
         assert session.undo() and np.array_equal(session.shape_positions, rest)  # the drag: one undo step
     finally:
         pl.close()
+
+
+def test_select_through_takes_the_part_behind_too(two_balls):
+    session, scene, grab = two_balls
+    g = Gestures(session, scene, grab)
+    g.mode, g.target, g.select_through = SELECT, ROI, True
+    w, h = scene.display_size()
+    g.press(2, 2, False, False)
+    assert g.release(w - 2, h - 2)
+    assert session.selection.roi.all()  # both balls, the hidden one too
