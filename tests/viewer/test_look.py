@@ -307,6 +307,8 @@ def test_opening_a_file_or_a_mesh_gives_its_session_look_and_up_axis(tmp_path):
     assert opened.notes == () and opened.up_axis in ("+X", "-X", "+Y", "-Y", "+Z", "-Z")
     (tmp_path / "checker.png").write_bytes(b"not a PNG")
     assert any("checker.png" in n for n in open_session(path, cage_size=60).notes)
+    (tmp_path / "checker.png").unlink()  # a texture the material names, not there: said, not silently plain
+    assert any("checker.png" in n and "not there" in n for n in open_session(path, cage_size=60).notes)
     bare = open_session(Mesh(s.mesh.vertices, s.mesh.faces), cage_size=60)
     assert bare.session.path is None and bare.session.look is None and bare.notes == ()
     assert np.array_equal(bare.session.shown_positions, s.mesh.vertices)

@@ -36,8 +36,9 @@ def read_mtl(path: Path) -> dict[str, Material]:
             current.color = (*current.color[:3], alpha)
         elif key == "map_kd" and len(words) >= 2:
             image = path.parent / words[-1].replace("\\", "/")
+            current.image_name = image.name  # (named even when missing: the look says it is not there)
             if image.is_file():
-                current.image, current.image_name = image.read_bytes(), image.name
+                current.image = image.read_bytes()
     return out
 
 

@@ -163,6 +163,8 @@ def look_of(document: Document) -> Look | None:
     materials = []
     for m in (tex.materials if tex is not None else []):
         image = None
+        if m.image is None and m.image_name:
+            notes.append(f"the texture of material {m.name!r} ({m.image_name}) is not shown: the file is not there")
         if m.image is not None:
             try:
                 image = decode_image(m.image)
