@@ -104,6 +104,7 @@ class WebEditor:
         build_page(self)
         self.server.trigger("hotkey")(self.on_hotkey)
         self.server.trigger("download_mesh")(self.download_mesh)
+        self.server.trigger("hover")(self.on_hover)
         self.ctrl.on_server_bind.add(self._on_bind)
         self.ctrl.on_client_connected.add(self._on_connect)
         self.state.change("mode")(lambda mode, **_: self.set_mode(mode))
@@ -296,6 +297,9 @@ class WebEditor:
         if mode not in (CAMERA, SELECT, DRAG, POSE) or self.gestures.busy:
             return
         self.gestures.mode = mode
+        if self.gestures.shown_limb is not None:
+            self.gestures.shown_limb = None
+            self.scene.pivot.place(None)
         self._want_depth()
         self.iren.SetInteractorStyle(self._turn_style if mode == CAMERA else self._still_style)
         if self.state.mode != mode:
@@ -337,8 +341,7 @@ class WebEditor:
                   "mirror_x": self.toggle_mirror, "free_around_handle": self.free_around_handles,
                   "reset_camera": self.reset_camera, "new_group": self.new_group, "next_group": self.next_group,
                   "select_through": self.toggle_select_through,
-                  "brush_bigger": lambda: self.scale_brush(1.25),
-                  "brush_smaller": lambda: self.scale_brush(0.8)}
+                  "brush_bigger": lambda: self._bracket(+1), "brush_smaller": lambda: self._bracket(-1)}
         if action in simple:
             simple[action]()
         elif action in ("mode_select", "mode_drag", "mode_camera", "mode_pose"):
@@ -397,6 +400,23 @@ class WebEditor:
                 f"Freed {n} held cage point{'s' if n != 1 else ''} around the handle: they join the ROI"
                 " (Ctrl+Z restores them)")
         self._changed()
+
+    def _bracket(self, sign: int) -> None:
+        """``]`` (+1) and ``[`` (-1): in Pose mode over a limb its joint moves, else the brush's size changes
+        (the window's two uses of the keys)."""
+        if self.gestures.mode == POSE and self.gestures.move_joint(sign):
+            self.show_status()
+            self._pushed += 1
+            self.view.update()
+            return
+        self.scale_brush(1.25 if sign > 0 else 0.8)
+
+    @_editing
+    def on_hover(self, x: float, y: float) -> None:
+        """The page's pointer over the view with no button down (:data:`.pose_hover.HOVER_SCRIPT`)."""
+        if self.gestures.hover(float(x), float(y)):
+            self._pushed += 1
+            self.view.update()
 
     @_editing
     def scale_brush(self, factor: float) -> None:

@@ -11,8 +11,9 @@ leg picked from the front is taken whole, as in the window; one undo step a gest
 Drag mode moves the handle: along an arrow of the gizmo or round one of its rings when the press is
 on one (:func:`~hybridedit.viewer.model.gizmo.part_transform`), else in the view plane through the
 handle's centroid (:func:`~hybridedit.viewer.model.gizmo.screen_plane_translation`); settled at release.
-In Pose mode a press on a limb (the engine's :meth:`~hybridedit.HybridEditor.limb_at` of the cage point
-under the mouse) makes it the selection, and the drag turns it about its joint
+In Pose mode the limb under the mouse (the engine's :meth:`~hybridedit.HybridEditor.limb_at` of the cage
+point there) is shown with its joint as the mouse hovers (:meth:`Gestures.hover`; ``[`` / ``]`` move the
+joint), a press makes it the selection, and the drag turns it about its joint
 (:func:`~hybridedit.viewer.model.gizmo.swept_rotation`; with Shift it moves), as the window's Pose tool.
 No Qt, no editing logic of its own.
 """
@@ -29,6 +30,7 @@ from ..deform.skeleton import edge_graph
 from ..viewer.model.picking import (ADD, CLICK_PIXELS, DEPTH_TOLERANCE, PICK_PIXELS, REPLACE, brush_hits,
                                     in_sight, nearest_hit, op_from_modifiers, project_points, rectangle_hits,
                                     stroke_hits, surface_point)
+from ..viewer.model.limb_joints import LimbJoints
 from ..viewer.model.selection_masks import HANDLE, ROI
 from ..viewer.model.surface_pick import surface_under
 
@@ -62,6 +64,7 @@ class Gestures:
         (the window's Select Through, Blender's X-ray).
     message : the latest thing to say in the status line (an error, a refused drag), or "".
     frame_ms : the engine's time a frame of the last drag (the mean of its frames), or None before one.
+    shown_limb : the limb shown under the mouse in Pose mode, or None.
     """
 
     def __init__(self, session, scene, depth=None) -> None:
@@ -93,6 +96,8 @@ class Gestures:
         self._part: gz.Part | None = None
         self._grab: np.ndarray | None = None
         self._turn = False  # a Pose drag turns the limb (without Shift) rather than moving it
+        self.joints = LimbJoints()
+        self.shown_limb = None
 
     @property
     def busy(self) -> bool:
@@ -201,6 +206,41 @@ class Gestures:
         s.finish_settle()  # the settle at release (what hybridedit deform replays), and its undo step
         return True
 
+    def hover(self, x: float, y: float) -> bool:
+        """The mouse is over display point (x, y) with no button down: in Pose mode the limb there is shown
+        (what a drag will hold, bend and turn, and its joint); True when the view changed."""
+        if self.mode != POSE or self.busy:
+            return False
+        self._composite, self._size = self.scene.composite_matrix(), self.scene.display_size()
+        limb = self.joints.limb_at(self.session.editor, self._cage_point_at((float(x), float(y))))
+        if limb is self.shown_limb:
+            return False
+        self.shown_limb = limb
+        self.show_limb()
+        return True
+
+    def show_limb(self) -> None:
+        """Draw the limb shown (its roles and joint), or the selection's roles and no joint."""
+        s, scene, limb = self.session, self.scene, self.shown_limb
+        if limb is None:
+            scene.pivot.place(None)
+            scene.update_roles(s.selection.cage_roles(), s.selection.shape_roles())
+            return
+        pose = self.joints.parts(limb, s.cage_positions)
+        roles = pose.cage_roles
+        scene.update_roles(roles, s.editor.shape_roles(roles))
+        scene.pivot.place(pose.joint, s.cage_positions[pose.extremity])
+
+    def move_joint(self, steps: int) -> bool:
+        """``]`` / ``[`` in Pose mode: the shown limb's joint ``steps`` notches toward the body (+) or the tip
+        (-); False when no limb is shown."""
+        if self.shown_limb is None or self.busy:
+            return False
+        at = self.joints.move(self.shown_limb, steps)
+        self.show_limb()
+        self.message = f"Joint at {at:.0%} of the limb's length from its tip ([ ] move it)"
+        return True
+
     def _cage_point_at(self, at: tuple[float, float]) -> int | None:
         """The cage point of the surface under display point ``at`` (nearest in space to the surface point
         the depth buffer shows there, else the nearest in sight within a few pixels), or None."""
@@ -222,13 +262,13 @@ class Gestures:
         """A press in Pose mode: the limb under ``at`` becomes the selection (one undo step) and its joint
         (3,) is returned; None, and said why, when no limb is there."""
         s = self.session
-        v = self._cage_point_at(at)
-        limb = None if v is None else s.editor.limb_at(v, space="cage")
+        limb = self.joints.limb_at(s.editor, self._cage_point_at(at))
+        self.shown_limb = None
         if limb is None:
             self.message = ("No limb there: the Pose tool turns a limb (an arm, a leg, a tail, a head) about its "
                             "joint")
             return None
-        pose = limb.parts().placed(s.cage_positions)
+        pose = self.joints.parts(limb, s.cage_positions)
         s.selection.replace(pose.cage_roi, pose.cage_handle, "pose limb")
         self.scene.pivot.place(pose.joint, s.cage_positions[pose.extremity])
         self.message = "Turning the limb about its joint (Shift+drag moves it); release to settle"

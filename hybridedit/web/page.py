@@ -11,6 +11,7 @@ from pathlib import Path
 from .brush_ring import RING_ID, RING_SCRIPT, RING_STYLE, VIEW_BOX_ID
 from .gestures import BRUSH, CAMERA, DRAG, HANDLE, POSE, RECTANGLE, ROI, SELECT
 from .keys import KEY_SCRIPT
+from .pose_hover import HOVER_SCRIPT
 
 __all__ = ["build_page"]
 
@@ -91,3 +92,4 @@ def build_page(web) -> None:
                                    " background: rgba(255,255,255,0.7); padding: 2px 6px")
         client.Script(KEY_SCRIPT)
         client.Script(RING_SCRIPT)
+        client.Script(HOVER_SCRIPT)

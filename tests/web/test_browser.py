@@ -364,6 +364,20 @@ def test_pose_turns_a_limb_about_its_joint(server, driver):
     hand = x < 0.8 * x.min()
     c = display[hand & front, :2].mean(axis=0)
     start = int(round(c[0] - w / 2)), int(round((h - c[1]) - h / 2))
+    from PIL import Image
+
+    shot = server["tmp"] / "hover.png"
+
+    def view() -> np.ndarray:
+        drawn_fraction(d, canvas, shot)
+        return np.asarray(Image.open(shot).convert("RGB"), dtype=float)
+
+    ActionChains(d).move_to_element_with_offset(canvas, -w // 2 + 5, -h // 2 + 5).perform()  # off the shape
+    time.sleep(0.5)
+    still = view()
+    ActionChains(d).move_to_element_with_offset(canvas, start[0] + 3, start[1]).pause(0.2)\
+        .move_to_element_with_offset(canvas, *start).perform()  # hovering the limb shows it and its joint
+    assert wait(lambda: np.abs(view() - still).mean() > 0.05, 10, 0.5), "hovering a limb showed nothing"
     ac = ActionChains(d).move_to_element_with_offset(canvas, *start).click_and_hold()
     for k in range(1, 6):
         ac.move_to_element_with_offset(canvas, start[0], start[1] - 12 * k).pause(0.1)

@@ -206,3 +206,31 @@ def test_select_through_takes_the_part_behind_too(two_balls):
     g.press(2, 2, False, False)
     assert g.release(w - 2, h - 2)
     assert session.selection.roi.all()  # both balls, the hidden one too
+
+
+def test_pose_mode_shows_the_limb_under_the_mouse_and_brackets_move_its_joint(figure_session):
+    session = figure_session
+    pl, scene, grab = _scene(session, (500, 400))
+    try:
+        g = Gestures(session, scene, grab)
+        g.mode = POSE
+        arm = max(session.editor.limbs(), key=lambda limb: limb.tip[0])
+        C, size = scene.composite_matrix(), scene.display_size()
+        tip = project_points(np.asarray(arm.tip, dtype=np.float64)[None], C, size)[0][0]
+        at = (tip[0] - 15, tip[1])
+        assert not g.hover(5, 5) and g.shown_limb is None  # empty space: nothing shown
+        assert g.hover(*at) and g.shown_limb is arm and scene.pivot.visible
+        assert not g.hover(at[0] + 1, at[1])  # the same limb: nothing to redraw
+        before = g.joints.parts(arm, session.cage_positions).joint
+        assert g.move_joint(-3) and "Joint at 70%" in g.message
+        moved = g.joints.parts(arm, session.cage_positions)
+        assert np.linalg.norm(moved.joint - arm.tip) < np.linalg.norm(before - arm.tip)  # toward the tip
+        assert g.press(*at, False, False)  # the press takes the limb with its joint where it was moved
+        np.testing.assert_array_equal(session.selection.handle, moved.cage_handle)
+        g.release(*at)
+        assert not scene.pivot.visible
+        assert g.hover(*at) and g.shown_limb is arm  # shown again when the mouse moves on it
+        assert g.hover(5, 5) and g.shown_limb is None and not scene.pivot.visible
+        assert not g.move_joint(1)  # no limb shown: the brackets size the brush instead (the editor's)
+    finally:
+        pl.close()

@@ -15,16 +15,12 @@ from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import numpy as np
 
+from ..model.limb_joints import LimbJoints
 from .interfaces import Renders
 
 if TYPE_CHECKING:
     from ...deform.limbs import Limb, LimbPose
     from ..model.session import Session
-
-STEP = 0.1
-"""``[`` / ``]`` and a wheel notch move the joint by this fraction of the limb's length."""
-AT_RANGE = (0.2, 1.5)
-"""Where the joint may be, as a fraction of the limb's length from its tip."""
 
 
 @runtime_checkable
@@ -100,7 +96,7 @@ class LimbPosing:
     def __init__(self, window: PoseHost) -> None:
         self.w = window
         self.shown: Limb | None = None
-        self._at: dict[int, float] = {}  # each limb's joint, as moved with [ ] (per engine)
+        self.joints = LimbJoints()  # each limb's joint, as moved with [ ] (per engine)
         self._engine = None
 
     # ------------------------------------------------------------------ the limbs
@@ -111,16 +107,16 @@ class LimbPosing:
         if s is None:
             return None
         if s.editor is not self._engine:  # another shape or cage: its own joints
-            self._engine, self._at, self.shown = s.editor, {}, None
-        return None if cage_vertex is None else s.editor.limb_at(int(cage_vertex), space="cage")
+            self._engine, self.shown = s.editor, None
+        return self.joints.limb_at(s.editor, cage_vertex)
 
     def at(self, limb: Limb) -> float:
         """Where ``limb``'s joint is now, as a fraction of its length from the tip (1: where it meets the body)."""
-        return self._at.get(limb.index, 1.0)
+        return self.joints.at(limb)
 
     def parts(self, limb: Limb) -> LimbPose:
         """How ``limb`` is posed with its joint where it is now, in the pose on display."""
-        return limb.parts(at=self.at(limb)).placed(self.w.session.cage_positions)
+        return self.joints.parts(limb, self.w.session.cage_positions)
 
     # ------------------------------------------------------------------ what the controller calls
     def hover(self, cage_vertex: int | None) -> bool:
@@ -158,9 +154,7 @@ class LimbPosing:
         limb = self.shown
         if limb is None:
             return
-        lo, hi = AT_RANGE
-        at = float(np.clip(round(self.at(limb) + STEP * steps, 6), lo, hi))
-        self._at[limb.index] = at
+        at = self.joints.move(limb, steps)
         self._draw()
         self.w.status.message(f"Joint at {at:.0%} of the limb's length from its tip ([ ] or the wheel move it)")
 
