@@ -183,8 +183,7 @@ class WebEditor:
         self.view.update()
 
     def _built(self, result, message: str) -> None:
-        from ..viewer.model.session import Session
-
+        """The build ended: its result installed (after the page is told), or why not said."""
         if result is None:
             said = "The build was cancelled" if message == "cancelled" else f"Could not open {self._path.name}: {message}"
             print(f"hybridedit: {said}", file=sys.stderr, flush=True)
@@ -192,6 +191,15 @@ class WebEditor:
                 self.state.build_failed = said
                 self.state.status = said
             return
+        with self.state:  # (said before the shape is drawn, which takes a while on a big one: a minute at 11M)
+            self.state.build_stage = f"drawing {result.mesh.n_vertices:,} vertices"
+            self.state.build_percent = 100
+        asyncio.get_running_loop().call_later(0.1, self._install, result)
+
+    def _install(self, result) -> None:
+        """A finished build becomes the session edited: the edit replayed, the shape drawn."""
+        from ..viewer.model.session import Session
+
         args = self._opening_args
         session = Session(result.editor, path=self._path, cage_size=args["cage_size"], metrics=result.metrics)
         session.look = result.look
