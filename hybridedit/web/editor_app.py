@@ -27,6 +27,7 @@ from .keys import action_of
 from .opening_job import OpeningJob
 from .page import build_page
 from .polish_on_release import PolishOnRelease
+from .server_files import posed_name
 from .token_guard import token_middleware
 
 VIEW_EVENTS = ("LeftButtonPressEvent", "MouseMoveEvent", "LeftButtonReleaseEvent")
@@ -128,8 +129,6 @@ class WebEditor:
         choose_antialiasing(self.plotter.ren_win)  # (off for software OpenGL: half the frame)
         self.gestures = Gestures(s, self.scene, self.depth)
         self.polisher = PolishOnRelease(s, self._polished)
-        from .server_files import posed_name
-
         with self.state:
             if s.path is not None and not self.state.save_name:
                 self.state.save_name = posed_name(s.path)

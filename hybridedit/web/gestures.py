@@ -123,7 +123,7 @@ class Gestures:
             P = s.cage_positions
             self._display, self._front = project_points(P, C, size)
             self._seen = self._in_sight(P, C, size)
-            self._view_depth = self._along_sight(P)
+            self._view_depth = self.scene.along_sight(P)
             if self._graph_key is None or not (np.array_equal(self._graph_key[0], P)
                                                and np.array_equal(self._graph_key[1], s.editor.cage_edges)):
                 self._graph_key = (P.copy(), s.editor.cage_edges.copy())
@@ -284,12 +284,6 @@ class Gestures:
         if not d.current():
             return self._front
         return in_sight(P, self._display, self._front, d, C, size, DEPTH_TOLERANCE * self.scene.cage_spacing)
-
-    def _along_sight(self, P: np.ndarray) -> np.ndarray:
-        """(c,) how far each cage point lies along the camera's line of sight (world units)."""
-        cam = self.scene.renderer.GetActiveCamera()
-        ahead = np.asarray(cam.GetDirectionOfProjection(), dtype=np.float64)
-        return (np.asarray(P, dtype=np.float64) - np.asarray(cam.GetPosition(), dtype=np.float64)) @ ahead
 
     def _taken(self, hits: np.ndarray) -> np.ndarray:
         """What a rectangle or brush takes of its ``hits`` (the points under it, in front of the camera): those

@@ -279,12 +279,6 @@ class ViewController(QtCore.QObject):
             cached = self._graph_cache = (edges, np.array(P, copy=True), edge_graph(P, edges))
         return cached[2]
 
-    def _depth(self, P: np.ndarray) -> np.ndarray:
-        """(c,) how far each cage point lies along the camera's line of sight (world units)."""
-        cam = self.scene.renderer.GetActiveCamera()
-        ahead = np.asarray(cam.GetDirectionOfProjection(), dtype=np.float64)
-        return (np.asarray(P, dtype=np.float64) - np.asarray(cam.GetPosition(), dtype=np.float64)) @ ahead
-
     def _matrices(self) -> tuple[np.ndarray, tuple[int, int]]:
         return self.scene.composite_matrix(), self.scene.display_size()
 
@@ -326,7 +320,7 @@ class ViewController(QtCore.QObject):
         take = self.takeable(P, C, size, g.display, g.front)
         g.in_front = g.front if take is None else take  # (no depth to be had: everything in front)
         g.graph, g.thick = self._graph(P), self.selection.cage_thickness()
-        g.depth = self._depth(P)
+        g.depth = self.scene.along_sight(P)
         self.gesture = g
         if g.kind != RECTANGLE:  # (the rectangle is shown once the mouse moves: a click shows none)
             r = self.brush_radius * self.view.devicePixelRatioF()
@@ -486,7 +480,7 @@ class ViewController(QtCore.QObject):
                 graph = None if self.select_through else self._graph(P)
                 thick = None if graph is None else self.selection.cage_thickness()
                 near = near & take if thick is None else surface_under(near, near & take, graph, thick,
-                                                                       depth=self._depth(P))
+                                                                       depth=self.scene.along_sight(P))
         if self.scene.set_points_near(near):
             self.view.request_render()
 

@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 from qtpy import QtCore, QtWidgets
 
-from . import build_worker
+from ...fileio.meshfiles import read_document
 from ..model.cage_size import DEFAULT_SIZE, fit_cage_size, is_count
 from ..model.crash_reports import is_crash
 from ..model.look import shown_look
@@ -203,7 +203,7 @@ class FileBuildAtCount(BuildWorker):
     def run(self) -> None:  # runs in the worker thread
         req = self.request
         try:
-            document = build_worker.read_document(req.path, progress=self._report)
+            document = read_document(req.path, progress=self._report)
         except Cancelled:
             self.cancelled.emit()
             return

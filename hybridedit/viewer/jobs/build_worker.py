@@ -7,19 +7,14 @@ half-built editor is dropped and the window keeps its current state.
 
 from __future__ import annotations
 
-import threading
-
 from qtpy import QtCore
 
-from ..model import building
 from ..model.building import Build, BuildRequest, BuildResult, Cancelled
 from ..model.crash_reports import is_crash
 from ..model.look import Look
 from ...core.mesh import Mesh
 
 __all__ = ["BuildRequest", "BuildResult", "BuildWorker", "Cancelled"]
-
-read_document = building.read_document  # (the file read of FileBuildAtCount, as the build reads it)
 
 
 class BuildWorker(QtCore.QThread):
@@ -46,8 +41,7 @@ class BuildWorker(QtCore.QThread):
 
     def __init__(self, request: BuildRequest, parent: QtCore.QObject | None = None) -> None:
         super().__init__(parent)
-        self._cancel = threading.Event()
-        self._build = Build(request, progress=self.progress.emit, shape_read=self.shape_read.emit, stop=self._cancel)
+        self._build = Build(request, progress=self.progress.emit, shape_read=self.shape_read.emit)
 
     @property
     def request(self) -> BuildRequest:
@@ -59,11 +53,11 @@ class BuildWorker(QtCore.QThread):
 
     def cancel(self) -> None:
         """Ask the job to stop at its next progress report."""
-        self._cancel.set()
+        self._build.cancel()
 
     @property
     def cancel_requested(self) -> bool:
-        return self._cancel.is_set()
+        return self._build.cancel_requested
 
     def _report(self, stage: str, fraction: float) -> None:
         self._build.report(stage, fraction)

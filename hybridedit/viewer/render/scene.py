@@ -607,6 +607,13 @@ class Scene:
         m = cam.GetCompositeProjectionTransformMatrix(self.renderer.GetTiledAspectRatio(), -1, 1)
         return pv.array_from_vtkmatrix(m)
 
+    def along_sight(self, points: np.ndarray) -> np.ndarray:
+        """(k,) how far each of ``points`` (k, 3) lies along the camera's line of sight (world units): which
+        part of a selection lies behind another."""
+        cam = self.renderer.GetActiveCamera()
+        ahead = np.asarray(cam.GetDirectionOfProjection(), dtype=np.float64)
+        return (np.asarray(points, dtype=np.float64) - np.asarray(cam.GetPosition(), dtype=np.float64)) @ ahead
+
     def display_size(self) -> tuple[int, int]:
         """The view's size in display pixels."""
         w, h = self.renderer.GetSize()
