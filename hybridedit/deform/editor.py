@@ -30,8 +30,8 @@ from ..binding.rig import Progress, Rig
 from ..core.mesh import Mesh
 from ..core.row_copy import copied
 from ..defaults import CAGE_SIZE, CONVERGE_MAX_ITERATIONS, CONVERGE_TOLERANCE, ITERATIONS, TRUNCATION
-from . import anderson
-from .anderson import ConvergeResult
+from . import lbfgs
+from .lbfgs import ConvergeResult
 from .arap import ARAPSolver
 from .base_pose import BasePose, current_base, fit_cage, propagate_from, propagated_residual, rest_base
 from .editor_files import EditorFiles
@@ -617,8 +617,8 @@ class HybridEditor(RoleQueries, StateSnapshots, RecordedEdits, EditorFiles, Limb
 
         The cage's ARAP iterations run at the transforms, warm-started from the current cage
         pose (or from the selection's start pose), until the cage is within ``tolerance`` of the
-        diagonal of the fixed point, by a bound (not the last step: Anderson-accelerated,
-        energy-safeguarded iterations, :mod:`hybridedit.deform.anderson`); then the shape is
+        diagonal of the fixed point, by a bound (not the last step: L-BFGS in the Laplacian's
+        metric with a line search on the energy, :mod:`hybridedit.deform.lbfgs`); then the shape is
         propagated from it once, as a :meth:`drag` frame is. What a window's settle or an add-on
         runs when the handles stop, and how an animation frame is solved from the start pose.
 
@@ -694,7 +694,7 @@ class HybridEditor(RoleQueries, StateSnapshots, RecordedEdits, EditorFiles, Limb
         diagonal = max(self.mesh.bbox_diagonal(), np.finfo(float).tiny)
         try:
             gmap = local_global_map(self.arap, target, slots=slots)
-            x, stats = anderson.converge(gmap, tolerance=tol * diagonal, max_iterations=int(max_iterations),
+            x, stats = lbfgs.converge(gmap, tolerance=tol * diagonal, max_iterations=int(max_iterations),
                                          cancel=cancel, progress=say)
         except FloatingPointError:
             self.arap.positions[:] = before

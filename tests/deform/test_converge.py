@@ -1,4 +1,4 @@
-"""HybridEditor.converge: the cage's ARAP to its fixed point (Anderson-accelerated, by a bound), then one
+"""HybridEditor.converge: the cage's ARAP to its fixed point (L-BFGS, by a bound), then one
 propagation; exact constraints, determinism, cancel, the cap, and an exact replay of its record."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import pytest
 
 import hybridedit as he
 from hybridedit.core.transforms import apply_transform, rigid_transform
-from hybridedit.deform.anderson import converge as converge_map
+from hybridedit.deform.lbfgs import converge as converge_map
 from hybridedit.deform.frame_steps import cage_targets
 from hybridedit.deform.local_global import local_global_map
 from hybridedit.fileio.editfile import EditFileError, parse_edit

@@ -1,16 +1,21 @@
-"""ARAP's local/global iterations run to convergence, accelerated (Anderson, energy-safeguarded).
+"""ARAP's local/global iterations run to convergence by L-BFGS in the Laplacian's metric.
 
 The plain iteration ``x <- G(x)`` (:class:`~hybridedit.deform.local_global.LocalGlobalMap`)
-converges linearly, and slowly on a big cage: at the 692K armadillo's 34.6K cage the
-error shrinks by 0.995 an iteration. Anderson acceleration (type II, Walker & Ni
-2011) extrapolates from the last ``window`` iterates: with ``f_i = G(x_i) - x_i`` and
-the differences ``dF``, ``dG`` of successive f and G(x), the next point is
-``G(x_k) - dG gamma``, gamma the least-squares fit of ``f_k`` by ``dF`` (solved through
-its small normal equations, regularized by 1e-10 of their trace). The energy safeguard
-of Peng et al. 2018 ("Anderson Acceleration for Geometry Optimization and Physics
-Simulation") keeps it safe: an extrapolated point is taken only if its ARAP energy
-is below that of the last point taken; otherwise the plain step ``G(x_k)`` is taken
-and the history cleared. The local step of the point gives that energy at no cost.
+is a descent method on the ARAP energy E: ``f = G(x) - x = -L^-1 grad E / c`` (L the free
+Laplacian, c a constant), a gradient step preconditioned by L. It converges linearly, and
+slowly on a big cage (at the 692K armadillo's 34.6K cage the error shrinks by 0.995 an
+iteration). L-BFGS (Nocedal & Wright, Algorithm 7.4) with ``L^-1`` as its initial inverse
+Hessian, as Liu et al. 2017 ("Quasi-Newton Methods for Real-Time Simulation of Hyperelastic
+Materials") use it, turns the last ``window`` steps into a quasi-Newton direction; a
+backtracking line search on E keeps every step a descent, so the run also leaves the saddles
+where the plain iteration crawls. (Anderson acceleration with an energy safeguard was used
+before: near a saddle its extrapolation heads for the saddle, is refused, and the run falls
+back to plain steps: 5,203 iterations at the 692K armadillo's big move, 323 here.)
+
+Every vector L-BFGS needs is a combination of the history's steps ``dX`` and residual changes
+``dF`` (the gradient changes are ``-L dF``), so the two loops run on small Gram matrices and
+each iteration costs one local step, one global step (the solve) and two products with L,
+like a plain iteration, plus one more local step for each halving of a refused step.
 
 Stopping rule: a bound on the distance to the fixed point, never the last step
 -------------------------------------------------------------------------------
@@ -28,19 +33,14 @@ linear model does not hold), and stops when
 
 (``SAFETY`` = 2, the coordinate max over vertices, as the tolerance is measured) with a
 full window of ``window`` steps since the last reset, and an estimate that rose by at
-most 10% over the last window (a slow direction entering the steps late raises it: the
-692K edit's first estimate is 76, its last 207). It returns ``G(x_k)``, which is closer
-still. A residual below 1e-9 of the tolerance stops it whatever the estimate (a start
-at the fixed point, whose steps are rounding noise: the bound then assumes kappa <= 1e9).
-
-Measured on the 173K and 692K armadillos (cages 8.6K and 34.6K), a jump to the issue's
-edit and a settle after 10 to 100 live frames, tolerances 1e-3 to 1e-9 of the diagonal,
-and on a 1M sphere (a 50K cage) at 1e-6: the true distance at the stop was 0.02 to 0.6
-of the tolerance, and the ratio of the true distance to ``max |f|`` at most 1.3 times the
-kappa the rule uses before its SAFETY factor (benchmarks/converge.py prints the distances).
+most 10% over the last window (a slow direction entering the steps late raises it). It
+returns ``G(x_k)``, which is closer still. A residual below 1e-9 of the tolerance stops it
+whatever the estimate (a start at the fixed point, whose steps are rounding noise: the
+bound then assumes kappa <= 1e9). ``benchmarks/converge.py`` prints the true distances.
 
 A run is deterministic: a rule, never the clock; the same start gives the same iterates
-bit for bit. ``max_iterations`` caps it: a run stopped there says so (``converged`` False).
+bit for bit (every long sum runs in blocks on the calling thread, in one order).
+``max_iterations`` caps it: a run stopped there says so (``converged`` False).
 """
 
 from __future__ import annotations
@@ -62,16 +62,16 @@ __all__ = ["ConvergeResult", "ConvergeStats", "LocalGlobal", "converge", "SAFETY
 
 #: the factor on the estimated 1 / (1 - rho) of the stopping rule
 SAFETY = 2.0
-#: iterates the extrapolation remembers
+#: steps the quasi-Newton direction remembers
 WINDOW = 10
+#: halvings of a step that raises the energy before the plain step is taken instead
+_HALVINGS = 3
 #: Ritz values of I - J above this come from a region where the linear model does not hold
 _RITZ_MAX = 1.5
 #: the rule stops only once its estimate rose by at most this factor over the last window of iterations
 _STEADY = 1.1
-#: relative regularization of the least-squares normal equations
-_REGULARIZATION = 1e-10
-#: energies closer than this fraction are equal to the safeguard (the sum's rounding): near the fixed
-#: point the energy stops telling iterates apart, and the extrapolation is then taken
+#: energies closer than this fraction are equal to the line search (the sum's rounding): near the fixed
+#: point the energy stops telling iterates apart, and the step is then taken
 _ROUNDING = 1e-12
 #: a residual below this fraction of the tolerance is converged whatever the estimate (the history's
 #: differences are then rounding noise: a start at the fixed point)
@@ -97,7 +97,7 @@ class ConvergeStats:
     Attributes
     ----------
     iterations : local/global iterations run (global steps)
-    rejected : extrapolated points the energy safeguard refused (each cost one more local step)
+    rejected : steps the line search refused for raising the energy (each cost one more local step)
     converged : the stopping rule's bound reached the tolerance
     stopped : "converged", "iterations" (``max_iterations`` ran) or "cancelled"
     distance : the bound on the distance to the fixed point at the end (the positions' units;
@@ -149,7 +149,7 @@ class ConvergeResult:
     converged : the bound on the cage's distance to the fixed point reached the tolerance
     stopped : "converged", "iterations" (the cap ran: not converged) or "cancelled" (nothing changed)
     iterations : cage ARAP iterations run
-    rejected : extrapolated points the energy safeguard refused
+    rejected : steps the line search refused for raising the energy
     distance : the bound at the end, a fraction of the bounding-box diagonal (inf: none yet)
     seconds : wall time (reported only: it never decides anything)
     """
@@ -164,71 +164,97 @@ class ConvergeResult:
 
 
 class _History:
-    """The last ``window`` differences of iterates x, of f = G(x) - x and of G(x), with their Gram
-    matrices, in preallocated ring slots (nothing (n, 3)-sized is made per iteration but the new
-    iterate)."""
+    """The last ``window`` steps dX, changes of f = G(x) - x (dF) and their products with L, with
+    their Gram matrices, in preallocated ring slots (nothing (n, 3)-sized is made per iteration but
+    the new iterate and its direction)."""
 
     def __init__(self, window: int, size: int) -> None:
         m = self.window = window
-        # rows: dF (0 .. m-1), dX (m .. 2m-1), L dX (2m .. 3m-1), one slot each
-        self._S = np.zeros((3 * m, size))
-        self.dF, self.dX, self.LdX = self._S[:m], self._S[m:2 * m], self._S[2 * m:]
-        self.dG = np.zeros((m, size))
-        self.FF = np.zeros((m, m))  # dF dF^T, the least-squares' normal matrix
+        # rows: dX (0 .. m-1), dF (m .. 2m-1): what every direction is a combination of
+        self._S = np.zeros((2 * m, size))
+        self.dX, self.dF = self._S[:m], self._S[m:]
+        self.LdX = np.zeros((m, size))
+        self.LdF = np.zeros((m, size))
         self.B = np.zeros((m, m))  # dX L dX^T
-        self.K = np.zeros((m, m))  # -dX L dF^T (I - J in the span, L's metric)
-        self._rhs = np.zeros(m)  # dF f of the last point
-        self._V = np.zeros((3, size))  # the new df, L dx and f
+        self.K = np.zeros((m, m))  # -dX L dF^T: I - J in the span (L's metric); its diagonal is s.y
+        self.FLF = np.zeros((m, m))  # dF L dF^T
+        self.c = np.zeros(m)  # dX L f of the last point
+        self.h = np.zeros(m)  # dF L f of the last point
+        self.fLf = 0.0
+        self._V = np.zeros((3, size))  # the new L dx, L df and L f
         self._combined = np.zeros(size)
-        self.count = 0  # differences held (slots 0 .. count - 1)
-        self.head = 0  # the slot the next difference goes to
-        self._last: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # x, f, G(x) of the last point
+        self.count = 0  # steps held (slots 0 .. count - 1)
+        self.head = 0  # the slot the next step goes to
+        self._last: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # x, f, L f of the last point
 
     def clear(self) -> None:
+        """Forget the steps (the last point stays: the next push starts a new history from it)."""
         self.count = 0
         self.head = 0
         self._S[:] = 0.0  # (the products run over every slot: empty ones must add nothing)
-        self._last = None
 
-    def push(self, x: np.ndarray, f: np.ndarray, g: np.ndarray, metric: Callable[[np.ndarray], np.ndarray]) -> None:
-        """A new point (its x, f and G(x), (n, 3) each): its differences from the last one join the
-        history (the oldest leaves when it is full)."""
+    def push(self, x: np.ndarray, f: np.ndarray, metric: Callable[[np.ndarray], np.ndarray]) -> None:
+        """A new point (its x and f, (n, 3) each): its step from the last one joins the history (the
+        oldest leaves when it is full)."""
+        Lf = metric(f).ravel()
         if self._last is not None:
-            px, pf, pg = self._last
+            px, pf, pLf = self._last
             m, s = self.window, self.head
-            np.subtract(f.ravel(), pf.ravel(), out=self.dF[s])
             np.subtract(x.ravel(), px.ravel(), out=self.dX[s])
-            np.subtract(g.ravel(), pg.ravel(), out=self.dG[s])
+            np.subtract(f.ravel(), pf.ravel(), out=self.dF[s])
             self.LdX[s] = metric(self.dX[s].reshape(-1, 3)).ravel()
+            np.subtract(Lf, pLf, out=self.LdF[s])
             self.count = min(self.count + 1, m)
-            V = self._V
-            V[0], V[1], V[2] = self.dF[s], self.LdX[s], f.ravel()
-            P = _dots(self._S, V)
-            self.FF[s, :] = self.FF[:, s] = P[:m, 0]
-            self.B[s, :] = self.B[:, s] = P[m:2 * m, 1]
-            self.K[s, :] = -P[:m, 1]
-            self.K[:, s] = -P[2 * m:, 0]
-            self._rhs[:] = P[:m, 2]
             self.head = (s + 1) % m
-        self._last = (x, f, g)
+            V = self._V
+            V[0], V[1] = self.LdX[s], self.LdF[s]
+        else:
+            V = self._V
+            V[0], V[1] = 0.0, 0.0
+        V[2] = Lf
+        P = _dots(self._S, V)
+        m = self.window
+        if self._last is not None:
+            s = (self.head - 1) % m
+            self.B[s, :] = self.B[:, s] = P[:m, 0]
+            self.K[:, s] = -P[:m, 1]  # -dX_j L dF_s
+            self.K[s, :] = -P[m:, 0]  # -dX_s L dF_j (= -dF_j L dX_s)
+            self.FLF[s, :] = self.FLF[:, s] = P[m:, 1]
+        self.c[:] = P[:m, 2]
+        self.h[:] = P[m:, 2]
+        self.fLf = float(_dots(f.reshape(1, -1), Lf.reshape(1, -1))[0, 0])
+        self._last = (x, f, Lf)
 
-    def extrapolate(self, g: np.ndarray) -> np.ndarray | None:
-        """Anderson's next point ``g - dG gamma``, gamma fitting the last point's f (pushed last, with
-        G(x) = ``g``) by dF, (n, 3); None when the history is empty or its normal equations cannot be
-        solved."""
-        k = self.count
-        if k == 0:
-            return None
-        A = self.FF[:k, :k]
-        lam = _REGULARIZATION * float(np.trace(A)) / k
-        try:
-            gamma = np.linalg.solve(A + lam * np.eye(k), self._rhs[:k])
-        except np.linalg.LinAlgError:
-            return None
-        if not np.all(np.isfinite(gamma)):
-            return None
-        out = g.ravel() - _combine(gamma, self.dG[:k], self._combined)
-        return out.reshape(-1, 3)
+    def _order(self) -> list[int]:
+        """The slots held, newest first, whose step has positive curvature (s.y > 0: usable)."""
+        m = self.window
+        slots = [(self.head - 1 - i) % m for i in range(self.count)]
+        return [j for j in slots if self.K[j, j] > 1e-300]
+
+    def direction(self, f: np.ndarray) -> tuple[np.ndarray, float]:
+        """The L-BFGS direction at the last point (whose f is ``f``), (n, 3), and its product with
+        L f (> 0: a descent direction for E); the plain step f when the history has no usable step."""
+        order = self._order()
+        if not order:
+            return f.copy(), self.fLf
+        K, FLF, c, h = self.K, self.FLF, self.c, self.h
+        m = self.window
+        # q = -L f + sum_j a_j L dF_j (the gradient, up to its constant, after the first loop)
+        a = np.zeros(m)
+        for i in order:  # newest to oldest
+            sq = -c[i] - sum(a[j] * K[i, j] for j in order)  # (a is 0 where not yet set)
+            a[i] = sq / K[i, i]
+        newest = order[0]
+        gamma = K[newest, newest] / FLF[newest, newest] if FLF[newest, newest] > 0 else 1.0
+        # r = gamma (-f + sum_j a_j dF_j) + sum_j beta_j dX_j
+        beta = np.zeros(m)
+        for i in reversed(order):  # oldest to newest
+            yr = -gamma * (-h[i] + sum(a[j] * FLF[i, j] for j in order)) + sum(beta[j] * K[j, i] for j in order)
+            beta[i] = a[i] - yr / K[i, i]
+        coeffs = np.concatenate([beta, gamma * a])  # d = -r = gamma f - sum beta dX - gamma sum a dF
+        d = gamma * f.ravel() - _combine(coeffs, self._S, self._combined)
+        slope = gamma * self.fLf - float(beta @ c) - gamma * float(a @ h)
+        return d.reshape(-1, 3), slope
 
     def kappa(self) -> float | None:
         """1 / (smallest Ritz value of I - J) on the span of a full window, in L's metric; None when
@@ -259,7 +285,7 @@ def _should_stop(cancel) -> bool:
 
 def converge(gmap: LocalGlobal, *, tolerance: float, max_iterations: int = MAX_ITERATIONS, window: int = WINDOW,
              cancel=None, progress: Callable[[float], None] | None = None):
-    """Iterate ``gmap`` from its start to its fixed point, Anderson-accelerated and safeguarded.
+    """Iterate ``gmap`` from its start to its fixed point by L-BFGS with a line search on the energy.
 
     Parameters
     ----------
@@ -270,7 +296,7 @@ def converge(gmap: LocalGlobal, *, tolerance: float, max_iterations: int = MAX_I
     max_iterations : int
         Cap on the local/global iterations (>= 1); a run stopped there is not converged.
     window : int
-        Iterates the extrapolation remembers (>= 1).
+        Steps the quasi-Newton direction remembers (>= 1).
     cancel : callable() -> bool or threading.Event, optional
         Checked between iterations; true (set) stops the run ("cancelled").
     progress : callable(fraction), optional
@@ -306,7 +332,7 @@ def converge(gmap: LocalGlobal, *, tolerance: float, max_iterations: int = MAX_I
     f = g - x
     iterations, rejected = 1, 0
     history = _History(int(window), x.size)
-    history.push(x, f, g, gmap.metric)
+    history.push(x, f, gmap.metric)
     kappa = 0.0  # the largest estimate so far (0: none yet)
     kappas = [0.0] * (int(window) + 1)  # kappa after each of the last ``window`` + 1 iterations (a ring)
     first = None  # max |f| at the start (progress)
@@ -333,21 +359,28 @@ def converge(gmap: LocalGlobal, *, tolerance: float, max_iterations: int = MAX_I
             need = math.log(max(first * SAFETY * max(kappa, 1.0) / tolerance, 1.0 + 1e-12))
             done = max(done, min(math.log(first / residual) / need, 1.0) if residual < first else 0.0)
             progress(done)
-        candidate = history.extrapolate(g)
-        if candidate is not None:
-            e = gmap.rotate(candidate)
-            if not e <= energy + _ROUNDING * abs(energy):  # (a NaN too): the plain step, the history from there
-                rejected += 1
-                candidate = None
-                history.clear()
-        if candidate is None:
+        d, slope = history.direction(f)
+        if not slope > 0:  # (rounding far from a minimum): the plain step, the history from there
+            d = f
+            history.clear()
+        step, candidate = 1.0, None
+        for _ in range(_HALVINGS + 1):  # the step if it lowers the energy, else half of it ...
+            trial = x + step * d if step != 1.0 or d is not f else g
+            e = gmap.rotate(trial)
+            if e <= energy + _ROUNDING * abs(energy):
+                candidate = trial
+                break
+            rejected += 1
+            step *= 0.5
+        if candidate is None:  # ... else the plain step (it lowers the energy), the history from there
             candidate = g
             e = gmap.rotate(candidate)
+            history.clear()
         x, energy = candidate, e
         g = gmap.step()
         iterations += 1
         f = g - x
-        history.push(x, f, g, gmap.metric)
+        history.push(x, f, gmap.metric)
         estimate = history.kappa()
         if estimate is not None:
             kappa = max(kappa, estimate)
