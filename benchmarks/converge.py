@@ -23,7 +23,7 @@ Each is solved three ways:
 (b) ``plain``: cage-only iterations (one ``solve_cage`` each) until the distance they estimate
     (the last move times r / (1 - r), r the ratio of the last two moves) is 1e-6 of the
     diagonal, then one propagation;
-(c) ``converge``: :meth:`~hybridedit.HybridEditor.converge` (Anderson-accelerated, a bound on
+(c) ``converge``: :meth:`~hybridedit.HybridEditor.converge` (L-BFGS with a line search, a bound on
     the distance; tolerance 1e-6 of the diagonal).
 
 "true" is the largest distance of a cage vertex (and of a shape vertex) from the fixed point, a

@@ -98,6 +98,44 @@ def test_the_bound_holds_along_the_way(blob_rig, blob, reference):
         assert np.abs(x - cage[ed.arap.free]).max() <= tolerance * diag
 
 
+class _Watched:
+    """A map that records the energy of each point a global step is taken from (the points the run
+    accepts: the last local step before each global one)."""
+
+    def __init__(self, gmap):
+        self._m, self.taken, self._last = gmap, [], None
+
+    def start(self):
+        return self._m.start()
+
+    def rotate(self, x):
+        self._last = self._m.rotate(x)
+        return self._last
+
+    def step(self):
+        self.taken.append(self._last)
+        return self._m.step()
+
+    def metric(self, v):
+        return self._m.metric(v)
+
+
+@pytest.mark.parametrize("degrees", [35, 120])
+def test_every_point_taken_lowers_the_energy(blob_rig, blob, degrees):
+    """The line search keeps the run a descent (a step that raises the energy is halved, then
+    replaced by the plain step), so it cannot be drawn to a saddle of the energy."""
+    ed, move = blob_arm(blob_rig, blob)
+    T = rigid_transform(translate=move["translate"], axis=(0, 0, 1), degrees=degrees,
+                        center=blob.vertices[ed.vertex_roles == 1].mean(axis=0))
+    slots, target = cage_targets(ed._base.cage, ed._sel, ed._sel.group_transforms([T]), scale=ed._scale)
+    watched = _Watched(local_global_map(ed.arap, target, slots=slots))
+    _, stats = converge_map(watched, tolerance=1e-8 * blob.bbox_diagonal())
+    e = np.array(watched.taken)
+    assert stats.converged and len(e) == stats.iterations
+    assert np.all(e[1:] <= e[:-1] * (1 + 1e-12))
+    assert e[-1] < e[0]
+
+
 def test_the_handle_is_at_its_transform_and_the_fixed_part_at_rest_exactly(blob_rig, blob):
     ed, move = blob_arm(blob_rig, blob)
     T = rigid_transform(translate=move["translate"], **move["rotate"])
