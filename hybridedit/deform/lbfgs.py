@@ -197,29 +197,24 @@ class _History:
         """A new point (its x and f, (n, 3) each): its step from the last one joins the history (the
         oldest leaves when it is full)."""
         Lf = metric(f).ravel()
-        if self._last is not None:
+        V, m, s = self._V, self.window, self.head
+        stepped = self._last is not None
+        if stepped:
             px, pf, pLf = self._last
-            m, s = self.window, self.head
             np.subtract(x.ravel(), px.ravel(), out=self.dX[s])
             np.subtract(f.ravel(), pf.ravel(), out=self.dF[s])
             self.LdX[s] = metric(self.dX[s].reshape(-1, 3)).ravel()
             np.subtract(Lf, pLf, out=self.LdF[s])
-            self.count = min(self.count + 1, m)
-            self.head = (s + 1) % m
-            V = self._V
             V[0], V[1] = self.LdX[s], self.LdF[s]
-        else:
-            V = self._V
-            V[0], V[1] = 0.0, 0.0
         V[2] = Lf
         P = _dots(self._S, V)
-        m = self.window
-        if self._last is not None:
-            s = (self.head - 1) % m
+        if stepped:
             self.B[s, :] = self.B[:, s] = P[:m, 0]
             self.K[:, s] = -P[:m, 1]  # -dX_j L dF_s
             self.K[s, :] = -P[m:, 0]  # -dX_s L dF_j (= -dF_j L dX_s)
             self.FLF[s, :] = self.FLF[:, s] = P[m:, 1]
+            self.count = min(self.count + 1, m)
+            self.head = (s + 1) % m
         self.c[:] = P[:m, 2]
         self.h[:] = P[m:, 2]
         self.fLf = float(_dots(f.reshape(1, -1), Lf.reshape(1, -1))[0, 0])
@@ -231,12 +226,12 @@ class _History:
         slots = [(self.head - 1 - i) % m for i in range(self.count)]
         return [j for j in slots if self.K[j, j] > 1e-300]
 
-    def direction(self, f: np.ndarray) -> tuple[np.ndarray, float]:
+    def direction(self, f: np.ndarray) -> tuple[np.ndarray | None, float]:
         """The L-BFGS direction at the last point (whose f is ``f``), (n, 3), and its product with
-        L f (> 0: a descent direction for E); the plain step f when the history has no usable step."""
+        L f (> 0: a descent direction for E); (None, 0.0) when the history has no usable step."""
         order = self._order()
         if not order:
-            return f.copy(), self.fLf
+            return None, 0.0
         K, FLF, c, h = self.K, self.FLF, self.c, self.h
         m = self.window
         # q = -L f + sum_j a_j L dF_j (the gradient, up to its constant, after the first loop)
@@ -360,22 +355,22 @@ def converge(gmap: LocalGlobal, *, tolerance: float, max_iterations: int = MAX_I
             done = max(done, min(math.log(first / residual) / need, 1.0) if residual < first else 0.0)
             progress(done)
         d, slope = history.direction(f)
-        if not slope > 0:  # (rounding far from a minimum): the plain step, the history from there
-            d = f
-            history.clear()
-        step, candidate = 1.0, None
-        for _ in range(_HALVINGS + 1):  # the step if it lowers the energy, else half of it ...
-            trial = x + step * d if step != 1.0 or d is not f else g
-            e = gmap.rotate(trial)
-            if e <= energy + _ROUNDING * abs(energy):
-                candidate = trial
-                break
-            rejected += 1
-            step *= 0.5
-        if candidate is None:  # ... else the plain step (it lowers the energy), the history from there
+        candidate = None
+        if d is not None and slope > 0:  # (slope <= 0: rounding far from a minimum)
+            step = 1.0
+            for _ in range(_HALVINGS + 1):  # the step if it lowers the energy, else half of it ...
+                trial = x + step * d
+                e = gmap.rotate(trial)
+                if e <= energy + _ROUNDING * abs(energy):  # (not for a NaN)
+                    candidate = trial
+                    break
+                rejected += 1
+                step *= 0.5
+        if candidate is None:  # ... else (or with no direction) the plain step: it lowers the energy
+            if d is not None:
+                history.clear()  # (the history from there)
             candidate = g
             e = gmap.rotate(candidate)
-            history.clear()
         x, energy = candidate, e
         g = gmap.step()
         iterations += 1
