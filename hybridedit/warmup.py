@@ -169,7 +169,7 @@ def _selection(mesh):
 
 
 def _edit_session(mesh, say: Progress, label: str) -> None:
-    """Cage, binding, both propagations, drags, polish and the window's kernels on one shape."""
+    """Cage, binding, both propagations, drags, a converge, polish and the window's kernels on one shape."""
     from . import HybridEditor, rigid_transform
     from .binding.bind import bind
     from .deform.polish import ShapeARAP, polish
@@ -209,6 +209,8 @@ def _edit_session(mesh, say: Progress, label: str) -> None:
             metrics.moving_box(points)
             metrics.update_error(V)
             metrics.write_stretch(stretch)
+        e.converge(transform=rigid_transform(translate=(0.0, 0.2, 0.0), axis=(0, 0, 1), degrees=20.0,
+                                             center=center), max_iterations=30)  # (the settle's history)
         metrics.update_error(V, everything=True)
         metrics.write_normals(V, normals, everything=True)
         points_box(points, skip=np.zeros(mesh.n_vertices, dtype=bool))  # (the window's boxes)

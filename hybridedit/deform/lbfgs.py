@@ -14,8 +14,10 @@ back to plain steps: 5,203 iterations at the 692K armadillo's big move, 323 here
 
 Every vector L-BFGS needs is a combination of the history's steps ``dX`` and residual changes
 ``dF`` (the gradient changes are ``-L dF``), so the two loops run on small Gram matrices and
-each iteration costs one local step, one global step (the solve) and two products with L,
-like a plain iteration, plus one more local step for each halving of a refused step.
+each iteration costs one local step, one global step (the solve) and one product with L (of
+the step and f side by side), like a plain iteration, plus one more local step for each
+halving of a refused step, and two passes over the history's rows
+(:mod:`hybridedit.core.row_sums`).
 
 Stopping rule: a bound on the distance to the fixed point, never the last step
 -------------------------------------------------------------------------------
@@ -52,6 +54,8 @@ from typing import Callable, Protocol
 
 import numpy as np
 import scipy.linalg
+
+from ..core.row_sums import combine, gram
 
 # the cap a converge stops at (then not converged), and its default tolerance (a fraction of the diagonal)
 from ..defaults import CONVERGE_MAX_ITERATIONS as MAX_ITERATIONS
@@ -115,29 +119,6 @@ class ConvergeStats:
     seconds: float
 
 
-#: columns a block of :func:`_dots` spans: (30 x 2048) times (2048 x 3) is below OpenBLAS's
-#: threading threshold, so each product runs on the calling thread (a threaded call beside a busy
-#: core waits for a time slice: 10 ms for the products a 4 ms iteration needs) and sums in one order
-_BLOCK = 2048
-#: columns a block of :func:`_combine` spans (a matrix-vector product, below its threading threshold)
-_COMBINE_BLOCK = 900
-
-
-def _dots(A: np.ndarray, V: np.ndarray) -> np.ndarray:
-    """``A @ V.T``, (r, s), for (r, N) ``A`` and (s, N) ``V``, summed over column blocks in order."""
-    out = np.zeros((A.shape[0], V.shape[0]))
-    for j in range(0, A.shape[1], _BLOCK):
-        out += A[:, j:j + _BLOCK] @ V[:, j:j + _BLOCK].T
-    return out
-
-
-def _combine(gamma: np.ndarray, A: np.ndarray, out: np.ndarray) -> np.ndarray:
-    """``gamma @ A`` into ``out`` (N,), for (k,) ``gamma`` and (k, N) ``A``, in column blocks."""
-    for j in range(0, A.shape[1], _COMBINE_BLOCK):
-        np.dot(gamma, A[:, j:j + _COMBINE_BLOCK], out=out[j:j + _COMBINE_BLOCK])
-    return out
-
-
 @dataclass(frozen=True)
 class ConvergeResult:
     """What :meth:`hybridedit.HybridEditor.converge` did.
@@ -164,61 +145,67 @@ class ConvergeResult:
 
 
 class _History:
-    """The last ``window`` steps dX, changes of f = G(x) - x (dF) and their products with L, with
-    their Gram matrices, in preallocated ring slots (nothing (n, 3)-sized is made per iteration but
-    the new iterate and its direction)."""
+    """The last ``window`` steps dX and changes of f = G(x) - x (dF), with their Gram matrices in
+    L's metric, in preallocated ring slots (nothing (n, 3)-sized is made per iteration but the new
+    iterate and its direction)."""
 
     def __init__(self, window: int, size: int) -> None:
         m = self.window = window
-        # rows: dX (0 .. m-1), dF (m .. 2m-1): what every direction is a combination of
-        self._S = np.zeros((2 * m, size))
-        self.dX, self.dF = self._S[:m], self._S[m:]
-        self.LdX = np.zeros((m, size))
-        self.LdF = np.zeros((m, size))
+        # rows: dX (0 .. m-1), dF (m .. 2m-1) and the last point's f (2m): what every direction
+        # is a combination of
+        self._S = np.zeros((2 * m + 1, size))
+        self.dX, self.dF, self._f = self._S[:m], self._S[m:2 * m], self._S[2 * m]
         self.B = np.zeros((m, m))  # dX L dX^T
         self.K = np.zeros((m, m))  # -dX L dF^T: I - J in the span (L's metric); its diagonal is s.y
         self.FLF = np.zeros((m, m))  # dF L dF^T
         self.c = np.zeros(m)  # dX L f of the last point
         self.h = np.zeros(m)  # dF L f of the last point
         self.fLf = 0.0
-        self._V = np.zeros((3, size))  # the new L dx, L df and L f
+        self._V = np.zeros((3, size))  # the new L dx, L df and L f (the last point's, kept for the next df)
+        self._P = np.zeros((2 * m + 1, 3))  # the rows' products with them
+        self._pair = np.zeros((size // 3, 6))  # dx and f side by side: L applied to both in one pass
         self._combined = np.zeros(size)
         self.count = 0  # steps held (slots 0 .. count - 1)
         self.head = 0  # the slot the next step goes to
-        self._last: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # x, f, L f of the last point
+        self._last: tuple[np.ndarray, np.ndarray] | None = None  # x and f of the last point
 
     def clear(self) -> None:
         """Forget the steps (the last point stays: the next push starts a new history from it)."""
         self.count = 0
         self.head = 0
-        self._S[:] = 0.0  # (the products run over every slot: empty ones must add nothing)
+        self._S[:2 * self.window] = 0.0  # (the products run over every slot: empty ones must add nothing)
 
     def push(self, x: np.ndarray, f: np.ndarray, metric: Callable[[np.ndarray], np.ndarray]) -> None:
         """A new point (its x and f, (n, 3) each): its step from the last one joins the history (the
         oldest leaves when it is full)."""
-        Lf = metric(f).ravel()
         V, m, s = self._V, self.window, self.head
         stepped = self._last is not None
         if stepped:
-            px, pf, pLf = self._last
+            px, pf = self._last
             np.subtract(x.ravel(), px.ravel(), out=self.dX[s])
             np.subtract(f.ravel(), pf.ravel(), out=self.dF[s])
-            self.LdX[s] = metric(self.dX[s].reshape(-1, 3)).ravel()
-            np.subtract(Lf, pLf, out=self.LdF[s])
-            V[0], V[1] = self.LdX[s], self.LdF[s]
-        V[2] = Lf
-        P = _dots(self._S, V)
+            self._pair[:, :3] = self.dX[s].reshape(-1, 3)
+            self._pair[:, 3:] = f
+            Lpair = metric(self._pair)
+            Ldx, Ldf, Lf = (v.reshape(-1, 3) for v in V)
+            Ldx[:] = Lpair[:, :3]
+            np.subtract(Lpair[:, 3:], Lf, out=Ldf)  # L df = L f - L f of the last point
+            Lf[:] = Lpair[:, 3:]
+        else:
+            V[2] = metric(f).ravel()
+        self._f[:] = f.ravel()
+        P = gram(self._S, V, self._P)
         if stepped:
             self.B[s, :] = self.B[:, s] = P[:m, 0]
             self.K[:, s] = -P[:m, 1]  # -dX_j L dF_s
-            self.K[s, :] = -P[m:, 0]  # -dX_s L dF_j (= -dF_j L dX_s)
-            self.FLF[s, :] = self.FLF[:, s] = P[m:, 1]
+            self.K[s, :] = -P[m:2 * m, 0]  # -dX_s L dF_j (= -dF_j L dX_s)
+            self.FLF[s, :] = self.FLF[:, s] = P[m:2 * m, 1]
             self.count = min(self.count + 1, m)
             self.head = (s + 1) % m
         self.c[:] = P[:m, 2]
-        self.h[:] = P[m:, 2]
-        self.fLf = float(_dots(f.reshape(1, -1), Lf.reshape(1, -1))[0, 0])
-        self._last = (x, f, Lf)
+        self.h[:] = P[m:2 * m, 2]
+        self.fLf = float(P[2 * m, 2])
+        self._last = (x, f)
 
     def _order(self) -> list[int]:
         """The slots held, newest first, whose step has positive curvature (s.y > 0: usable)."""
@@ -226,9 +213,10 @@ class _History:
         slots = [(self.head - 1 - i) % m for i in range(self.count)]
         return [j for j in slots if self.K[j, j] > 1e-300]
 
-    def direction(self, f: np.ndarray) -> tuple[np.ndarray | None, float]:
-        """The L-BFGS direction at the last point (whose f is ``f``), (n, 3), and its product with
-        L f (> 0: a descent direction for E); (None, 0.0) when the history has no usable step."""
+    def direction(self) -> tuple[np.ndarray | None, float]:
+        """The L-BFGS direction at the last point, (n, 3) (a buffer the next call overwrites), and
+        its product with L f (> 0: a descent direction for E); (None, 0.0) when the history has no
+        usable step."""
         order = self._order()
         if not order:
             return None, 0.0
@@ -246,8 +234,8 @@ class _History:
         for i in reversed(order):  # oldest to newest
             yr = -gamma * (-h[i] + sum(a[j] * FLF[i, j] for j in order)) + sum(beta[j] * K[j, i] for j in order)
             beta[i] = a[i] - yr / K[i, i]
-        coeffs = np.concatenate([beta, gamma * a])  # d = -r = gamma f - sum beta dX - gamma sum a dF
-        d = gamma * f.ravel() - _combine(coeffs, self._S, self._combined)
+        # d = -r = gamma f - sum beta dX - gamma sum a dF (f is the last row)
+        d = combine(np.concatenate([-beta, -gamma * a, [gamma]]), self._S, self._combined)
         slope = gamma * self.fLf - float(beta @ c) - gamma * float(a @ h)
         return d.reshape(-1, 3), slope
 
@@ -354,7 +342,7 @@ def converge(gmap: LocalGlobal, *, tolerance: float, max_iterations: int = MAX_I
             need = math.log(max(first * SAFETY * max(kappa, 1.0) / tolerance, 1.0 + 1e-12))
             done = max(done, min(math.log(first / residual) / need, 1.0) if residual < first else 0.0)
             progress(done)
-        d, slope = history.direction(f)
+        d, slope = history.direction()
         candidate = None
         if d is not None and slope > 0:  # (slope <= 0: rounding far from a minimum)
             step = 1.0

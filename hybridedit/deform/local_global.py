@@ -145,7 +145,7 @@ class LocalGlobalMap:
         return g
 
     def metric(self, v: np.ndarray) -> np.ndarray:
-        """L_ff v for (f, 3) ``v``, (f, 3) float64: the inner product in which the map's Jacobian is
+        """L_ff v for (f, k) ``v``, (f, k) float64: the inner product in which the map's Jacobian is
         symmetric (``I - J = L_ff^{-1} H / 2``, H the energy's Hessian)."""
         return self._L_ff @ v
 
