@@ -147,13 +147,15 @@ def blob(subdivisions: int = 3):
 
 
 def needs_repair(mesh):
-    """The same shape with a duplicated vertex and some faces flipped (runs the repair pass)."""
+    """The same shape with a duplicated vertex, some faces flipped and a hole (runs the repair pass
+    and an open part's cage)."""
     from .core.mesh import Mesh
 
     v = np.vstack([mesh.vertices, mesh.vertices[:1]])
     f = mesh.faces.copy()
     f[f == 0] = len(v) - 1  # the copy of vertex 0 replaces it in its faces: a duplicate to merge
     f[::7] = f[::7, ::-1]  # inconsistent orientation
+    f = np.delete(f, [len(f) // 2, len(f) // 2 + 1], axis=0)  # a hole
     return Mesh(v, f, name="warmup-repair")
 
 

@@ -249,7 +249,7 @@ def _cage_piece(part: Mesh, want: int, *, known_closed: bool = False,
 
     own = want * 1.0 >= OWN_CAGE_FRACTION * part.n_vertices
     loops = [] if known_closed else hole_loops(part.faces, part.n_vertices)
-    if loops and is_sheet(part):
+    if loops and is_sheet(part, loops):
         return _shell_piece(part if own or want >= part.n_vertices else simplify(part, max(want // 2, 3)), part)
     piece = clean_surface(part.vertices, part.faces) if own else simplify(part, want, progress=progress, worker=worker)
     closed_holes = 0

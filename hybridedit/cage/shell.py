@@ -35,7 +35,7 @@ MIN_ROUNDNESS = 0.2
 SHELL_HALF_THICKNESS = 0.05
 
 
-def is_sheet(part: Mesh) -> bool:
+def is_sheet(part: Mesh, loops: list[np.ndarray] | None = None) -> bool:
     """An open part that gets a thin shell rather than its holes closed: closing its holes
     adds at least :data:`MAX_CAP_SHARE` of its area and leaves it less than
     :data:`MIN_ROUNDNESS` round.
@@ -44,10 +44,13 @@ def is_sheet(part: Mesh) -> bool:
     ----------
     part : Mesh
         A connected part with holes.
+    loops : list of (k,) int64, optional
+        Its :func:`~hybridedit.core.repair.hole_loops`, when the caller has them.
     """
-    from ..core.repair import close_holes
+    from ..core.repair import close_holes, hole_loops
 
-    return cap_share(part) >= MAX_CAP_SHARE and _roundness(close_holes(part)[0]) < MIN_ROUNDNESS
+    loops = hole_loops(part.faces, part.n_vertices) if loops is None else loops
+    return cap_share(part, loops) >= MAX_CAP_SHARE and _roundness(close_holes(part, loops)[0]) < MIN_ROUNDNESS
 
 
 def _roundness(closed: Mesh) -> float:
@@ -60,17 +63,19 @@ def _roundness(closed: Mesh) -> float:
     return 36.0 * np.pi * vol * vol / area ** 3
 
 
-def cap_share(part: Mesh) -> float:
+def cap_share(part: Mesh, loops: list[np.ndarray] | None = None) -> float:
     """The area that closing an open part's holes with fans adds, as a share of its own area: small
     for a scan with holes (0.01 for the armadillo with five holes punched), about 1 for a sheet or a
-    terrain (0.81 for the shared mountain); inf for a part of no area."""
-    from ..core.repair import close_holes
+    terrain (0.81 for the shared mountain); inf for a part of no area. ``loops``: its
+    :func:`~hybridedit.core.repair.hole_loops`, when the caller has them."""
+    from ..core.repair import hole_fans, hole_loops
 
     area = surface_area(part.vertices, part.faces)
     if not area > 0:
         return np.inf
-    closed = close_holes(part)[0]
-    return (surface_area(closed.vertices, closed.faces) - area) / area
+    loops = hole_loops(part.faces, part.n_vertices) if loops is None else loops
+    centres, fans = hole_fans(part, loops)
+    return surface_area(np.vstack([part.vertices, centres]), fans) / area
 
 
 def thicken(surface: Mesh, half_thickness: float | None = None) -> Mesh | None:

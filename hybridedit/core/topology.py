@@ -26,6 +26,7 @@ __all__ = [
     "incidence",
     "half_edges",
     "is_closed_oriented",
+    "oriented_rim",
     "weld",
 ]
 
@@ -224,25 +225,82 @@ def check_closed(faces: np.ndarray) -> None:
 def is_closed_oriented(faces: np.ndarray, n_vertices: int) -> bool:
     """True when every directed edge is used exactly once and its reverse exactly once.
 
-    That is a closed, edge-manifold, consistently oriented surface with no
-    duplicate face (a linear-time check: no repair needed).
+    That is a closed, edge-manifold, consistently oriented surface (a linear-time check: no
+    repair needed; :func:`oriented_rim` with no rim).
 
     Parameters
     ----------
     faces : (m, 3) int array
     n_vertices : int
     """
+    rim = oriented_rim(faces, n_vertices)
+    return rim is not None and not rim.any()
+
+
+def oriented_rim(faces: np.ndarray, n_vertices: int) -> np.ndarray | None:
+    """The rim of an edge-manifold, consistently oriented surface, open or closed.
+
+    Every directed edge used at most once means at most two faces an edge, turned against each
+    other: what a scan with holes and a closed surface both are, and what the repair pass would
+    leave as it is (a linear-time check, like :func:`is_closed_oriented`).
+
+    Parameters
+    ----------
+    faces : (m, 3) int array
+    n_vertices : int
+
+    Returns
+    -------
+    (n,) bool, the vertices with an outgoing edge no face matches (the holes' rims: all False for
+    a closed surface), or None when some directed edge is used twice, a face repeats a vertex or
+    there is no face.
+
+    Examples
+    --------
+    >>> oriented_rim(np.array([[0, 1, 2], [0, 2, 3]]), 4).tolist()
+    [True, True, True, True]
+    >>> oriented_rim(np.array([[0, 1, 2], [0, 1, 3]]), 4) is None  # (0 -> 1 twice)
+    True
+    """
     f = np.ascontiguousarray(faces, dtype=np.int64).reshape(-1, 3)
     if len(f) == 0:
-        return False
+        return None
     n = max(int(n_vertices), int(f.max()) + 1)
     start = np.zeros(n + 1, dtype=np.int64)
     out = np.empty(3 * len(f), dtype=np.int64)
     if not _outgoing(f, n, start, out):
-        return False
+        return None
     bad = np.zeros(n, dtype=np.bool_)
-    pick("faces", *_pairs, len(f))(start, out, bad)
-    return not bool(bad.any())
+    rim = np.zeros(n, dtype=np.bool_)
+    pick("faces", *_rims, len(f))(start, out, bad, rim)
+    return None if bad.any() else rim[:int(n_vertices)]
+
+
+@numba.njit(cache=True, inline="always")
+def _rim_at(a, start, out, bad, rim):
+    """bad[a] when a half-edge a -> b is there twice or b -> a more than once; rim[a] when some
+    a -> b has no b -> a."""
+    for k in range(start[a], start[a + 1]):
+        b = out[k]
+        for k2 in range(k + 1, start[a + 1]):
+            if out[k2] == b:
+                bad[a] = True
+                return
+        back = 0
+        for k2 in range(start[b], start[b + 1]):
+            if out[k2] == a:
+                back += 1
+        if back > 1:
+            bad[a] = True
+            return
+        if back == 0:
+            rim[a] = True
+
+
+@twins()
+def _rims(start, out, bad, rim):  # pragma: no cover - compiled
+    for a in numba.prange(bad.shape[0]):
+        _rim_at(a, start, out, bad, rim)
 
 
 @numba.njit(cache=True)
@@ -265,30 +323,6 @@ def _outgoing(f, n, start, out):  # pragma: no cover - compiled
             out[head[a]] = f[i, (j + 1) % 3]
             head[a] += 1
     return True
-
-
-@numba.njit(cache=True, inline="always")
-def _pairs_at(a, start, out, bad):
-    """bad[a] when a half-edge a -> b is there twice, or b -> a is not there exactly once."""
-    for k in range(start[a], start[a + 1]):
-        b = out[k]
-        for k2 in range(k + 1, start[a + 1]):  # a -> b only once
-            if out[k2] == b:
-                bad[a] = True
-                return
-        back = 0
-        for k2 in range(start[b], start[b + 1]):  # b -> a exactly once
-            if out[k2] == a:
-                back += 1
-        if back != 1:
-            bad[a] = True
-            return
-
-
-@twins()
-def _pairs(start, out, bad):  # pragma: no cover - compiled
-    for a in numba.prange(bad.shape[0]):
-        _pairs_at(a, start, out, bad)
 
 
 @twins()
