@@ -395,8 +395,8 @@ def _repaired_in_full(mesh: Mesh, notes: list[str], used: np.ndarray) -> CageSou
 def _rim_merges(v: np.ndarray, used: np.ndarray, rim: np.ndarray, tolerance: float) -> bool:
     """Two rim vertices (``rim`` (n,) bool) fall in one cell of :func:`weld`'s grid (spacing
     ``tolerance`` of the used vertices' diagonal, from their lowest corner)."""
-    lo = points_box(v[used])[0]
-    tol = tolerance * _diagonal(v[used])
+    lo, hi = points_box(v[used])
+    tol = tolerance * float(np.linalg.norm(hi - lo))
     if not tol > 0:
         return True  # (a shape of no extent: the full pass says what it is)
     key = np.floor((v[rim] - lo) / tol).astype(np.int64)

@@ -167,7 +167,7 @@ class _History:
         self._combined = np.zeros(size)
         self.count = 0  # steps held (slots 0 .. count - 1)
         self.head = 0  # the slot the next step goes to
-        self._last: tuple[np.ndarray, np.ndarray] | None = None  # x and f of the last point
+        self._last_x: np.ndarray | None = None  # x of the last point (its f is the last row)
 
     def clear(self) -> None:
         """Forget the steps (the last point stays: the next push starts a new history from it)."""
@@ -179,11 +179,10 @@ class _History:
         """A new point (its x and f, (n, 3) each): its step from the last one joins the history (the
         oldest leaves when it is full)."""
         V, m, s = self._V, self.window, self.head
-        stepped = self._last is not None
+        stepped = self._last_x is not None
         if stepped:
-            px, pf = self._last
-            np.subtract(x.ravel(), px.ravel(), out=self.dX[s])
-            np.subtract(f.ravel(), pf.ravel(), out=self.dF[s])
+            np.subtract(x.ravel(), self._last_x.ravel(), out=self.dX[s])
+            np.subtract(f.ravel(), self._f, out=self.dF[s])
             self._pair[:, :3] = self.dX[s].reshape(-1, 3)
             self._pair[:, 3:] = f
             Lpair = metric(self._pair)
@@ -205,7 +204,7 @@ class _History:
         self.c[:] = P[:m, 2]
         self.h[:] = P[m:2 * m, 2]
         self.fLf = float(P[2 * m, 2])
-        self._last = (x, f)
+        self._last_x = x
 
     def _order(self) -> list[int]:
         """The slots held, newest first, whose step has positive curvature (s.y > 0: usable)."""
