@@ -57,6 +57,28 @@ def canonical_edit(mesh: Mesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return handle, roi, rigid_transform(axis=(0, 0, 1), degrees=40.0, center=shoulder)
 
 
+def quarter_edit(mesh: Mesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A big-region edit: a quarter of the shape moves (issue 47's held-out kind of edit).
+
+    Handle: the highest 10% of the vertices (Y up); region of interest: the highest
+    quarter (the handle and the band between it and the fixed three quarters);
+    the handle turns 30 degrees about +Z through the centroid of the region's lowest
+    vertices, as bending the upper body forward at the waist. By vertex counts, so it
+    moves the same share of every resolution of a shape.
+
+    Returns
+    -------
+    handle, roi : int64 shape vertex indices; T : (4, 4) float64 handle transform
+    """
+    y = mesh.vertices[:, 1]
+    order = np.argsort(-y, kind="stable")
+    n = len(y)
+    handle = np.sort(order[: max(1, n // 10)])
+    roi = np.sort(order[: max(2, n // 4)])
+    waist = mesh.vertices[order[n // 4 - max(1, n // 100): n // 4]].mean(axis=0)
+    return handle, roi, rigid_transform(axis=(0, 0, 1), degrees=30.0, center=waist)
+
+
 def machine() -> str:
     """One line naming the machine the numbers were measured on."""
     cpu = platform.processor() or platform.machine()

@@ -51,7 +51,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from common import REPO, Timer, armadillo, canonical_edit, machine
+from common import REPO, Timer, armadillo, canonical_edit, machine, quarter_edit
 
 from hybridedit import HybridEditor, Mesh, apply_transform, build_rig, read_mesh, write_mesh
 from hybridedit.binding import cache as bindcache
@@ -81,6 +81,14 @@ TARGETS_31 = {
 }
 #: Largest cold-build growth exponent from 690K to 11M (issue 31).
 TARGET_EXPONENT_31 = 1.1
+#: Targets of issue 47 by armadillo level: the cold open, and the frames of the big-region edit
+#: (a quarter of the shape moving, :func:`common.quarter_edit`).
+TARGETS_47 = {
+    "cold open s": {3: 15.0, 4: 60.0},
+    "quarter frame ms": {3: 10.0, 4: 40.0},
+}
+#: Largest cold-build growth exponent from 690K to 11M (issue 47).
+TARGET_EXPONENT_47 = 1.05
 #: Vertex counts of the armadillo's Loop subdivisions, as the tables name them.
 LEVEL_NAMES = {1: "173K", 2: "690K", 3: "2.77M", 4: "11M"}
 #: The OBJ write and read of the largest level stop after this many seconds (reported as not finished).
@@ -305,6 +313,24 @@ def first_edit(ed: HybridEditor, edit) -> dict:
     return {"first_sel_s": sel.seconds, "first_drag_s": drag.seconds}
 
 
+def quarter_frames(ed: HybridEditor, shape: Mesh, frames: int) -> dict:
+    """The big-region edit (:func:`common.quarter_edit`, a quarter of the shape moving) after the
+    canonical one: its selection's seconds and its frames' median milliseconds, split."""
+    handle, roi, T = quarter_edit(shape)
+    with Timer() as sel:
+        ed.set_selection(handle, roi=roi)
+    ed.drag(transform=T)  # (the first frame after a selection, as the window's press)
+    parts = {"local_seconds": [], "global_seconds": [], "propagate_seconds": [], "total_seconds": []}
+    for _ in range(max(frames, 1)):
+        ed.drag(transform=T)
+        for k in parts:
+            parts[k].append(ed.frame_breakdown[k])
+    out = {k: 1e3 * float(np.median(v)) for k, v in parts.items()}
+    out["sel_s"] = sel.seconds
+    out["moving"] = roi.size / shape.n_vertices
+    return out
+
+
 def shape_edit(shape: Mesh, name: str):
     return creature_edit(shape) if name.startswith("creature") else canonical_edit(shape)
 
@@ -343,6 +369,7 @@ def run_one(path: str, name: str, frames: int, igl_iters: int, breakdown: bool, 
         for k in parts:
             parts[k].append(ed.frame_breakdown[k])
     out.update({k: 1e3 * float(np.median(v)) for k, v in parts.items()})
+    out["quarter"] = quarter_frames(ed, shape, frames)
     out["cage"] = ed.cage.n_vertices
     out["verts"] = shape.n_vertices
     out["nnz"] = ed.nnz_per_row
@@ -566,6 +593,7 @@ def main(argv=None) -> int:
         if not args.smoke:
             print("# libigl from 2.77M: skipped (its precomputation alone takes minutes and several GB there)")
         print_issue31(rows, args.smoke)
+        print_issue47(rows)
         if args.smoke:
             return 0
         arm = [r for r in rows if r["level"] >= 1]
@@ -694,6 +722,38 @@ def print_issue31(rows: list[dict], smoke: bool) -> None:
                   f"+ editor set-up {c['editor_s']:.2f}")
             print_parts(f"cache read {c['cache_s']:.2f}", c["cache_pieces"], c["cache_s"])
             print_parts(f"editor set-up {c['editor_s']:.2f}", c["editor_pieces"], c["editor_s"])
+
+
+def print_issue47(rows: list[dict]) -> None:
+    """Issue 47's table: the canonical arm edit's frame beside the big-region edit's (a quarter of
+    the shape), the cold open, and each target marked."""
+    print("\n# issue 47: arm = the canonical arm edit; quarter = a quarter of the shape moving "
+          "(common.quarter_edit), its frames after the arm's in the cold session; frame medians in ms")
+    head = (f"{'shape':>15} {'verts':>8} {'cold open s':>11} {'arm frame':>9} {'quarter':>8} {'local':>6} "
+            f"{'global':>6} {'prop':>6} {'quarter sel s':>13}")
+    print(head)
+    print("-" * len(head))
+    for r in rows:
+        q = r.get("quarter") or {}
+        cold = r["read_s"] + r["cage_s"] + r["bind_s"]
+        if not q:
+            continue
+        print(f"{r['name']:>15} {r['verts']:>8d} {cold:>11.2f} {r['total_seconds']:>9.2f} "
+              f"{q['total_seconds']:>8.2f} {q['local_seconds']:>6.2f} {q['global_seconds']:>6.2f} "
+              f"{q['propagate_seconds']:>6.2f} {q['sel_s']:>13.2f}", flush=True)
+    print("# targets (issue 47)")
+    for r in rows:
+        q = r.get("quarter") or {}
+        vals = {"cold open s": r["read_s"] + r["cage_s"] + r["bind_s"],
+                "quarter frame ms": q.get("total_seconds", float("nan"))}
+        for k, v in vals.items():
+            tgt = TARGETS_47[k].get(r["level"])
+            if tgt is not None:
+                print(f"#   {r['name']:<15} {k:<26} {v:9.3f}  {mark(v, tgt)}")
+    a2 = [r for r in rows if r["level"] >= 2]
+    if len(a2) >= 2:
+        e = exponent(a2, lambda r: r["cage_s"] + r["bind_s"])
+        print(f"#   cold cage + bind growth from 690K ({len(a2)} sizes): {e:.2f}  {mark(e, TARGET_EXPONENT_47)}")
 
 
 if __name__ == "__main__":
