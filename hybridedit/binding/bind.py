@@ -658,17 +658,20 @@ def dominant_cage_vertex(M: sp.spmatrix) -> np.ndarray:
     if not M.has_canonical_format:  # sorted, no duplicates (the caller's matrix is not changed)
         M = M.copy()
         M.sum_duplicates()
-    n = M.shape[0]
-    out = np.zeros(n, dtype=np.int64)
-    counts = np.diff(M.indptr)
-    full = np.flatnonzero(counts > 0)
-    if full.size == 0:
-        return out
-    a = np.abs(M.data)
-    # vectorised over all entries (scipy's argmax loops over rows in Python: 3.5 s at 690K)
-    row_max = np.maximum.reduceat(a, M.indptr[full])
-    row_of = np.repeat(np.arange(n), counts)
-    is_max = np.flatnonzero(a == np.repeat(row_max, counts[full]))
-    rows, first = np.unique(row_of[is_max], return_index=True)
-    out[rows] = M.indices[is_max[first]]
+    out = np.zeros(M.shape[0], dtype=np.int64)
+    # one compiled pass over the entries (numpy's sort-based version: 1.6 s at 11M rows)
+    _dominant_rows(M.indptr, M.indices, M.data, out)
     return out
+
+
+@njit(cache=True)
+def _dominant_rows(indptr, indices, data, out):  # pragma: no cover - compiled
+    for i in range(out.shape[0]):
+        best = -1.0
+        col = 0
+        for k in range(indptr[i], indptr[i + 1]):
+            a = abs(data[k])
+            if a > best or (a == best and indices[k] < col):
+                best = a
+                col = indices[k]
+        out[i] = col

@@ -11,20 +11,11 @@ from numba import njit, prange
 from ..core.linsolve import SPDSolver
 from ..core.parallel import pick
 from ..core.edge_weights import WEIGHTS, edge_weights  # noqa: F401  (in core: the rig's cage weights need them)
+from ..core.graph_laplacian import laplacian  # noqa: F401  (the shape set-up builds its Laplacian with it too)
 from ..core.twins import twins
 from ..core.rotations import LANES, rotations_in_place
 from ..core.row_copy import put_rows, take_rows
 from ..core.index_sets import union_in_range, unique_in_range, unique_sorted
-
-
-def laplacian(n: int, edges: np.ndarray, weights: np.ndarray) -> sp.csr_matrix:
-    """The weighted graph Laplacian L = D - W, (n, n) float64 CSR."""
-    i, j = edges[:, 0], edges[:, 1]
-    W = sp.coo_matrix((np.concatenate([weights, weights]), (np.concatenate([i, j]), np.concatenate([j, i]))), shape=(n, n)).tocsr()
-    D = sp.diags(np.asarray(W.sum(axis=1)).ravel())
-    return (D - W).tocsr()
-
-
 
 
 @njit(cache=True, inline="always")

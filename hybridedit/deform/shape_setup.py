@@ -91,10 +91,26 @@ def make_shape_setup(rig: Rig, *, k: int = DEFAULT_K) -> ShapeSetup:
     with ThreadPoolExecutor(max_workers=1) as pool:
         lap = pool.submit(shape_laplacian)
         d, idx, w = residual_setup(M, mesh.vertices, cage.vertices, k=k)
-        nearest = cKDTree(mesh.vertices).query(cage.vertices)[1].astype(np.int64)
+        nearest = nearest_vertices(mesh.vertices, cage.vertices)
         dominant = dominant_cage_vertex(M)
         L = lap.result()
     return ShapeSetup(residual=d, blend_idx=idx, blend_w=w, dominant=dominant, nearest=nearest, laplacian=L)
+
+
+def nearest_vertices(points: np.ndarray, queries: np.ndarray) -> np.ndarray:
+    """The index of the point of ``points`` (n, 3) nearest each of ``queries`` (c, 3), (c,) int64.
+
+    The tree is built by sliding midpoints rather than medians (``balanced_tree=False``): the
+    same nearest points, and the build of a shape's tree in about half the time (it is the
+    longest single step of an editor's first set-up at millions of vertices).
+
+    Examples
+    --------
+    >>> nearest_vertices(np.array([[0.0, 0, 0], [1, 0, 0]]), np.array([[0.9, 0, 0]])).tolist()
+    [1]
+    """
+    tree = cKDTree(points, balanced_tree=False, compact_nodes=False)
+    return tree.query(queries, workers=-1)[1].astype(np.int64)
 
 
 def shape_setup(rig: Rig) -> ShapeSetup:
