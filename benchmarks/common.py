@@ -79,6 +79,13 @@ def quarter_edit(mesh: Mesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return handle, roi, rigid_transform(axis=(0, 0, 1), degrees=30.0, center=waist)
 
 
+def mark(value: float, target: float | None) -> str:
+    """'met' or 'NOT met' for a figure that must be at most ``target`` (nothing for no target)."""
+    if target is None:
+        return ""
+    return f"{'met' if value <= target else 'NOT met'} (<= {target:g})"
+
+
 def machine() -> str:
     """One line naming the machine the numbers were measured on."""
     cpu = platform.processor() or platform.machine()

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from common import REPO, canonical_edit, machine
+from common import REPO, canonical_edit, machine, mark
 
 sys.path.insert(0, str(REPO / "tests"))
 
@@ -61,6 +61,11 @@ def libigl_error(mesh: he.Mesh, handle: np.ndarray, roi: np.ndarray, T: np.ndarr
         return np.nan
     return he.rrms_edge_error(mesh.vertices, U, mesh.edges())
 
+
+#: Issue 47's targets: every case's cold cage + bind per vertex at most this many times the closed
+#: original's, and no row of any binding with more nonzeros than this.
+TARGET_COLD_RATIO = 1.5
+TARGET_NNZ_MAX = 12
 
 #: the closed shape each case's per-vertex costs are compared with (the armadillo of the same size otherwise)
 REFERENCE = {"ngons": "spot"}
@@ -137,6 +142,7 @@ def main(argv=None) -> int:
     print(head)
     print("-" * len(head))
     base = read(ARMADILLO, "armadillo")
+    worst_cold, worst_nnz = (0.0, ""), (0, "")
     with tempfile.TemporaryDirectory() as tmp:
         for size in sizes:
             arm = base if size == "43k" else subdivided(base, 2)
@@ -157,7 +163,16 @@ def main(argv=None) -> int:
                       f"{r['far95']:>6.3f} {r['cage_s']:>7.2f} {r['bind_s']:>7.2f} {per('cold_s'):>7.2f} "
                       f"{r['cached_s']:>8.2f} {per('cached_s'):>7.2f} {r['frame_ms']:>8.2f} {per('frame_ms'):>5.2f} "
                       f"{r['rrms']:>8.2f} {'-' if np.isnan(ratio) else format(ratio, '.2f'):>7}", flush=True)
+                if name != "closed":
+                    worst_cold = max(worst_cold, (per("cold_s"), f"{name} {size}"))
+                worst_nnz = max(worst_nnz, (r["nnz_max"], f"{name} {size}"))
+    print("# targets (issue 47)")
+    print(f"#   cold cage + bind per vertex over the closed original's, worst case: {worst_cold[0]:.2f} "
+          f"({worst_cold[1]})  {mark(worst_cold[0], TARGET_COLD_RATIO)}")
+    print(f"#   nonzeros a row, the most of any row of any case: {worst_nnz[0]} ({worst_nnz[1]})  "
+          f"{mark(worst_nnz[0], TARGET_NNZ_MAX)}")
     return 0
+
 
 
 if __name__ == "__main__":
