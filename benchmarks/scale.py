@@ -274,7 +274,7 @@ def clocked_setup() -> tuple[PieceClock, PieceClock]:
         editor.wrap(setup_mod, "_checked", "set-up companion checks")
         # shape_setup reads and writes its companion through the cache module
         editor.wrap(bindcache, "load_arrays", "set-up companion read")
-        editor.wrap(bindcache, "store_arrays", "set-up companion write")
+        editor.wrap(bindcache, "store_arrays", "set-up companion write (in the background)")
     editor.wrap(editor_mod, "ARAPSolver", "cage ARAP solver")
     editor.wrap(editor_mod, "rest_base", "rest pose")
     return cache, editor

@@ -14,6 +14,7 @@ Pure compute; no Qt or VTK.
 
 from __future__ import annotations
 
+import threading
 import warnings
 from dataclasses import dataclass
 
@@ -27,7 +28,7 @@ from ..binding.rig import Rig
 from .arap import edge_weights, laplacian
 from .residual import DEFAULT_K, residual_setup
 
-__all__ = ["ShapeSetup", "shape_setup", "make_shape_setup", "KIND"]
+__all__ = ["ShapeSetup", "shape_setup", "make_shape_setup", "nearest_vertices", "wait_for_stores", "KIND"]
 
 #: the cache companion's name: bump the number when any of these arrays is made another way
 KIND = "setup1"
@@ -115,7 +116,8 @@ def nearest_vertices(points: np.ndarray, queries: np.ndarray) -> np.ndarray:
 
 def shape_setup(rig: Rig) -> ShapeSetup:
     """The :class:`ShapeSetup` of ``rig``: read from the cache companion of its entry when the rig
-    has one (:attr:`~hybridedit.binding.rig.Rig.cache_key`), else made, and then stored there.
+    has one (:attr:`~hybridedit.binding.rig.Rig.cache_key`), else made, and then stored there
+    in the background (:func:`wait_for_stores`).
 
     A companion that does not fit the rig (sizes, indices out of range, non-finite values) is
     deleted with a :class:`~hybridedit.binding.cache.CacheEntryDiscarded` warning and made again.
@@ -123,6 +125,7 @@ def shape_setup(rig: Rig) -> ShapeSetup:
     if rig.cache_dir is None or rig.cache_key is None:
         return make_shape_setup(rig)
     folder, key = rig.cache_dir, rig.cache_key
+    _wait_for_store(folder, key)
     arrays = bindcache.load_arrays(folder, key, KIND, _NAMES)
     if arrays is not None:
         try:
@@ -132,8 +135,43 @@ def shape_setup(rig: Rig) -> ShapeSetup:
             warnings.warn(f"hybridedit: the cached set-up of {key[:12]} not used ({e}); it is made again",
                           bindcache.CacheEntryDiscarded, stacklevel=2)
     setup = make_shape_setup(rig)
-    bindcache.store_arrays(folder, key, KIND, setup.arrays())
+    _store_in_background(folder, key, setup.arrays())
     return setup
+
+
+# companion writes under way: (folder, key) -> the thread writing it
+_stores: dict[tuple[str, str], threading.Thread] = {}
+_stores_lock = threading.Lock()
+
+
+def _store_in_background(folder, key: str, arrays: dict[str, np.ndarray]) -> None:
+    """Write the companion on a thread of its own: the editor does not need the file, and at
+    11M vertices its checksum and write are 2-5 s the first drag would otherwise wait for. The
+    thread is not a daemon (the interpreter waits for it at exit) and the write is atomic, so
+    an interrupted one leaves no file; the arrays are never written to after they are made."""
+    thread = threading.Thread(target=bindcache.store_arrays, args=(folder, key, KIND, arrays),
+                              name="hybridedit set-up write")
+    with _stores_lock:
+        _stores[(str(folder), key)] = thread
+    thread.start()
+
+
+def _wait_for_store(folder, key: str) -> None:
+    """Let a companion write of this process for ``key`` finish before the companion is read."""
+    with _stores_lock:
+        thread = _stores.pop((str(folder), key), None)
+    if thread is not None:
+        thread.join()
+
+
+def wait_for_stores() -> None:
+    """Wait for every companion write this process started (:func:`shape_setup` writes them in
+    the background)."""
+    with _stores_lock:
+        threads = list(_stores.values())
+        _stores.clear()
+    for thread in threads:
+        thread.join()
 
 
 def _checked(a: dict[str, np.ndarray], rig: Rig) -> ShapeSetup:

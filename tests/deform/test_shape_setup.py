@@ -26,6 +26,7 @@ def _equal(a: S.ShapeSetup, b: S.ShapeSetup) -> bool:
 def test_a_cached_open_makes_nothing_the_cache_holds(blob, tmp_path, monkeypatch):
     first = he.HybridEditor(blob, 80, cache=tmp_path)
     assert not first.cache_hit and not first.setup_cached
+    S.wait_for_stores()  # (written in the background)
     assert list(tmp_path.glob(f"*.{S.KIND}.npz"))
 
     def rebuilt(*args, **kwargs):
@@ -61,6 +62,7 @@ def test_the_cached_setup_reads_back_equal_to_the_made_one(blob, tmp_path):
 def test_a_damaged_setup_is_refused_and_made_again(blob, tmp_path):
     rig = he.build_rig(blob, cage_size=80, cache=tmp_path)
     made = S.shape_setup(rig)
+    S.wait_for_stores()
     (path,) = tmp_path.glob(f"*.{S.KIND}.npz")
     data = bytearray(path.read_bytes())
     data[len(data) // 2] ^= 0xFF
@@ -68,7 +70,7 @@ def test_a_damaged_setup_is_refused_and_made_again(blob, tmp_path):
     with pytest.warns(bindcache.CacheEntryDiscarded):
         again = S.shape_setup(rig)
     assert not again.from_cache and _equal(made, again)
-    assert S.shape_setup(rig).from_cache  # stored again
+    assert S.shape_setup(rig).from_cache  # stored again (a read waits for this process's write)
 
 
 def test_a_setup_that_does_not_fit_its_rig_is_refused(blob, tmp_path):
