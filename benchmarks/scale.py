@@ -297,15 +297,20 @@ def quarter_frames(ed: HybridEditor, shape: Mesh, frames: int) -> dict:
     with Timer() as sel:
         ed.set_selection(handle, roi=roi)
     ed.drag(transform=T)  # (the first frame after a selection, as the window's press)
+    out = frame_medians(ed, T, max(frames, 1))
+    out["sel_s"] = sel.seconds
+    return out
+
+
+def frame_medians(ed: HybridEditor, T: np.ndarray, frames: int) -> dict:
+    """``frames`` drags of the selection to ``T``: the median milliseconds of the frame and of its
+    parts (cage local and global steps, the shape's steps), by ``frame_breakdown``'s names."""
     parts = {"local_seconds": [], "global_seconds": [], "propagate_seconds": [], "total_seconds": []}
-    for _ in range(max(frames, 1)):
+    for _ in range(frames):
         ed.drag(transform=T)
         for k in parts:
             parts[k].append(ed.frame_breakdown[k])
-    out = {k: 1e3 * float(np.median(v)) for k, v in parts.items()}
-    out["sel_s"] = sel.seconds
-    out["moving"] = roi.size / shape.n_vertices
-    return out
+    return {k: 1e3 * float(np.median(v)) for k, v in parts.items()}
 
 
 def shape_edit(shape: Mesh, name: str):
@@ -340,13 +345,7 @@ def run_one(path: str, name: str, frames: int, igl_iters: int, breakdown: bool, 
     out["editor_pieces"] = pieces.seconds
     out.update(first_edit(ed, edit))
     wait_for_stores()  # (the set-up's companion, written in the background: the frames are measured after it)
-    T = edit[2]
-    parts = {"local_seconds": [], "global_seconds": [], "propagate_seconds": [], "total_seconds": []}
-    for _ in range(frames):
-        ed.drag(transform=T)
-        for k in parts:
-            parts[k].append(ed.frame_breakdown[k])
-    out.update({k: 1e3 * float(np.median(v)) for k, v in parts.items()})
+    out.update(frame_medians(ed, edit[2], frames))
     out["quarter"] = quarter_frames(ed, shape, frames)
     out["cage"] = ed.cage.n_vertices
     out["verts"] = shape.n_vertices
@@ -602,24 +601,30 @@ def main(argv=None) -> int:
             print(f"#   {'wall clock of the run':<44} {r['cli_s']:7.2f}")
         print("\n# targets (issue 14)")
         for r in arm:
-            lv = r["level"]
             vals = {"cold cage + bind s": r["cage_s"] + r["bind_s"], "cage build s": r["cage_s"],
                     "frame ms": r["total_seconds"], "peak MB": r["peak_mb"]}
             if r["cached"]:
                 vals["cached open s"] = r["cached"]["cache_s"]
-            for k, v in vals.items():
-                tgt = TARGETS[k].get(lv)
-                if tgt is not None:
-                    print(f"#   {r['name']:<15} {k:<20} {v:9.3f}  {mark(v, tgt)}")
+            print_marked(r, vals, TARGETS, 20)
         print("\n# targets (issue 31)")
         for r in arm:
-            for k, v in issue31_values(r).items():
-                tgt = TARGETS_31.get(k, {}).get(r["level"])
-                if tgt is not None:
-                    print(f"#   {r['name']:<15} {k:<26} {v:9.3f}  {mark(v, tgt)}")
+            print_marked(r, issue31_values(r), TARGETS_31, 26)
         if top < 4:
             print("#   (the 11M targets, the file times' and the first selection's need --max-level 4)")
     return 0
+
+
+def cold_open(r: dict) -> float:
+    """Seconds of a cold open (issue 31's): read the file, build the cage, bind."""
+    return r["read_s"] + r["cage_s"] + r["bind_s"]
+
+
+def print_marked(r: dict, values: dict[str, float], targets: dict[str, dict[int, float]], width: int) -> None:
+    """One line per figure of row ``r`` that has a target at its level, marked met or not."""
+    for k, v in values.items():
+        tgt = targets.get(k, {}).get(r["level"])
+        if tgt is not None:
+            print(f"#   {r['name']:<15} {k:<{width}} {v:9.3f}  {mark(v, tgt)}")
 
 
 def issue31_values(r: dict) -> dict[str, float]:
@@ -629,7 +634,7 @@ def issue31_values(r: dict) -> dict[str, float]:
     first = [r["first_sel_s"] + r["first_drag_s"]]
     if c:
         first.append(c["first_sel_s"] + c["first_drag_s"])
-    vals = {"cold open s": r["read_s"] + r["cage_s"] + r["bind_s"], "cached open s": c.get("open_s", nan),
+    vals = {"cold open s": cold_open(r), "cached open s": c.get("open_s", nan),
             "frame ms": r["total_seconds"], "peak GB": max(r["peak_mb"], c.get("peak_mb", 0.0)) * 2**20 / 1e9,
             "first selection + drag s": max(first)}
     names = {"ply_read_s": "binary PLY read s", "ply_write_s": "binary PLY write s",
@@ -650,7 +655,7 @@ def print_issue31(rows: list[dict], smoke: bool) -> None:
     print("-" * len(head))
     for r in rows:
         c = r["cached"]
-        cold = r["read_s"] + r["cage_s"] + r["bind_s"]
+        cold = cold_open(r)
         gb = r["peak_mb"] * 2**20 / 1e9
         if c:
             ctxt = f"{c['open_s']:>13.2f}"
@@ -697,9 +702,9 @@ def print_issue31(rows: list[dict], smoke: bool) -> None:
 
 
 def to_first_drag(r: dict) -> float:
-    """Seconds from the file to the first drag of a cold session: read, cage, bind, the editor's
+    """Seconds from the file to the first drag of a cold session: the cold open, the editor's
     set-up, the first selection and drag."""
-    return r["read_s"] + r["cage_s"] + r["bind_s"] + r["editor_s"] + r["first_sel_s"] + r["first_drag_s"]
+    return cold_open(r) + r["editor_s"] + r["first_sel_s"] + r["first_drag_s"]
 
 
 def print_issue47(rows: list[dict]) -> None:
@@ -716,18 +721,14 @@ def print_issue47(rows: list[dict]) -> None:
         q = r.get("quarter") or {}
         if not q:
             continue
-        cold = r["read_s"] + r["cage_s"] + r["bind_s"]
-        print(f"{r['name']:>15} {r['verts']:>8d} {cold:>11.2f} {to_first_drag(r):>13.2f} {r['total_seconds']:>9.2f} "
+        print(f"{r['name']:>15} {r['verts']:>8d} {cold_open(r):>11.2f} {to_first_drag(r):>13.2f} {r['total_seconds']:>9.2f} "
               f"{q['total_seconds']:>8.2f} {q['local_seconds']:>6.2f} {q['global_seconds']:>6.2f} "
               f"{q['propagate_seconds']:>6.2f} {q['sel_s']:>13.2f}", flush=True)
     print("# targets (issue 47)")
     for r in rows:
         q = r.get("quarter") or {}
         vals = {"file to first drag s": to_first_drag(r), "quarter frame ms": q.get("total_seconds", float("nan"))}
-        for k, v in vals.items():
-            tgt = TARGETS_47[k].get(r["level"])
-            if tgt is not None:
-                print(f"#   {r['name']:<15} {k:<26} {v:9.3f}  {mark(v, tgt)}")
+        print_marked(r, vals, TARGETS_47, 26)
     a2 = [r for r in rows if r["level"] >= 2]
     if len(a2) >= 2:
         e = exponent(a2, lambda r: r["cage_s"] + r["bind_s"])
