@@ -18,6 +18,7 @@ from ..core.mesh import Mesh
 from ..core.spatial_order import morton_order
 from ..defaults import CAGE_SIZE, check_cage_size
 from .clean import clean_surface, is_usable_piece
+from .cluster import simplified_sizes
 from .qem import HalfWorker, start_worker
 from .shell import is_sheet, thicken
 from .simplify import simplify
@@ -103,8 +104,11 @@ def cage_parts(
     say = progress or (lambda fraction: None)
     size = check_cage_size(size)
     # a big shape is simplified in halves on two cores: the helper process starts now,
-    # to be ready when the repair pass is done (see hybridedit.cage.qem)
-    worker = start_worker(mesh.n_faces, mesh.n_vertices)
+    # to be ready when the repair pass is done (see hybridedit.cage.qem), its buffers grown to the
+    # surface quadric collapses will start from (the clustered surface of a big shape)
+    want = int(size) if isinstance(size, (int, np.integer)) else int(round(float(size) * mesh.n_vertices))
+    n_v, n_f = simplified_sizes(mesh.n_vertices, mesh.n_faces, want)
+    worker = start_worker(n_f, n_v)
     try:
         return _cage_parts(mesh, size, said, say, worker)
     finally:
