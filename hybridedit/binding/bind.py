@@ -41,7 +41,7 @@ from .mvc_exact import as_points, compute_into, n_blocks
 from .mvc_flat import (FAR_RATIO, check_far_ratio, compute_fast_sorted, compute_fast_truncated, fast_scratch,
                        on_cage_truncated)
 from .mvc_layout import LANES, plan_fast, plan_groups, prepare_cage, prepare_fast_cage
-from .mvc_tree import THETA, compute_tree_truncated, tree_scratch
+from .mvc_tree import THETA, TREE_FAR_RATIO, compute_tree_truncated, tree_scratch
 from .tree_cage import prepare_tree_cage
 from .truncation import MAX_ROW, MIN_KEPT_SUM, UNDECIDED, cap_rows, check_truncation, truncate_row
 
@@ -293,7 +293,7 @@ def bind(
     chunk_size: int | None = None,
     progress: Callable[[float], None] | None = None,
     method: str = "fast",
-    far_ratio: float = FAR_RATIO,
+    far_ratio: float | None = None,
     max_row: int | None = MAX_ROW,
 ) -> sp.csr_matrix:
     """Truncated mean value coordinates of ``points`` w.r.t. ``cage``.
@@ -327,9 +327,12 @@ def bind(
         truncation rule on the flat coordinates up to the far field's
         approximation. All give partitions of unity, and with truncation 0
         all reproduce linear functions to rounding.
-    far_ratio : float >= 1
+    far_ratio : float >= 1, optional
         Only for "fast" and "flat": larger is more accurate and slower;
-        ``inf`` makes every near face exact.
+        ``inf`` makes every near face exact. By default
+        :data:`hybridedit.binding.mvc_flat.FAR_RATIO` for whole rows and the flat kernel, and
+        :data:`hybridedit.binding.mvc_tree.TREE_FAR_RATIO` for the hierarchical kernel's
+        truncated rows.
     max_row : int or None
         When truncating, the most coordinates a row keeps
         (:func:`hybridedit.binding.truncation.cap_rows`: a wider row keeps its largest, refitted
@@ -356,11 +359,12 @@ def bind(
     t = check_truncation(truncation)
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
-    ratio = check_far_ratio(far_ratio)
+    ratio = check_far_ratio(FAR_RATIO if far_ratio is None else far_ratio)
+    tree_ratio = TREE_FAR_RATIO if far_ratio is None else ratio
     c = cage.n_vertices
     n = p.shape[0]
     chunk = _chunk_rows(chunk_size, method, t, c)
-    rows = _Rows(p, cage, method, t, ratio)
+    rows = _Rows(p, cage, method, t, ratio, tree_ratio)
     if n == 0:
         return sp.csr_matrix((0, c))
     chunk = min(chunk, n)
@@ -423,8 +427,8 @@ class _Rows:
     points in the plan's order, :attr:`hybridedit.binding.mvc_layout.FastPlan.order`).
     """
 
-    def __init__(self, p: np.ndarray, cage: Mesh, method: str, t: float, ratio: float) -> None:
-        self.p, self.method, self.t, self.ratio = p, method, t, ratio
+    def __init__(self, p: np.ndarray, cage: Mesh, method: str, t: float, ratio: float, tree_ratio: float) -> None:
+        self.p, self.method, self.t, self.ratio, self.tree_ratio = p, method, t, ratio, tree_ratio
         self.flat_kind = method in ("fast", "flat")
         self.tree = method == "fast" and t > 0.0  # hierarchical, truncated as made
         self.sparse = method == "flat" and t > 0.0  # every face per point, truncated as made
@@ -467,7 +471,7 @@ class _Rows:
             compute_into(self.p[start:stop], self.data, view)
             parts = [(np.arange(start, stop), *_truncate_into_csr_parts(view, t))]
         elif self.tree:
-            part, redo = _tree_chunk(self.plan, self.hier, ratio, self.tscratch, t, start, stop, self.counts_buf,
+            part, redo = _tree_chunk(self.plan, self.hier, self.tree_ratio, self.tscratch, t, start, stop, self.counts_buf,
                                      self.cols_buf, self.vals_buf)
             parts = [part]
             self.undecided.append(redo)
@@ -485,6 +489,11 @@ class _Rows:
                 self.vals_buf))]
         return self._checked(parts)
 
+    @property
+    def ratios(self) -> tuple[float, float]:
+        """(the flat kernel's far ratio, the hierarchical kernel's)."""
+        return self.ratio, self.tree_ratio
+
     def leftovers(self) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
         """The rows the chunks of the hierarchical kernel left undecided, all made at once after
         the last chunk (:func:`_undecided_rows`), as parts of :func:`_assemble`; [] otherwise."""
@@ -494,7 +503,7 @@ class _Rows:
         self.undecided = []
         if not redo.size:
             return []
-        return self._checked(_undecided_rows(redo, self.plan, self.hier, self.ratio, self.tscratch, self.t,
+        return self._checked(_undecided_rows(redo, self.plan, self.hier, self.ratios, self.tscratch, self.t,
                                               min(self.fast.n_vertices, SPARSE_ROW_CAP), self.p,
                                               self.second_radius))
 
@@ -535,7 +544,7 @@ def _tree_chunk(plan, hier, ratio, scratch, t, start, stop, counts_buf, cols_buf
     return (np.arange(start, stop), counts, data, indices), start + redo
 
 
-def _undecided_rows(redo, plan, hier, ratio, scratch, t, width, p, radius):
+def _undecided_rows(redo, plan, hier, ratios, scratch, t, width, p, radius):
     """The rows of sorted positions ``redo`` (k,) that the first pass left undecided, as parts of
     :func:`_assemble`: the unit row of a cage vertex a point sits on, else computed again in
     batches of points within ``radius`` of each other only (:func:`_second_pass_rows`).
@@ -554,7 +563,7 @@ def _undecided_rows(redo, plan, hier, ratio, scratch, t, width, p, radius):
         redo, points = redo[keep], points[keep]
         if not redo.size:
             return parts
-    for local, *rows in _second_pass_rows(points, hier, ratio, scratch, t, width, radius):
+    for local, *rows in _second_pass_rows(points, hier, ratios, scratch, t, width, radius):
         parts.append((redo[local], *rows))
     return parts
 
@@ -569,9 +578,10 @@ SECOND_RADIUS = 2.0
 SECOND_BATCHES = 256
 
 
-def _second_pass_rows(points, hier, ratio, scratch, t, width, radius):
+def _second_pass_rows(points, hier, ratios, scratch, t, width, radius):
     """The rows of the (k, 3) ``points`` that the first pass left undecided, as parts of
-    :func:`_assemble` (positions: indices into ``points``).
+    :func:`_assemble` (positions: indices into ``points``); ``ratios``: the far ratios of the flat
+    and the hierarchical kernel.
 
     Two things leave a row undecided. A wide batch (one straddling a thin part or a jump of the
     curve) opens more vertices than its buffers hold; and a point that sees much of the cage from
@@ -585,6 +595,7 @@ def _second_pass_rows(points, hier, ratio, scratch, t, width, radius):
     part of the binding that grew faster than the shape).
     """
     fast = hier.fast
+    ratio, tree_ratio = ratios
     parts = []
     redo = np.arange(points.shape[0])
     for theta in SECOND_THETAS:
@@ -597,7 +608,7 @@ def _second_pass_rows(points, hier, ratio, scratch, t, width, radius):
         left = []
         for b0 in range(0, nbatch, SECOND_BATCHES):
             b1 = min(nbatch, b0 + SECOND_BATCHES)
-            compute_tree_truncated(plan, hier, b0 * LANES, b1 * LANES, t, MIN_KEPT_SUM, c_buf, i_buf, v_buf, ratio,
+            compute_tree_truncated(plan, hier, b0 * LANES, b1 * LANES, t, MIN_KEPT_SUM, c_buf, i_buf, v_buf, tree_ratio,
                                    scratch, theta=theta)
             mine = np.flatnonzero((position >= b0 * LANES) & (position < b1 * LANES))
             at = position[mine] - b0 * LANES
