@@ -5,6 +5,7 @@ Usage (from the repository root)::
     .venv/bin/python benchmarks/cluster_quality.py                # every case at 43K and 690K
     .venv/bin/python benchmarks/cluster_quality.py --sizes 43k --cases closed,parts
     .venv/bin/python benchmarks/cluster_quality.py --mesh /tmp/big/armadillo_loop3.ply   # one shape
+    .venv/bin/python benchmarks/cluster_quality.py --smoke           # CI: two cases at 43K
 
 Each case gets its 5% cage twice in one process: quadric collapses alone (today's cage below
 :data:`hybridedit.cage.cluster.CLUSTER_MIN_FACES` faces) and vertex clustering first
@@ -65,7 +66,10 @@ def main(argv=None) -> int:
     ap.add_argument("--sizes", default="43k,690k", help="43k and/or 690k (the armadillo Loop-subdivided twice)")
     ap.add_argument("--cases", default=",".join(CASES))
     ap.add_argument("--mesh", type=Path, help="one mesh file instead of the corpus (the canonical arm edit)")
+    ap.add_argument("--smoke", action="store_true", help="CI: two cases at 43K")
     args = ap.parse_args(argv)
+    if args.smoke:
+        args.sizes, args.cases = "43k", "closed,parts"
     print(f"# cage with and without the clustering first pass — {machine()}")
     print("# 5% cage; err = RRMS edge error (%) of the case's edit, 3 frames; ratio = with / without")
     head = (f"{'case':>10} {'size':>5} {'vertices':>9} {'cage s':>7} {'+pass s':>7} {'nnz':>5} {'+pass':>5} "

@@ -230,7 +230,8 @@ def _edit_session(mesh, say: Progress, label: str) -> None:
 def engine_rare_paths(shape) -> None:
     """Compile the engine's paths that a small shape's edit does not take and a big shape's may:
     binding rows wider than the fast kernel's row buffer, points on the cage's faces, rows cut to
-    their largest, a big surface simplified in halves, a big region's band, rotations in lanes.
+    their largest, a big surface clustered and simplified in halves, a big region's band, rotations
+    in lanes.
 
     What :func:`run` compiles beyond its edit sessions, file formats apart; the Blender
     extension's background compile calls it too (its engine has no file formats).
@@ -245,10 +246,12 @@ def engine_rare_paths(shape) -> None:
     """
     from .binding.bind import bind
     from .binding.mvc import atan2_pos_array
+    from .cage.cluster import cluster_surface
     from .cage.qem import presimplify
     from .core.rotations import closest_rotation, closest_rotations
 
     presimplify(shape.vertices, shape.faces, shape.n_faces // 8, min_faces=8)  # (a big surface cut in halves)
+    cluster_surface(shape.vertices, shape.faces, max(shape.n_vertices // 8, 4))  # (a very big one clustered first)
     bind(0.5 * shape.vertices[:8], shape, truncation=0.0)  # the shape as its own cage, untruncated
     bind(shape.vertices[shape.faces[:4]].mean(axis=1), shape)  # points on the cage's faces: their face's rows
     import scipy.sparse as sp

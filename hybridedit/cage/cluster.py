@@ -42,14 +42,26 @@ _CELLS_PER_AREA = 1.5
 
 def clusters_first(n_faces: int, target_vertices: int) -> bool:
     """Whether a surface of ``n_faces`` faces simplified to ``target_vertices`` is clustered first
-    (:func:`cluster_surface`): a big surface, and a target well below the clustered size."""
+    (:func:`cluster_surface`): a big surface, and a target well below the clustered size.
+
+    Examples
+    --------
+    >>> clusters_first(5_534_848, 138_371), clusters_first(1_383_712, 34_592)  # 2.77M, 690K armadillo
+    (True, False)
+    """
     return n_faces >= CLUSTER_MIN_FACES and CLUSTER_FACTOR * target_vertices * 4 <= n_faces
 
 
 def simplified_sizes(n_vertices: int, n_faces: int, target_vertices: int) -> tuple[int, int]:
     """(vertices, faces) about the size of the surface quadric collapses start from: the clustered
     surface's when :func:`clusters_first`, else the surface's own (what a helper process of
-    :mod:`hybridedit.cage.qem` grows its buffers to)."""
+    :mod:`hybridedit.cage.qem` grows its buffers to).
+
+    Examples
+    --------
+    >>> simplified_sizes(2_767_426, 5_534_848, 138_371), simplified_sizes(691_858, 1_383_712, 34_592)
+    ((691855, 1383709), (691858, 1383712))
+    """
     if not clusters_first(n_faces, target_vertices):
         return int(n_vertices), int(n_faces)
     k = int(CLUSTER_FACTOR * target_vertices)

@@ -1,8 +1,9 @@
 """One part of the shape simplified by quadric error metrics to a target vertex count.
 
-:func:`simplify` brings a big part near its target on two cores first
-(:func:`hybridedit.cage.qem.presimplify`), then runs fast-simplification until the
-cleaned result (:func:`hybridedit.cage.clean.clean_surface`) is within 2% of the target.
+:func:`simplify` clusters the vertices of a very big part first
+(:func:`hybridedit.cage.cluster.cluster_surface`, in linear time), brings a big part near its
+target on two cores (:func:`hybridedit.cage.qem.presimplify`), then runs fast-simplification until
+the cleaned result (:func:`hybridedit.cage.clean.clean_surface`) is within 2% of the target.
 """
 
 from __future__ import annotations
