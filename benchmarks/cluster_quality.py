@@ -100,7 +100,8 @@ def main(argv=None) -> int:
         ratio = b["err"] / a["err"]
         worst = max(worst, (ratio, f"{name} {size}"))
         print(f"{name:>10} {size:>5} {mesh.n_vertices:>9,} {a['cage_s']:>7.2f} {b['cage_s']:>7.2f} {a['nnz']:>5.2f} "
-              f"{b['nnz']:>5.2f} {a['max']:>4} {b['max']:>5} {a['err']:>7.3f} {b['err']:>7.3f} {ratio:>6.3f}", flush=True)
+              f"{b['nnz']:>5.2f} {a['max']:>4} {b['max']:>5} {a['err']:>7.3f} {b['err']:>7.3f} {ratio:>6.3f}",
+              flush=True)
     print("# target (issue 47)")
     print(f"#   edge error with the first pass over without, worst case: {worst[0]:.3f} ({worst[1]})  "
           f"{mark(worst[0], TARGET_ERROR_RATIO)}")

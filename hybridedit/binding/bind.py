@@ -471,8 +471,8 @@ class _Rows:
             compute_into(self.p[start:stop], self.data, view)
             parts = [(np.arange(start, stop), *_truncate_into_csr_parts(view, t))]
         elif self.tree:
-            part, redo = _tree_chunk(self.plan, self.hier, self.tree_ratio, self.tscratch, t, start, stop, self.counts_buf,
-                                     self.cols_buf, self.vals_buf)
+            part, redo = _tree_chunk(self.plan, self.hier, self.tree_ratio, self.tscratch, t, start, stop,
+                                     self.counts_buf, self.cols_buf, self.vals_buf)
             parts = [part]
             self.undecided.append(redo)
         elif not self.sparse:
