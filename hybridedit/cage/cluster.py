@@ -33,7 +33,7 @@ __all__ = ["CLUSTER_FACTOR", "CLUSTER_MIN_FACES", "cluster_surface", "clusters_f
 #: simplify in 6-8 s on two cores; the 690K's 1.4M in under 2 s, where the grid's passes gain little)
 CLUSTER_MIN_FACES = 2_000_000
 #: the clustered surface has about this many times the cage's vertices (quadric collapses then
-#: choose the cage's last 80%: its edge error stays within 2% of quadric collapses alone)
+#: choose the cage's last 80%: its edit's edge error stays within 3% of quadric collapses alone)
 CLUSTER_FACTOR = 5.0
 #: average grid cells a plane through the grid crosses per cell face of area (|nx| + |ny| + |nz|
 #: averaged over directions): the grid's spacing for a wanted number of occupied cells
