@@ -12,8 +12,10 @@ import numpy as np
 
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
+sys.path.insert(0, str(REPO / "tests"))  # (support.edits: the canonical edit the tests use too)
 
 from hybridedit import Mesh, build_cage, read_mesh, rigid_transform  # noqa: E402
+from support.edits import canonical_edit  # noqa: E402,F401  (re-exported: the benchmarks import it from here)
 
 MESHES = Path(os.environ.get("HYBRIDEDIT_MESHES", REPO.parent / "shared" / "meshes"))
 
@@ -33,28 +35,6 @@ def armadillo_21k(full: Mesh) -> Mesh:
     m = build_cage(full, 21622)
     m.name = f"armadillo {m.n_vertices / 1000:.1f}K"
     return m
-
-
-def canonical_edit(mesh: Mesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The benchmark edit on an armadillo-like shape (Y up, facing +Z).
-
-    Handle: the hand on the +X side; region of interest: that arm from the
-    shoulder; everything else is fixed. The hand swings up by 40 degrees about
-    the +Z axis through the shoulder (the centroid of the region's vertices
-    nearest the body), as a user raising the arm would. Defined relative to the
-    bounding box, so it means the same on every resolution of the armadillo.
-
-    Returns
-    -------
-    handle, roi : int64 shape vertex indices; T : (4, 4) float64 handle transform
-    """
-    v = mesh.vertices
-    lo, hi = v.min(axis=0), v.max(axis=0)
-    r = (v - lo) / (hi - lo)
-    handle = np.flatnonzero((r[:, 0] > 0.877) & (r[:, 1] > 0.62))
-    roi = np.flatnonzero((r[:, 0] > 0.70) & (r[:, 1] > 0.52))
-    shoulder = v[roi[r[roi, 0] < 0.73]].mean(axis=0)
-    return handle, roi, rigid_transform(axis=(0, 0, 1), degrees=40.0, center=shoulder)
 
 
 def quarter_edit(mesh: Mesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -11,6 +11,7 @@ import hybridedit as he
 from hybridedit.binding.truncation import MAX_ROW
 
 import wild_corpus
+from support.edits import canonical_edit
 
 # slow: the corpus is built from the armadillo and every case bound (about 80 s on 2 cores)
 pytestmark = [pytest.mark.skipif(not wild_corpus.available(), reason="../shared/meshes not present"),
@@ -31,17 +32,6 @@ def rigs(corpus):
     return {name: he.build_rig(mesh, cage_size=0.05) for name, mesh in corpus.items()}
 
 
-def edit_of(mesh):
-    """The benchmarks' canonical edit (the +X arm of a standing shape, swung up 40 degrees)."""
-    v = mesh.vertices
-    lo, hi = v.min(axis=0), v.max(axis=0)
-    r = (v - lo) / (hi - lo)
-    handle = np.flatnonzero((r[:, 0] > 0.877) & (r[:, 1] > 0.62))
-    roi = np.flatnonzero((r[:, 0] > 0.70) & (r[:, 1] > 0.52))
-    shoulder = v[roi[r[roi, 0] < 0.73]].mean(axis=0)
-    return handle, roi, he.rigid_transform(axis=(0, 0, 1), degrees=40.0, center=shoulder)
-
-
 @pytest.mark.parametrize("name", wild_corpus.CASES)
 def test_every_case_binds_sparse(rigs, name):
     nnz = np.diff(rigs[name].M.indptr)
@@ -56,7 +46,7 @@ def test_every_case_keeps_its_rest_pose_and_its_constraints_exactly(corpus, rigs
     ed = he.HybridEditor(rigs[name])
     diag = mesh.bbox_diagonal()
     assert np.abs(ed.deformed_vertices - mesh.vertices).max() <= 1e-12 * diag  # the rest pose, to rounding
-    handle, roi, T = edit_of(mesh)
+    handle, roi, T = canonical_edit(mesh)
     if handle.size == 0:
         pytest.skip("no vertex in the edit's handle box")
     ed.set_selection(handle, roi=roi)
@@ -80,7 +70,7 @@ def test_a_part_nothing_connects_to_the_handle_stays_still(corpus):
     piece = wild_corpus.compact(figure.vertices, figure.faces[labels[figure.faces[:, 0]] == smallest], "")
     away = piece.vertices + [2.0 * figure.bbox_diagonal(), 0.0, 0.0]
     mesh = he.Mesh(np.vstack([figure.vertices, away]), np.vstack([figure.faces, piece.faces + figure.n_vertices]))
-    handle, _, T = edit_of(figure)
+    handle, _, T = canonical_edit(figure)
     ed = he.HybridEditor(mesh, 0.05)
     ed.set_selection(handle, roi=np.arange(mesh.n_vertices))
     for _ in range(30):

@@ -13,6 +13,7 @@ from hybridedit.cage.cluster import cluster_surface, clusters_first
 from hybridedit.binding.truncation import MAX_ROW
 from hybridedit.core.face_geometry import signed_volume
 from hybridedit.core.topology import check_closed
+from support.edits import canonical_edit
 
 
 def _slab(thickness: float) -> trimesh.Trimesh:
@@ -55,23 +56,12 @@ def test_only_big_surfaces_far_above_their_cage_are_clustered_first():
     assert not clusters_first(cluster.CLUSTER_MIN_FACES, cluster.CLUSTER_MIN_FACES // 4)
 
 
-def _edit(mesh):
-    """The +X arm swung up 40 degrees at the shoulder (the benchmarks' canonical edit)."""
-    v = mesh.vertices
-    lo, hi = v.min(axis=0), v.max(axis=0)
-    r = (v - lo) / (hi - lo)
-    handle = np.flatnonzero((r[:, 0] > 0.877) & (r[:, 1] > 0.62))
-    roi = np.flatnonzero((r[:, 0] > 0.70) & (r[:, 1] > 0.52))
-    shoulder = v[roi[r[roi, 0] < 0.73]].mean(axis=0)
-    return handle, roi, he.rigid_transform(axis=(0, 0, 1), degrees=40.0, center=shoulder)
-
-
 @pytest.mark.slow
 def test_the_armadillo_cage_made_through_clusters_edits_as_well(armadillo_path, monkeypatch):
     """The 43K armadillo's 5% cage with the first pass forced: a binding as sparse, exact at rest and at
     the constraints, and an edge error within 1.05x of the cage of quadric collapses alone."""
     mesh = he.read_mesh(armadillo_path)
-    handle, roi, T = _edit(mesh)
+    handle, roi, T = canonical_edit(mesh)
     diag = mesh.bbox_diagonal()
     errors = []
     for threshold in (2**62, 0):
