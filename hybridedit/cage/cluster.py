@@ -26,6 +26,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..core.bounds import points_box
+from ..core.face_geometry import face_vector
 
 __all__ = ["CLUSTER_FACTOR", "CLUSTER_MIN_FACES", "cluster_surface", "clusters_first", "simplified_sizes"]
 
@@ -144,9 +145,7 @@ def _normals_and_area(v, f, out):  # pragma: no cover - compiled
     area = 0.0
     for t in range(f.shape[0]):
         a, b, c = f[t, 0], f[t, 1], f[t, 2]
-        ux, uy, uz = v[b, 0] - v[a, 0], v[b, 1] - v[a, 1], v[b, 2] - v[a, 2]
-        wx, wy, wz = v[c, 0] - v[a, 0], v[c, 1] - v[a, 1], v[c, 2] - v[a, 2]
-        nx, ny, nz = uy * wz - uz * wy, uz * wx - ux * wz, ux * wy - uy * wx
+        nx, ny, nz = face_vector(v, f, t)
         area += 0.5 * np.sqrt(nx * nx + ny * ny + nz * nz)
         for q in (a, b, c):
             out[q, 0] += nx
@@ -184,9 +183,7 @@ def _accumulate(v, f, group_of, quad):  # pragma: no cover - compiled
     position sum (9-11) and count (12)."""
     for t in range(f.shape[0]):
         a, b, c = f[t, 0], f[t, 1], f[t, 2]
-        ux, uy, uz = v[b, 0] - v[a, 0], v[b, 1] - v[a, 1], v[b, 2] - v[a, 2]
-        wx, wy, wz = v[c, 0] - v[a, 0], v[c, 1] - v[a, 1], v[c, 2] - v[a, 2]
-        nx, ny, nz = uy * wz - uz * wy, uz * wx - ux * wz, ux * wy - uy * wx
+        nx, ny, nz = face_vector(v, f, t)
         s = np.sqrt(nx * nx + ny * ny + nz * nz)
         if s == 0.0:
             continue

@@ -106,8 +106,7 @@ def cage_parts(
     # a big shape is simplified in halves on two cores: the helper process starts now,
     # to be ready when the repair pass is done (see hybridedit.cage.qem), its buffers grown to the
     # surface quadric collapses will start from (the clustered surface of a big shape)
-    want = int(size) if isinstance(size, (int, np.integer)) else int(round(float(size) * mesh.n_vertices))
-    n_v, n_f = simplified_sizes(mesh.n_vertices, mesh.n_faces, want)
+    n_v, n_f = simplified_sizes(mesh.n_vertices, mesh.n_faces, _wanted(size, mesh.n_vertices))
     worker = start_worker(n_f, n_v)
     try:
         return _cage_parts(mesh, size, said, say, worker)
@@ -154,16 +153,20 @@ def _cage_parts(mesh: Mesh, size: int | float, said: list[str], say: Callable[[f
     return CageParts(cage, offsets, _owners(mesh, src, vmap, count, labels), tuple(kinds))
 
 
+def _wanted(size: int | float, n: int) -> int:
+    """The vertex count a cage ``size`` asks of a surface of ``n`` vertices (not capped at ``n``)."""
+    if isinstance(size, (int, np.integer)):
+        return int(size)
+    # a fraction of the surface's own vertices: an unwelded soup (each face with copies of its
+    # corners) or a file full of duplicates gets the cage of the surface it is, not one 6x as dense
+    return int(round(float(size) * n))
+
+
 def _target_count(size: int | float, n: int, said: list[str]) -> int:
     """The cage's vertex count for a repaired surface of ``n`` vertices (said when capped at ``n``)."""
     from ..core.repair import plural
 
-    if isinstance(size, (int, np.integer)):
-        target = int(size)
-    else:
-        # a fraction of the surface's own vertices: an unwelded soup (each face with copies of its
-        # corners) or a file full of duplicates gets the cage of the surface it is, not one 6x as dense
-        target = int(round(float(size) * n))
+    target = _wanted(size, n)
     if target > n:
         said.append(f"the mesh has only {plural(n, 'usable vertex', 'usable vertices')}; "
                     f"the cage uses all of them instead of {target:,}")
