@@ -55,7 +55,7 @@ def edge_weights(vertices: np.ndarray, faces: np.ndarray, kind: str = "uniform")
 COT_MAX = 1e5
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _corner_cotangents(v, f, out):  # pragma: no cover - compiled
     """out[3t + c] = half the cotangent of the angle opposite half-edge c of face t
     (a -> b, b -> c, c -> a), its magnitude at most COT_MAX / 2 (a degenerate corner)."""

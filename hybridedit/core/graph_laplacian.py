@@ -61,7 +61,7 @@ def laplacian(n: int, edges: np.ndarray, weights: np.ndarray) -> sp.csr_matrix:
     return L
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _row_counts(n, e):  # pragma: no cover - compiled
     """Per row, its entries left and right of the diagonal (self-loops left out)."""
     lower = np.zeros(n, dtype=np.int64)
@@ -77,7 +77,7 @@ def _row_counts(n, e):  # pragma: no cover - compiled
     return lower, upper
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _sort_segment(indices, data, s, t):  # pragma: no cover - compiled
     """Insertion sort of indices[s:t] (with data) by column: a no-op on sorted input."""
     for k in range(s + 1, t):
@@ -91,7 +91,7 @@ def _sort_segment(indices, data, s, t):  # pragma: no cover - compiled
         data[m + 1] = v
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _fill(e, w, lower, upper, indptr, indices, data):  # pragma: no cover - compiled
     """Each row as [entries left of the diagonal, the diagonal, entries right of it], straight in
     place: edges sorted by (i, j) (edge_index's order) fill every row in column order. Returns

@@ -91,7 +91,7 @@ def edge_index(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarr
     return _edge_index(f, n)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _edge_index(f, n):  # pragma: no cover - compiled
     h = 3 * f.shape[0]
     lo = np.empty(h, dtype=np.int64)

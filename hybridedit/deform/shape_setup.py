@@ -87,8 +87,9 @@ def make_shape_setup(rig: Rig, *, k: int = DEFAULT_K) -> ShapeSetup:
         e, wt = edge_weights(mesh.vertices, mesh.faces, "cotangent")
         return laplacian(mesh.n_vertices, e, wt)
 
-    # the Laplacian on a second thread beside the binding's parts (numba, scipy and the KD-tree let
-    # go of the GIL): both cores busy through this stage of the build, as through the others
+    # the Laplacian on a second thread beside the binding's parts (its kernels are compiled nogil;
+    # scipy and the KD-tree let go of the GIL too): both cores busy through this stage of the
+    # build, as through the others
     with ThreadPoolExecutor(max_workers=1) as pool:
         lap = pool.submit(shape_laplacian)
         d, idx, w = residual_setup(M, mesh.vertices, cage.vertices, k=k)
