@@ -57,9 +57,10 @@ on the cage's surface, or too many vertices were opened) is
 reported as undecided; :func:`hybridedit.binding.bind.bind` then gives a point at a cage
 vertex its unit row and a point on a cage face that face's row, tries the others again in
 batches of near points only with a smaller ``theta``
-(:func:`hybridedit.binding.mvc_layout.plan_groups`) and finally with the flat kernel (a pass over every cage face: the rows sent there are what made the binding grow faster
-than the shape, so a point next to a near face's plane is handled here, by the flat kernel's own
-rules for that face, :func:`hybridedit.binding.mvc_faces.near_face_case`).
+(:func:`hybridedit.binding.mvc_layout.plan_groups`) and finally with the flat kernel (a pass
+over every cage face: the rows sent there are what made the binding grow faster than the
+shape, so a point next to a near face's plane is handled here, by the flat kernel's own rules
+for that face, :func:`hybridedit.binding.mvc_faces.near_face_case`).
 
 Cost: the open region of a batch and the aggregated nodes around it grow
 like ``log c`` (a few hundred leaves and nodes), not like ``c``.
