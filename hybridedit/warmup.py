@@ -230,8 +230,8 @@ def _edit_session(mesh, say: Progress, label: str) -> None:
 def engine_rare_paths(shape) -> None:
     """Compile the engine's paths that a small shape's edit does not take and a big shape's may:
     binding rows wider than the fast kernel's row buffer, points on the cage's faces, rows cut to
-    their largest, a big surface clustered and simplified in halves, a big region's band, rotations
-    in lanes.
+    their largest, rows interpolated from seeds' (a shape of millions of vertices), a big surface
+    clustered and simplified in halves, a big region's band, rotations in lanes.
 
     What :func:`run` compiles beyond its edit sessions, file formats apart; the Blender
     extension's background compile calls it too (its engine has no file formats).
@@ -262,6 +262,14 @@ def engine_rare_paths(shape) -> None:
     wide.has_sorted_indices = True
     octahedron = np.vstack([np.eye(3), -np.eye(3)])
     cap_rows(wide, np.zeros((2, 3)), octahedron, 4)
+    from .binding.interpolated_rows import interpolated_binding
+
+    def seed_rows(seeds):  # (the shape as its own cage: its seeds' unit rows)
+        return bind(shape.vertices[seeds], shape)
+
+    for twins in (contextlib.nullcontext(), parallel_everywhere()):
+        with twins:
+            interpolated_binding(shape.vertices, shape.faces, seed_rows, cage_vertices=shape.vertices, truncation=0.03)
 
     closest_rotations(np.tile(np.eye(3), (4, 1, 1)), np.empty((4, 3, 3)))
     closest_rotation(np.eye(3), np.empty((3, 3)))  # (the frames turn theirs in lanes)

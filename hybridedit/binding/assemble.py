@@ -84,7 +84,7 @@ def cage_and_binding(
     if binding is None:
         say("binding", 0.0)
         try:
-            binding = _bind_parts(mesh, parts, truncation, lambda fraction: say("binding", fraction))
+            binding = _bind_shape(mesh, parts, truncation, lambda fraction: say("binding", fraction))
         except ValueError as e:
             if cage is not None:
                 raise MeshError(f"{mesh.name or 'mesh'}: cannot bind to its cage: {e}") from None
@@ -101,8 +101,24 @@ def cage_and_binding(
     return parts.cage, sp.csr_matrix(binding, dtype=np.float64)
 
 
-def _bind_parts(mesh: Mesh, parts: CageParts, truncation: float, progress: Callable[[float], None]):
-    """Bind the vertices of each part to its own cage piece: a block-diagonal (n, c) CSR matrix.
+def _bind_shape(mesh: Mesh, parts: CageParts, truncation: float, progress: Callable[[float], None]):
+    """The binding of every vertex of ``mesh``: a shape of at least
+    :data:`~hybridedit.binding.interpolated_rows.INTERPOLATE_FROM` vertices binds a quarter of them
+    and interpolates the others' rows (:func:`~hybridedit.binding.interpolated_rows.interpolated_binding`)."""
+    from .interpolated_rows import INTERPOLATE_FROM, interpolated_binding
+
+    if mesh.n_vertices < INTERPOLATE_FROM:
+        return _bind_parts(mesh.vertices, parts.owner, parts, truncation, progress)
+    return interpolated_binding(
+        mesh.vertices, mesh.faces,
+        lambda seeds: _bind_parts(mesh.vertices[seeds], parts.owner[seeds], parts, truncation, progress),
+        cage_vertices=parts.cage.vertices, truncation=truncation)
+
+
+def _bind_parts(points: np.ndarray, owner: np.ndarray, parts: CageParts, truncation: float,
+                progress: Callable[[float], None]):
+    """Bind the (n, 3) ``points`` of each part (``owner``: (n,) each one's part) to its own cage
+    piece: a block-diagonal (n, c) CSR matrix.
 
     A small piece (at most :data:`SMALL_PIECE` vertices: debris, a button, a tooth)
     is bound on one thread: starting the thread pool would cost more than the work
@@ -115,10 +131,10 @@ def _bind_parts(mesh: Mesh, parts: CageParts, truncation: float, progress: Calla
 
     P = len(parts.offsets) - 1
     if P == 1:
-        return bind(mesh.vertices, parts.cage, truncation=truncation, progress=progress)
-    n = mesh.n_vertices
-    order = np.argsort(parts.owner, kind="stable")
-    start = np.searchsorted(parts.owner[order], np.arange(P + 1))
+        return bind(points, parts.cage, truncation=truncation, progress=progress)
+    n = len(points)
+    order = np.argsort(owner, kind="stable")
+    start = np.searchsorted(owner[order], np.arange(P + 1))
     cf = parts.cage.faces
     face_piece = np.searchsorted(parts.offsets, cf[:, 0], side="right") - 1
     f_order = np.argsort(face_piece, kind="stable")
@@ -139,7 +155,7 @@ def _bind_parts(mesh: Mesh, parts: CageParts, truncation: float, progress: Calla
                 progress((base + fraction * size) / n)
 
             numba.set_num_threads(1 if o1 - o0 <= SMALL_PIECE else threads)
-            Mp = bind(mesh.vertices[idx], piece, truncation=truncation, progress=part_progress).tocoo()
+            Mp = bind(points[idx], piece, truncation=truncation, progress=part_progress).tocoo()
             rows.append(idx[Mp.row])
             cols.append(Mp.col.astype(np.int64) + o0)
             vals.append(Mp.data)
