@@ -88,55 +88,60 @@ def edge_index(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarr
     if f.size == 0:
         return np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int64)
     n = max(int(n_vertices), int(f.max()) + 1)
-    return _edge_index(f, n)
+    # each bucket holds its half-edges' higher vertex beside the half-edge itself (a bucket's sort
+    # then reads them in order, not scattered through a shape-sized array), narrow where they fit
+    far = np.empty(f.size, dtype=np.int32 if n < 2**31 else np.int64)
+    half = np.empty(f.size, dtype=np.int32 if f.size < 2**31 else np.int64)
+    return _edge_index(f, n, far, half)
 
 
 @numba.njit(cache=True, nogil=True)
-def _edge_index(f, n):  # pragma: no cover - compiled
+def _edge_index(f, n, far, half):  # pragma: no cover - compiled
     h = 3 * f.shape[0]
-    lo = np.empty(h, dtype=np.int64)
-    hi = np.empty(h, dtype=np.int64)
+    start = np.zeros(n + 1, dtype=np.int64)
     for t in range(f.shape[0]):
         for c in range(3):
-            a, b = f[t, c], f[t, (c + 1) % 3]
-            lo[3 * t + c] = min(a, b)
-            hi[3 * t + c] = max(a, b)
-    start = np.zeros(n + 1, dtype=np.int64)
-    for k in range(h):
-        start[lo[k] + 1] += 1
+            start[min(f[t, c], f[t, (c + 1) % 3]) + 1] += 1
     for i in range(n):
         start[i + 1] += start[i]
     pos = start[:-1].copy()
-    order = np.empty(h, dtype=np.int64)
-    for k in range(h):  # by lower vertex, half-edge order kept within a bucket
-        order[pos[lo[k]]] = k
-        pos[lo[k]] += 1
-    edges = np.empty((h, 2), dtype=np.int64)
-    inverse = np.empty(h, dtype=np.int64)
-    e = 0
+    for t in range(f.shape[0]):  # by lower vertex, half-edge order kept within a bucket
+        for c in range(3):
+            a, b = f[t, c], f[t, (c + 1) % 3]
+            lo = min(a, b)
+            far[pos[lo]] = max(a, b)
+            half[pos[lo]] = 3 * t + c
+            pos[lo] += 1
+    count = np.zeros(n + 1, dtype=np.int64)
     for v in range(n):
         s, t = start[v], start[v + 1]
         if t - s > 32:  # a vertex of high degree: a stable sort of its bucket
-            keys = hi[order[s:t]]
-            order[s:t] = order[s:t][np.argsort(keys, kind="mergesort")]
+            o = np.argsort(far[s:t], kind="mergesort")
+            far[s:t], half[s:t] = far[s:t][o], half[s:t][o]
         else:  # insertion sort (stable) of the few half-edges at a vertex
             for i in range(s + 1, t):
-                k = order[i]
+                x, k = far[i], half[i]
                 j = i - 1
-                while j >= s and hi[order[j]] > hi[k]:
-                    order[j + 1] = order[j]
+                while j >= s and far[j] > x:
+                    far[j + 1], half[j + 1] = far[j], half[j]
                     j -= 1
-                order[j + 1] = k
-        prev = -1
+                far[j + 1], half[j + 1] = x, k
+        u = 0
         for i in range(s, t):
-            k = order[i]
-            if hi[k] != prev:
-                edges[e, 0] = v
-                edges[e, 1] = hi[k]
-                prev = hi[k]
+            if i == s or far[i] != far[i - 1]:
+                u += 1
+        count[v + 1] = count[v] + u
+    edges = np.empty((count[n], 2), dtype=np.int64)
+    inverse = np.empty(h, dtype=np.int64)
+    for v in range(n):
+        e = count[v] - 1
+        for i in range(start[v], start[v + 1]):
+            if i == start[v] or far[i] != far[i - 1]:
                 e += 1
-            inverse[k] = e - 1
-    return edges[:e].copy(), inverse
+                edges[e, 0] = v
+                edges[e, 1] = far[i]
+            inverse[half[i]] = e
+    return edges, inverse
 
 
 def edge_face_counts(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
