@@ -31,7 +31,7 @@ from numba import njit, prange
 from ..core.parallel import pick
 from ..core.topology import incidence
 from ..core.twins import twins
-from .truncation import MAX_ROW, MIN_KEPT_SUM, cap_rows, keep_row
+from .truncation import MAX_ROW, MIN_KEPT_SUM, NOT_FINITE, cap_rows
 
 __all__ = ["INTERPOLATE_FROM", "seed_vertices", "interpolated_binding"]
 
@@ -111,7 +111,7 @@ def _stencil(v, ptr, fid, faces, seed, points, near, weight):
 
 @njit(cache=True, inline="always")
 def _row_of(v, ptr, fid, faces, seed, slot, points, indptr, indices, data, truncation, near, weight, cols, vals,
-            surv, kvals, kidx):
+            kvals, kidx):
     """Vertex v's row: a seed's bound row, or its seeds' rows summed with their weights, truncated
     and rescaled; returns (length, scale): its columns are ``cols[kidx[:length]]`` and its values
     ``kvals[:length] * scale``."""
@@ -140,43 +140,103 @@ def _row_of(v, ptr, fid, faces, seed, slot, points, indptr, indices, data, trunc
                 cols[q] = col
                 vals[q] = a * data[p]
                 q += 1
-    return keep_row(vals[:q], truncation, MIN_KEPT_SUM, 0.0, surv, kvals, kidx)
+    return _keep(vals, q, truncation, kvals, kidx)
+
+
+@njit(cache=True, inline="always")
+def _keep(vals, q, truncation, kvals, kidx):
+    """The truncation rule of :func:`~hybridedit.binding.truncation.keep_row` on the ``q`` entries
+    ``vals[:q]`` of a short row, without its stages for long rows (nor their allocations): the
+    smallest entries dropped while their magnitudes total at most ``truncation`` of the row's; the
+    kept ones rescaled to sum to 1, unless they sum to less than ``MIN_KEPT_SUM`` (then every
+    nonzero is kept as it is). Returns (length, scale) as :func:`_row_of` does."""
+    mag = 0.0
+    for u in range(q):
+        a = abs(vals[u])
+        if not a < np.inf:
+            return NOT_FINITE, 1.0
+        mag += a
+        t = u  # (insertion by magnitude, smallest first; equal ones keep their order)
+        while t > 0 and abs(vals[kidx[t - 1]]) > a:
+            kidx[t] = kidx[t - 1]
+            t -= 1
+        kidx[t] = u
+    budget = truncation * mag
+    dropped = 0.0
+    n_drop = 0
+    while n_drop < q and dropped + abs(vals[kidx[n_drop]]) <= budget:
+        dropped += abs(vals[kidx[n_drop]])
+        n_drop += 1
+    kept = 0.0
+    for k in range(n_drop, q):
+        kept += vals[kidx[k]]
+    if kept >= MIN_KEPT_SUM:
+        for k in range(n_drop, q):
+            kidx[k - n_drop] = kidx[k]
+            kvals[k - n_drop] = vals[kidx[k - n_drop]]
+        return q - n_drop, 1.0 / kept
+    m = 0
+    for u in range(q):  # the safeguard: every nonzero, unscaled
+        if vals[u] != 0.0:
+            kidx[m] = u
+            kvals[m] = vals[u]
+            m += 1
+    return m, 1.0
+
+
+#: Entries a row keeps from the first pass (at most; a wider row is made again by the second): the
+#: rows have 3.4 entries on average, and this many of each, 12 bytes an entry, is 0.8 GB at 11M.
+_FIRST = 6
+
+
+@njit(cache=True, inline="always")
+def _store_sorted(q, scale, cols, kvals, kidx, out_indices, out_data, o):
+    """The row's ``q`` kept entries into ``out_indices[o:o + q]`` / ``out_data``, in column order."""
+    for k in range(q):
+        col = cols[kidx[k]]
+        t = o + k
+        while t > o and out_indices[t - 1] > col:
+            out_indices[t] = out_indices[t - 1]
+            out_data[t] = out_data[t - 1]
+            t -= 1
+        out_indices[t] = col
+        out_data[t] = kvals[k] * scale
 
 
 @twins()
-def _row_counts(ptr, fid, faces, seed, slot, points, indptr, indices, data, truncation, width, stencil,
-                counts):  # pragma: no cover - compiled
+def _first_rows(ptr, fid, faces, seed, slot, points, indptr, indices, data, truncation, width, stencil, counts,
+                first_indices, first_data):  # pragma: no cover - compiled
     n = seed.shape[0]
     for b in prange((n + _BLOCK - 1) // _BLOCK):
         near, weight = np.empty(stencil, dtype=np.int64), np.empty(stencil)
-        cols, vals, surv = np.empty(width, dtype=np.int64), np.empty(width), np.empty(width, dtype=np.int64)
-        kvals, kidx = np.empty(width), np.empty(width, dtype=np.int64)
-        for v in range(b * _BLOCK, min(n, (b + 1) * _BLOCK)):
-            counts[v] = _row_of(v, ptr, fid, faces, seed, slot, points, indptr, indices, data, truncation, near,
-                                weight, cols, vals, surv, kvals, kidx)[0]
-
-
-@twins()
-def _fill_rows(ptr, fid, faces, seed, slot, points, indptr, indices, data, truncation, width, stencil, out_ptr,
-               out_indices, out_data):  # pragma: no cover - compiled
-    n = seed.shape[0]
-    for b in prange((n + _BLOCK - 1) // _BLOCK):
-        near, weight = np.empty(stencil, dtype=np.int64), np.empty(stencil)
-        cols, vals, surv = np.empty(width, dtype=np.int64), np.empty(width), np.empty(width, dtype=np.int64)
+        cols, vals = np.empty(width, dtype=np.int64), np.empty(width)
         kvals, kidx = np.empty(width), np.empty(width, dtype=np.int64)
         for v in range(b * _BLOCK, min(n, (b + 1) * _BLOCK)):
             q, scale = _row_of(v, ptr, fid, faces, seed, slot, points, indptr, indices, data, truncation, near,
-                               weight, cols, vals, surv, kvals, kidx)
+                               weight, cols, vals, kvals, kidx)
+            counts[v] = q
+            if 0 <= q <= first_indices.shape[1]:
+                _store_sorted(q, scale, cols, kvals, kidx, first_indices[v], first_data[v], 0)
+
+
+@twins()
+def _fill_rows(ptr, fid, faces, seed, slot, points, indptr, indices, data, truncation, width, stencil, counts,
+               first_indices, first_data, out_ptr, out_indices, out_data):  # pragma: no cover - compiled
+    n = seed.shape[0]
+    for b in prange((n + _BLOCK - 1) // _BLOCK):
+        near, weight = np.empty(stencil, dtype=np.int64), np.empty(stencil)
+        cols, vals = np.empty(width, dtype=np.int64), np.empty(width)
+        kvals, kidx = np.empty(width), np.empty(width, dtype=np.int64)
+        for v in range(b * _BLOCK, min(n, (b + 1) * _BLOCK)):
             o = out_ptr[v]
-            for k in range(q):  # (in column order: insertion into the row's place)
-                col = cols[kidx[k]]
-                t = o + k
-                while t > o and out_indices[t - 1] > col:
-                    out_indices[t] = out_indices[t - 1]
-                    out_data[t] = out_data[t - 1]
-                    t -= 1
-                out_indices[t] = col
-                out_data[t] = kvals[k] * scale
+            if counts[v] <= first_indices.shape[1]:
+                for k in range(counts[v]):
+                    out_indices[o + k] = first_indices[v, k]
+                    out_data[o + k] = first_data[v, k]
+                continue
+            q, scale = _row_of(v, ptr, fid, faces, seed, slot, points, indptr, indices, data, truncation, near,
+                               weight, cols, vals, kvals, kidx)
+            _store_sorted(q, scale, cols, kvals, kidx, out_indices, out_data, o)
 
 
 def interpolated_binding(points: np.ndarray, faces: np.ndarray, bind_rows: Callable[[np.ndarray], sp.csr_matrix],
@@ -232,15 +292,18 @@ def interpolated_binding(points: np.ndarray, faces: np.ndarray, bind_rows: Calla
     width = max(stencil * row, 1)
     args = (ptr, fid, f, seed, slot, P, bound.indptr.astype(np.int64), bound.indices.astype(np.int64),
             bound.data.astype(np.float64), float(truncation), width, stencil)
+    column = np.int32 if cage_vertices.shape[0] < 2**31 else np.int64
     counts = np.empty(n, dtype=np.int64)
-    pick("propagate", *_row_counts, n)(*args, counts)
+    first = (np.empty((n, _FIRST), dtype=column), np.empty((n, _FIRST)))
+    pick("propagate", *_first_rows, n)(*args, counts, *first)
     if counts.size and counts.min() < 0:
         raise ValueError(f"the interpolated row of vertex {int(np.argmin(counts))} is not finite")
     out_ptr = np.zeros(n + 1, dtype=np.int64)
     np.cumsum(counts, out=out_ptr[1:])
-    indices = np.empty(int(out_ptr[-1]), dtype=np.int32 if cage_vertices.shape[0] < 2**31 else np.int64)
+    indices = np.empty(int(out_ptr[-1]), dtype=column)
     data = np.empty(int(out_ptr[-1]))
-    pick("propagate", *_fill_rows, n)(*args, out_ptr, indices, data)
+    pick("propagate", *_fill_rows, n)(*args, counts, *first, out_ptr, indices, data)
+    del first
     M = sp.csr_matrix((data, indices, out_ptr), shape=(n, bound.shape[1]))
     M.has_sorted_indices = True
     if n and int(counts.max()) > max_row:
