@@ -104,3 +104,19 @@ def test_the_twins_and_the_threshold(blob, monkeypatch):
     monkeypatch.setattr(ir, "INTERPOLATE_FROM", blob.n_vertices)
     assert (assemble._bind_shape(blob, parts, 0.03, lambda fraction: None) != serial).nnz == 0
     assert (serial != whole).nnz > 0
+
+
+def test_the_short_row_rule_is_the_bindings_rule():
+    from hybridedit.binding.truncation import MIN_KEPT_SUM, keep_row
+
+    rng = np.random.default_rng(7)
+    for trial in range(400):
+        q = int(rng.integers(1, 30))
+        row = rng.dirichlet(np.full(q, 0.3)) if trial % 3 else rng.normal(size=q) / q + 1.0 / q
+        row[rng.random(q) < 0.1] = 0.0
+        kidx, kvals = np.empty(q, dtype=np.int64), np.empty(q)
+        m, scale = ir._keep(row.copy(), q, 0.03, kvals, kidx)
+        surv, vals, idx = np.empty(q, dtype=np.int64), np.empty(q), np.empty(q, dtype=np.int64)
+        m0, scale0 = keep_row(row, 0.03, MIN_KEPT_SUM, 0.0, surv, vals, idx)
+        assert m == m0 and sorted(kidx[:m]) == sorted(idx[:m0])
+        assert scale == pytest.approx(scale0, rel=1e-12)
