@@ -74,11 +74,15 @@ def seed_vertices(n: int, faces: np.ndarray) -> np.ndarray:
     >>> seed_vertices(5, np.array([[0, 1, 2], [1, 3, 2], [3, 4, 2]])).tolist()
     [True, False, False, True, False]
     """
-    f = np.ascontiguousarray(faces, dtype=np.int64).reshape(-1, 3)
+    return _seeds(np.ascontiguousarray(faces, dtype=np.int64).reshape(-1, 3), n)[2]
+
+
+def _seeds(f: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(ptr, fid, seed): the vertex-to-face incidence of the (f, 3) int64 ``f`` and the seeds."""
     ptr, fid = incidence(f, n)
     seed = np.zeros(n, dtype=np.bool_)
     _greedy_seeds(ptr, fid, f, seed)
-    return seed
+    return ptr, fid, seed
 
 
 @njit(cache=True, inline="always")
@@ -203,14 +207,20 @@ def _store_sorted(q, scale, cols, kvals, kidx, out_indices, out_data, o):
         out_data[t] = kvals[k] * scale
 
 
+@njit(cache=True, inline="always")
+def _scratch(stencil, width):
+    """A block's work arrays for :func:`_row_of`: (near, weight) of a stencil's length and (cols,
+    vals, kvals, kidx) of a merged row's."""
+    return (np.empty(stencil, dtype=np.int64), np.empty(stencil), np.empty(width, dtype=np.int64),
+            np.empty(width), np.empty(width), np.empty(width, dtype=np.int64))
+
+
 @twins()
 def _first_rows(ptr, fid, faces, seed, slot, points, indptr, indices, data, truncation, width, stencil, counts,
                 first_indices, first_data):  # pragma: no cover - compiled
     n = seed.shape[0]
     for b in prange((n + _BLOCK - 1) // _BLOCK):
-        near, weight = np.empty(stencil, dtype=np.int64), np.empty(stencil)
-        cols, vals = np.empty(width, dtype=np.int64), np.empty(width)
-        kvals, kidx = np.empty(width), np.empty(width, dtype=np.int64)
+        near, weight, cols, vals, kvals, kidx = _scratch(stencil, width)
         for v in range(b * _BLOCK, min(n, (b + 1) * _BLOCK)):
             q, scale = _row_of(v, ptr, fid, faces, seed, slot, points, indptr, indices, data, truncation, near,
                                weight, cols, vals, kvals, kidx)
@@ -224,9 +234,7 @@ def _fill_rows(ptr, fid, faces, seed, slot, points, indptr, indices, data, trunc
                first_indices, first_data, out_ptr, out_indices, out_data):  # pragma: no cover - compiled
     n = seed.shape[0]
     for b in prange((n + _BLOCK - 1) // _BLOCK):
-        near, weight = np.empty(stencil, dtype=np.int64), np.empty(stencil)
-        cols, vals = np.empty(width, dtype=np.int64), np.empty(width)
-        kvals, kidx = np.empty(width), np.empty(width, dtype=np.int64)
+        near, weight, cols, vals, kvals, kidx = _scratch(stencil, width)
         for v in range(b * _BLOCK, min(n, (b + 1) * _BLOCK)):
             o = out_ptr[v]
             if counts[v] <= first_indices.shape[1]:
@@ -280,9 +288,7 @@ def interpolated_binding(points: np.ndarray, faces: np.ndarray, bind_rows: Calla
     P = np.ascontiguousarray(points, dtype=np.float64)
     n = len(P)
     f = np.ascontiguousarray(faces, dtype=np.int64).reshape(-1, 3)
-    ptr, fid = incidence(f, n)
-    seed = np.zeros(n, dtype=np.bool_)
-    _greedy_seeds(ptr, fid, f, seed)
+    ptr, fid, seed = _seeds(f, n)
     seeds = np.flatnonzero(seed)
     bound = sp.csr_matrix(bind_rows(seeds))
     slot = np.full(n, -1, dtype=np.int64)
