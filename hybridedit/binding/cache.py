@@ -33,7 +33,7 @@ from ..core.fingerprint import shape_bytes
 from ..core.mesh import Mesh
 
 #: Bump when the cage or binding algorithms change: old files stop matching.
-FORMAT = "hybridedit-binding-10"
+FORMAT = "hybridedit-binding-11"
 
 #: the arrays of an entry, in the order the checksum reads them
 PAYLOAD = ("cage_vertices", "cage_faces", "shape", "data", "indices", "indptr", "notes", "links")

@@ -2,7 +2,7 @@
 
 fast-simplification's quadric edge collapses cost about 2 us a face on one core (the 11M
 armadillo's halves: 27-36 s on two cores), whatever the target. Most of those collapses take the
-surface from millions of faces to a few times the cage's, where a collapse decides little. Vertex
+surface from millions of faces to near the cage's size, where a collapse decides little. Vertex
 clustering (Lindstrom, "Out-of-core simplification of large polygonal models", SIGGRAPH 2000) does
 that part in a few passes over the faces: the vertices are grouped by the cell of a uniform grid
 they fall in, each group becomes one vertex at the point its faces' plane quadrics put it, and a
@@ -28,14 +28,36 @@ from numba import njit, prange
 from ..core.bounds import points_box
 from ..core.face_geometry import face_vector
 
-__all__ = ["CLUSTER_FACTOR", "CLUSTER_MIN_FACES", "cluster_surface", "clusters_first", "simplified_sizes"]
+__all__ = ["CLUSTER_FACTOR", "CLUSTER_FLOOR", "CLUSTER_MIN_FACES", "FLOOR_FACTOR", "cluster_surface",
+           "clustered_size", "clusters_first", "simplified_sizes"]
 
 #: surfaces of at least this many faces are clustered first (the 2.77M armadillo's 5.5M faces
 #: simplify in 6-8 s on two cores; the 690K's 1.4M in under 2 s, where the grid's passes gain little)
 CLUSTER_MIN_FACES = 2_000_000
-#: the clustered surface has about this many times the cage's vertices (quadric collapses then
-#: choose the cage's last 80%: its edit's edge error stays within 3% of quadric collapses alone)
-CLUSTER_FACTOR = 5.0
+#: the clustered surface has about this many times the cage's vertices (:func:`clustered_size`):
+#: quadric collapses then choose the cage's last third (from 5x, the 11M armadillo's cage took 24 s
+#: instead of 15, its edits' edge error the same to 2%)
+CLUSTER_FACTOR = 1.5
+#: ... but at least this many vertices, or :data:`FLOOR_FACTOR` times the cage's when that is fewer: a
+#: coarser grid loses a small part's features (the 43K many-part scan's pieces clustered to 1.5x their
+#: cages edit 7.5% worse than without the pass, to 5x as well)
+CLUSTER_FLOOR = 50_000
+FLOOR_FACTOR = 5
+
+
+def clustered_size(target_vertices: int) -> int:
+    """The vertices a surface whose cage has ``target_vertices`` is clustered to (:data:`CLUSTER_FACTOR`
+    times them, not below :data:`CLUSTER_FLOOR` or :data:`FLOOR_FACTOR` times them when that is fewer).
+
+    Examples
+    --------
+    >>> clustered_size(138_371), clustered_size(20_000), clustered_size(2_000)  # 2.77M at 5%, ...
+    (207556, 50000, 10000)
+    """
+    t = int(target_vertices)
+    return max(int(CLUSTER_FACTOR * t), min(FLOOR_FACTOR * t, CLUSTER_FLOOR))
+
+
 #: average grid cells a plane through the grid crosses per cell face of area (|nx| + |ny| + |nz|
 #: averaged over directions): the grid's spacing for a wanted number of occupied cells
 _CELLS_PER_AREA = 1.5
@@ -50,7 +72,7 @@ def clusters_first(n_faces: int, target_vertices: int) -> bool:
     >>> clusters_first(5_534_848, 138_371), clusters_first(1_383_712, 34_592)  # 2.77M, 690K armadillo
     (True, False)
     """
-    return n_faces >= CLUSTER_MIN_FACES and CLUSTER_FACTOR * target_vertices * 4 <= n_faces
+    return n_faces >= CLUSTER_MIN_FACES and clustered_size(target_vertices) * 4 <= n_faces
 
 
 def simplified_sizes(n_vertices: int, n_faces: int, target_vertices: int) -> tuple[int, int]:
@@ -61,11 +83,11 @@ def simplified_sizes(n_vertices: int, n_faces: int, target_vertices: int) -> tup
     Examples
     --------
     >>> simplified_sizes(2_767_426, 5_534_848, 138_371), simplified_sizes(691_858, 1_383_712, 34_592)
-    ((691855, 1383709), (691858, 1383712))
+    ((207556, 415112), (691858, 1383712))
     """
     if not clusters_first(n_faces, target_vertices):
         return int(n_vertices), int(n_faces)
-    k = int(CLUSTER_FACTOR * target_vertices)
+    k = clustered_size(target_vertices)
     return k, int(round(k * n_faces / max(n_vertices, 1)))
 
 

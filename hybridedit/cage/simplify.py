@@ -15,7 +15,7 @@ import numpy as np
 
 from ..core.mesh import Mesh
 from .clean import clean_surface
-from .cluster import CLUSTER_FACTOR, cluster_surface, clusters_first
+from .cluster import cluster_surface, clustered_size, clusters_first
 from .qem import HalfWorker, presimplify
 from .qem_worker import AGGRESSIVENESS
 from ..core.bounds import points_box
@@ -63,8 +63,8 @@ def simplify(src: Mesh, target: int, *, progress: Callable[[float], None] | None
     else:
         unit = (src.vertices - center) / scale
     faces = src.faces
-    if clusters_first(src.n_faces, target):  # the first 80% of a big surface's simplification in linear time
-        unit, faces = cluster_surface(unit, faces, int(CLUSTER_FACTOR * target))
+    if clusters_first(src.n_faces, target):  # most of a big surface's simplification in linear time
+        unit, faces = cluster_surface(unit, faces, clustered_size(target))
     # a big surface is first brought near the target on two cores (see hybridedit.cage.qem)
     base_v, base_f = presimplify(unit, faces, want_faces, worker=worker)
     if progress is not None and len(base_f) < src.n_faces:

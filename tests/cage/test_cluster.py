@@ -9,7 +9,7 @@ import trimesh
 
 import hybridedit as he
 from hybridedit.cage import cluster
-from hybridedit.cage.cluster import cluster_surface, clusters_first
+from hybridedit.cage.cluster import cluster_surface, clustered_size, clusters_first
 from hybridedit.binding.truncation import MAX_ROW
 from hybridedit.core.face_geometry import signed_volume
 from hybridedit.core.topology import check_closed
@@ -54,6 +54,16 @@ def test_only_big_surfaces_far_above_their_cage_are_clustered_first():
     assert clusters_first(cluster.CLUSTER_MIN_FACES, 1000)
     assert not clusters_first(cluster.CLUSTER_MIN_FACES - 1, 1000)
     assert not clusters_first(cluster.CLUSTER_MIN_FACES, cluster.CLUSTER_MIN_FACES // 4)
+
+
+def test_a_big_cage_is_clustered_to_near_its_size_a_small_one_to_a_finer_grid():
+    for t in (10, 2_000, 9_999, 10_000, 20_000, 33_333, 34_000, 138_371, 553_385):
+        k = clustered_size(t)
+        assert k >= cluster.CLUSTER_FACTOR * t - 1  # never coarser than the factor says
+        assert k >= min(cluster.FLOOR_FACTOR * t, cluster.CLUSTER_FLOOR)  # nor than the floor
+        assert k <= max(cluster.CLUSTER_FACTOR * t, cluster.FLOOR_FACTOR * t)
+    assert clustered_size(2_000) == cluster.FLOOR_FACTOR * 2_000  # a small part's cage: 5x
+    assert clustered_size(138_371) == int(cluster.CLUSTER_FACTOR * 138_371)  # the 2.77M armadillo's: 1.5x
 
 
 @pytest.mark.slow
