@@ -105,9 +105,11 @@ def cage_parts(
     size = check_cage_size(size)
     # a big shape is simplified in halves on two cores: the helper process starts now,
     # to be ready when the repair pass is done (see hybridedit.cage.qem), its buffers grown to the
-    # surface quadric collapses will start from (the clustered surface of a big shape)
-    n_v, n_f = simplified_sizes(mesh.n_vertices, mesh.n_faces, _wanted(size, mesh.n_vertices))
-    worker = start_worker(n_f, n_v)
+    # surface quadric collapses will start from (the clustered surface of a big shape; none when
+    # that is too near the cage's size to be split)
+    wanted = _wanted(size, mesh.n_vertices)
+    n_v, n_f = simplified_sizes(mesh.n_vertices, mesh.n_faces, wanted)
+    worker = start_worker(n_f, n_v, target_faces=int(round(wanted * mesh.n_faces / max(mesh.n_vertices, 1))))
     try:
         return _cage_parts(mesh, size, said, say, worker)
     finally:

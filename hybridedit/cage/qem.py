@@ -36,7 +36,8 @@ from ..core.bounds import points_box
 from ..core.parallel import pick
 from ..core.twins import twins
 
-__all__ = ["SPLIT_MIN_FACES", "MARGIN", "HalfWorker", "helper_python", "presimplify", "start_worker", "splits"]
+__all__ = ["SPLIT_MIN_FACES", "MARGIN", "HalfWorker", "helper_python", "presimplify", "start_worker", "splits",
+           "will_split"]
 
 #: surfaces of at least this many faces are simplified in two halves at once
 #: (the 173K armadillo's 346K faces: 0.6 s on one core)
@@ -206,21 +207,36 @@ class HalfWorker:
         proc.wait()
 
 
-def start_worker(n_faces: int, n_vertices: int | None = None) -> HalfWorker | None:
+def start_worker(n_faces: int, n_vertices: int | None = None, *, target_faces: int | None = None
+                 ) -> HalfWorker | None:
     """A worker started now for a surface of ``n_faces`` faces (and ``n_vertices`` vertices)
-    that :func:`presimplify` will split, else None. Give it to :func:`presimplify`;
-    :meth:`HalfWorker.close` it afterwards.
+    that :func:`presimplify` will split (simplified to ``target_faces``, when given:
+    :func:`will_split`), else None. Give it to :func:`presimplify`; :meth:`HalfWorker.close` it
+    afterwards.
 
     With ``n_vertices``, the worker grows its buffers to its share of the surface
     (:data:`WORKER_SHARE`, a little more: the cut's vertices are in both halves) while the
     caller is busy.
     """
-    if not splits(n_faces):
+    if not (splits(n_faces) if target_faces is None else will_split(n_faces, target_faces)):
         return None
     if n_vertices is None:
         return HalfWorker()
     room = 1.02
     return HalfWorker(expect=(int(room * WORKER_SHARE * n_vertices) + 64, int(room * WORKER_SHARE * n_faces) + 64))
+
+
+def will_split(n_faces: int, target_faces: int, *, min_faces: int | None = None) -> bool:
+    """Whether :func:`presimplify` splits a surface of ``n_faces`` faces simplified to
+    ``target_faces``: one it :func:`splits`, whose target is well below its size (the halves
+    keep :data:`MARGIN` times it, at most half the surface).
+
+    Examples
+    --------
+    >>> will_split(1_383_712, 69_184), will_split(415_112, 276_742)  # the 690K armadillo; 2.77M's clusters
+    (True, False)
+    """
+    return splits(n_faces, min_faces=min_faces) and MARGIN * target_faces <= 0.5 * n_faces
 
 
 def presimplify(vertices: np.ndarray, faces: np.ndarray, target_faces: int, *,
@@ -260,7 +276,7 @@ def presimplify(vertices: np.ndarray, faces: np.ndarray, target_faces: int, *,
     v = np.ascontiguousarray(vertices, dtype=np.float64)
     f = np.ascontiguousarray(faces).reshape(-1, 3)
     m = len(f)
-    if not splits(m, min_faces=min_faces) or MARGIN * target_faces > 0.5 * m:
+    if not will_split(m, target_faces, min_faces=min_faces):
         return v, f.astype(np.int32, copy=False)
     lo, hi = points_box(v)
     axis = int(np.argmax(hi - lo))

@@ -95,6 +95,14 @@ def test_an_unused_worker_closes_at_once():
     assert qem.start_worker(10) is None  # too small to split: no worker
 
 
+def test_no_worker_for_a_surface_too_near_its_target_to_split(monkeypatch):
+    monkeypatch.setattr(qem, "_cores", lambda: 2)
+    m = 2 * qem.SPLIT_MIN_FACES
+    near = int(0.5 * m / qem.MARGIN) + 1  # the halves would keep more than half the surface
+    assert qem.will_split(m, near - 2) and not qem.will_split(m, near)
+    assert qem.start_worker(m, target_faces=near) is None
+
+
 def test_a_cage_built_from_halves_is_closed_and_of_the_asked_size(big_blob, monkeypatch):
     monkeypatch.setattr(qem, "SPLIT_MIN_FACES", 0)
     c = build_cage(big_blob, 0.05)
