@@ -196,7 +196,8 @@ class StageClock:
 
     def cold_stages(self) -> dict[str, float]:
         """The cold build by stage, from the progress reports of the cage build (repair done at
-        REPAIR_SHARE, the two-core QEM halves at HALVES_SHARE of a one-part shape) and the binding."""
+        REPAIR_SHARE, the first simplification at HALVES_SHARE of a one-part shape: a big shape's
+        clusters, a smaller one's two-core QEM halves) and the binding."""
         from hybridedit.cage.parts import REPAIR_SHARE
         from hybridedit.cage.simplify import HALVES_SHARE
 
@@ -210,7 +211,7 @@ class StageClock:
         if rep is not None and rep < c1:
             out["cage: repair pass"] = rep - c0
             if halves is not None and halves < c1:
-                out["cage: QEM halves on two cores"] = halves - rep
+                out["cage: clusters or QEM halves"] = halves - rep
                 out["cage: final QEM, clean-up, closing"] = c1 - halves
             else:
                 out["cage: QEM, clean-up, closing"] = c1 - rep
