@@ -109,7 +109,7 @@ def cage_parts(
     # that is too near the cage's size to be split)
     wanted = _wanted(size, mesh.n_vertices)
     n_v, n_f = simplified_sizes(mesh.n_vertices, mesh.n_faces, wanted)
-    worker = start_worker(n_f, n_v, target_faces=int(round(wanted * mesh.n_faces / max(mesh.n_vertices, 1))))
+    worker = start_worker(n_f, int(round(wanted * mesh.n_faces / max(mesh.n_vertices, 1))), n_v)
     try:
         return _cage_parts(mesh, size, said, say, worker)
     finally:
