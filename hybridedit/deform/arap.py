@@ -11,7 +11,7 @@ from numba import njit, prange
 from ..core.linsolve import SPDSolver
 from ..core.parallel import pick
 from ..core.edge_weights import WEIGHTS, edge_weights  # noqa: F401  (in core: the rig's cage weights need them)
-from ..core.graph_laplacian import laplacian  # noqa: F401  (the shape set-up builds its Laplacian with it too)
+from ..core.graph_laplacian import laplacian  # noqa: F401  (a Laplacian of these edges and weights)
 from ..core.twins import twins
 from ..core.rotations import LANES, rotations_in_place
 from ..core.row_copy import put_rows, take_rows

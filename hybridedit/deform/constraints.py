@@ -28,6 +28,7 @@ import numpy as np
 import scipy.sparse as sp
 from numba import njit, prange
 
+from ..core.cotangent_laplacian import ShapeLaplacian, laplacian_rows
 from ..core.index_sets import union_in_range, unique_in_range
 from ..core.linsolve import SPDSolver
 from ..core.parallel import pick
@@ -36,22 +37,29 @@ from ..core.proximity import rows_near
 from ..core.row_copy import put_rows
 
 
-def _bounded(L: sp.csr_matrix, free: np.ndarray) -> np.ndarray:
-    """The vertices of ``free`` in parts of the free region that touch a vertex
-    outside it (a part that touches none, e.g. a loose part carried by its host,
-    has no boundary to be solved from and is left out)."""
-    free = np.asarray(free, dtype=np.int64)
+def _bounded(rows: sp.csr_matrix, free: np.ndarray) -> np.ndarray:
+    """Which vertices of ``free`` (f,) lie in parts of the free region that touch a vertex outside
+    it, (f,) bool, from their rows ``rows`` (f, n) of the Laplacian (a part that touches none, e.g.
+    a loose part carried by its host, has no boundary to be solved from and is left out)."""
     if free.size == 0:
-        return free
-    rows = L[free]
+        return np.zeros(0, dtype=bool)
     K = rows[:, free]
     n_parts, part = sp.csgraph.connected_components(K, directed=False)
-    inside = np.zeros(L.shape[0], dtype=bool)
-    inside[free] = True
     out_deg = np.diff(rows.indptr) - np.diff(K.tocsr().indptr)
     touches = np.zeros(n_parts, dtype=bool)
     touches[part[out_deg > 0]] = True
-    return free[touches[part]]
+    return touches[part]
+
+
+def _bounded_rows(laplacian, free: np.ndarray) -> tuple[np.ndarray, sp.csr_matrix, np.ndarray]:
+    """(kept, rows, at): the vertices of ``free`` that :func:`_bounded` keeps, their rows of
+    ``laplacian`` (a :class:`~hybridedit.core.cotangent_laplacian.ShapeLaplacian` makes only
+    these) and their positions in ``free``."""
+    rows = laplacian_rows(laplacian, free)
+    keep = _bounded(rows, free)
+    if keep.all():
+        return free, rows, np.arange(free.size)
+    return free[keep], rows[keep], np.flatnonzero(keep)
 
 
 class SeamSpread:
@@ -59,7 +67,9 @@ class SeamSpread:
 
     Parameters
     ----------
-    laplacian : (n, n) sparse shape Laplacian (positive weights).
+    laplacian : (n, n) shape Laplacian (positive weights): a sparse matrix, or a
+        :class:`~hybridedit.core.cotangent_laplacian.ShapeLaplacian` (only the rows of ``free``
+        are made).
     free : (f,) int64 free shape vertices that move (the unknowns).
     seam : (s,) int64 constrained shape vertices whose correction can be nonzero.
 
@@ -74,17 +84,14 @@ class SeamSpread:
     [[1.0, 0.0, 0.0]]
     """
 
-    def __init__(self, laplacian: sp.spmatrix, free: np.ndarray, seam: np.ndarray) -> None:
+    def __init__(self, laplacian: "sp.spmatrix | ShapeLaplacian", free: np.ndarray, seam: np.ndarray) -> None:
         self.free = np.asarray(free, dtype=np.int64)
         self.seam = np.asarray(seam, dtype=np.int64)
         self._solver = None
         self._rows = np.zeros(0, dtype=np.int64)
         if self.free.size and self.seam.size:
-            L = sp.csr_matrix(laplacian)
-            solved = _bounded(L, self.free)  # a part with no boundary gets no correction
-            self._rows = np.searchsorted(self.free, solved) if np.all(np.diff(self.free) > 0) \
-                else np.flatnonzero(np.isin(self.free, solved))
-            rows = L[solved]
+            # a part with no boundary gets no correction
+            solved, rows, self._rows = _bounded_rows(laplacian, self.free)
             self._solver = SPDSolver(rows[:, solved].tocsc(), simplicial=True)
             self._coupling = rows[:, self.seam].tocsr()
 
@@ -255,24 +262,25 @@ class RegionStep:
     Parameters
     ----------
     rest : (n, 3) float64 rest positions of the shape.
-    laplacian : (n, n) sparse shape Laplacian (positive weights).
+    laplacian : (n, n) shape Laplacian (positive weights): a sparse matrix, or a
+        :class:`~hybridedit.core.cotangent_laplacian.ShapeLaplacian` (only the rows of ``free``
+        are made).
     free : (f,) int64 free moving shape vertices (the unknowns).
     idx, w : (n, k) the cage vertices and blend weights of each shape vertex's
         rotation (:func:`hybridedit.deform.residual.residual_setup`).
     """
 
-    def __init__(self, rest: np.ndarray, laplacian: sp.spmatrix, free: np.ndarray, idx: np.ndarray,
-                 w: np.ndarray) -> None:
+    def __init__(self, rest: np.ndarray, laplacian: "sp.spmatrix | ShapeLaplacian", free: np.ndarray,
+                 idx: np.ndarray, w: np.ndarray) -> None:
         self.free = np.asarray(free, dtype=np.int64)
         self._solver = None
         if self.free.size == 0:
             return
-        L = sp.csr_matrix(laplacian)
-        n = L.shape[0]
-        self.free = _bounded(L, self.free)  # a part with no boundary keeps its propagated pose
+        n = laplacian.shape[0]
+        # a part with no boundary keeps its propagated pose
+        self.free, rows, _ = _bounded_rows(laplacian, self.free)
         if self.free.size == 0:
             return
-        rows = L[self.free]
         inside = np.zeros(n, dtype=bool)
         inside[self.free] = True
         around = unique_in_range(rows.indices, n)

@@ -160,8 +160,8 @@ class HybridEditor(RoleQueries, StateSnapshots, RecordedEdits, EditorFiles, Limb
         self._scale = max(mesh.bbox_diagonal(), float(np.linalg.norm(np.ptp(cage.vertices, axis=0))))
         #: how shape and cage vertices stand for each other in a selection
         self._maps = CageMap(nearest=setup.nearest, dominant=setup.dominant)
-        # the shape's cotangent Laplacian, for the free region's solve: ready here (in the
-        # window, in the build thread) rather than at the first drag
+        # the shape's cotangent Laplacian, for the free region's solve: each selection makes its
+        # region's rows when it is made, rather than the open the whole matrix
         self._laplacian = setup.laplacian
         ce = self.arap.edges
         self._cage_edge = float(np.mean(np.linalg.norm(cage.vertices[ce[:, 0]] - cage.vertices[ce[:, 1]], axis=1))) \

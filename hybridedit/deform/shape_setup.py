@@ -1,10 +1,12 @@
 """What an editor derives from a rig once, made or read from the on-disk cache.
 
 An editor needs, besides its cage and binding, what depends only on the shape, its cage and its
-binding: the shape's cotangent Laplacian (the region step's matrix), the residual and the
-rotation blend of the residual propagation (the top k coordinates of each row), the cage vertex
-each shape vertex depends on most and the shape vertex nearest each cage vertex (a KD-tree over
-the shape). Rebuilt at every open, they would be most of a cached open at 2.77M vertices.
+binding: the residual and the rotation blend of the residual propagation (the top k coordinates
+of each row), the cage vertex each shape vertex depends on most and the shape vertex nearest each
+cage vertex (a KD-tree over the shape). Rebuilt at every open, they would be most of a cached open
+at 2.77M vertices. The shape's cotangent Laplacian (the region step's matrix) is not made here: a
+:class:`~hybridedit.core.cotangent_laplacian.ShapeLaplacian` makes the rows a selection solves
+for when it is made.
 :func:`shape_setup` makes them once and keeps them beside the rig's cache entry
 (:func:`hybridedit.binding.cache.store_arrays`, checksummed like the entry); the next open reads
 them.
@@ -19,21 +21,23 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from ..binding import cache as bindcache
 from ..binding.bind import dominant_cage_vertex
 from ..binding.rig import Rig
-from .arap import edge_weights, laplacian
+from ..core.cotangent_laplacian import ShapeLaplacian
 from .residual import DEFAULT_K, residual_setup
 
 __all__ = ["ShapeSetup", "shape_setup", "make_shape_setup", "nearest_vertices", "wait_for_stores", "KIND"]
 
 #: the cache companion's name: bump the number when any of these arrays is made another way
-KIND = "setup1"
+KIND = "setup2"
+#: companions of earlier versions, deleted when this one is written (setup1 held the Laplacian too:
+#: 420 MB at 11M vertices)
+_OLD_KINDS = ("setup1",)
 
-_NAMES = ("blend_idx", "blend_w", "dominant", "lap_data", "lap_indices", "lap_indptr", "nearest", "residual")
+_NAMES = ("blend_idx", "blend_w", "dominant", "nearest", "residual")
 
 
 @dataclass(frozen=True)
@@ -47,7 +51,7 @@ class ShapeSetup:
         (:func:`hybridedit.deform.residual.residual_setup`).
     dominant : (n,) int64, the cage vertex each shape vertex depends on most.
     nearest : (c,) int64, the shape vertex nearest each cage vertex.
-    laplacian : (n, n) CSR float64, the shape's cotangent Laplacian.
+    laplacian : the shape's cotangent Laplacian, its rows made when a selection asks for them.
     from_cache : bool, read from the cache rather than made.
     """
 
@@ -56,15 +60,13 @@ class ShapeSetup:
     blend_w: np.ndarray
     dominant: np.ndarray
     nearest: np.ndarray
-    laplacian: sp.csr_matrix
+    laplacian: ShapeLaplacian
     from_cache: bool = False
 
     def arrays(self) -> dict[str, np.ndarray]:
         """The arrays as the cache stores them."""
-        L = self.laplacian
         return {"residual": self.residual, "blend_idx": self.blend_idx, "blend_w": self.blend_w,
-                "dominant": self.dominant, "nearest": self.nearest, "lap_data": L.data,
-                "lap_indices": L.indices, "lap_indptr": L.indptr}
+                "dominant": self.dominant, "nearest": self.nearest}
 
 
 def make_shape_setup(rig: Rig, *, k: int = DEFAULT_K) -> ShapeSetup:
@@ -83,20 +85,15 @@ def make_shape_setup(rig: Rig, *, k: int = DEFAULT_K) -> ShapeSetup:
 
     mesh, cage, M = rig.mesh, rig.cage, rig.M
 
-    def shape_laplacian():
-        e, wt = edge_weights(mesh.vertices, mesh.faces, "cotangent")
-        return laplacian(mesh.n_vertices, e, wt)
-
-    # the Laplacian on a second thread beside the binding's parts (its kernels are compiled nogil;
-    # scipy and the KD-tree let go of the GIL too): both cores busy through this stage of the
-    # build, as through the others
+    # the KD-tree on a second thread beside the binding's parts (scipy builds it without the GIL;
+    # the kernels are compiled nogil): both cores busy through this stage of the build
     with ThreadPoolExecutor(max_workers=1) as pool:
-        lap = pool.submit(shape_laplacian)
+        near = pool.submit(nearest_vertices, mesh.vertices, cage.vertices)
         d, idx, w = residual_setup(M, mesh.vertices, cage.vertices, k=k)
-        nearest = nearest_vertices(mesh.vertices, cage.vertices)
         dominant = dominant_cage_vertex(M)
-        L = lap.result()
-    return ShapeSetup(residual=d, blend_idx=idx, blend_w=w, dominant=dominant, nearest=nearest, laplacian=L)
+        nearest = near.result()
+    return ShapeSetup(residual=d, blend_idx=idx, blend_w=w, dominant=dominant, nearest=nearest,
+                      laplacian=ShapeLaplacian(mesh.vertices, mesh.faces))
 
 
 def nearest_vertices(points: np.ndarray, queries: np.ndarray) -> np.ndarray:
@@ -136,6 +133,8 @@ def shape_setup(rig: Rig) -> ShapeSetup:
             warnings.warn(f"hybridedit: the cached set-up of {key[:12]} not used ({e}); it is made again",
                           bindcache.CacheEntryDiscarded, stacklevel=2)
     setup = make_shape_setup(rig)
+    for old in _OLD_KINDS:
+        bindcache.discard_arrays(folder, key, old)
     _store_in_background(folder, key, setup.arrays())
     return setup
 
@@ -183,7 +182,7 @@ def _checked(a: dict[str, np.ndarray], rig: Rig) -> ShapeSetup:
     idx, w = a["blend_idx"], a["blend_w"]
     if a["residual"].shape != (n, 3) or idx.ndim != 2 or idx.shape[0] != n or w.shape != idx.shape:
         raise ValueError("sizes")
-    if a["dominant"].shape != (n,) or a["nearest"].shape != (c,) or a["lap_indptr"].shape != (n + 1,):
+    if a["dominant"].shape != (n,) or a["nearest"].shape != (c,):
         raise ValueError("sizes")
     for name, hi, kind in (("blend_idx", c, np.int32), ("dominant", c, np.int64), ("nearest", n, np.int64)):
         v = a[name]
@@ -195,12 +194,6 @@ def _checked(a: dict[str, np.ndarray], rig: Rig) -> ShapeSetup:
         raise ValueError(f"blend_w is {w.dtype}, this version keeps float32")
     if not (np.isfinite(a["residual"]).all() and np.isfinite(w).all() and (w.size == 0 or w.min() >= 0.0)):
         raise ValueError("non-finite or negative values")
-    from ..core.csr_checks import csr_check  # (numba: not at import)
-
-    fault, columns_sorted = csr_check(a["lap_indptr"], a["lap_indices"], a["lap_data"], n_columns=n)
-    if fault:
-        raise ValueError(f"Laplacian: {fault}")
-    L = sp.csr_matrix((a["lap_data"], a["lap_indices"], a["lap_indptr"]), shape=(n, n))
-    L.has_sorted_indices = columns_sorted
     return ShapeSetup(residual=a["residual"], blend_idx=idx, blend_w=w, dominant=a["dominant"],
-                      nearest=a["nearest"], laplacian=L, from_cache=True)
+                      nearest=a["nearest"], laplacian=ShapeLaplacian(rig.mesh.vertices, rig.mesh.faces),
+                      from_cache=True)

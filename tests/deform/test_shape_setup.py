@@ -35,7 +35,6 @@ def test_a_cached_open_makes_nothing_the_cache_holds(blob, tmp_path, monkeypatch
     # everything an open derives from the shape, the cage and the binding
     monkeypatch.setattr(S, "make_shape_setup", rebuilt)
     monkeypatch.setattr(S, "residual_setup", rebuilt)
-    monkeypatch.setattr(S, "edge_weights", rebuilt)
     monkeypatch.setattr(S, "cKDTree", rebuilt)
     monkeypatch.setattr(S, "dominant_cage_vertex", rebuilt)
     import hybridedit.binding.rig as rig_module
@@ -99,3 +98,25 @@ def test_discarding_an_entry_discards_its_setup(blob, tmp_path):
     bindcache.discard(tmp_path, rig.cache_key)
     assert not list(tmp_path.glob("*.npz"))
 
+
+
+def test_an_open_makes_no_laplacian_rows_and_a_selection_only_its_own(blob, monkeypatch):
+    from hybridedit.core.cotangent_laplacian import ShapeLaplacian
+
+    asked = []
+    rows = ShapeLaplacian.rows
+    monkeypatch.setattr(ShapeLaplacian, "rows", lambda self, index: asked.append(len(index)) or rows(self, index))
+    ed = he.HybridEditor(blob, 80)
+    assert asked == []  # (the region step's matrix is made by the selection that solves with it)
+    x = blob.vertices[:, 0]
+    ed.set_selection(np.flatnonzero(x > 1.4), roi=np.flatnonzero(x > 0.5))
+    assert asked and sum(asked) < blob.n_vertices
+
+
+def test_an_earlier_versions_setup_is_deleted_when_this_one_is_written(blob, tmp_path):
+    rig = he.build_rig(blob, cage_size=80, cache=tmp_path)
+    bindcache.store_arrays(tmp_path, rig.cache_key, "setup1", {"residual": np.zeros((1, 3))})
+    assert list(tmp_path.glob("*.setup1.npz"))
+    S.shape_setup(rig)
+    S.wait_for_stores()
+    assert not list(tmp_path.glob("*.setup1.npz")) and list(tmp_path.glob(f"*.{S.KIND}.npz"))
