@@ -272,7 +272,6 @@ def clocked_setup() -> tuple[PieceClock, PieceClock]:
         editor.wrap(mod, "dominant_cage_vertex", "dominant cage vertex per row")
         editor.wrap(mod, "edge_weights", "shape cotangent weights")
         editor.wrap(mod, "laplacian", "shape Laplacian assembly")
-        editor.wrap(mod, "cotangent_laplacian", "shape cotangent Laplacian (row by row)")
     if setup_mod is not None:
         editor.wrap(setup_mod, "_checked", "set-up companion checks")
         # shape_setup reads and writes its companion through the cache module
