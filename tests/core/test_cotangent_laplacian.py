@@ -37,7 +37,7 @@ def _wild(seed=7):
     f = np.concatenate([f, f[20:30], f[30:35, ::-1]])
     fan = np.stack([np.zeros(60, dtype=np.int64), np.arange(1, 61), np.arange(2, 62)], axis=1)
     v[5] = v[6]  # a face with two equal corners (cotangents at their bound)
-    return v, np.concatenate([f, fan])
+    return v, np.concatenate([f, fan, [[5, 6, 7]]])
 
 
 @pytest.mark.parametrize("parallel", [False, True])

@@ -99,7 +99,6 @@ def test_discarding_an_entry_discards_its_setup(blob, tmp_path):
     assert not list(tmp_path.glob("*.npz"))
 
 
-
 def test_an_open_makes_no_laplacian_rows_and_a_selection_only_its_own(blob, monkeypatch):
     from hybridedit.core.cotangent_laplacian import ShapeLaplacian
 
