@@ -21,6 +21,7 @@ from ..core.index_sets import difference_in_range, unique_sorted
 from ..core.parallel import pick
 from ..core.twins import twins
 from ..core.spatial_order import morton_order
+from ..core.topology import edges_by_first_use, vertices_by_first_use
 
 __all__ = ["CageData", "FACE_TILE", "FAST_BLOCK", "FastCageData", "FastPlan", "LANES", "fast_destinations",
            "plan_fast", "plan_groups", "prepare_cage", "prepare_fast_cage"]
@@ -95,6 +96,18 @@ class CageData:
         return int(self.edges.shape[0])
 
 
+@njit(cache=True, nogil=True)
+def _edge_points(v, edges):  # pragma: no cover - compiled
+    """(6, e): each edge's first end (rows 0-2) and its vector to the other (rows 3-5)."""
+    out = np.empty((6, edges.shape[0]))
+    for k in range(edges.shape[0]):
+        a, b = edges[k, 0], edges[k, 1]
+        for d in range(3):
+            out[d, k] = v[a, d]
+            out[3 + d, k] = v[b, d] - v[a, d]
+    return out
+
+
 def prepare_cage(cage_vertices: np.ndarray, cage_faces: np.ndarray) -> CageData:
     """Validate a cage and precompute the kernel's arrays (see :class:`CageData`)."""
     v = np.asarray(cage_vertices)
@@ -122,20 +135,11 @@ def prepare_cage(cage_vertices: np.ndarray, cage_faces: np.ndarray) -> CageData:
     nf = len(f)
 
     # Unique undirected edges, numbered by first use in face order.
-    a = f.ravel()
-    b = f[:, [1, 2, 0]].ravel()
-    key = np.minimum(a, b) * nv + np.maximum(a, b)
-    uniq, first, inv = np.unique(key, return_index=True, return_inverse=True)
-    rank = np.empty(len(uniq), dtype=np.int64)
-    rank[np.argsort(first, kind="stable")] = np.arange(len(uniq))
-    edges = np.empty((len(uniq), 2), dtype=np.int64)
-    edges[rank, 0] = uniq // nv
-    edges[rank, 1] = uniq % nv
-    face_edges = rank[inv.ravel()].reshape(nf, 3)
+    edges, face_edges, first = edges_by_first_use(f, nv)
     face_idx = np.ascontiguousarray(np.concatenate([f, face_edges], axis=1).astype(np.uint32))
     # Tiles of faces, and the range of edges each tile uses first.
     face_tiles = unique_sorted(np.append(np.arange(0, nf, FACE_TILE), nf)).astype(np.int64)
-    first_use_face = np.sort(first) // 3  # face of each edge's first use, by edge id
+    first_use_face = first // 3  # face of each edge's first use, by edge id
     edge_tiles = np.searchsorted(first_use_face, face_tiles, side="left").astype(np.int64)
 
     p0, p1, p2 = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
@@ -157,9 +161,7 @@ def prepare_cage(cage_vertices: np.ndarray, cage_faces: np.ndarray) -> CageData:
     planes[0:3, ok] = n.T
     planes[3, ok] = np.einsum("ij,ij->i", n, p0[ok])
     planes[4, ok] = area2[ok]
-    pa = v[edges[:, 0]]
-    pb = v[edges[:, 1]]
-    edge_points = np.ascontiguousarray(np.concatenate([pa.T, (pb - pa).T]))
+    edge_points = _edge_points(v, edges)
     scale = float(np.linalg.norm(v.max(axis=0) - v.min(axis=0)))
     return CageData(
         vertices=v,
@@ -254,12 +256,11 @@ def prepare_fast_cage(cage_vertices: np.ndarray, cage_faces: np.ndarray) -> Fast
     nf = len(f)
     c = ex.n_vertices
     # Internal vertex order: by first use in the kernel's face order.
-    used, first = np.unique(f.ravel(), return_index=True)
-    by_use = np.argsort(first, kind="stable")
-    perm = np.concatenate([used[by_use], difference_in_range(np.arange(c), used, c)]).astype(np.int64)
+    used, first = vertices_by_first_use(f, c)
+    perm = np.concatenate([used, difference_in_range(np.arange(c), used, c)]).astype(np.int64)
     inv_perm = np.empty(c, dtype=np.int64)
     inv_perm[perm] = np.arange(c)
-    first_face = np.sort(first) // 3
+    first_face = first // 3
     tile_verts = np.searchsorted(first_face, ex.face_tiles, side="left").astype(np.int64)
     verts_t = np.ascontiguousarray(ex.vertices[perm].T)
     far_idx = np.concatenate([inv_perm[f], ex.face_idx[:, 3:].astype(np.int64)], axis=1)

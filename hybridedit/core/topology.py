@@ -21,6 +21,8 @@ __all__ = [
     "degenerate_faces",
     "edge_balance",
     "edge_face_counts",
+    "edges_by_first_use",
+    "vertices_by_first_use",
     "edge_index",
     "group_rows",
     "incidence",
@@ -142,6 +144,97 @@ def _edge_index(f, n, far, half):  # pragma: no cover - compiled
                 edges[e, 1] = far[i]
             inverse[half[i]] = e
     return edges, inverse
+
+
+def edges_by_first_use(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The undirected edges of the faces numbered in the order the half-edges first use them.
+
+    What ``np.unique`` of the edge keys ``min(a, b) * n + max(a, b)`` with ``return_index`` and
+    ``return_inverse``, renumbered by first occurrence, gives, in linear time
+    (:func:`edge_index`, then one pass over the half-edges a->b, b->c, c->a face by face).
+
+    Parameters
+    ----------
+    faces : (m, 3) int array
+    n_vertices : int
+        All indices are below it.
+
+    Returns
+    -------
+    edges : (e, 2) int64, column 0 <= column 1, edge k the k-th to be used
+    face_edges : (m, 3) int64, the edge of each half-edge
+    first : (e,) int64, increasing: the half-edge (3 t + c) that first uses each edge
+
+    Examples
+    --------
+    >>> edges, face_edges, first = edges_by_first_use(np.array([[2, 1, 0], [1, 2, 3]]), 4)
+    >>> edges.tolist(), face_edges.tolist(), first.tolist()
+    ([[1, 2], [0, 1], [0, 2], [2, 3], [1, 3]], [[0, 1, 2], [0, 3, 4]], [0, 1, 2, 4, 5])
+    """
+    f = np.ascontiguousarray(np.asarray(faces, dtype=np.int64).reshape(-1, 3))
+    sorted_edges, inverse = edge_index(f, n_vertices)
+    return _by_first_use(sorted_edges, inverse, f.shape[0])
+
+
+@numba.njit(cache=True, nogil=True)
+def _by_first_use(sorted_edges, inverse, m):  # pragma: no cover - compiled
+    e = sorted_edges.shape[0]
+    rank = np.full(e, -1, dtype=np.int64)
+    first = np.empty(e, dtype=np.int64)
+    edges = np.empty((e, 2), dtype=np.int64)
+    face_edges = np.empty((m, 3), dtype=np.int64)
+    k = 0
+    for h in range(3 * m):
+        q = inverse[h]
+        if rank[q] < 0:
+            rank[q] = k
+            first[k] = h
+            edges[k, 0] = sorted_edges[q, 0]
+            edges[k, 1] = sorted_edges[q, 1]
+            k += 1
+        face_edges[h // 3, h % 3] = rank[q]
+    return edges, face_edges, first
+
+
+def vertices_by_first_use(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
+    """The vertices the faces use, in the order the corners first use them, in linear time: what
+    ``np.unique(faces.ravel(), return_index=True)`` gives, ordered by first occurrence.
+
+    Parameters
+    ----------
+    faces : (m, 3) int array
+    n_vertices : int
+        All indices are below it.
+
+    Returns
+    -------
+    used : (u,) int64, the used vertices by first use
+    first : (u,) int64, increasing: the corner (3 t + c) that first uses each
+
+    Examples
+    --------
+    >>> used, first = vertices_by_first_use(np.array([[2, 1, 0], [1, 2, 3]]), 5)
+    >>> used.tolist(), first.tolist()
+    ([2, 1, 0, 3], [0, 1, 2, 5])
+    """
+    f = np.ascontiguousarray(np.asarray(faces, dtype=np.int64).reshape(-1, 3))
+    return _vertices_by_first_use(f.ravel(), int(n_vertices))
+
+
+@numba.njit(cache=True, nogil=True)
+def _vertices_by_first_use(corners, n):  # pragma: no cover - compiled
+    seen = np.zeros(n, dtype=np.bool_)
+    used = np.empty(min(n, corners.shape[0]), dtype=np.int64)
+    first = np.empty(used.shape[0], dtype=np.int64)
+    k = 0
+    for h in range(corners.shape[0]):
+        v = corners[h]
+        if not seen[v]:
+            seen[v] = True
+            used[k] = v
+            first[k] = h
+            k += 1
+    return used[:k].copy(), first[:k].copy()
 
 
 def edge_face_counts(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:

@@ -143,6 +143,30 @@ def test_edge_index_is_what_sorting_the_edge_keys_gives(seed):
     assert np.array_equal(edges[inverse], np.sort(np.stack([f.ravel(), f[:, [1, 2, 0]].ravel()], 1), axis=1))
 
 
+@pytest.mark.parametrize("seed", range(0, 40, 3))
+def test_edges_and_vertices_by_first_use_are_np_uniques_by_first_occurrence(seed):
+    from hybridedit.core.topology import edges_by_first_use, vertices_by_first_use
+
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 50))
+    f = rng.integers(0, n, size=(int(rng.integers(1, 150)), 3))  # (self-loops, duplicates: as above)
+    a, b = f.ravel(), f[:, [1, 2, 0]].ravel()
+    code, first, inverse = np.unique(np.minimum(a, b) * n + np.maximum(a, b), return_index=True,
+                                     return_inverse=True)
+    rank = np.empty(len(code), dtype=np.int64)
+    rank[np.argsort(first, kind="stable")] = np.arange(len(code))
+    want = np.empty((len(code), 2), dtype=np.int64)
+    want[rank] = np.stack([code // n, code % n], axis=1)
+    edges, face_edges, first_use = edges_by_first_use(f, n)
+    assert np.array_equal(edges, want)
+    assert np.array_equal(face_edges, rank[inverse.ravel()].reshape(-1, 3))
+    assert np.array_equal(first_use, np.sort(first))
+    used, first = np.unique(f.ravel(), return_index=True)
+    by_use = np.argsort(first, kind="stable")
+    got_used, got_first = vertices_by_first_use(f, n + 2)
+    assert np.array_equal(got_used, used[by_use]) and np.array_equal(got_first, first[by_use])
+
+
 def test_edge_index_of_a_fan_and_of_nothing():
     k = 300  # the centre's bucket is longer than an insertion sort is for
     fan = np.stack([np.zeros(k, dtype=np.int64), np.arange(k, 0, -1), np.arange(k + 1, 1, -1)], axis=1)
