@@ -190,3 +190,38 @@ def test_incidence_is_a_stable_sort_of_the_rows_by_key():
     order = np.argsort(faces.ravel(), kind="stable")
     assert rows.dtype == np.int32 and np.array_equal(rows, np.repeat(np.arange(len(faces)), 3)[order])
     assert np.array_equal(ptr, np.r_[0, np.cumsum(np.bincount(faces.ravel(), minlength=n))])
+
+
+def _rim_by_definition(f, n):
+    """oriented_rim's rule from a set of directed edges."""
+    from collections import Counter
+
+    if len(f) == 0 or (f < 0).any() or (f == np.roll(f, -1, axis=1)).any():
+        return None
+    use = Counter((int(a), int(b)) for t in f for a, b in zip(t, np.roll(t, -1)))
+    if max(use.values()) > 1:
+        return None
+    rim = np.zeros(n, dtype=bool)
+    for a, b in use:
+        if (b, a) not in use:
+            rim[a] = True
+    return rim
+
+
+def test_the_oriented_rim_is_its_rule_on_open_flipped_and_broken_grids(twin):
+    from hybridedit.core.topology import oriented_rim
+
+    rng = np.random.default_rng(1)
+    k = 6  # a k x k grid of vertices, two triangles a cell
+    cells = [(i * k + j, i * k + j + 1, (i + 1) * k + j + 1, (i + 1) * k + j) for i in range(k - 1) for j in range(k - 1)]
+    grid = np.array([t for a, b, c, d in cells for t in ((a, b, c), (a, c, d))], dtype=np.int64)
+    cases = [grid, grid[rng.permutation(len(grid))[:30]], np.vstack([grid, grid[:1]]),
+             np.vstack([grid[1:], grid[:1, ::-1]]), np.vstack([grid, [[3, 3, 4]]]), np.vstack([grid, [[-1, 3, 4]]]),
+             grid[:0]]
+    for f in cases:
+        want = _rim_by_definition(f, k * k + 2)  # (two vertices no face uses)
+        got = oriented_rim(f, k * k + 2)
+        assert (got is None) == (want is None)
+        if want is not None:
+            assert np.array_equal(got, want)
+    assert oriented_rim(grid, k * k).sum() == 4 * (k - 1)  # the grid's border
