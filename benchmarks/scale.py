@@ -277,6 +277,7 @@ def clocked_setup() -> tuple[PieceClock, PieceClock]:
         # shape_setup reads and writes its companion through the cache module
         editor.wrap(bindcache, "load_arrays", "set-up companion read")
         editor.wrap(bindcache, "store_arrays", "set-up companion write (in the background)")
+    editor.wrap(rig_mod.Rig, "nearest_shape_vertices", "nearest shape vertex per cage vertex (k-d tree)")
     editor.wrap(editor_mod, "ARAPSolver", "cage ARAP solver")
     editor.wrap(editor_mod, "rest_base", "rest pose")
     return cache, editor

@@ -25,6 +25,7 @@ from ..cage.links import cage_links
 from ..core.cache_dir import default_cache_dir
 from ..core.edge_weights import edge_weights
 from ..core.mesh import Mesh
+from ..core.nearest_points import NearestPoints, nearest_points
 
 Progress = Callable[[str, float], None]
 """progress(stage, fraction): stage is a short message, fraction in [0, 1] of that
@@ -95,6 +96,15 @@ class Rig:
             cached = edge_weights(self.cage.vertices, self.cage.faces, "cotangent")
             object.__setattr__(self, "_cage_weights", cached)
         return cached
+
+    def nearest_shape_vertices(self) -> np.ndarray:
+        """(c,) int64: the shape vertex nearest each cage vertex. From the shape's k-d tree that a
+        cold build started beside the cage (:class:`~hybridedit.core.nearest_points.NearestPoints`,
+        asked once and let go), else from one made now."""
+        pending = self.__dict__.pop("_shape_tree", None)
+        if pending is not None:
+            return pending.query(self.cage.vertices)
+        return nearest_points(self.mesh.vertices, self.cage.vertices)
 
     @property
     def nnz_per_row(self) -> float:
@@ -186,11 +196,16 @@ def build_rig(
                 rig.timings["cage_seconds"] = time.perf_counter() - t0
                 return rig
     timings: dict[str, float] = {}
+    # the shape's k-d tree (an editor's set-up asks it for the vertex nearest each cage vertex) is
+    # built on a thread of its own while the cage is: in the cage build's one-core stretches
+    tree = NearestPoints(mesh.vertices) if binding is None else None
     c, M = cage_and_binding(mesh, cage_size, truncation=float(truncation), cage=cage, binding=binding,
                             notes=notes, timings=timings, progress=say)
     timings.setdefault("cage_seconds", 0.0)
     timings.setdefault("bind_seconds", time.perf_counter() - t0 - timings["cage_seconds"])
     rig = Rig(mesh, c, M, tuple(discarded + notes), timings, False, cage_size, float(truncation))
+    if tree is not None:
+        object.__setattr__(rig, "_shape_tree", tree)
     if folder is not None and key is not None and bindcache.store(folder, key, c, M, notes, rig.links) is not None:
         object.__setattr__(rig, "cache_dir", folder)
         object.__setattr__(rig, "cache_key", key)

@@ -79,3 +79,21 @@ def test_the_narrow_blend_weights_still_turn_the_residual_rigidly_and_keep_the_r
     t = np.array([0.5, -2.0, 1.0])
     moved = propagate_with_residual(M, cage @ R.T + t, np.tile(R, (40, 1, 1)), d, idx, w)
     assert np.abs(moved - (points @ R.T + t)).max() < 1e-13
+
+
+def test_the_blends_first_vertex_is_the_rows_dominant_one_ties_and_empty_rows_too():
+    """What the editor's set-up takes as each row's dominant cage vertex when the rows are sorted
+    without repeats (:func:`hybridedit.binding.bind.dominant_cage_vertex`'s rule)."""
+    from hybridedit.binding.bind import dominant_cage_vertex
+
+    for seed in range(3):
+        M = sp.random(400, 60, density=0.08, random_state=seed, format="csr")
+        M.data -= 0.5  # negative coordinates too
+        ties = sp.csr_matrix(([0.3, -0.3, 0.3], ([0, 0, 0], [9, 4, 50])), (1, 60))
+        M = sp.vstack([M, sp.csr_matrix((1, 60)), ties, sp.csr_matrix(([1.0], ([0], [59])), (1, 60))]).tocsr()
+        M.sort_indices()
+        assert M.has_canonical_format
+        for k in (1, 4):
+            _, idx, _ = residual_setup(M, np.zeros((M.shape[0], 3)), np.zeros((60, 3)), k=k)
+            assert np.array_equal(idx[:, 0], dominant_cage_vertex(M))
+        assert idx[-2, 0] == 4 and idx[-3, 0] == 0  # the lowest column of equal magnitudes; an empty row's 0

@@ -35,10 +35,11 @@ def test_a_cached_open_makes_nothing_the_cache_holds(blob, tmp_path, monkeypatch
     # everything an open derives from the shape, the cage and the binding
     monkeypatch.setattr(S, "make_shape_setup", rebuilt)
     monkeypatch.setattr(S, "residual_setup", rebuilt)
-    monkeypatch.setattr(S, "cKDTree", rebuilt)
     monkeypatch.setattr(S, "dominant_cage_vertex", rebuilt)
     import hybridedit.binding.rig as rig_module
 
+    monkeypatch.setattr(rig_module, "NearestPoints", rebuilt)
+    monkeypatch.setattr(rig_module, "nearest_points", rebuilt)
     monkeypatch.setattr(rig_module, "cage_and_binding", rebuilt)
     again = he.HybridEditor(blob, 80, cache=tmp_path)
     assert again.cache_hit and again.setup_cached
@@ -119,3 +120,54 @@ def test_an_earlier_versions_setup_is_deleted_when_this_one_is_written(blob, tmp
     S.shape_setup(rig)
     S.wait_for_stores()
     assert not list(tmp_path.glob("*.setup1.npz")) and list(tmp_path.glob(f"*.{S.KIND}.npz"))
+
+
+def _nearest_by_brute_force(points, queries):
+    d = ((queries[:, None, :] - points[None, :, :]) ** 2).sum(axis=2)
+    return np.argmin(d, axis=1)
+
+
+def test_a_cold_builds_tree_serves_the_setup_once_then_a_tree_is_made(blob, monkeypatch):
+    """The shape's k-d tree a cold build started beside the cage gives the set-up its nearest
+    vertices (no second tree); asked again, the rig makes one of its own."""
+    import hybridedit.binding.rig as rig_module
+
+    rig = he.build_rig(blob, cage_size=80)
+    made = []
+    real = rig_module.nearest_points
+    monkeypatch.setattr(rig_module, "nearest_points", lambda *a: made.append(1) or real(*a))
+    setup = S.make_shape_setup(rig)
+    want = _nearest_by_brute_force(blob.vertices, rig.cage.vertices)
+    assert np.array_equal(setup.nearest, want) and setup.nearest.dtype == np.int64 and not made
+    again = S.make_shape_setup(rig)
+    assert made == [1] and _equal(setup, again)
+
+
+def test_a_rig_given_its_cage_and_binding_makes_its_tree_at_the_setup(blob):
+    rig = he.build_rig(blob, cage_size=80)
+    given = he.build_rig(blob, cage=rig.cage, binding=rig.M)
+    assert "_shape_tree" not in given.__dict__
+    assert np.array_equal(S.make_shape_setup(given).nearest, _nearest_by_brute_force(blob.vertices, rig.cage.vertices))
+
+
+def test_a_binding_with_repeated_entries_still_gets_its_dominant_vertices(blob):
+    """The top-k's first vertex stands for the dominant one only on rows without repeats; a
+    binding given with an entry split in three is summed first, as the rule says."""
+    import scipy.sparse as sp
+
+    from hybridedit.binding.bind import dominant_cage_vertex
+
+    rig = he.build_rig(blob, cage_size=80)
+    M = rig.M
+    a, b = M.indptr[0], M.indptr[1]
+    vals = M.data[a:b]
+    s = int(np.argmin(np.abs(vals)))  # row 0's smallest entry gets two more copies of 0.99 x its largest
+    extra = np.full(2, 0.99 * np.abs(vals).max())
+    data = np.concatenate([M.data[:a + s + 1], extra, M.data[a + s + 1:]])
+    indices = np.concatenate([M.indices[:a + s + 1], [M.indices[a + s]] * 2, M.indices[a + s + 1:]])
+    indptr = M.indptr + np.where(np.arange(len(M.indptr)) >= 1, 2, 0)
+    split = sp.csr_matrix((data, indices, indptr), shape=M.shape)
+    assert not split.has_canonical_format
+    assert dominant_cage_vertex(split)[0] == M.indices[a + s] != dominant_cage_vertex(M)[0]
+    given = he.build_rig(blob, cage=rig.cage, binding=split)
+    assert np.array_equal(S.make_shape_setup(given).dominant, dominant_cage_vertex(split))
