@@ -231,7 +231,8 @@ def engine_rare_paths(shape) -> None:
     """Compile the engine's paths that a small shape's edit does not take and a big shape's may:
     binding rows wider than the fast kernel's row buffer, points on the cage's faces, rows cut to
     their largest, rows interpolated from seeds' (a shape of millions of vertices), a big surface
-    clustered and simplified in halves, a big region's band, rotations in lanes.
+    clustered and simplified in halves, a big region's band, rotations in lanes, the dominant cage
+    vertices of a binding given with repeated entries.
 
     What :func:`run` compiles beyond its edit sessions, file formats apart; the Blender
     extension's background compile calls it too (its engine has no file formats).
@@ -262,6 +263,9 @@ def engine_rare_paths(shape) -> None:
     wide.has_sorted_indices = True
     octahedron = np.vstack([np.eye(3), -np.eye(3)])
     cap_rows(wide, np.zeros((2, 3)), octahedron, 4)
+    from .binding.bind import dominant_cage_vertex
+
+    dominant_cage_vertex(wide)  # (a given binding with repeated entries: the set-up's own pass over it)
     from .binding.interpolated_rows import interpolated_binding
 
     def seed_rows(seeds):  # (the shape as its own cage: its seeds' unit rows)

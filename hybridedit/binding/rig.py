@@ -97,6 +97,13 @@ class Rig:
             object.__setattr__(self, "_cage_weights", cached)
         return cached
 
+    def __getstate__(self) -> dict:
+        # a pickled or copied rig leaves the pending k-d tree behind (a thread's future: the copy
+        # makes its own tree if it is asked)
+        state = dict(self.__dict__)
+        state.pop("_shape_tree", None)
+        return state
+
     def nearest_shape_vertices(self) -> np.ndarray:
         """(c,) int64: the shape vertex nearest each cage vertex. From the shape's k-d tree that a
         cold build started beside the cage (:class:`~hybridedit.core.nearest_points.NearestPoints`,

@@ -171,3 +171,14 @@ def test_a_binding_with_repeated_entries_still_gets_its_dominant_vertices(blob):
     assert dominant_cage_vertex(split)[0] == M.indices[a + s] != dominant_cage_vertex(M)[0]
     given = he.build_rig(blob, cage=rig.cage, binding=split)
     assert np.array_equal(S.make_shape_setup(given).dominant, dominant_cage_vertex(split))
+
+
+def test_a_cold_rig_pickles_and_copies_without_its_pending_tree(blob):
+    import copy
+    import pickle
+
+    rig = he.build_rig(blob, cage_size=80)
+    assert "_shape_tree" in rig.__dict__
+    for other in (pickle.loads(pickle.dumps(rig)), copy.copy(rig)):
+        assert "_shape_tree" not in other.__dict__
+        assert _equal(S.make_shape_setup(other), S.make_shape_setup(rig))
