@@ -207,20 +207,17 @@ class HalfWorker:
         proc.wait()
 
 
-def start_worker(n_faces: int, target_faces: int, n_vertices: int | None = None) -> HalfWorker | None:
-    """A worker started now for a surface of ``n_faces`` faces (and ``n_vertices`` vertices)
+def start_worker(n_faces: int, target_faces: int, n_vertices: int) -> HalfWorker | None:
+    """A worker started now for a surface of ``n_faces`` faces and ``n_vertices`` vertices
     that :func:`presimplify` will split when it simplifies it to ``target_faces``
     (:func:`will_split`), else None. Give it to :func:`presimplify`; :meth:`HalfWorker.close` it
     afterwards.
 
-    With ``n_vertices``, the worker grows its buffers to its share of the surface
-    (:data:`WORKER_SHARE`, a little more: the cut's vertices are in both halves) while the
-    caller is busy.
+    The worker grows its buffers to its share of the surface (:data:`WORKER_SHARE`, a little
+    more: the cut's vertices are in both halves) while the caller is busy.
     """
     if not will_split(n_faces, target_faces):
         return None
-    if n_vertices is None:
-        return HalfWorker()
     room = 1.02
     return HalfWorker(expect=(int(room * WORKER_SHARE * n_vertices) + 64, int(room * WORKER_SHARE * n_faces) + 64))
 

@@ -89,10 +89,6 @@ class ShapeLaplacian:
         R.has_sorted_indices = True
         return R
 
-    def matrix(self) -> sp.csr_matrix:
-        """All of L, (n, n) CSR with sorted indices."""
-        return self.rows(np.arange(self.shape[0]))
-
 
 def cotangent_laplacian(vertices: np.ndarray, faces: np.ndarray) -> sp.csr_matrix:
     """The whole cotangent Laplacian of a triangle mesh (:class:`ShapeLaplacian`), (n, n) CSR.
@@ -103,7 +99,8 @@ def cotangent_laplacian(vertices: np.ndarray, faces: np.ndarray) -> sp.csr_matri
     >>> np.round(L.toarray(), 4).tolist()
     [[1.0, -0.5, -0.5], [-0.5, 0.5006, -0.0006], [-0.5, -0.0006, 0.5006]]
     """
-    return ShapeLaplacian(vertices, faces).matrix()
+    laplacian = ShapeLaplacian(vertices, faces)
+    return laplacian.rows(np.arange(laplacian.shape[0]))
 
 
 def laplacian_rows(laplacian: "ShapeLaplacian | sp.spmatrix", index: np.ndarray) -> sp.csr_matrix:

@@ -92,7 +92,7 @@ def test_an_unused_worker_closes_at_once():
     w = qem.HalfWorker()
     w.close()
     assert w.result() is None
-    assert qem.start_worker(10, 1) is None  # too small to split: no worker
+    assert qem.start_worker(10, 1, 8) is None  # too small to split: no worker
 
 
 def test_no_worker_for_a_surface_too_near_its_target_to_split(monkeypatch):
@@ -100,7 +100,7 @@ def test_no_worker_for_a_surface_too_near_its_target_to_split(monkeypatch):
     m = 2 * qem.SPLIT_MIN_FACES
     near = int(0.5 * m / qem.MARGIN) + 1  # the halves would keep more than half the surface
     assert qem.will_split(m, near - 2) and not qem.will_split(m, near)
-    assert qem.start_worker(m, near) is None
+    assert qem.start_worker(m, near, m // 2) is None
 
 
 def test_a_cage_built_from_halves_is_closed_and_of_the_asked_size(big_blob, monkeypatch):
